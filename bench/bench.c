@@ -1,0 +1,2 @@
+/* placeholder until the benchmark lands (owned by the lead) */
+int main(void) { return 0; }

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# setup.sh: install exactly the Debian 12 packages obscura needs, skipping what is present.
+# Usage: scripts/setup.sh [--dev]   (--dev adds the sanitizer/fuzzer/profiling tools)
+# Runs apt-get as root (uses sudo when not root). Idempotent.
+set -euo pipefail
+
+PKGS=(
+  build-essential cmake pkg-config
+  libembree-dev            # Embree 3: ground truth ray tracing (build-notes.md)
+  libopenimageio-dev openimageio-tools python3-imath  # EXR/PNG I/O; python3-imath silences Imath's CMake warning
+  libtinygltf-dev          # glTF 2.0 loader (compiled library in Debian)
+  clang-14 libclang-rt-14-dev  # ASan/UBSan/libFuzzer (tests)
+)
+if [ "${1:-}" = "--dev" ]; then
+  PKGS+=(valgrind linux-perf hyperfine gnuplot-nox)
+fi
+
+missing=()
+for p in "${PKGS[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+
+if [ "${#missing[@]}" -gt 0 ]; then
+  echo "setup: installing ${missing[*]}"
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+else
+  echo "setup: all packages present"
+fi
+
+# Meshes: the Stanford bunny, the Chinese dragon and the armadillo ship in libcgal-demo's data tarball.
+# We extract only those OFF files into data/cache (ignored by git); scripts/make_data converts them.
+here="$(cd "$(dirname "$0")/.." && pwd)"
+cache="$here/data/cache"
+if [ ! -f "$cache/bunny00.off" ] || [ ! -f "$cache/ChineseDragon-10kv.off" ] || [ ! -f "$cache/armadillo.off" ]; then
+  mkdir -p "$cache"
+  tmp="$(mktemp -d)"
+  tarball=/usr/share/doc/libcgal-dev/data.tar.gz
+  if [ ! -f "$tarball" ]; then
+    (cd "$tmp" && apt-get download libcgal-demo >/dev/null && dpkg -x libcgal-demo_*.deb x)
+    tarball="$tmp/x/usr/share/doc/libcgal-dev/data.tar.gz"
+  fi
+  tar -xzf "$tarball" -C "$tmp" data/meshes/bunny00.off data/meshes/ChineseDragon-10kv.off data/meshes/armadillo.off
+  cp "$tmp"/data/meshes/*.off "$cache/"
+  rm -rf "$tmp"
+  echo "setup: meshes extracted to $cache"
+fi

@@ -1,0 +1,183 @@
+/* io.h: the public header of obscura's I/O module (prefix io_).
+ *
+ * glTF 2.0 scenes (through tinygltf, with our own range checks), EXR and PNG images (through
+ * OpenImageIO), a small JSON writer for sidecars, and atomic file output.
+ *
+ * The implementation of the glTF and image parts is C++17 behind this C header
+ * (io_gltf.cpp, io_image.cpp); everything else is C11. OpenImageIO is linked only into the
+ * obscura_io library, never into the core.
+ *
+ * Every function that writes a file writes "<path>.tmp.<pid>.<n>" first and renames it onto
+ * <path> only when complete, so a reader never sees a partial file; on failure the temporary
+ * file is removed.
+ */
+#ifndef IO_H
+#define IO_H
+
+#include "../core/obs.h"
+
+#include <stdio.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------------------------------------------------
+ * Atomic output
+ * ---------------------------------------------------------------------------------------------- */
+
+/* Write len bytes to path atomically (temp file, fsync, rename).
+ * Returns: OK; INVALID_ARGUMENT; IO_ERROR (message names the path and errno text). */
+obs_status io_write_file_atomic(obs_context *ctx, const char *path, const void *data, size_t len);
+
+/* For writers that stream (or hand a path to a library): make a unique temporary path beside
+ * `path` (same directory, so rename is atomic). tmp must hold at least strlen(path)+48 bytes. */
+obs_status io_temp_path(obs_context *ctx, const char *path, char *tmp, size_t tmp_size);
+/* rename(tmp, path); on failure remove tmp. */
+obs_status io_commit_temp(obs_context *ctx, const char *tmp, const char *path);
+/* Read a whole file into a malloc'd buffer (NUL-terminated for convenience; *len excludes it).
+ * max_bytes guards against absurd inputs. Returns OK, IO_ERROR, LIMIT_EXCEEDED, OUT_OF_MEMORY. */
+obs_status io_read_file(obs_context *ctx, const char *path, size_t max_bytes, char **data, size_t *len);
+
+/* ------------------------------------------------------------------------------------------------
+ * JSON writer (for sidecars, reports): builds compact-but-readable JSON in memory.
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef struct io_json {
+    char *buf;
+    size_t len, cap;
+    int depth;
+    int need_comma[64];
+    int failed;          /* set on allocation failure or nesting > 64; output then unusable */
+} io_json;
+
+void io_json_init(io_json *j);
+void io_json_free(io_json *j);
+void io_json_begin_object(io_json *j, const char *key);   /* key NULL inside arrays / at top */
+void io_json_end_object(io_json *j);
+void io_json_begin_array(io_json *j, const char *key);
+void io_json_end_array(io_json *j);
+void io_json_string(io_json *j, const char *key, const char *value);  /* escapes per RFC 8259 */
+void io_json_number(io_json *j, const char *key, double value);       /* %.9g; non-finite -> null */
+void io_json_int(io_json *j, const char *key, int64_t value);
+void io_json_bool(io_json *j, const char *key, int value);
+void io_json_null(io_json *j, const char *key);
+void io_json_floats(io_json *j, const char *key, const float *v, int n);  /* an array of numbers */
+/* Write the document atomically to path (adds a trailing newline). */
+obs_status io_json_write(obs_context *ctx, const io_json *j, const char *path);
+
+/* ------------------------------------------------------------------------------------------------
+ * glTF 2.0
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef struct io_gltf_options {
+    int scene_index;        /* -1 = the file's default scene (or scene 0) */
+    int require_triangles;  /* 1 (default): a primitive in any other mode is an UNSUPPORTED error;
+                               0: such primitives are skipped with a warning */
+} io_gltf_options;
+
+io_gltf_options io_gltf_options_default(void);
+
+/* Load a .gltf (external or data-URI buffers) or .glb file into out (which is initialised
+ * first, and left empty on failure). Every accessor, bufferView and buffer range is checked
+ * before it is read; counts are checked against ctx's limits; the node graph is checked for
+ * cycles; obs_scene_validate runs at the end.
+ * Returns: OK; IO_ERROR (missing or unreadable file or buffer); PARSE_ERROR (malformed or
+ * inconsistent content: the message names the file and the offending object, e.g.
+ * "accessor 3 (bufferView 1): byteOffset 64 + stride 12 * (count 1000 - 1) + 12 > byteLength 96");
+ * UNSUPPORTED (non-triangle modes, sparse accessors with unsupported types, ...);
+ * LIMIT_EXCEEDED; OUT_OF_MEMORY. */
+obs_status io_gltf_load(obs_context *ctx, const char *path, const io_gltf_options *opt, obs_scene *out);
+
+/* Write a scene as a .glb (binary glTF 2.0) atomically: meshes (POSITION, NORMAL, indices as
+ * UNSIGNED_INT), one node per instance with its matrix, cameras as nodes, lights through
+ * KHR_lights_punctual, materials with extras. Used by the data generator and round-trip tests. */
+obs_status io_glb_write(obs_context *ctx, const char *path, const obs_scene *scene);
+
+/* ------------------------------------------------------------------------------------------------
+ * Images
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef enum io_pixel_type {
+    IO_PIXEL_FLOAT = 0,   /* 32-bit float channel */
+    IO_PIXEL_HALF,        /* stored as half in EXR (written from float) */
+    IO_PIXEL_UINT,        /* 32-bit unsigned int channel */
+    IO_PIXEL_COUNT
+} io_pixel_type;
+
+/* One named channel: a plane view. Exactly one of f32 / u32 is set, matching type
+ * (HALF uses f32). Names follow EXR/Blender conventions: "Z", "N.X", "Ng.X", "primid", ... */
+typedef struct io_channel {
+    const char *name;
+    io_pixel_type type;
+    const obs_image_f32 *f32;
+    const obs_image_u32 *u32;
+} io_channel;
+
+typedef enum io_attr_type {
+    IO_ATTR_STRING = 0,
+    IO_ATTR_FLOAT,
+    IO_ATTR_INT,
+    IO_ATTR_MATRIX44,     /* 16 floats, stored as EXR m44f (row-major in the file, see conventions) */
+    IO_ATTR_FLOATS,       /* a float array of n elements */
+    IO_ATTR_COUNT
+} io_attr_type;
+
+/* One metadata attribute. Names are namespaced "obscura:..." except standard EXR ones
+ * ("worldToCamera", "worldToNDC" ...). */
+typedef struct io_attr {
+    char name[96];
+    io_attr_type type;
+    char *s;          /* STRING (owned by the holder) */
+    float f;          /* FLOAT */
+    int64_t i;        /* INT */
+    float *v;         /* MATRIX44 (16) and FLOATS (n), owned by the holder */
+    int n;
+} io_attr;
+
+/* Write a multi-channel EXR (ZIP compression, scanline) atomically. All channels must have the
+ * same size. Returns: OK; INVALID_ARGUMENT; IO_ERROR. */
+obs_status io_exr_write(obs_context *ctx, const char *path, const io_channel *channels, int channel_count,
+                        const io_attr *attrs, int attr_count);
+
+/* An image read from a file: planes by name, all as float32 except UINT channels. Owned. */
+typedef struct io_image {
+    int width, height;
+    int channel_count;
+    char (*names)[64];          /* channel_count names */
+    io_pixel_type *types;       /* FLOAT for float and half, UINT for uint */
+    obs_image_f32 *f32;         /* channel_count planes (data NULL for uint channels) */
+    obs_image_u32 *u32;         /* channel_count planes (data NULL for float channels) */
+    io_attr *attrs;             /* every attribute OIIO reports, converted; owned */
+    int attr_count;
+} io_image;
+
+/* Read any image OpenImageIO can read (EXR in particular). Checks the size against ctx's
+ * max_image_pixels before allocating. Returns OK, IO_ERROR, PARSE_ERROR, LIMIT_EXCEEDED,
+ * OUT_OF_MEMORY; on failure *out is empty. */
+obs_status io_image_read(obs_context *ctx, const char *path, io_image *out);
+void io_image_free(io_image *im);
+/* Index of a channel by exact name, or -1. */
+int io_image_find_channel(const io_image *im, const char *name);
+const io_attr *io_image_find_attr(const io_image *im, const char *name);
+
+typedef enum io_png_encoding {
+    IO_PNG_SRGB = 0,   /* values are linear; encoded with the sRGB transfer function (IEC 61966-2-1) */
+    IO_PNG_LINEAR,     /* values are written as-is (quantised linearly); tagged linear */
+    IO_PNG_COUNT
+} io_png_encoding;
+
+/* Write an 8-bit PNG atomically from 1 (grey), 3 (RGB) or 4 (RGBA) float planes in [0,1]
+ * (clamped; NaN -> 0). Returns OK, INVALID_ARGUMENT, IO_ERROR. */
+obs_status io_png_write(obs_context *ctx, const char *path, const obs_image_f32 *planes, int plane_count,
+                        io_png_encoding encoding);
+
+/* The sRGB transfer function and its inverse (IEC 61966-2-1), exposed for tests. */
+float io_srgb_encode(float linear);
+float io_srgb_decode(float encoded);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* IO_H */

@@ -1,0 +1,47 @@
+/* raster_internal.h: what raster.c shares with the per-ISA tile rasterizers. Not public. */
+#ifndef RASTER_INTERNAL_H
+#define RASTER_INTERNAL_H
+
+#include "raster.h"
+
+/* One triangle (or clipped piece) after setup, in full-image pixel space.
+ * Edge i goes from vertex i to vertex (i+1)%3 of the snapped, counter-clockwise-in-y-down
+ * (i.e. positive-area) triangle. For pixel (x, y), with centre (256x+128, 256y+128) in
+ * sub-pixel units:
+ *     E_i(x, y) = A_i * (256x + 128) + B_i * (256y + 128) + C_i      (exact integer)
+ * and the pixel is covered when E_i >= bias_i for all three edges, bias_i = 0 for top-left
+ * edges and 1 otherwise (the top-left rule on integers).
+ * |A|,|B| < 2^24 and |x_sub|,|y_sub| < 2^23, so |E| < 2^49: exact in int64 and in double. */
+typedef struct rast_i_tri {
+    int64_t C[3];
+    int32_t A[3], B[3];
+    int32_t bias[3];
+    int32_t minx, miny, maxx, maxy;  /* inclusive pixel bbox, clamped to the image */
+    /* Visibility key ("closeness", larger is closer): 1/w for perspective, -z_ndc for
+     * orthographic; a plane in screen space, evaluated in float by rast_i_key() only. */
+    float k0, kx, ky, ox, oy;
+    uint32_t instance, prim;
+} rast_i_tri;
+
+/* The visibility key at pixel (x, y). Both ISA paths evaluate exactly this expression, in this
+ * order, in float without contraction, so their depth tests agree bit for bit. */
+static inline float rast_i_key(const rast_i_tri *t, int x, int y)
+{
+    float fx = (float)x + 0.5f, fy = (float)y + 0.5f;
+    return t->k0 + t->kx * (fx - t->ox) + t->ky * (fy - t->oy);
+}
+
+/* Rasterise the triangles tris[list[0..n)] in order into a tile whose top-left pixel is
+ * (tx0, ty0), size tw x th; key/inst/prim are tile-local with row stride `stride`. A pixel
+ * takes a triangle when its key is strictly greater than the stored one (ties: first wins). */
+typedef void (*rast_i_tile_fn)(const rast_i_tri *tris, const uint32_t *list, uint32_t n, int tx0, int ty0,
+                               int tw, int th, int stride, float *key, uint32_t *inst, uint32_t *prim);
+
+void rast_i_tile_scalar(const rast_i_tri *tris, const uint32_t *list, uint32_t n, int tx0, int ty0, int tw,
+                        int th, int stride, float *key, uint32_t *inst, uint32_t *prim);
+#if defined(OBS_HAVE_AVX2)
+void rast_i_tile_avx2(const rast_i_tri *tris, const uint32_t *list, uint32_t n, int tx0, int ty0, int tw,
+                      int th, int stride, float *key, uint32_t *inst, uint32_t *prim);
+#endif
+
+#endif
