@@ -40,7 +40,7 @@ here="$(cd "$(dirname "$0")/.." && pwd)"
 cache="$here/data/cache"
 if [ ! -f "$cache/bunny00.off" ] || [ ! -f "$cache/ChineseDragon-10kv.off" ] || [ ! -f "$cache/armadillo.off" ]; then
   mkdir -p "$cache"
-  tmp="$(mktemp -d)"
+  tmp="$(mktemp -d)"; chmod 755 "$tmp"
   tarball=/usr/share/doc/libcgal-dev/data.tar.gz
   if [ ! -f "$tarball" ]; then
     (cd "$tmp" && apt-get download libcgal-demo >/dev/null && dpkg -x libcgal-demo_*.deb x)
