@@ -187,7 +187,7 @@ void rast_pixel_ray(const rast_view_constants *vc, const obs_camera *cam, double
                     obs_dvec3 *dir)
 {
     obs_dvec3 o, d;
-    double ax = (px - vc->cx) / vc->fx, ay = -(py - vc->cy) / vc->fy;
+    double ax = (px - vc->cx) * (1.0 / vc->fx), ay = -(py - vc->cy) * (1.0 / vc->fy);
     if (vc->projection_type == OBS_PROJECTION_PERSPECTIVE) {
         o = obs_dv3(0.0, 0.0, 0.0);
         d = obs_dv3(ax, ay, -1.0);
@@ -333,59 +333,131 @@ void rast_gbuffer_free(rast_gbuffer *gb)
     memset(gb, 0, sizeof *gb);
 }
 
+
 /* ------------------------------------------------------------------------------------------------
- * Render state
+ * Workspace: grow-only buffers kept between renders (no page faults, no allocator traffic in
+ * the steady state).
  * ---------------------------------------------------------------------------------------------- */
 
+/* One setup chunk. Aligned to a cache line so that threads working on neighbouring chunks never
+ * share one (false sharing made 2 threads slower than 1 in the first version). */
 typedef struct chunk_data {
-    rast_i_tri *tris;
+    _Alignas(64) rast_i_tri *tris;
     uint32_t count, cap;
     uint32_t *bin_start;   /* tile_count + 1 */
     uint32_t *bin_list;
+    uint32_t *fill;        /* tile_count */
+    size_t bin_start_cap, bin_list_cap, fill_cap;
     uint64_t nonfinite, degenerate, culled, clipped;
     int oom;
 } chunk_data;
+
+struct rast_workspace {
+    double *vpos; size_t vpos_cap;          /* view-space positions, all instances */
+    double *vnrm; size_t vnrm_cap;          /* view-space unit vertex normals, all instances */
+    uint64_t *voff; size_t voff_cap;        /* per instance: first vertex in vpos/vnrm */
+    uint64_t *tri_start; size_t tri_start_cap;
+    uint32_t *vt_inst, *vt_block; size_t vt_cap, vt_block_cap;
+    chunk_data *chunks; size_t chunks_cap;
+    float *tkey; uint32_t *tinst, *tprim; size_t tkey_cap, tinst_cap, tprim_cap;  /* threads * T*T */
+    uint64_t *tile_covered; size_t covered_cap;
+};
+
+/* Make *p hold at least `need` elements of `elem` bytes. Returns 0 when out of memory. */
+static int grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap && *p)
+        return 1;
+    size_t n = need < 16 ? 16 : need + need / 2, bytes;
+    if (!obs_mul_size(n, elem, &bytes))
+        return 0;
+    void *q = obs_aligned_alloc(bytes);
+    if (!q)
+        return 0;
+    obs_aligned_free(*p); /* contents need not survive a grow */
+    *p = q;
+    *cap = n;
+    return 1;
+}
+
+rast_workspace *rast_workspace_create(void)
+{
+    return (rast_workspace *)calloc(1, sizeof(rast_workspace));
+}
+
+void rast_workspace_destroy(rast_workspace *ws)
+{
+    if (!ws)
+        return;
+    obs_aligned_free(ws->vpos);
+    obs_aligned_free(ws->vnrm);
+    obs_aligned_free(ws->voff);
+    obs_aligned_free(ws->tri_start);
+    obs_aligned_free(ws->vt_inst);
+    obs_aligned_free(ws->vt_block);
+    for (size_t c = 0; c < ws->chunks_cap; c++) {
+        obs_aligned_free(ws->chunks[c].tris);
+        obs_aligned_free(ws->chunks[c].bin_start);
+        obs_aligned_free(ws->chunks[c].bin_list);
+        obs_aligned_free(ws->chunks[c].fill);
+    }
+    obs_aligned_free(ws->chunks);
+    obs_aligned_free(ws->tkey);
+    obs_aligned_free(ws->tinst);
+    obs_aligned_free(ws->tprim);
+    obs_aligned_free(ws->tile_covered);
+    free(ws);
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Render state of one view
+ * ---------------------------------------------------------------------------------------------- */
 
 typedef struct render_state {
     const obs_scene *scene;
     const rast_params *p;
     const rast_view_constants *vc;
     rast_gbuffer *gb;
+    rast_workspace *ws;
     int W, H, ortho;
     double fx, fy, cx, cy, znear, zfar;
-    double gx, gy;               /* guard band in NDC units: |x_ndc| <= gx */
-    /* per instance */
-    double **vpos;               /* view-space positions, 3 per vertex */
-    double (*nmat)[9];           /* view-space normal matrix, row-major 3x3 */
-    uint64_t *tri_start;         /* prefix sum of triangle counts over instances (count+1) */
-    /* vertex transform tasks */
-    uint32_t *vt_inst;
-    uint32_t *vt_block;
-    /* setup */
     int64_t chunk_count;
-    chunk_data *chunks;
     obs_tiling tiling;
-    /* tiles */
     rast_i_tile_fn tile_fn;
-    float **tkey;
-    uint32_t **tinst, **tprim;
-    uint64_t *tile_covered;
-    atomic_int failed;
+    float bg_ndc;
 } render_state;
 
 /* ---- 1. vertex transform ---------------------------------------------------------------------- */
+
+/* Cofactor matrix of the upper 3x3 of view*world, row-major: proportional to the inverse-
+ * transpose, which is how normals transform (the scale is removed by normalising). */
+static void normal_matrix(const obs_mat4 *view, const obs_mat4 *world, double out[9])
+{
+    obs_dmat4 mv = obs_dmat4_mul(obs_mat4_to_double(*view), obs_mat4_to_double(*world));
+    double a00 = mv.m[0], a01 = mv.m[4], a02 = mv.m[8];
+    double a10 = mv.m[1], a11 = mv.m[5], a12 = mv.m[9];
+    double a20 = mv.m[2], a21 = mv.m[6], a22 = mv.m[10];
+    out[0] = a11 * a22 - a12 * a21; out[1] = a12 * a20 - a10 * a22; out[2] = a10 * a21 - a11 * a20;
+    out[3] = a02 * a21 - a01 * a22; out[4] = a00 * a22 - a02 * a20; out[5] = a01 * a20 - a00 * a21;
+    out[6] = a01 * a12 - a02 * a11; out[7] = a02 * a10 - a00 * a12; out[8] = a00 * a11 - a01 * a10;
+    double det = a00 * out[0] + a01 * out[1] + a02 * out[2];
+    if (det < 0.0) /* a mirroring transform: the inverse-transpose is cofactor / det */
+        for (int k = 0; k < 9; k++)
+            out[k] = -out[k];
+}
 
 static void transform_task(void *user, int64_t task, int thread)
 {
     (void)thread;
     render_state *rs = (render_state *)user;
-    uint32_t i = rs->vt_inst[task];
+    rast_workspace *ws = rs->ws;
+    uint32_t i = ws->vt_inst[task];
     const obs_instance *in = &rs->scene->instances[i];
     const obs_mesh *m = &rs->scene->meshes[in->mesh];
     obs_dmat4 mv = obs_dmat4_mul(obs_mat4_to_double(rs->vc->view), obs_mat4_to_double(in->world));
-    uint32_t v0 = rs->vt_block[task] * RAST_VERTEX_BLOCK;
+    uint32_t v0 = ws->vt_block[task] * RAST_VERTEX_BLOCK;
     uint32_t v1 = v0 + RAST_VERTEX_BLOCK < m->vertex_count ? v0 + RAST_VERTEX_BLOCK : m->vertex_count;
-    double *out = rs->vpos[i];
+    double *out = ws->vpos + 3 * ws->voff[i];
     const double *a = mv.m;
     for (uint32_t v = v0; v < v1; v++) {
         double x = m->positions[3 * v], y = m->positions[3 * v + 1], z = m->positions[3 * v + 2];
@@ -393,38 +465,36 @@ static void transform_task(void *user, int64_t task, int thread)
         out[3 * v + 1] = a[1] * x + a[5] * y + a[9] * z + a[13];
         out[3 * v + 2] = a[2] * x + a[6] * y + a[10] * z + a[14];
     }
-}
-
-/* Inverse-transpose of the upper 3x3 of view*world, row-major (normals transform by it). */
-static void normal_matrix(const obs_mat4 *view, const obs_mat4 *world, double out[9])
-{
-    obs_dmat4 mv = obs_dmat4_mul(obs_mat4_to_double(*view), obs_mat4_to_double(*world));
-    /* a[r][c] = mv.m[c*4 + r] */
-    double a00 = mv.m[0], a01 = mv.m[4], a02 = mv.m[8];
-    double a10 = mv.m[1], a11 = mv.m[5], a12 = mv.m[9];
-    double a20 = mv.m[2], a21 = mv.m[6], a22 = mv.m[10];
-    /* cofactor matrix = det * inverse^T; the scale does not matter, normals are renormalised */
-    out[0] = a11 * a22 - a12 * a21; out[1] = a12 * a20 - a10 * a22; out[2] = a10 * a21 - a11 * a20;
-    out[3] = a02 * a21 - a01 * a22; out[4] = a00 * a22 - a02 * a20; out[5] = a01 * a20 - a00 * a21;
-    out[6] = a01 * a12 - a02 * a11; out[7] = a02 * a10 - a00 * a12; out[8] = a00 * a11 - a01 * a10;
-    double det = a00 * out[0] + a01 * out[1] + a02 * out[2];
-    if (det < 0.0) /* a mirroring transform: keep the cofactor direction = inverse-transpose */
-        for (int k = 0; k < 9; k++)
-            out[k] = -out[k];
+    if (!m->normals || !(rs->p->outputs & RAST_OUT_NORMAL))
+        return;
+    double N[9];
+    normal_matrix(&rs->vc->view, &in->world, N);
+    double *on = ws->vnrm + 3 * ws->voff[i];
+    for (uint32_t v = v0; v < v1; v++) {
+        const float *n = &m->normals[3 * (size_t)v];
+        double nx = N[0] * n[0] + N[1] * n[1] + N[2] * n[2];
+        double ny = N[3] * n[0] + N[4] * n[1] + N[5] * n[2];
+        double nz = N[6] * n[0] + N[7] * n[1] + N[8] * n[2];
+        double l = sqrt(nx * nx + ny * ny + nz * nz);
+        double il = (l > 0.0 && isfinite(l)) ? 1.0 / l : 0.0; /* a bad normal contributes nothing */
+        on[3 * v] = nx * il;
+        on[3 * v + 1] = ny * il;
+        on[3 * v + 2] = nz * il;
+    }
 }
 
 /* ---- 2. setup -------------------------------------------------------------------------------- */
 
 typedef struct vtx { double x, y, z; } vtx;
 
-/* Signed distance-like functions of the clip planes, in view space (linear, so clipping here is
- * the same as clipping in homogeneous clip space). */
-enum { PL_NEAR, PL_FAR, PL_LEFT, PL_RIGHT, PL_BOTTOM, PL_TOP, PL_COUNT };
+enum { PL_NEAR, PL_FAR, PL_LEFT, PL_RIGHT, PL_TOP, PL_BOTTOM, PL_COUNT };
 
-/* Guard-band planes in pixel units: sx = cx + fx * x / w must stay in [-G, W + G], i.e.
- *   left:   (cx + G) w + fx x >= 0     right: (W + G - cx) w - fx x >= 0
- *   top:    (cy + G) w - fy y >= 0     bottom: (H + G - cy) w + fy y >= 0   (row 0 at the top)
- * with G = RAST_GUARD_BAND_PX. Evaluated in double. */
+/* Clip planes as linear functions of view-space position (clipping in view space is clipping in
+ * clip space, since clip coordinates are linear in view coordinates). The guard-band planes keep
+ * the projected sx = cx + fx x / w within [-G, W + G] and sy = cy - fy y / w within [-G, H + G],
+ * G = RAST_GUARD_BAND_PX:
+ *   left (cx + G) w + fx x >= 0, right (W + G - cx) w - fx x >= 0,
+ *   top  (cy + G) w - fy y >= 0, bottom (H + G - cy) w + fy y >= 0 (row 0 at the top). */
 static double guard_eval(const render_state *rs, int plane, const vtx *v)
 {
     double w = rs->ortho ? 1.0 : -v->z;
@@ -440,39 +510,31 @@ static double guard_eval(const render_state *rs, int plane, const vtx *v)
     }
 }
 
-/* Frustum (not guard band) outcode bits, for trivial rejection. */
+/* Frustum outcode (near, far, left, right, top, bottom of the image itself). A triangle whose
+ * vertices all have outcode 0 needs no clipping: it is inside the guard band too. */
 static unsigned frustum_outcode(const render_state *rs, const vtx *v)
 {
     double w = rs->ortho ? 1.0 : -v->z;
-    double sx = rs->fx * v->x, sy = rs->fy * v->y; /* screen offsets times w */
+    double sx = rs->fx * v->x, sy = rs->fy * v->y; /* screen offsets from the centre, times w */
     unsigned c = 0;
-    if (-v->z < rs->znear) c |= 1u;
-    if (isfinite(rs->zfar) && -v->z > rs->zfar) c |= 2u;
-    if (sx < -rs->cx * w) c |= 4u;
-    if (sx > ((double)rs->W - rs->cx) * w) c |= 8u;
-    if (sy > rs->cy * w) c |= 16u;
-    if (sy < -((double)rs->H - rs->cy) * w) c |= 32u;
+    c |= (-v->z < rs->znear) ? 1u : 0u;
+    c |= (-v->z > rs->zfar) ? 2u : 0u;      /* never for an infinite far plane */
+    c |= (sx < -rs->cx * w) ? 4u : 0u;
+    c |= (sx > ((double)rs->W - rs->cx) * w) ? 8u : 0u;
+    c |= (sy > rs->cy * w) ? 16u : 0u;
+    c |= (sy < -((double)rs->H - rs->cy) * w) ? 32u : 0u;
     return c;
 }
 
-static int chunk_push(chunk_data *cd, const rast_i_tri *t)
-{
-    if (cd->count == cd->cap) {
-        uint32_t ncap = cd->cap ? cd->cap * 2 : 1024;
-        rast_i_tri *n = (rast_i_tri *)realloc(cd->tris, (size_t)ncap * sizeof *n);
-        if (!n) {
-            cd->oom = 1;
-            return 0;
-        }
-        cd->tris = n;
-        cd->cap = ncap;
-    }
-    cd->tris[cd->count++] = *t;
-    return 1;
-}
+/* Round half away from zero (as llround), without the libm call; |x| < 2^23 here. */
+static inline int64_t round_away(double x) { return (int64_t)(x < 0.0 ? x - 0.5 : x + 0.5); }
 
-/* Set up one snapped triangle (screen-space vertices in pixels, keys) and push it.
- * Returns 1 if pushed, 0 if zero area or no pixel centre inside its box. */
+/* floor(a / 256) and ceil(a / 256) for signed a. */
+static inline int64_t floor256(int64_t a) { return a >= 0 ? a / 256 : -((-a + 255) / 256); }
+static inline int64_t ceil256(int64_t a) { return -floor256(-a); }
+
+/* Set up one snapped triangle (screen positions in pixels, keys) and append it.
+ * Returns 1 if appended, 0 if zero area or no pixel centre in its box, -1 when out of memory. */
 static int setup_piece(const render_state *rs, chunk_data *cd, const double sx[3], const double sy[3],
                        const double key[3], uint32_t instance, uint32_t prim)
 {
@@ -482,64 +544,62 @@ static int setup_piece(const render_state *rs, chunk_data *cd, const double sx[3
         double xs = sx[i] * 256.0, ys = sy[i] * 256.0;
         xs = xs < -lim ? -lim : (xs > lim ? lim : xs);
         ys = ys < -lim ? -lim : (ys > lim ? lim : ys);
-        X[i] = (int64_t)llround(xs);
-        Y[i] = (int64_t)llround(ys);
+        X[i] = round_away(xs);
+        Y[i] = round_away(ys);
     }
     int64_t area = (X[1] - X[0]) * (Y[2] - Y[0]) - (X[2] - X[0]) * (Y[1] - Y[0]);
     if (area == 0)
         return 0;
-    int o[3] = {0, 1, 2};
-    if (area < 0) { /* make the orientation positive: inside has E_i >= 0 */
-        o[1] = 2;
-        o[2] = 1;
-        area = -area;
-    }
-    rast_i_tri t;
     int64_t minX = X[0], maxX = X[0], minY = Y[0], maxY = Y[0];
     for (int i = 1; i < 3; i++) {
         minX = X[i] < minX ? X[i] : minX; maxX = X[i] > maxX ? X[i] : maxX;
         minY = Y[i] < minY ? Y[i] : minY; maxY = Y[i] > maxY ? Y[i] : maxY;
     }
-    /* Pixel x is a candidate when its centre 256x+128 lies in [minX, maxX]. */
-    int64_t px0 = (minX - 128 + 255 + ((int64_t)1 << 40)) / 256 - ((int64_t)1 << 32);
-    int64_t px1 = (maxX - 128 + ((int64_t)1 << 40)) / 256 - ((int64_t)1 << 32);
-    int64_t py0 = (minY - 128 + 255 + ((int64_t)1 << 40)) / 256 - ((int64_t)1 << 32);
-    int64_t py1 = (maxY - 128 + ((int64_t)1 << 40)) / 256 - ((int64_t)1 << 32);
+    /* Pixel x is a candidate when its centre 256x + 128 lies in [minX, maxX]. */
+    int64_t px0 = ceil256(minX - 128), px1 = floor256(maxX - 128);
+    int64_t py0 = ceil256(minY - 128), py1 = floor256(maxY - 128);
     if (px0 < 0) px0 = 0;
     if (py0 < 0) py0 = 0;
     if (px1 > rs->W - 1) px1 = rs->W - 1;
     if (py1 > rs->H - 1) py1 = rs->H - 1;
     if (px0 > px1 || py0 > py1)
         return 0;
-    t.minx = (int32_t)px0; t.maxx = (int32_t)px1;
-    t.miny = (int32_t)py0; t.maxy = (int32_t)py1;
+    if (cd->count == cd->cap)
+        return -1; /* capacity is reserved per chunk; see render_view */
+    rast_i_tri *t = &cd->tris[cd->count++];
+    int o1 = area > 0 ? 1 : 2, o2 = area > 0 ? 2 : 1; /* positive orientation: inside has E_i >= 0 */
+    int o[3] = {0, o1, o2};
+    t->small = (maxX - minX) <= (1 << 14) && (maxY - minY) <= (1 << 14);
+    t->minx = (int32_t)px0; t->maxx = (int32_t)px1;
+    t->miny = (int32_t)py0; t->maxy = (int32_t)py1;
     for (int i = 0; i < 3; i++) {
         int a = o[i], b = o[(i + 1) % 3];
         int64_t A = Y[a] - Y[b], B = X[b] - X[a];
-        t.A[i] = (int32_t)A;
-        t.B[i] = (int32_t)B;
-        t.C[i] = -(A * X[a] + B * Y[a]);
-        /* top-left rule (y down): left edge A > 0; top edge A == 0 and B > 0 */
-        t.bias[i] = (A > 0 || (A == 0 && B > 0)) ? 0 : 1;
+        t->A[i] = (int32_t)A;
+        t->B[i] = (int32_t)B;
+        t->C[i] = -(A * X[a] + B * Y[a]);
+        /* top-left rule (y down): a left edge has A > 0; a top edge has A == 0 and B > 0 */
+        t->bias[i] = (A > 0 || (A == 0 && B > 0)) ? 0 : 1;
     }
     /* Key plane through the snapped vertices, referenced at the first candidate pixel centre. */
-    double x0 = X[0] / 256.0, y0 = Y[0] / 256.0, x1 = X[1] / 256.0, y1 = Y[1] / 256.0;
-    double x2 = X[2] / 256.0, y2 = Y[2] / 256.0;
-    double det = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
-    double kx = ((key[1] - key[0]) * (y2 - y0) - (key[2] - key[0]) * (y1 - y0)) / det;
-    double ky = ((key[2] - key[0]) * (x1 - x0) - (key[1] - key[0]) * (x2 - x0)) / det;
+    double x0 = (double)X[0] / 256.0, y0 = (double)Y[0] / 256.0;
+    double dx1 = (double)(X[1] - X[0]) / 256.0, dy1 = (double)(Y[1] - Y[0]) / 256.0;
+    double dx2 = (double)(X[2] - X[0]) / 256.0, dy2 = (double)(Y[2] - Y[0]) / 256.0;
+    double inv_det = 65536.0 / (double)area;
+    double kx = ((key[1] - key[0]) * dy2 - (key[2] - key[0]) * dy1) * inv_det;
+    double ky = ((key[2] - key[0]) * dx1 - (key[1] - key[0]) * dx2) * inv_det;
     double ox = (double)px0 + 0.5, oy = (double)py0 + 0.5;
-    t.k0 = (float)(key[0] + kx * (ox - x0) + ky * (oy - y0));
-    t.kx = (float)kx;
-    t.ky = (float)ky;
-    t.ox = (float)ox;
-    t.oy = (float)oy;
-    t.instance = instance;
-    t.prim = prim;
-    return chunk_push(cd, &t);
+    t->k0 = (float)(key[0] + kx * (ox - x0) + ky * (oy - y0));
+    t->kx = (float)kx;
+    t->ky = (float)ky;
+    t->ox = (float)ox;
+    t->oy = (float)oy;
+    t->instance = instance;
+    t->prim = prim;
+    return 1;
 }
 
-static void project(const render_state *rs, const vtx *v, double *sx, double *sy, double *key)
+static inline void project(const render_state *rs, const vtx *v, double *sx, double *sy, double *key)
 {
     if (rs->ortho) {
         *sx = rs->cx + rs->fx * v->x;
@@ -586,277 +646,356 @@ static void setup_task(void *user, int64_t task, int thread)
 {
     (void)thread;
     render_state *rs = (render_state *)user;
-    chunk_data *cd = &rs->chunks[task];
+    rast_workspace *ws = rs->ws;
+    chunk_data *cd = &ws->chunks[task];
     const obs_scene *sc = rs->scene;
     uint64_t g0 = (uint64_t)task * RAST_CHUNK;
     uint64_t g1 = g0 + RAST_CHUNK;
-    uint64_t total = rs->tri_start[sc->instance_count];
+    uint64_t total = ws->tri_start[sc->instance_count];
     if (g1 > total)
         g1 = total;
+    uint64_t nonfinite = 0, degenerate = 0, culled = 0, clipped = 0;
+    cd->count = 0;
     /* find the instance holding g0 (binary search over the prefix sums) */
     uint32_t lo = 0, hi = sc->instance_count;
     while (hi - lo > 1) {
         uint32_t mid = (lo + hi) / 2;
-        if (rs->tri_start[mid] <= g0) lo = mid; else hi = mid;
+        if (ws->tri_start[mid] <= g0) lo = mid; else hi = mid;
     }
     uint32_t inst = lo;
     const int finite_far = isfinite(rs->zfar);
+    const rast_cull cull = rs->p->cull;
     for (uint64_t g = g0; g < g1; g++) {
-        while (g >= rs->tri_start[inst + 1])
+        while (g >= ws->tri_start[inst + 1])
             inst++;
         const obs_mesh *m = &sc->meshes[sc->instances[inst].mesh];
-        uint32_t prim = (uint32_t)(g - rs->tri_start[inst]);
+        uint32_t prim = (uint32_t)(g - ws->tri_start[inst]);
         const uint32_t *ix = &m->indices[3 * (size_t)prim];
-        const double *P = rs->vpos[inst];
+        const double *P = ws->vpos + 3 * ws->voff[inst];
         vtx v[3];
-        int finite = 1;
         for (int k = 0; k < 3; k++) {
             v[k].x = P[3 * (size_t)ix[k]];
             v[k].y = P[3 * (size_t)ix[k] + 1];
             v[k].z = P[3 * (size_t)ix[k] + 2];
-            finite &= isfinite(v[k].x) && isfinite(v[k].y) && isfinite(v[k].z);
         }
-        if (!finite) {
-            cd->nonfinite++;
+        if (!(isfinite(v[0].x + v[0].y + v[0].z) && isfinite(v[1].x + v[1].y + v[1].z) &&
+              isfinite(v[2].x + v[2].y + v[2].z))) {
+            nonfinite++;
             continue;
         }
         if (ix[0] == ix[1] || ix[1] == ix[2] || ix[0] == ix[2]) {
-            cd->degenerate++;
+            degenerate++;
             continue;
         }
-        /* Facing, in view space (exact sign up to double rounding): front = counter-clockwise
-         * seen from the eye, i.e. the geometric normal points towards the eye. */
         vtx e1 = {v[1].x - v[0].x, v[1].y - v[0].y, v[1].z - v[0].z};
         vtx e2 = {v[2].x - v[0].x, v[2].y - v[0].y, v[2].z - v[0].z};
         vtx ng = {e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
         if (ng.x == 0.0 && ng.y == 0.0 && ng.z == 0.0) {
-            cd->degenerate++;
+            degenerate++;
             continue;
         }
-        if (rs->p->cull != RAST_CULL_NONE) {
+        if (cull != RAST_CULL_NONE) {
+            /* front = counter-clockwise seen from the eye: the normal points at the eye */
             double facing = rs->ortho ? ng.z : -(ng.x * v[0].x + ng.y * v[0].y + ng.z * v[0].z);
             int front = facing > 0.0;
-            if ((rs->p->cull == RAST_CULL_BACK && !front) || (rs->p->cull == RAST_CULL_FRONT && front)) {
-                cd->culled++;
+            if ((cull == RAST_CULL_BACK && !front) || (cull == RAST_CULL_FRONT && front)) {
+                culled++;
                 continue;
             }
         }
         unsigned oc0 = frustum_outcode(rs, &v[0]), oc1 = frustum_outcode(rs, &v[1]), oc2 = frustum_outcode(rs, &v[2]);
         if (oc0 & oc1 & oc2) {
-            cd->culled++;
+            culled++;
             continue;
         }
-        /* Which clip planes does this triangle cross? */
         unsigned planes = 0;
-        for (int pl = 0; pl < PL_COUNT; pl++) {
-            if (pl == PL_FAR && !finite_far)
-                continue;
-            if (guard_eval(rs, pl, &v[0]) < 0.0 || guard_eval(rs, pl, &v[1]) < 0.0 || guard_eval(rs, pl, &v[2]) < 0.0)
-                planes |= 1u << pl;
-        }
-        int pushed = 0;
-        (void)pushed;
+        if (oc0 | oc1 | oc2) /* partly outside the image: which clip planes does it cross? */
+            for (int pl = 0; pl < PL_COUNT; pl++) {
+                if (pl == PL_FAR && !finite_far)
+                    continue;
+                if (guard_eval(rs, pl, &v[0]) < 0.0 || guard_eval(rs, pl, &v[1]) < 0.0 || guard_eval(rs, pl, &v[2]) < 0.0)
+                    planes |= 1u << pl;
+            }
+        int r = 0;
         if (!planes) {
+            /* Pieces with zero area after snapping, or no pixel centre in their box, are dropped
+             * silently: that is sub-pixel geometry, not an error. */
             double sx[3], sy[3], key[3];
             for (int k = 0; k < 3; k++)
                 project(rs, &v[k], &sx[k], &sy[k], &key[k]);
-            /* A piece with zero area after snapping, or with no pixel centre in its box, is
-             * dropped silently: that is sub-pixel geometry, not an error. */
-            pushed = setup_piece(rs, cd, sx, sy, key, inst, prim);
+            r = setup_piece(rs, cd, sx, sy, key, inst, prim);
         } else {
-            cd->clipped++;
+            clipped++;
             vtx poly[12] = {v[0], v[1], v[2]};
             int n = clip_polygon(rs, poly, 3, planes);
             if (n < 3) {
-                cd->culled++;
+                culled++;
                 continue;
             }
             double sx[12], sy[12], key[12];
             for (int k = 0; k < n; k++)
                 project(rs, &poly[k], &sx[k], &sy[k], &key[k]);
-            for (int k = 1; k + 1 < n; k++) {
+            for (int k = 1; k + 1 < n && r >= 0; k++) {
                 double fx3[3] = {sx[0], sx[k], sx[k + 1]}, fy3[3] = {sy[0], sy[k], sy[k + 1]};
                 double fk3[3] = {key[0], key[k], key[k + 1]};
-                pushed |= setup_piece(rs, cd, fx3, fy3, fk3, inst, prim);
+                r = setup_piece(rs, cd, fx3, fy3, fk3, inst, prim);
             }
         }
-        if (cd->oom)
+        if (r < 0) {
+            cd->oom = 2; /* out of reserved records: the driver grows and retries */
             return;
+        }
     }
-    /* Bin the chunk's records into tiles (counting sort keeps record order within a tile). */
+    cd->nonfinite = nonfinite;
+    cd->degenerate = degenerate;
+    cd->culled = culled;
+    cd->clipped = clipped;
+
+    /* Bin the chunk's records into tiles (a counting sort keeps record order within a tile). */
     const obs_tiling *tl = &rs->tiling;
-    int64_t ntiles = obs_tiling_count(tl);
-    cd->bin_start = (uint32_t *)calloc((size_t)ntiles + 1, sizeof(uint32_t));
-    if (!cd->bin_start) {
+    size_t ntiles = (size_t)obs_tiling_count(tl);
+    if (!grow((void **)&cd->bin_start, &cd->bin_start_cap, ntiles + 1, sizeof(uint32_t)) ||
+        !grow((void **)&cd->fill, &cd->fill_cap, ntiles, sizeof(uint32_t))) {
         cd->oom = 1;
         return;
     }
+    memset(cd->bin_start, 0, (ntiles + 1) * sizeof(uint32_t));
+    const int shift = __builtin_ctz((unsigned)tl->tile);
     uint64_t refs = 0;
     for (uint32_t i = 0; i < cd->count; i++) {
         const rast_i_tri *t = &cd->tris[i];
-        int tx0 = t->minx / tl->tile, tx1 = t->maxx / tl->tile, ty0 = t->miny / tl->tile, ty1 = t->maxy / tl->tile;
+        int tx0 = t->minx >> shift, tx1 = t->maxx >> shift, ty0 = t->miny >> shift, ty1 = t->maxy >> shift;
         for (int ty = ty0; ty <= ty1; ty++)
             for (int tx = tx0; tx <= tx1; tx++)
-                cd->bin_start[(int64_t)ty * tl->tiles_x + tx + 1]++;
+                cd->bin_start[(size_t)ty * tl->tiles_x + tx + 1]++;
         refs += (uint64_t)(tx1 - tx0 + 1) * (uint64_t)(ty1 - ty0 + 1);
     }
-    if (refs > UINT32_MAX) {
+    if (refs > UINT32_MAX || !grow((void **)&cd->bin_list, &cd->bin_list_cap, (size_t)refs, sizeof(uint32_t))) {
         cd->oom = 1;
         return;
     }
-    for (int64_t k = 0; k < ntiles; k++)
+    for (size_t k = 0; k < ntiles; k++)
         cd->bin_start[k + 1] += cd->bin_start[k];
-    cd->bin_list = (uint32_t *)malloc((size_t)(refs ? refs : 1) * sizeof(uint32_t));
-    uint32_t *fill = (uint32_t *)malloc((size_t)ntiles * sizeof(uint32_t));
-    if (!cd->bin_list || !fill) {
-        free(fill);
-        cd->oom = 1;
-        return;
-    }
-    memcpy(fill, cd->bin_start, (size_t)ntiles * sizeof(uint32_t));
+    memcpy(cd->fill, cd->bin_start, ntiles * sizeof(uint32_t));
     for (uint32_t i = 0; i < cd->count; i++) {
         const rast_i_tri *t = &cd->tris[i];
-        int tx0 = t->minx / tl->tile, tx1 = t->maxx / tl->tile, ty0 = t->miny / tl->tile, ty1 = t->maxy / tl->tile;
+        int tx0 = t->minx >> shift, tx1 = t->maxx >> shift, ty0 = t->miny >> shift, ty1 = t->maxy >> shift;
         for (int ty = ty0; ty <= ty1; ty++)
             for (int tx = tx0; tx <= tx1; tx++)
-                cd->bin_list[fill[(int64_t)ty * tl->tiles_x + tx]++] = i;
+                cd->bin_list[cd->fill[(size_t)ty * tl->tiles_x + tx]++] = i;
     }
-    free(fill);
 }
 
 /* ---- 3. tiles: visibility, then resolve ------------------------------------------------------ */
 
-static void resolve_pixel(const render_state *rs, int x, int y, uint32_t inst, uint32_t prim, float key)
+/* What the resolve needs of one visible triangle, computed once per run of pixels that show it.
+ * The hit of ray o + t d with the triangle's plane n.p = n.v0 is t = (n.v0 - n.o) / (n.d); the
+ * barycentrics of the hit P are u = (P - v0).m1, v = (P - v0).m2 with the dual basis
+ * m1 = (e2 x n)/|n|^2, m2 = (n x e1)/|n|^2 (so that P - v0 = u e1 + v e2). All in double. */
+typedef struct resolve_tri {
+    uint32_t inst, prim;
+    obs_dvec3 v0, n, m1, m2, nunit;
+    double n_v0;
+    const double *vn[3];   /* unit view-space vertex normals, or NULL */
+    uint32_t material;
+} resolve_tri;
+
+static void resolve_tri_setup(const render_state *rs, uint32_t inst, uint32_t prim, resolve_tri *r)
 {
-    rast_gbuffer *gb = rs->gb;
-    const uint32_t out = gb->outputs;
     const obs_scene *sc = rs->scene;
-    ptrdiff_t fo = (ptrdiff_t)y * gb->depth.stride + x; /* all planes share the stride (same size) */
-    if (inst == RAST_ID_NONE) {
-        if (out & RAST_OUT_DEPTH) gb->depth.data[fo] = INFINITY;
-        if (out & RAST_OUT_NDC_DEPTH)
-            gb->ndc_depth.data[(ptrdiff_t)y * gb->ndc_depth.stride + x] =
-                rs->p->depth_convention == RAST_DEPTH_REVERSED_Z ? 0.0f : 1.0f;
-        for (int c = 0; c < 3; c++) {
-            if (out & RAST_OUT_NORMAL) gb->normal[c].data[(ptrdiff_t)y * gb->normal[c].stride + x] = 0.0f;
-            if (out & RAST_OUT_FACE_NORMAL) gb->face_normal[c].data[(ptrdiff_t)y * gb->face_normal[c].stride + x] = 0.0f;
-        }
-        if (out & RAST_OUT_PRIM_ID) gb->prim_id.data[(ptrdiff_t)y * gb->prim_id.stride + x] = RAST_ID_NONE;
-        if (out & RAST_OUT_INSTANCE_ID) gb->instance_id.data[(ptrdiff_t)y * gb->instance_id.stride + x] = RAST_ID_NONE;
-        if (out & RAST_OUT_MATERIAL_ID) gb->material_id.data[(ptrdiff_t)y * gb->material_id.stride + x] = RAST_ID_NONE;
-        return;
-    }
     const obs_mesh *m = &sc->meshes[sc->instances[inst].mesh];
     const uint32_t *ix = &m->indices[3 * (size_t)prim];
-    const double *P = rs->vpos[inst];
+    const double *P = rs->ws->vpos + 3 * rs->ws->voff[inst];
     obs_dvec3 v0 = obs_dv3(P[3 * (size_t)ix[0]], P[3 * (size_t)ix[0] + 1], P[3 * (size_t)ix[0] + 2]);
     obs_dvec3 v1 = obs_dv3(P[3 * (size_t)ix[1]], P[3 * (size_t)ix[1] + 1], P[3 * (size_t)ix[1] + 2]);
     obs_dvec3 v2 = obs_dv3(P[3 * (size_t)ix[2]], P[3 * (size_t)ix[2] + 1], P[3 * (size_t)ix[2] + 2]);
-    /* The exact ray through the pixel centre (view space; see rast_pixel_ray). */
-    double px = x + 0.5, py = y + 0.5;
-    double ax = (px - rs->cx) / rs->fx, ay = -(py - rs->cy) / rs->fy;
-    obs_dvec3 o = rs->ortho ? obs_dv3(ax, ay, 0.0) : obs_dv3(0.0, 0.0, 0.0);
-    obs_dvec3 d = rs->ortho ? obs_dv3(0.0, 0.0, -1.0) : obs_dv3(ax, ay, -1.0);
-    /* Moller-Trumbore [Moller97], in double: t is the linear depth because d.z = -1. */
     obs_dvec3 e1 = obs_dv3_sub(v1, v0), e2 = obs_dv3_sub(v2, v0);
-    obs_dvec3 pv = obs_dv3_cross(d, e2);
-    double det = obs_dv3_dot(e1, pv);
-    double t, u, v;
-    if (det != 0.0) {
-        double inv = 1.0 / det;
-        obs_dvec3 tv = obs_dv3_sub(o, v0);
-        u = obs_dv3_dot(tv, pv) * inv;
-        obs_dvec3 qv = obs_dv3_cross(tv, e1);
-        v = obs_dv3_dot(d, qv) * inv;
-        t = obs_dv3_dot(e2, qv) * inv;
+    obs_dvec3 n = obs_dv3_cross(e1, e2);
+    double nn = obs_dv3_dot(n, n); /* > 0: setup skipped zero-area triangles */
+    double inn = 1.0 / nn, il = 1.0 / sqrt(nn);
+    obs_dvec3 a = obs_dv3_cross(e2, n), b = obs_dv3_cross(n, e1);
+    r->inst = inst;
+    r->prim = prim;
+    r->v0 = v0;
+    r->n = n;
+    r->n_v0 = obs_dv3_dot(n, v0);
+    r->m1 = obs_dv3(a.x * inn, a.y * inn, a.z * inn);
+    r->m2 = obs_dv3(b.x * inn, b.y * inn, b.z * inn);
+    r->nunit = obs_dv3(n.x * il, n.y * il, n.z * il);
+    if (m->normals && (rs->p->outputs & RAST_OUT_NORMAL)) {
+        const double *N = rs->ws->vnrm + 3 * rs->ws->voff[inst];
+        for (int k = 0; k < 3; k++)
+            r->vn[k] = N + 3 * (size_t)ix[k];
     } else {
-        t = NAN;
-        u = v = 1.0 / 3.0;
+        r->vn[0] = r->vn[1] = r->vn[2] = NULL;
     }
-    if (!(t > 0.0) || !isfinite(t)) /* edge-on under snapping: fall back to the raster key */
-        t = rs->ortho ? -(double)key : 1.0 / (double)key;
-    obs_dvec3 ng = obs_dv3_cross(e1, e2);
-    int back = obs_dv3_dot(ng, d) > 0.0;
-    double flip = (back && rs->p->face_forward) ? -1.0 : 1.0;
-    if (out & RAST_OUT_DEPTH)
-        gb->depth.data[fo] = (float)t;
-    if (out & RAST_OUT_NDC_DEPTH)
-        gb->ndc_depth.data[(ptrdiff_t)y * gb->ndc_depth.stride + x] =
-            (float)rast_ndc_depth_from_linear(rs->vc, rs->p->depth_convention, t);
-    double ngl = sqrt(obs_dv3_dot(ng, ng));
-    obs_dvec3 ngn = ngl > 0.0 ? obs_dv3(flip * ng.x / ngl, flip * ng.y / ngl, flip * ng.z / ngl) : obs_dv3(0, 0, 1);
-    if (out & RAST_OUT_FACE_NORMAL) {
-        gb->face_normal[0].data[(ptrdiff_t)y * gb->face_normal[0].stride + x] = (float)ngn.x;
-        gb->face_normal[1].data[(ptrdiff_t)y * gb->face_normal[1].stride + x] = (float)ngn.y;
-        gb->face_normal[2].data[(ptrdiff_t)y * gb->face_normal[2].stride + x] = (float)ngn.z;
+    r->material = m->material >= 0 ? (uint32_t)m->material : RAST_ID_NONE;
+}
+
+typedef struct out_rows {
+    float *depth, *ndc, *n[3], *ng[3];
+    uint32_t *prim, *inst, *mat;
+} out_rows;
+
+/* A small direct-mapped cache of resolve_tri per tile: a triangle spans several rows of a tile,
+ * and fetching its indices and vertices again for every row was the resolve's main cost
+ * (cache misses on the index buffer). */
+#define RESOLVE_CACHE 64
+
+static inline resolve_tri *resolve_lookup(const render_state *rs, resolve_tri *cache, uint32_t inst, uint32_t prim)
+{
+    resolve_tri *r = &cache[(prim * 2654435761u + inst) >> 26 & (RESOLVE_CACHE - 1)];
+    if (r->inst != inst || r->prim != prim)
+        resolve_tri_setup(rs, inst, prim, r);
+    return r;
+}
+
+static void resolve_row(const render_state *rs, int y, int x0, int n, const uint32_t *inst, const uint32_t *prim,
+                        const float *key, resolve_tri *cache)
+{
+    rast_gbuffer *gb = rs->gb;
+    const uint32_t out = gb->outputs;
+    out_rows o;
+    memset(&o, 0, sizeof o);
+#define ROWF(bit, plane, dst) if (out & (bit)) dst = obs_image_f32_row(&(plane), y) + x0
+#define ROWU(bit, plane, dst) if (out & (bit)) dst = obs_image_u32_row(&(plane), y) + x0
+    ROWF(RAST_OUT_DEPTH, gb->depth, o.depth);
+    ROWF(RAST_OUT_NDC_DEPTH, gb->ndc_depth, o.ndc);
+    for (int c = 0; c < 3; c++) {
+        ROWF(RAST_OUT_NORMAL, gb->normal[c], o.n[c]);
+        ROWF(RAST_OUT_FACE_NORMAL, gb->face_normal[c], o.ng[c]);
     }
-    if (out & RAST_OUT_NORMAL) {
-        obs_dvec3 ns = ngn;
-        if (m->normals) {
-            /* Barycentrics clamped to the triangle (snapping can put a centre just outside). */
-            double b1 = u < 0.0 ? 0.0 : (u > 1.0 ? 1.0 : u), b2 = v < 0.0 ? 0.0 : (v > 1.0 ? 1.0 : v);
-            if (b1 + b2 > 1.0) {
-                double s = b1 + b2;
-                b1 /= s;
-                b2 /= s;
-            }
-            double b0 = 1.0 - b1 - b2, bw[3] = {b0, b1, b2};
-            const double *N = rs->nmat[inst];
-            double sxv = 0, syv = 0, szv = 0;
-            for (int k = 0; k < 3; k++) {
-                const float *n = &m->normals[3 * (size_t)ix[k]];
-                double nx = N[0] * n[0] + N[1] * n[1] + N[2] * n[2];
-                double ny = N[3] * n[0] + N[4] * n[1] + N[5] * n[2];
-                double nz = N[6] * n[0] + N[7] * n[1] + N[8] * n[2];
-                double l = sqrt(nx * nx + ny * ny + nz * nz);
-                if (l > 0.0 && isfinite(l)) {
-                    sxv += bw[k] * nx / l;
-                    syv += bw[k] * ny / l;
-                    szv += bw[k] * nz / l;
+    ROWU(RAST_OUT_PRIM_ID, gb->prim_id, o.prim);
+    ROWU(RAST_OUT_INSTANCE_ID, gb->instance_id, o.inst);
+    ROWU(RAST_OUT_MATERIAL_ID, gb->material_id, o.mat);
+#undef ROWF
+#undef ROWU
+    const double py = y + 0.5, ay = -(py - rs->cy) * (1.0 / rs->fy), inv_fx = 1.0 / rs->fx;
+    const rast_depth_convention conv = rs->p->depth_convention;
+    const int face_forward = rs->p->face_forward;
+    for (int i = 0; i < n; i++) {
+        uint32_t id = inst[i];
+        if (id == RAST_ID_NONE) {
+            if (o.depth) o.depth[i] = INFINITY;
+            if (o.ndc) o.ndc[i] = rs->bg_ndc;
+            if (o.n[0]) o.n[0][i] = o.n[1][i] = o.n[2][i] = 0.0f;
+            if (o.ng[0]) o.ng[0][i] = o.ng[1][i] = o.ng[2][i] = 0.0f;
+            if (o.prim) o.prim[i] = RAST_ID_NONE;
+            if (o.inst) o.inst[i] = RAST_ID_NONE;
+            if (o.mat) o.mat[i] = RAST_ID_NONE;
+            continue;
+        }
+        const resolve_tri *r = resolve_lookup(rs, cache, id, prim[i]);
+        /* The exact ray through the pixel centre (view space; see rast_pixel_ray). */
+        double ax = ((x0 + i) + 0.5 - rs->cx) * inv_fx;
+        obs_dvec3 org = rs->ortho ? obs_dv3(ax, ay, 0.0) : obs_dv3(0.0, 0.0, 0.0);
+        obs_dvec3 d = rs->ortho ? obs_dv3(0.0, 0.0, -1.0) : obs_dv3(ax, ay, -1.0);
+        double nd = obs_dv3_dot(r->n, d);
+        double t = (r->n_v0 - obs_dv3_dot(r->n, org)) / nd; /* d.z = -1, so t is the linear depth */
+        if (!(t > 0.0) || !isfinite(t)) /* edge-on under snapping: fall back to the raster key */
+            t = rs->ortho ? -(double)key[i] : 1.0 / (double)key[i];
+        double flip = (face_forward && nd > 0.0) ? -1.0 : 1.0;
+        if (o.depth) o.depth[i] = (float)t;
+        if (o.ndc) o.ndc[i] = (float)rast_ndc_depth_from_linear(rs->vc, conv, t);
+        if (o.ng[0]) {
+            o.ng[0][i] = (float)(flip * r->nunit.x);
+            o.ng[1][i] = (float)(flip * r->nunit.y);
+            o.ng[2][i] = (float)(flip * r->nunit.z);
+        }
+        if (o.n[0]) {
+            obs_dvec3 ns = r->nunit;
+            if (r->vn[0]) {
+                obs_dvec3 q = obs_dv3_sub(obs_dv3(org.x + t * d.x, org.y + t * d.y, org.z + t * d.z), r->v0);
+                double b1 = obs_dv3_dot(q, r->m1), b2 = obs_dv3_dot(q, r->m2);
+                /* clamp to the triangle: snapping can put a centre just outside it */
+                b1 = b1 < 0.0 ? 0.0 : (b1 > 1.0 ? 1.0 : b1);
+                b2 = b2 < 0.0 ? 0.0 : (b2 > 1.0 ? 1.0 : b2);
+                if (b1 + b2 > 1.0) {
+                    double s = 1.0 / (b1 + b2);
+                    b1 *= s;
+                    b2 *= s;
+                }
+                double b0 = 1.0 - b1 - b2;
+                double sx = b0 * r->vn[0][0] + b1 * r->vn[1][0] + b2 * r->vn[2][0];
+                double sy = b0 * r->vn[0][1] + b1 * r->vn[1][1] + b2 * r->vn[2][1];
+                double sz = b0 * r->vn[0][2] + b1 * r->vn[1][2] + b2 * r->vn[2][2];
+                double l2 = sx * sx + sy * sy + sz * sz;
+                if (l2 > 1e-24) {
+                    double il = 1.0 / sqrt(l2);
+                    ns = obs_dv3(sx * il, sy * il, sz * il);
                 }
             }
-            double l = sqrt(sxv * sxv + syv * syv + szv * szv);
-            if (l > 1e-12 && isfinite(l))
-                ns = obs_dv3(flip * sxv / l, flip * syv / l, flip * szv / l);
+            o.n[0][i] = (float)(flip * ns.x);
+            o.n[1][i] = (float)(flip * ns.y);
+            o.n[2][i] = (float)(flip * ns.z);
         }
-        gb->normal[0].data[(ptrdiff_t)y * gb->normal[0].stride + x] = (float)ns.x;
-        gb->normal[1].data[(ptrdiff_t)y * gb->normal[1].stride + x] = (float)ns.y;
-        gb->normal[2].data[(ptrdiff_t)y * gb->normal[2].stride + x] = (float)ns.z;
+        if (o.prim) o.prim[i] = r->prim;
+        if (o.inst) o.inst[i] = r->inst;
+        if (o.mat) o.mat[i] = r->material;
     }
-    if (out & RAST_OUT_PRIM_ID) gb->prim_id.data[(ptrdiff_t)y * gb->prim_id.stride + x] = prim;
-    if (out & RAST_OUT_INSTANCE_ID) gb->instance_id.data[(ptrdiff_t)y * gb->instance_id.stride + x] = inst;
-    if (out & RAST_OUT_MATERIAL_ID)
-        gb->material_id.data[(ptrdiff_t)y * gb->material_id.stride + x] =
-            m->material >= 0 ? (uint32_t)m->material : RAST_ID_NONE;
+}
+
+/* A row segment with no surface: plain fills, one plane at a time. */
+static void background_row(const render_state *rs, int y, int x0, int n)
+{
+    rast_gbuffer *gb = rs->gb;
+    const uint32_t out = gb->outputs;
+#define FILLF(bit, plane, v) if (out & (bit)) { float *r_ = obs_image_f32_row(&(plane), y) + x0; for (int i = 0; i < n; i++) r_[i] = (v); }
+#define FILLU(bit, plane) if (out & (bit)) { uint32_t *r_ = obs_image_u32_row(&(plane), y) + x0; for (int i = 0; i < n; i++) r_[i] = RAST_ID_NONE; }
+    FILLF(RAST_OUT_DEPTH, gb->depth, INFINITY);
+    FILLF(RAST_OUT_NDC_DEPTH, gb->ndc_depth, rs->bg_ndc);
+    for (int c = 0; c < 3; c++) {
+        FILLF(RAST_OUT_NORMAL, gb->normal[c], 0.0f);
+        FILLF(RAST_OUT_FACE_NORMAL, gb->face_normal[c], 0.0f);
+    }
+    FILLU(RAST_OUT_PRIM_ID, gb->prim_id);
+    FILLU(RAST_OUT_INSTANCE_ID, gb->instance_id);
+    FILLU(RAST_OUT_MATERIAL_ID, gb->material_id);
+#undef FILLF
+#undef FILLU
 }
 
 static void tile_task(void *user, int64_t task, int thread)
 {
     render_state *rs = (render_state *)user;
+    rast_workspace *ws = rs->ws;
     int x0, y0, x1, y1;
     obs_tiling_rect(&rs->tiling, task, &x0, &y0, &x1, &y1);
     const int T = rs->tiling.tile, tw = x1 - x0, th = y1 - y0;
-    float *key = rs->tkey[thread];
-    uint32_t *inst = rs->tinst[thread], *prim = rs->tprim[thread];
-    for (int y = 0; y < th; y++)
-        for (int x = 0; x < tw; x++) {
-            key[y * T + x] = -INFINITY;
-            inst[y * T + x] = RAST_ID_NONE;
-        }
+    const size_t TT = (size_t)T * T;
+    float *key = ws->tkey + (size_t)thread * TT;
+    uint32_t *inst = ws->tinst + (size_t)thread * TT, *prim = ws->tprim + (size_t)thread * TT;
+    for (int y = 0; y < th; y++) { /* two plain loops: both vectorise */
+        float *kr = key + (size_t)y * T;
+        uint32_t *ir = inst + (size_t)y * T;
+        for (int x = 0; x < tw; x++)
+            kr[x] = -INFINITY;
+        for (int x = 0; x < tw; x++)
+            ir[x] = RAST_ID_NONE;
+    }
     for (int64_t c = 0; c < rs->chunk_count; c++) {
-        const chunk_data *cd = &rs->chunks[c];
+        const chunk_data *cd = &ws->chunks[c];
         uint32_t b0 = cd->bin_start[task], b1 = cd->bin_start[task + 1];
         if (b1 > b0)
             rs->tile_fn(cd->tris, cd->bin_list + b0, b1 - b0, x0, y0, tw, th, T, key, inst, prim);
     }
     uint64_t covered = 0;
-    for (int y = 0; y < th; y++)
-        for (int x = 0; x < tw; x++) {
-            uint32_t i = inst[y * T + x];
-            covered += i != RAST_ID_NONE;
-            resolve_pixel(rs, x0 + x, y0 + y, i, prim[y * T + x], key[y * T + x]);
-        }
-    rs->tile_covered[task] = covered;
+    resolve_tri cache[RESOLVE_CACHE];
+    memset(cache, 0, sizeof cache);
+    for (int k = 0; k < RESOLVE_CACHE; k++)
+        cache[k].inst = RAST_ID_NONE;
+    for (int y = 0; y < th; y++) {
+        const uint32_t *ir = inst + (size_t)y * T;
+        int row_covered = 0;
+        for (int x = 0; x < tw; x++)
+            row_covered += ir[x] != RAST_ID_NONE;
+        covered += (uint64_t)row_covered;
+        if (row_covered)
+            resolve_row(rs, y0 + y, x0, tw, ir, prim + (size_t)y * T, key + (size_t)y * T, cache);
+        else
+            background_row(rs, y0 + y, x0, tw);
+    }
+    ws->tile_covered[task] = covered;
 }
 
 /* ------------------------------------------------------------------------------------------------
@@ -874,41 +1013,9 @@ static rast_isa choose_isa(rast_isa want)
     return want;
 }
 
-static void free_state(render_state *rs, int threads)
-{
-    if (rs->vpos) {
-        for (uint32_t i = 0; i < rs->scene->instance_count; i++)
-            free(rs->vpos[i]);
-        free(rs->vpos);
-    }
-    free(rs->nmat);
-    free(rs->tri_start);
-    free(rs->vt_inst);
-    free(rs->vt_block);
-    if (rs->chunks) {
-        for (int64_t c = 0; c < rs->chunk_count; c++) {
-            free(rs->chunks[c].tris);
-            free(rs->chunks[c].bin_start);
-            free(rs->chunks[c].bin_list);
-        }
-        free(rs->chunks);
-    }
-    if (rs->tkey) {
-        for (int t = 0; t < threads; t++) {
-            obs_aligned_free(rs->tkey[t]);
-            obs_aligned_free(rs->tinst[t]);
-            obs_aligned_free(rs->tprim[t]);
-        }
-    }
-    free(rs->tkey);
-    free(rs->tinst);
-    free(rs->tprim);
-    free(rs->tile_covered);
-    memset(rs, 0, sizeof *rs);
-}
-
-static obs_status render_view(obs_context *ctx, obs_pool *pool, const obs_scene *sc, const obs_camera *cam,
-                              const rast_params *p, rast_gbuffer *gb, rast_i_tile_fn tile_fn, rast_stats *st)
+static obs_status render_view(obs_context *ctx, obs_pool *pool, rast_workspace *ws, const obs_scene *sc,
+                              const obs_camera *cam, const rast_params *p, rast_gbuffer *gb, rast_i_tile_fn tile_fn,
+                              rast_stats *st)
 {
     rast_view_constants vc;
     obs_status s = rast_view_constants_make(ctx, p, cam, &vc);
@@ -922,6 +1029,7 @@ static obs_status render_view(obs_context *ctx, obs_pool *pool, const obs_scene 
     rs.p = p;
     rs.vc = &gb->constants;
     rs.gb = gb;
+    rs.ws = ws;
     rs.W = vc.full_width;
     rs.H = vc.full_height;
     rs.ortho = vc.projection_type == OBS_PROJECTION_ORTHOGRAPHIC;
@@ -929,54 +1037,79 @@ static obs_status render_view(obs_context *ctx, obs_pool *pool, const obs_scene 
     rs.znear = vc.znear; rs.zfar = vc.zfar;
     rs.tile_fn = tile_fn;
     rs.tiling = obs_tiling_make(rs.W, rs.H, p->tile_size);
-    atomic_init(&rs.failed, 0);
+    rs.bg_ndc = p->depth_convention == RAST_DEPTH_REVERSED_Z ? 0.0f : 1.0f;
     double t0 = obs_time_now();
 
     /* 1. transform */
     const uint32_t ni = sc->instance_count;
-    rs.vpos = (double **)calloc(ni ? ni : 1, sizeof(double *));
-    rs.nmat = (double(*)[9])calloc(ni ? ni : 1, sizeof(double[9]));
-    rs.tri_start = (uint64_t *)calloc((size_t)ni + 1, sizeof(uint64_t));
-    if (!rs.vpos || !rs.nmat || !rs.tri_start)
+    if (!grow((void **)&ws->voff, &ws->voff_cap, (size_t)ni + 1, sizeof(uint64_t)) ||
+        !grow((void **)&ws->tri_start, &ws->tri_start_cap, (size_t)ni + 1, sizeof(uint64_t)))
         goto oom;
     uint64_t ntasks = 0;
+    ws->voff[0] = 0;
+    ws->tri_start[0] = 0;
     for (uint32_t i = 0; i < ni; i++) {
         const obs_mesh *m = &sc->meshes[sc->instances[i].mesh];
-        rs.tri_start[i + 1] = rs.tri_start[i] + m->triangle_count;
-        size_t bytes;
-        if (!obs_mul_size((size_t)m->vertex_count ? m->vertex_count : 1, 3 * sizeof(double), &bytes))
-            goto oom;
-        rs.vpos[i] = (double *)malloc(bytes);
-        if (!rs.vpos[i])
-            goto oom;
-        normal_matrix(&vc.view, &sc->instances[i].world, rs.nmat[i]);
+        ws->voff[i + 1] = ws->voff[i] + m->vertex_count;
+        ws->tri_start[i + 1] = ws->tri_start[i] + m->triangle_count;
         ntasks += (m->vertex_count + RAST_VERTEX_BLOCK - 1) / RAST_VERTEX_BLOCK;
     }
-    rs.vt_inst = (uint32_t *)malloc((size_t)(ntasks ? ntasks : 1) * sizeof(uint32_t));
-    rs.vt_block = (uint32_t *)malloc((size_t)(ntasks ? ntasks : 1) * sizeof(uint32_t));
-    if (!rs.vt_inst || !rs.vt_block)
+    size_t nverts = (size_t)ws->voff[ni];
+    if (!grow((void **)&ws->vpos, &ws->vpos_cap, 3 * nverts + 3, sizeof(double)) ||
+        ((p->outputs & RAST_OUT_NORMAL) && !grow((void **)&ws->vnrm, &ws->vnrm_cap, 3 * nverts + 3, sizeof(double))) ||
+        !grow((void **)&ws->vt_inst, &ws->vt_cap, (size_t)ntasks + 1, sizeof(uint32_t)) ||
+        !grow((void **)&ws->vt_block, &ws->vt_block_cap, (size_t)ntasks + 1, sizeof(uint32_t)))
         goto oom;
     ntasks = 0;
     for (uint32_t i = 0; i < ni; i++) {
         const obs_mesh *m = &sc->meshes[sc->instances[i].mesh];
-        for (uint32_t b = 0; b * (uint64_t)RAST_VERTEX_BLOCK < m->vertex_count; b++) {
-            rs.vt_inst[ntasks] = i;
-            rs.vt_block[ntasks] = b;
+        for (uint32_t b = 0; (uint64_t)b * RAST_VERTEX_BLOCK < m->vertex_count; b++) {
+            ws->vt_inst[ntasks] = i;
+            ws->vt_block[ntasks] = b;
             ntasks++;
         }
     }
     obs_pool_run(pool, (int64_t)ntasks, transform_task, &rs);
 
-    /* 2. setup and binning */
-    uint64_t total = rs.tri_start[ni];
+    /* 2. setup and binning. A chunk first reserves one record per triangle plus some slack;
+     * clipping can make up to 7 pieces of one triangle (a polygon of up to 9 vertices), so a
+     * chunk that runs out is given room for 7 per triangle and set up again. */
+    uint64_t total = ws->tri_start[ni];
     rs.chunk_count = (int64_t)((total + RAST_CHUNK - 1) / RAST_CHUNK);
-    rs.chunks = (chunk_data *)calloc(rs.chunk_count ? (size_t)rs.chunk_count : 1, sizeof(chunk_data));
-    if (!rs.chunks)
-        goto oom;
+    if (rs.chunk_count > 0 && (size_t)rs.chunk_count > ws->chunks_cap) {
+        size_t ncap = (size_t)rs.chunk_count;
+        chunk_data *nc = (chunk_data *)obs_aligned_alloc(ncap * sizeof(chunk_data));
+        if (!nc)
+            goto oom;
+        memset(nc, 0, ncap * sizeof(chunk_data));
+        if (ws->chunks)
+            memcpy(nc, ws->chunks, ws->chunks_cap * sizeof(chunk_data));
+        obs_aligned_free(ws->chunks);
+        ws->chunks = nc;
+        ws->chunks_cap = ncap;
+    }
+    for (int64_t c = 0; c < rs.chunk_count; c++) {
+        chunk_data *cd = &ws->chunks[c];
+        uint64_t n = total - (uint64_t)c * RAST_CHUNK < RAST_CHUNK ? total - (uint64_t)c * RAST_CHUNK : RAST_CHUNK;
+        size_t cap = cd->cap;
+        if (!grow((void **)&cd->tris, &cap, (size_t)n + 256, sizeof(rast_i_tri)))
+            goto oom;
+        cd->cap = (uint32_t)(cap > UINT32_MAX ? UINT32_MAX : cap);
+        cd->oom = 0;
+        cd->count = 0;
+    }
     if (rs.chunk_count > 0)
         obs_pool_run(pool, rs.chunk_count, setup_task, &rs);
     for (int64_t c = 0; c < rs.chunk_count; c++) {
-        chunk_data *cd = &rs.chunks[c];
+        chunk_data *cd = &ws->chunks[c];
+        if (cd->oom == 2) { /* ran out of records: reserve the worst case and redo this chunk */
+            size_t cap = cd->cap;
+            if (!grow((void **)&cd->tris, &cap, (size_t)RAST_CHUNK * 7, sizeof(rast_i_tri)))
+                goto oom;
+            cd->cap = (uint32_t)cap;
+            cd->oom = 0;
+            setup_task(&rs, c, 0);
+        }
         if (cd->oom)
             goto oom;
         st->triangles_nonfinite += cd->nonfinite;
@@ -989,48 +1122,39 @@ static obs_status render_view(obs_context *ctx, obs_pool *pool, const obs_scene 
     double t1 = obs_time_now();
 
     /* 3. tiles */
-    int64_t ntiles = obs_tiling_count(&rs.tiling);
-    size_t tbytes = (size_t)p->tile_size * (size_t)p->tile_size * 4;
-    rs.tkey = (float **)calloc((size_t)threads, sizeof(float *));
-    rs.tinst = (uint32_t **)calloc((size_t)threads, sizeof(uint32_t *));
-    rs.tprim = (uint32_t **)calloc((size_t)threads, sizeof(uint32_t *));
-    rs.tile_covered = (uint64_t *)calloc((size_t)ntiles, sizeof(uint64_t));
-    if (!rs.tkey || !rs.tinst || !rs.tprim || !rs.tile_covered)
+    size_t ntiles = (size_t)obs_tiling_count(&rs.tiling);
+    size_t tt = (size_t)p->tile_size * (size_t)p->tile_size * (size_t)threads;
+    if (!grow((void **)&ws->tkey, &ws->tkey_cap, tt, sizeof(float)) ||
+        !grow((void **)&ws->tinst, &ws->tinst_cap, tt, sizeof(uint32_t)) ||
+        !grow((void **)&ws->tprim, &ws->tprim_cap, tt, sizeof(uint32_t)) ||
+        !grow((void **)&ws->tile_covered, &ws->covered_cap, ntiles, sizeof(uint64_t)))
         goto oom;
-    for (int t = 0; t < threads; t++) {
-        rs.tkey[t] = (float *)obs_aligned_alloc(tbytes);
-        rs.tinst[t] = (uint32_t *)obs_aligned_alloc(tbytes);
-        rs.tprim[t] = (uint32_t *)obs_aligned_alloc(tbytes);
-        if (!rs.tkey[t] || !rs.tinst[t] || !rs.tprim[t])
-            goto oom;
-    }
     /* With no triangles there are no chunks, and every tile resolves to background. */
-    obs_pool_run(pool, ntiles, tile_task, &rs);
-    for (int64_t k = 0; k < ntiles; k++)
-        st->pixels_covered += rs.tile_covered[k];
+    obs_pool_run(pool, (int64_t)ntiles, tile_task, &rs);
+    for (size_t k = 0; k < ntiles; k++)
+        st->pixels_covered += ws->tile_covered[k];
     double t2 = obs_time_now();
     st->seconds_setup += t1 - t0;
     st->seconds_raster += t2 - t1; /* visibility and resolve run fused per tile */
-    free_state(&rs, threads);
     return OBS_STATUS_OK;
 oom:
-    free_state(&rs, threads);
     return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "rasterizer: out of memory while rendering %llu triangles",
                      (unsigned long long)obs_scene_triangle_count(sc));
 }
 
-obs_status rast_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const rast_view *views,
-                       int view_count, const rast_params *params, rast_gbuffer *layers, rast_stats *stats)
+obs_status rast_render_ws(obs_context *ctx, obs_pool *pool, rast_workspace *ws, const obs_scene *scene,
+                          const rast_view *views, int view_count, const rast_params *params, rast_gbuffer *layers,
+                          rast_stats *stats)
 {
     rast_stats local;
     rast_stats *st = stats ? stats : &local;
     memset(st, 0, sizeof *st);
-    if (!scene || !views || !params || !layers || view_count < 1)
+    if (!ws || !scene || !views || !params || !layers || view_count < 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "rast_render: NULL argument or view_count %d < 1",
                          view_count);
     if (params->tile_size < 16 || params->tile_size > 256 || (params->tile_size & (params->tile_size - 1)))
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "rast_render: tile_size %d must be a power of two in [16, 256]",
-                         params->tile_size);
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "rast_render: tile_size %d must be a power of two in [16, 256]", params->tile_size);
     if ((unsigned)params->depth_convention >= RAST_DEPTH_COUNT || (unsigned)params->cull >= RAST_CULL_COUNT ||
         (unsigned)params->isa >= RAST_ISA_COUNT || (params->outputs & ~RAST_OUT_ALL))
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "rast_render: an enum parameter is out of range");
@@ -1058,9 +1182,20 @@ obs_status rast_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene,
                              "rast_render: layer %d was allocated for other params (%dx%d, guard %d, outputs 0x%x)", k,
                              gb->width, gb->height, gb->guard, gb->outputs);
         gb->depth_convention = params->depth_convention;
-        obs_status s = render_view(ctx, pool, scene, &views[k].camera, params, gb, fn, st);
+        obs_status s = render_view(ctx, pool, ws, scene, &views[k].camera, params, gb, fn, st);
         if (s != OBS_STATUS_OK)
             return s;
     }
     return OBS_STATUS_OK;
+}
+
+obs_status rast_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const rast_view *views,
+                       int view_count, const rast_params *params, rast_gbuffer *layers, rast_stats *stats)
+{
+    rast_workspace *ws = rast_workspace_create();
+    if (!ws)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "rast_render: out of memory");
+    obs_status s = rast_render_ws(ctx, pool, ws, scene, views, view_count, params, layers, stats);
+    rast_workspace_destroy(ws);
+    return s;
 }

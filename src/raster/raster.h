@@ -181,6 +181,17 @@ typedef struct rast_stats {
 obs_status rast_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const rast_view *views,
                        int view_count, const rast_params *params, rast_gbuffer *layers, rast_stats *stats);
 
+/* A workspace keeps the rasterizer's scratch memory between renders, so that repeated renders
+ * (benchmarks, studies, animation) allocate nothing and take no page faults. Not thread-safe:
+ * one render at a time per workspace. rast_render uses a temporary one. */
+typedef struct rast_workspace rast_workspace;
+rast_workspace *rast_workspace_create(void);   /* NULL when out of memory */
+void rast_workspace_destroy(rast_workspace *ws);
+/* As rast_render, with a caller-owned workspace (ws must not be NULL). */
+obs_status rast_render_ws(obs_context *ctx, obs_pool *pool, rast_workspace *ws, const obs_scene *scene,
+                          const rast_view *views, int view_count, const rast_params *params, rast_gbuffer *layers,
+                          rast_stats *stats);
+
 /* Whether the AVX2 path is compiled in and supported by this CPU. */
 int rast_isa_available(rast_isa isa);
 const char *rast_isa_name(rast_isa isa);

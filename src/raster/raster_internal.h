@@ -17,6 +17,10 @@ typedef struct rast_i_tri {
     int32_t A[3], B[3];
     int32_t bias[3];
     int32_t minx, miny, maxx, maxy;  /* inclusive pixel bbox, clamped to the image */
+    /* 1 when the snapped vertices span at most 2^14 sub-pixel units (64 px) on both axes. Then
+     * |A|, |B| <= 2^14 and, for every pixel centre in the box (plus 7 px of SIMD overhang),
+     * |E| < 2^30: the AVX2 path evaluates such triangles exactly in 32-bit integer lanes. */
+    int32_t small;
     /* Visibility key ("closeness", larger is closer): 1/w for perspective, -z_ndc for
      * orthographic; a plane in screen space, evaluated in float by rast_i_key() only. */
     float k0, kx, ky, ox, oy;

@@ -1,12 +1,62 @@
 /* raster_tile_avx2.c: the AVX2 tile rasterizer. Compiled with -mavx2 only (no FMA), selected
  * at run time. Lanes: 4 horizontally adjacent pixels (x, x+1, x+2, x+3) of one row.
- * Edge values are exact integers held in doubles (|E| < 2^49 < 2^53, see raster_internal.h), so
- * coverage is identical to the int64 scalar path; the key uses the same float expression as
+ * Small triangles (t->small: at most 64 px across) use 8 lanes of 32-bit integers, (x .. x+7),
+ * exact because |E| < 2^30 for them. Others use 4 lanes of doubles holding exact integers
+ * (|E| < 2^49 < 2^53, see raster_internal.h). Either way coverage is identical to the int64
+ * scalar path; the key uses the same float expression as
  * rast_i_key, in the same order, so depth tests agree bit for bit. */
 #include "raster_internal.h"
 
 #if defined(OBS_HAVE_AVX2)
 #include <immintrin.h>
+
+/* One small triangle, 8 pixels of a row at a time, edges in exact int32 lanes. */
+static void tile_small(const rast_i_tri *t, int x0, int y0, int x1, int y1, int tx0, int ty0, int stride, float *key,
+                       uint32_t *inst, uint32_t *prim)
+{
+    const __m256i lane8 = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    int32_t e_row[3], sx[3], sy[3];
+    __m256i off[3], bm1[3];
+    for (int i = 0; i < 3; i++) {
+        e_row[i] = (int32_t)((int64_t)t->A[i] * (256 * (int64_t)x0 + 128) + (int64_t)t->B[i] * (256 * (int64_t)y0 + 128) +
+                             t->C[i]);
+        sx[i] = 256 * t->A[i];
+        sy[i] = 256 * t->B[i];
+        off[i] = _mm256_mullo_epi32(lane8, _mm256_set1_epi32(sx[i]));
+        bm1[i] = _mm256_set1_epi32(t->bias[i] - 1); /* E >= bias  <=>  E > bias - 1 */
+    }
+    const __m256 k0 = _mm256_set1_ps(t->k0), kx = _mm256_set1_ps(t->kx), ky = _mm256_set1_ps(t->ky);
+    const __m256 ox = _mm256_set1_ps(t->ox), oy = _mm256_set1_ps(t->oy);
+    const __m256i inst_v = _mm256_set1_epi32((int)t->instance), prim_v = _mm256_set1_epi32((int)t->prim);
+    const __m256i xlast = _mm256_set1_epi32(x1);
+    for (int y = y0; y <= y1; y++) {
+        const __m256 ky_dy = _mm256_mul_ps(ky, _mm256_sub_ps(_mm256_set1_ps((float)y + 0.5f), oy));
+        int row = (y - ty0) * stride - tx0;
+        for (int x = x0; x <= x1; x += 8) {
+            int32_t dx = x - x0;
+            __m256i m = _mm256_cmpgt_epi32(_mm256_add_epi32(_mm256_set1_epi32(e_row[0] + dx * sx[0]), off[0]), bm1[0]);
+            m = _mm256_and_si256(m, _mm256_cmpgt_epi32(_mm256_add_epi32(_mm256_set1_epi32(e_row[1] + dx * sx[1]), off[1]), bm1[1]));
+            m = _mm256_and_si256(m, _mm256_cmpgt_epi32(_mm256_add_epi32(_mm256_set1_epi32(e_row[2] + dx * sx[2]), off[2]), bm1[2]));
+            __m256i xs = _mm256_add_epi32(_mm256_set1_epi32(x), lane8);
+            m = _mm256_andnot_si256(_mm256_cmpgt_epi32(xs, xlast), m);
+            if (_mm256_testz_si256(m, m))
+                continue;
+            /* key = k0 + kx*(fx - ox) + ky*(fy - oy), as rast_i_key */
+            __m256 fx = _mm256_add_ps(_mm256_cvtepi32_ps(xs), _mm256_set1_ps(0.5f));
+            __m256 z = _mm256_add_ps(_mm256_add_ps(k0, _mm256_mul_ps(kx, _mm256_sub_ps(fx, ox))), ky_dy);
+            float *kp = key + row + x;
+            __m256 old = _mm256_maskload_ps(kp, m);
+            __m256i win = _mm256_and_si256(m, _mm256_castps_si256(_mm256_cmp_ps(z, old, _CMP_GT_OQ)));
+            if (_mm256_testz_si256(win, win))
+                continue;
+            _mm256_maskstore_ps(kp, win, z);
+            _mm256_maskstore_epi32((int *)(inst + row + x), win, inst_v);
+            _mm256_maskstore_epi32((int *)(prim + row + x), win, prim_v);
+        }
+        for (int i = 0; i < 3; i++)
+            e_row[i] += sy[i];
+    }
+}
 
 void rast_i_tile_avx2(const rast_i_tri *tris, const uint32_t *list, uint32_t n, int tx0, int ty0, int tw, int th,
                       int stride, float *key, uint32_t *inst, uint32_t *prim)
@@ -21,6 +71,10 @@ void rast_i_tile_avx2(const rast_i_tri *tris, const uint32_t *list, uint32_t n, 
         int y1 = t->maxy < ty0 + th - 1 ? t->maxy : ty0 + th - 1;
         if (x0 > x1 || y0 > y1)
             continue;
+        if (t->small) {
+            tile_small(t, x0, y0, x1, y1, tx0, ty0, stride, key, inst, prim);
+            continue;
+        }
         int64_t e_row[3], step_x[3];
         __m256d lane_off[3], bias[3];
         for (int i = 0; i < 3; i++) {
