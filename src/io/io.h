@@ -63,7 +63,8 @@ void io_json_int(io_json *j, const char *key, int64_t value);
 void io_json_bool(io_json *j, const char *key, int value);
 void io_json_null(io_json *j, const char *key);
 void io_json_floats(io_json *j, const char *key, const float *v, int n);  /* an array of numbers */
-/* Write the document atomically to path (adds a trailing newline). */
+/* Write the document atomically to path (adds a trailing newline). Returns INVALID_ARGUMENT for
+ * a document that failed, is empty or is still open; IO_ERROR when the file cannot be written. */
 obs_status io_json_write(obs_context *ctx, const io_json *j, const char *path);
 
 /* ------------------------------------------------------------------------------------------------
@@ -85,8 +86,8 @@ io_gltf_options io_gltf_options_default(void);
  * Returns: OK; IO_ERROR (missing or unreadable file or buffer); PARSE_ERROR (malformed or
  * inconsistent content: the message names the file and the offending object, e.g.
  * "accessor 3 (bufferView 1): byteOffset 64 + stride 12 * (count 1000 - 1) + 12 > byteLength 96");
- * UNSUPPORTED (non-triangle modes, sparse accessors with unsupported types, ...);
- * LIMIT_EXCEEDED; OUT_OF_MEMORY. */
+ * UNSUPPORTED (non-triangle modes, sparse accessors, unknown required extensions);
+ * NOT_FOUND (opt->scene_index names no scene); LIMIT_EXCEEDED; OUT_OF_MEMORY. */
 obs_status io_gltf_load(obs_context *ctx, const char *path, const io_gltf_options *opt, obs_scene *out);
 
 /* Write a scene as a .glb (binary glTF 2.0) atomically: meshes (POSITION, NORMAL, indices as
@@ -136,7 +137,9 @@ typedef struct io_attr {
 } io_attr;
 
 /* Write a multi-channel EXR (ZIP compression, scanline) atomically. All channels must have the
- * same size. Returns: OK; INVALID_ARGUMENT; IO_ERROR. */
+ * same size. The file carries no time stamp unless the caller passes "DateTime", so identical
+ * inputs give identical bytes. Returns: OK; INVALID_ARGUMENT (size mismatch, duplicate channel
+ * names, INT attributes outside 32 bits); LIMIT_EXCEEDED (size overflow); OUT_OF_MEMORY; IO_ERROR. */
 obs_status io_exr_write(obs_context *ctx, const char *path, const io_channel *channels, int channel_count,
                         const io_attr *attrs, int attr_count);
 
@@ -152,9 +155,11 @@ typedef struct io_image {
     int attr_count;
 } io_image;
 
-/* Read any image OpenImageIO can read (EXR in particular). Checks the size against ctx's
- * max_image_pixels before allocating. Returns OK, IO_ERROR, PARSE_ERROR, LIMIT_EXCEEDED,
- * OUT_OF_MEMORY; on failure *out is empty. */
+/* Read any image OpenImageIO can read (EXR in particular): the first subimage's data window.
+ * Values come back exactly as stored (alpha is not multiplied in). Checks the size against ctx's
+ * max_image_pixels and max_memory_bytes before allocating. Returns OK, IO_ERROR (missing or
+ * unreadable), PARSE_ERROR (anything OpenImageIO cannot decode), UNSUPPORTED (deep or volume
+ * images), LIMIT_EXCEEDED, OUT_OF_MEMORY; on failure *out is empty. */
 obs_status io_image_read(obs_context *ctx, const char *path, io_image *out);
 void io_image_free(io_image *im);
 /* Index of a channel by exact name, or -1. */
@@ -168,7 +173,8 @@ typedef enum io_png_encoding {
 } io_png_encoding;
 
 /* Write an 8-bit PNG atomically from 1 (grey), 3 (RGB) or 4 (RGBA) float planes in [0,1]
- * (clamped; NaN -> 0). Returns OK, INVALID_ARGUMENT, IO_ERROR. */
+ * (clamped; NaN -> 0). Alpha is straight (unassociated) and never sRGB-encoded. SRGB writes an
+ * sRGB chunk; LINEAR writes a gamma chunk of 1.0. Returns OK, INVALID_ARGUMENT, IO_ERROR. */
 obs_status io_png_write(obs_context *ctx, const char *path, const obs_image_f32 *planes, int plane_count,
                         io_png_encoding encoding);
 

@@ -1,0 +1,690 @@
+// io_image.cpp: EXR and PNG through OpenImageIO 2.4, behind the C interface of io.h ("Images").
+//
+// Every function here is `extern "C"` and catches every exception: nothing C++ crosses the
+// boundary. Errors name the file and carry OpenImageIO's own error text.
+//
+// Writing: the image goes to io_temp_path() ("<path>.tmp.<pid>.<n>"), which does not end in
+// ".exr"/".png"; OpenImageIO picks the plugin from the name given to ImageOutput::create, so we
+// create the writer from the format name ("openexr", "png") and then open() the temporary path
+// (OIIO 2.4 writers do not check the extension of the file they open). io_commit_temp() renames
+// it onto the final path; on any failure the temporary file is removed.
+//
+// EXR channels: per-channel formats (ImageSpec::channelformats) so that FLOAT channels stay
+// float32, HALF channels are stored as half and UINT channels are stored as uint32 (never
+// through float, which would lose integers above 2^24). The pixel data is handed to OIIO in
+// its native per-channel layout (TypeUnknown), so OIIO performs no conversion. OpenEXR stores
+// channels sorted by name, so the reader always maps channels by name, never by position.
+
+#include "io.h"
+
+#include <OpenImageIO/half.h>
+#include <OpenImageIO/imageio.h>
+#include <OpenImageIO/typedesc.h>
+
+#include <cerrno>
+#include <climits>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <new>
+#include <set>
+#include <string>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <vector>
+
+using OIIO::ImageInput;
+using OIIO::ImageOutput;
+using OIIO::ImageSpec;
+using OIIO::TypeDesc;
+
+namespace {
+
+// The temporary path for a writer; io_temp_path's contract is strlen(path)+48 bytes.
+obs_status make_temp(obs_context *ctx, const char *path, std::string &tmp)
+{
+    std::vector<char> buf(std::strlen(path) + 64);
+    obs_status st = io_temp_path(ctx, path, buf.data(), buf.size());
+    if (st == OBS_STATUS_OK)
+        tmp.assign(buf.data());
+    return st;
+}
+
+std::string oiio_error_text(const std::string &s)
+{
+    std::string t = s;
+    while (!t.empty() && (t.back() == '\n' || t.back() == ' '))
+        t.pop_back();
+    return t.empty() ? std::string("unknown OpenImageIO error") : t;
+}
+
+// Create the writer for `format`, open `tmp`, write the native-layout data, close it, and
+// commit it onto `path`. Removes tmp on every failure.
+obs_status write_with_oiio(obs_context *ctx, const char *format, const char *path, const std::string &tmp,
+                           const ImageSpec &spec, TypeDesc data_type, const void *data)
+{
+    auto out = ImageOutput::create(format);
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot write '%s': no OpenImageIO writer for %s: %s", path,
+                         format, oiio_error_text(OIIO::geterror()).c_str());
+    if (!out->open(tmp, spec)) {
+        std::string err = oiio_error_text(out->geterror());
+        out.reset();
+        unlink(tmp.c_str());
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot write '%s' (opening '%s'): %s", path, tmp.c_str(),
+                         err.c_str());
+    }
+    bool ok = out->write_image(data_type, data);
+    std::string err = ok ? std::string() : oiio_error_text(out->geterror());
+    bool closed = out->close();
+    if (ok && !closed) {
+        ok = false;
+        err = oiio_error_text(out->geterror());
+    }
+    out.reset();
+    if (!ok) {
+        unlink(tmp.c_str());
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot write '%s' (writing '%s'): %s", path, tmp.c_str(),
+                         err.c_str());
+    }
+    return io_commit_temp(ctx, tmp.c_str(), path);
+}
+
+char *dup_cstr(const char *s)
+{
+    size_t n = std::strlen(s);
+    char *d = static_cast<char *>(std::malloc(n + 1));
+    if (d)
+        std::memcpy(d, s, n + 1);
+    return d;
+}
+
+void free_attrs(io_attr *attrs, int n)
+{
+    if (!attrs)
+        return;
+    for (int i = 0; i < n; i++) {
+        std::free(attrs[i].s);
+        std::free(attrs[i].v);
+    }
+    std::free(attrs);
+}
+
+// Convert one base value of `base` type at p to double / int64.
+double base_to_double(TypeDesc::BASETYPE base, const unsigned char *p)
+{
+    switch (base) {
+    case TypeDesc::UINT8: return *reinterpret_cast<const uint8_t *>(p);
+    case TypeDesc::INT8: return *reinterpret_cast<const int8_t *>(p);
+    case TypeDesc::UINT16: return *reinterpret_cast<const uint16_t *>(p);
+    case TypeDesc::INT16: return *reinterpret_cast<const int16_t *>(p);
+    case TypeDesc::UINT32: return *reinterpret_cast<const uint32_t *>(p);
+    case TypeDesc::INT32: return *reinterpret_cast<const int32_t *>(p);
+    case TypeDesc::UINT64: return (double)*reinterpret_cast<const uint64_t *>(p);
+    case TypeDesc::INT64: return (double)*reinterpret_cast<const int64_t *>(p);
+    case TypeDesc::HALF: return (float)*reinterpret_cast<const half *>(p);
+    case TypeDesc::FLOAT: return *reinterpret_cast<const float *>(p);
+    case TypeDesc::DOUBLE: return *reinterpret_cast<const double *>(p);
+    default: return NAN;
+    }
+}
+
+bool base_is_integer(TypeDesc::BASETYPE b)
+{
+    return b == TypeDesc::UINT8 || b == TypeDesc::INT8 || b == TypeDesc::UINT16 || b == TypeDesc::INT16 ||
+           b == TypeDesc::UINT32 || b == TypeDesc::INT32 || b == TypeDesc::UINT64 || b == TypeDesc::INT64;
+}
+
+bool base_is_float(TypeDesc::BASETYPE b)
+{
+    return b == TypeDesc::HALF || b == TypeDesc::FLOAT || b == TypeDesc::DOUBLE;
+}
+
+int64_t base_to_int64(TypeDesc::BASETYPE base, const unsigned char *p)
+{
+    switch (base) {
+    case TypeDesc::UINT8: return *reinterpret_cast<const uint8_t *>(p);
+    case TypeDesc::INT8: return *reinterpret_cast<const int8_t *>(p);
+    case TypeDesc::UINT16: return *reinterpret_cast<const uint16_t *>(p);
+    case TypeDesc::INT16: return *reinterpret_cast<const int16_t *>(p);
+    case TypeDesc::UINT32: return *reinterpret_cast<const uint32_t *>(p);
+    case TypeDesc::INT32: return *reinterpret_cast<const int32_t *>(p);
+    case TypeDesc::UINT64: {
+        uint64_t u = *reinterpret_cast<const uint64_t *>(p);
+        return u > (uint64_t)INT64_MAX ? INT64_MAX : (int64_t)u;
+    }
+    case TypeDesc::INT64: return *reinterpret_cast<const int64_t *>(p);
+    default: return 0;
+    }
+}
+
+// Convert one OIIO attribute to an io_attr. Returns false (attribute skipped) for types with no
+// io_attr equivalent (pointers, unknown) or names that do not fit io_attr::name.
+//   strings               -> STRING (string arrays: elements joined with "\n")
+//   one integer           -> INT
+//   one float/half/double -> FLOAT
+//   a 4x4 matrix          -> MATRIX44 (float or double in the file; the 16 values in file order)
+//   anything else numeric -> FLOATS (all base values, in order, converted to float;
+//                            integers above 2^24 lose precision there)
+bool convert_attr(const OIIO::ParamValue &p, io_attr *a, bool *oom)
+{
+    std::memset(a, 0, sizeof *a);
+    std::string name = p.name().string();
+    if (name.empty() || name.size() >= sizeof a->name)
+        return false;
+    TypeDesc t = p.type();
+    const unsigned char *data = static_cast<const unsigned char *>(p.data());
+    if (!data)
+        return false;
+    size_t count = (size_t)p.nvalues() * t.basevalues();
+    auto base = (TypeDesc::BASETYPE)t.basetype;
+    std::memcpy(a->name, name.c_str(), name.size() + 1);
+
+    if (base == TypeDesc::STRING) {
+        std::string s;
+        const char *const *strs = reinterpret_cast<const char *const *>(data);
+        for (size_t i = 0; i < count; i++) {
+            if (i)
+                s += '\n';
+            if (strs[i])
+                s += strs[i];
+        }
+        a->type = IO_ATTR_STRING;
+        a->s = dup_cstr(s.c_str());
+        if (!a->s)
+            *oom = true;
+        return a->s != nullptr;
+    }
+    if (!base_is_integer(base) && !base_is_float(base))
+        return false;
+    size_t esize = TypeDesc(base).size();
+    if (count == 1 && base_is_integer(base)) {
+        a->type = IO_ATTR_INT;
+        a->i = base_to_int64(base, data);
+        return true;
+    }
+    if (count == 1) {
+        a->type = IO_ATTR_FLOAT;
+        a->f = (float)base_to_double(base, data);
+        return true;
+    }
+    if (count == 0 || count > (size_t)INT_MAX)
+        return false;
+    bool is_m44 = p.nvalues() == 1 && t.aggregate == TypeDesc::MATRIX44 && !t.is_array() && base_is_float(base);
+    a->type = is_m44 ? IO_ATTR_MATRIX44 : IO_ATTR_FLOATS;
+    a->n = (int)count;
+    a->v = static_cast<float *>(std::malloc(count * sizeof(float)));
+    if (!a->v) {
+        *oom = true;
+        return false;
+    }
+    for (size_t i = 0; i < count; i++)
+        a->v[i] = (float)base_to_double(base, data + i * esize);
+    return true;
+}
+
+} // namespace
+
+extern "C" {
+
+float io_srgb_encode(float linear)
+{
+    // IEC 61966-2-1:1999, the sRGB "gamma" (OETF), evaluated in double and rounded once.
+    double x = linear;
+    if (std::isnan(x))
+        return linear;
+    if (x <= 0.0031308)
+        return (float)(12.92 * x);
+    return (float)(1.055 * std::pow(x, 1.0 / 2.4) - 0.055);
+}
+
+float io_srgb_decode(float encoded)
+{
+    double v = encoded;
+    if (std::isnan(v))
+        return encoded;
+    if (v <= 0.04045)
+        return (float)(v / 12.92);
+    return (float)std::pow((v + 0.055) / 1.055, 2.4);
+}
+
+obs_status io_exr_write(obs_context *ctx, const char *path, const io_channel *channels, int channel_count,
+                        const io_attr *attrs, int attr_count)
+{
+    try {
+        if (!path || !path[0] || !channels || channel_count < 1 || attr_count < 0 || (attr_count > 0 && !attrs))
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_exr_write: NULL or empty argument");
+        int w = 0, h = 0;
+        std::set<std::string> seen;
+        std::vector<TypeDesc> formats;
+        std::vector<size_t> offsets;
+        size_t pixel_bytes = 0;
+        for (int c = 0; c < channel_count; c++) {
+            const io_channel &ch = channels[c];
+            if (!ch.name || !ch.name[0])
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': channel %d has no name", path, c);
+            if (!seen.insert(ch.name).second)
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': channel name '%s' appears twice",
+                                 path, ch.name);
+            int cw, chh;
+            const void *cdata;
+            ptrdiff_t cstride;
+            TypeDesc fmt;
+            if (ch.type == IO_PIXEL_FLOAT || ch.type == IO_PIXEL_HALF) {
+                if (!ch.f32 || ch.u32)
+                    return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                     "cannot write '%s': channel '%s' is float/half but has no (or also a uint) plane",
+                                     path, ch.name);
+                cw = ch.f32->width, chh = ch.f32->height, cdata = ch.f32->data, cstride = ch.f32->stride;
+                fmt = ch.type == IO_PIXEL_FLOAT ? TypeDesc(TypeDesc::FLOAT) : TypeDesc(TypeDesc::HALF);
+            } else if (ch.type == IO_PIXEL_UINT) {
+                if (!ch.u32 || ch.f32)
+                    return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                     "cannot write '%s': channel '%s' is uint but has no (or also a float) plane", path,
+                                     ch.name);
+                cw = ch.u32->width, chh = ch.u32->height, cdata = ch.u32->data, cstride = ch.u32->stride;
+                fmt = TypeDesc(TypeDesc::UINT32);
+            } else {
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': channel '%s' has an invalid type %d",
+                                 path, ch.name, (int)ch.type);
+            }
+            if (!cdata || cw < 1 || chh < 1 || cstride < cw)
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                 "cannot write '%s': channel '%s' has an empty plane or a bad stride", path, ch.name);
+            if (c == 0)
+                w = cw, h = chh;
+            else if (cw != w || chh != h)
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                 "cannot write '%s': channel '%s' is %dx%d but channel '%s' is %dx%d", path, ch.name, cw,
+                                 chh, channels[0].name, w, h);
+            formats.push_back(fmt);
+            offsets.push_back(pixel_bytes);
+            pixel_bytes += fmt.size();
+        }
+
+        size_t total;
+        if (!obs_mul_size((size_t)w, (size_t)h, &total) || !obs_mul_size(total, pixel_bytes, &total))
+            return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "cannot write '%s': %dx%d x %d channels overflows", path, w,
+                             h, channel_count);
+
+        ImageSpec spec(w, h, channel_count, TypeDesc::FLOAT);
+        spec.channelnames.clear();
+        for (int c = 0; c < channel_count; c++)
+            spec.channelnames.emplace_back(channels[c].name);
+        spec.channelformats = formats;
+        spec.alpha_channel = -1;
+        spec.z_channel = -1;
+        spec.attribute("compression", "zip");
+        // OIIO stamps EXRs with the current time (capDate) unless "DateTime" is given, which
+        // would make two renders of the same scene differ byte for byte. Default it to an empty
+        // string (a caller's own "DateTime" attribute, set below, wins).
+        spec.attribute("DateTime", "");
+
+        for (int i = 0; i < attr_count; i++) {
+            const io_attr &a = attrs[i];
+            if (!a.name[0] || !std::memchr(a.name, '\0', sizeof a.name))
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': attribute %d has no valid name",
+                                 path, i);
+            switch (a.type) {
+            case IO_ATTR_STRING:
+                if (!a.s)
+                    return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': string attribute '%s' is NULL",
+                                     path, a.name);
+                spec.attribute(a.name, a.s);
+                break;
+            case IO_ATTR_FLOAT: spec.attribute(a.name, a.f); break;
+            case IO_ATTR_INT:
+                // EXR int attributes are 32-bit.
+                if (a.i < INT_MIN || a.i > INT_MAX)
+                    return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                     "cannot write '%s': int attribute '%s' = %lld does not fit EXR's 32-bit int", path,
+                                     a.name, (long long)a.i);
+                spec.attribute(a.name, (int)a.i);
+                break;
+            case IO_ATTR_MATRIX44:
+                // Memory order: our 16 floats go into the file in the order given. We pass a
+                // column-major obs_mat4 (m[col*4+row], column vectors: p' = M p); read as the
+                // EXR/Imath m44f x[i][j] = m[i*4+j], that is M transposed, which is exactly the
+                // conventional row-vector form Imath uses (p' = p * M^T, translation in x[3][0..2]).
+                // So an obs_mat4 world-to-camera matrix written as-is is a standard EXR
+                // "worldToCamera". Reading gives the same 16 floats back in the same order.
+                if (!a.v)
+                    return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': matrix attribute '%s' is NULL",
+                                     path, a.name);
+                spec.attribute(a.name, OIIO::TypeMatrix44, a.v);
+                break;
+            case IO_ATTR_FLOATS:
+                if (a.n < 1 || !a.v)
+                    return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                     "cannot write '%s': float array attribute '%s' is empty or NULL", path, a.name);
+                spec.attribute(a.name, TypeDesc(TypeDesc::FLOAT, a.n), a.v);
+                break;
+            default:
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': attribute '%s' has invalid type %d",
+                                 path, a.name, (int)a.type);
+            }
+        }
+
+        // Interleave into the native per-channel layout: float32 as is, half converted here
+        // (round to nearest even, Imath), uint32 as is.
+        std::vector<unsigned char> buf(total);
+        for (int c = 0; c < channel_count; c++) {
+            const io_channel &ch = channels[c];
+            for (int y = 0; y < h; y++) {
+                unsigned char *dst = buf.data() + (size_t)y * w * pixel_bytes + offsets[c];
+                if (ch.type == IO_PIXEL_FLOAT) {
+                    const float *src = obs_image_f32_row(ch.f32, y);
+                    for (int x = 0; x < w; x++)
+                        std::memcpy(dst + (size_t)x * pixel_bytes, &src[x], 4);
+                } else if (ch.type == IO_PIXEL_HALF) {
+                    const float *src = obs_image_f32_row(ch.f32, y);
+                    for (int x = 0; x < w; x++) {
+                        half hv(src[x]);
+                        std::memcpy(dst + (size_t)x * pixel_bytes, &hv, 2);
+                    }
+                } else {
+                    const uint32_t *src = obs_image_u32_row(ch.u32, y);
+                    for (int x = 0; x < w; x++)
+                        std::memcpy(dst + (size_t)x * pixel_bytes, &src[x], 4);
+                }
+            }
+        }
+
+        std::string tmp;
+        obs_status st = make_temp(ctx, path, tmp);
+        if (st != OBS_STATUS_OK)
+            return st;
+        return write_with_oiio(ctx, "openexr", path, tmp, spec, TypeDesc::UNKNOWN, buf.data());
+    } catch (const std::bad_alloc &) {
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory writing '%s'", path ? path : "(null)");
+    } catch (const std::exception &e) {
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot write '%s': %s", path ? path : "(null)", e.what());
+    } catch (...) {
+        return obs_error(ctx, OBS_STATUS_INTERNAL, "cannot write '%s': unknown exception", path ? path : "(null)");
+    }
+}
+
+void io_image_free(io_image *im)
+{
+    if (!im)
+        return;
+    if (im->f32)
+        for (int c = 0; c < im->channel_count; c++)
+            obs_image_f32_free(&im->f32[c]);
+    if (im->u32)
+        for (int c = 0; c < im->channel_count; c++)
+            obs_image_u32_free(&im->u32[c]);
+    std::free(im->f32);
+    std::free(im->u32);
+    std::free(im->names);
+    std::free(im->types);
+    free_attrs(im->attrs, im->attr_count);
+    std::memset(im, 0, sizeof *im);
+}
+
+int io_image_find_channel(const io_image *im, const char *name)
+{
+    if (!im || !name || !im->names)
+        return -1;
+    for (int c = 0; c < im->channel_count; c++)
+        if (std::strcmp(im->names[c], name) == 0)
+            return c;
+    return -1;
+}
+
+const io_attr *io_image_find_attr(const io_image *im, const char *name)
+{
+    if (!im || !name || !im->attrs)
+        return nullptr;
+    for (int i = 0; i < im->attr_count; i++)
+        if (std::strcmp(im->attrs[i].name, name) == 0)
+            return &im->attrs[i];
+    return nullptr;
+}
+
+// Reads subimage 0, MIP level 0, its data window (spec.x/spec.y offsets are not reported).
+// Pixel values are those stored in the file (alpha is never multiplied in: the reader is opened
+// with "oiio:UnassociatedAlpha" = 1). Every channel is decoded once in its native type and
+// converted plane by plane: UINT32
+// channels to uint32 planes, everything else to float32 planes (8/16-bit integer formats such
+// as PNG are normalised to [0,1] by OIIO, half is widened exactly). NaN and Inf pass through.
+obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
+{
+    if (out)
+        std::memset(out, 0, sizeof *out);
+    if (!path || !out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_image_read: NULL argument");
+    io_image im;
+    std::memset(&im, 0, sizeof im);
+    try {
+        // Distinguish "cannot open" (IO_ERROR) from "OpenImageIO cannot make sense of it" (PARSE_ERROR).
+        FILE *probe = std::fopen(path, "rb");
+        if (!probe) {
+            int e = errno;
+            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot open image '%s': %s", path, std::strerror(e));
+        }
+        std::fclose(probe);
+        struct stat sb;
+        if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
+            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot open image '%s': %s", path, std::strerror(EISDIR));
+
+        // Return the values stored in the file: without this, OIIO multiplies the colour of
+        // PNG/TIFF images with unassociated alpha by alpha on reading.
+        ImageSpec config;
+        config.attribute("oiio:UnassociatedAlpha", 1);
+        auto in = ImageInput::open(path, &config);
+        if (!in)
+            return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "cannot read image '%s': %s", path,
+                             oiio_error_text(OIIO::geterror()).c_str());
+        const ImageSpec spec = in->spec();
+        const int w = spec.width, h = spec.height, nch = spec.nchannels;
+        if (spec.deep)
+            return obs_error(ctx, OBS_STATUS_UNSUPPORTED, "cannot read image '%s': deep images are not supported", path);
+        if (spec.depth > 1)
+            return obs_error(ctx, OBS_STATUS_UNSUPPORTED, "cannot read image '%s': volume images (depth %d) are not supported",
+                             path, spec.depth);
+        if (w < 1 || h < 1 || nch < 1)
+            return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "cannot read image '%s': empty image (%dx%d, %d channels)", path,
+                             w, h, nch);
+        const obs_limits *lim = obs_context_limits(ctx);
+        int64_t max_px = lim ? lim->max_image_pixels : obs_limits_default().max_image_pixels;
+        int64_t max_mem = lim ? lim->max_memory_bytes : obs_limits_default().max_memory_bytes;
+        // w*h < 2^62 fits int64; dividing first keeps px*nch from overflowing.
+        int64_t px = (int64_t)w * (int64_t)h;
+        if (px > max_px / nch || px * nch > max_px)
+            return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                             "image '%s' is %dx%d with %d channels = %lld values, over the limit of %lld "
+                             "(raise it with --max-pixels)",
+                             path, w, h, nch, (long long)px * nch, (long long)max_px);
+        size_t pixel_bytes = spec.pixel_bytes(true);
+        size_t native_bytes;
+        if (pixel_bytes == 0 || !obs_mul_size((size_t)px, pixel_bytes, &native_bytes))
+            return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "image '%s': size overflows", path);
+        // Planes (4 bytes per value, rows padded to 64 bytes) plus the native decode buffer.
+        int64_t planes_bytes = (int64_t)nch * h * (((int64_t)w + 15) / 16 * 16) * 4;
+        if (planes_bytes > max_mem || (int64_t)native_bytes > max_mem - planes_bytes)
+            return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                             "image '%s' (%dx%d, %d channels) needs about %lld bytes, over the memory limit of %lld "
+                             "(raise it with --max-memory)",
+                             path, w, h, nch, (long long)(planes_bytes + (int64_t)native_bytes), (long long)max_mem);
+
+        im.width = w;
+        im.height = h;
+        im.channel_count = nch;
+        im.names = static_cast<char (*)[64]>(std::calloc((size_t)nch, sizeof *im.names));
+        im.types = static_cast<io_pixel_type *>(std::calloc((size_t)nch, sizeof *im.types));
+        im.f32 = static_cast<obs_image_f32 *>(std::calloc((size_t)nch, sizeof *im.f32));
+        im.u32 = static_cast<obs_image_u32 *>(std::calloc((size_t)nch, sizeof *im.u32));
+        if (!im.names || !im.types || !im.f32 || !im.u32) {
+            io_image_free(&im);
+            return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+        }
+        for (int c = 0; c < nch; c++) {
+            std::string n = c < (int)spec.channelnames.size() ? spec.channelnames[c] : std::string();
+            if (n.empty() || n.size() >= sizeof im.names[0]) {
+                io_image_free(&im);
+                return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "image '%s': channel %d has an empty or too long name (%zu bytes)",
+                                 path, c, n.size());
+            }
+            for (int d = 0; d < c; d++)
+                if (n == im.names[d]) {
+                    io_image_free(&im);
+                    return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "image '%s': channel name '%s' appears twice", path,
+                                     n.c_str());
+                }
+            std::memcpy(im.names[c], n.c_str(), n.size() + 1);
+            TypeDesc f = spec.channelformat(c);
+            im.types[c] = f.basetype == TypeDesc::UINT32 ? IO_PIXEL_UINT : IO_PIXEL_FLOAT;
+            obs_status st = im.types[c] == IO_PIXEL_UINT ? obs_image_u32_alloc(ctx, w, h, &im.u32[c])
+                                                         : obs_image_f32_alloc(ctx, w, h, &im.f32[c]);
+            if (st != OBS_STATUS_OK) {
+                io_image_free(&im);
+                return st;
+            }
+        }
+
+        std::vector<unsigned char> native(native_bytes);
+        if (!in->read_image(0, 0, 0, nch, TypeDesc::UNKNOWN, native.data())) {
+            std::string err = oiio_error_text(in->geterror());
+            io_image_free(&im);
+            return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "cannot read the pixels of '%s': %s", path, err.c_str());
+        }
+        size_t off = 0;
+        for (int c = 0; c < nch; c++) {
+            TypeDesc f = spec.channelformat(c);
+            bool ok;
+            if (im.types[c] == IO_PIXEL_UINT)
+                ok = OIIO::convert_image(1, w, h, 1, native.data() + off, f, (OIIO::stride_t)pixel_bytes,
+                                         (OIIO::stride_t)(pixel_bytes * (size_t)w), OIIO::AutoStride, im.u32[c].data,
+                                         TypeDesc::UINT32, sizeof(uint32_t),
+                                         (OIIO::stride_t)(im.u32[c].stride * (ptrdiff_t)sizeof(uint32_t)),
+                                         OIIO::AutoStride);
+            else
+                ok = OIIO::convert_image(1, w, h, 1, native.data() + off, f, (OIIO::stride_t)pixel_bytes,
+                                         (OIIO::stride_t)(pixel_bytes * (size_t)w), OIIO::AutoStride, im.f32[c].data,
+                                         TypeDesc::FLOAT, sizeof(float),
+                                         (OIIO::stride_t)(im.f32[c].stride * (ptrdiff_t)sizeof(float)),
+                                         OIIO::AutoStride);
+            if (!ok) {
+                io_image_free(&im);
+                return obs_error(ctx, OBS_STATUS_UNSUPPORTED, "image '%s': cannot convert channel '%s' (%s)", path,
+                                 spec.channelnames[c].c_str(), f.c_str());
+            }
+            off += f.size();
+        }
+        in->close();
+
+        const auto &extra = spec.extra_attribs;
+        if (!extra.empty()) {
+            im.attrs = static_cast<io_attr *>(std::calloc(extra.size(), sizeof(io_attr)));
+            if (!im.attrs) {
+                io_image_free(&im);
+                return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory reading the metadata of '%s'", path);
+            }
+            for (const auto &p : extra) {
+                bool oom = false;
+                if (convert_attr(p, &im.attrs[im.attr_count], &oom)) {
+                    im.attr_count++;
+                } else if (oom) {
+                    io_image_free(&im);
+                    return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory reading the metadata of '%s'", path);
+                } else {
+                    obs_log(ctx, OBS_LOG_DEBUG, "image '%s': attribute '%s' (%s) skipped", path, p.name().c_str(),
+                            p.type().c_str());
+                }
+            }
+        }
+        *out = im;
+        return OBS_STATUS_OK;
+    } catch (const std::bad_alloc &) {
+        io_image_free(&im);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory reading '%s'", path);
+    } catch (const std::exception &e) {
+        io_image_free(&im);
+        return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "cannot read image '%s': %s", path, e.what());
+    } catch (...) {
+        io_image_free(&im);
+        return obs_error(ctx, OBS_STATUS_INTERNAL, "cannot read image '%s': unknown exception", path);
+    }
+}
+
+// 8-bit PNG. Values are clamped to [0,1] (NaN -> 0) and quantised by round-to-nearest,
+// q = floor(v * 255 + 0.5), after the sRGB encoding for IO_PNG_SRGB (colour planes only: alpha
+// is always linear, as PNG defines it). We hand OIIO uint8 data in the file's format, so it
+// converts nothing. Tags:
+//   IO_PNG_SRGB:   "oiio:ColorSpace" = "sRGB"   -> OIIO writes an sRGB chunk (with gAMA/cHRM).
+//   IO_PNG_LINEAR: "oiio:ColorSpace" = "Linear" -> OIIO writes gAMA = 1.0 and no sRGB chunk, so
+//                  readers that honour gAMA treat the values as linear (OIIO reads it back as
+//                  "Linear"); readers that ignore gAMA will still display them as if sRGB.
+// "oiio:UnassociatedAlpha" = 1 stops OIIO from dividing colour by alpha (PNG alpha is
+// unassociated): the RGBA planes are written exactly as given.
+obs_status io_png_write(obs_context *ctx, const char *path, const obs_image_f32 *planes, int plane_count,
+                        io_png_encoding encoding)
+{
+    try {
+        if (!path || !path[0] || !planes)
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_png_write: NULL or empty argument");
+        if (plane_count != 1 && plane_count != 3 && plane_count != 4)
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': %d planes (1, 3 or 4 expected)", path,
+                             plane_count);
+        if (encoding != IO_PNG_SRGB && encoding != IO_PNG_LINEAR)
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': invalid encoding %d", path,
+                             (int)encoding);
+        const int w = planes[0].width, h = planes[0].height;
+        for (int c = 0; c < plane_count; c++) {
+            if (!planes[c].data || planes[c].width < 1 || planes[c].height < 1 || planes[c].stride < planes[c].width)
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': plane %d is empty or has a bad stride",
+                                 path, c);
+            if (planes[c].width != w || planes[c].height != h)
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "cannot write '%s': plane %d is %dx%d, plane 0 is %dx%d",
+                                 path, c, planes[c].width, planes[c].height, w, h);
+        }
+        size_t total;
+        if (!obs_mul_size((size_t)w, (size_t)h, &total) || !obs_mul_size(total, (size_t)plane_count, &total))
+            return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "cannot write '%s': size overflows", path);
+        std::vector<unsigned char> buf(total);
+        const int alpha = plane_count == 4 ? 3 : -1;
+        for (int c = 0; c < plane_count; c++) {
+            bool encode = encoding == IO_PNG_SRGB && c != alpha;
+            for (int y = 0; y < h; y++) {
+                const float *src = obs_image_f32_row(&planes[c], y);
+                unsigned char *dst = buf.data() + (size_t)y * w * plane_count + c;
+                for (int x = 0; x < w; x++) {
+                    float v = src[x];
+                    if (!(v > 0.0f))
+                        v = 0.0f; // NaN and negatives
+                    else if (v > 1.0f)
+                        v = 1.0f;
+                    if (encode)
+                        v = io_srgb_encode(v);
+                    dst[(size_t)x * plane_count] = (unsigned char)std::floor((double)v * 255.0 + 0.5);
+                }
+            }
+        }
+        ImageSpec spec(w, h, plane_count, TypeDesc::UINT8);
+        spec.channelnames.clear();
+        static const char *const grey[] = {"Y"};
+        static const char *const rgba[] = {"R", "G", "B", "A"};
+        for (int c = 0; c < plane_count; c++)
+            spec.channelnames.emplace_back(plane_count == 1 ? grey[c] : rgba[c]);
+        spec.alpha_channel = alpha;
+        spec.attribute("oiio:ColorSpace", encoding == IO_PNG_SRGB ? "sRGB" : "Linear");
+        spec.attribute("oiio:UnassociatedAlpha", 1);
+
+        std::string tmp;
+        obs_status st = make_temp(ctx, path, tmp);
+        if (st != OBS_STATUS_OK)
+            return st;
+        return write_with_oiio(ctx, "png", path, tmp, spec, TypeDesc::UINT8, buf.data());
+    } catch (const std::bad_alloc &) {
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory writing '%s'", path ? path : "(null)");
+    } catch (const std::exception &e) {
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot write '%s': %s", path ? path : "(null)", e.what());
+    } catch (...) {
+        return obs_error(ctx, OBS_STATUS_INTERNAL, "cannot write '%s': unknown exception", path ? path : "(null)");
+    }
+}
+
+} // extern "C"
