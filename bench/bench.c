@@ -78,7 +78,8 @@ static int bench_gbuffer(int argc, char **argv)
                                         fmaxf(dist - 11.0f, 0.5f), dist + 11.0f);
     obs_pool *pool = obs_pool_create(threads);
     rast_gbuffer gb;
-    if (rast_gbuffer_alloc(ctx, &p, &gb) != OBS_STATUS_OK) {
+    rast_workspace *ws = rast_workspace_create(); /* reused across frames, as a renderer would */
+    if (!ws || rast_gbuffer_alloc(ctx, &p, &gb) != OBS_STATUS_OK) {
         fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
         return 4;
     }
@@ -88,7 +89,7 @@ static int bench_gbuffer(int argc, char **argv)
     double setup = 0;
     for (int k = 0; k < warmup + reps; k++) {
         double t0 = obs_time_now();
-        if (rast_render(ctx, pool, &s, &view, 1, &p, &gb, &st) != OBS_STATUS_OK) {
+        if (rast_render_ws(ctx, pool, ws, &s, &view, 1, &p, &gb, &st) != OBS_STATUS_OK) {
             fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
             return 5;
         }
@@ -106,6 +107,7 @@ static int bench_gbuffer(int argc, char **argv)
            (unsigned long long)st.triangles_in, (double)st.pixels_covered / ((double)W * H), median, t[0],
            t[reps - 1], setup, reps);
     free(t);
+    rast_workspace_destroy(ws);
     rast_gbuffer_free(&gb);
     obs_pool_destroy(pool);
     obs_scene_free(&s);

@@ -327,9 +327,11 @@ TEST(gltf_truncated_glb_is_parse_error)
     }
     /* a BIN chunk length that runs 4 bytes past the end (tinygltf's own check misses this) */
     {
-        unsigned char *b = malloc(len);
+        CHECK(len >= 32);
+        unsigned char *b = calloc(1, len + 8);
+        CHECK(b != NULL);
         memcpy(b, glb, len);
-        uint32_t jpad, c1;
+        uint32_t jpad = 0, c1 = 0;
         memcpy(&jpad, b + 12, 4);
         memcpy(&c1, b + 20 + jpad, 4);
         c1 += 4;

@@ -14,7 +14,7 @@
 static struct { const char *name; test_fn fn; const char *file; } g_tests[MAX_TESTS];
 static int g_count;
 static int g_failed;
-static char g_tmp[4096];
+static char g_tmp[8192];
 
 void test_register(const char *name, test_fn fn, const char *file)
 {

@@ -352,10 +352,22 @@ typedef struct chunk_data {
     int oom;
 } chunk_data;
 
+/* One transformed vertex, one cache line: everything setup and resolve read of it. Vertices are
+ * projected once here instead of once per triangle corner (about 6 times), and a triangle's
+ * data is three cache lines instead of a dozen scattered ones. */
+typedef struct rast_vtx {
+    double x, y, z;      /* view space */
+    double key;          /* visibility key (1/w or z); valid when code == 0 */
+    int32_t X, Y;        /* snapped screen position, sub-pixel units; valid when code == 0 */
+    uint32_t code;       /* frustum outcode; RAST_VTX_NONFINITE for a NaN/Inf position */
+    float nx, ny, nz;    /* unit view-space normal; 0 when the mesh has none or it is bad */
+    uint32_t pad[2];
+} rast_vtx;
+#define RAST_VTX_NONFINITE 0x80u
+
 struct rast_workspace {
-    double *vpos; size_t vpos_cap;          /* view-space positions, all instances */
-    double *vnrm; size_t vnrm_cap;          /* view-space unit vertex normals, all instances */
-    uint64_t *voff; size_t voff_cap;        /* per instance: first vertex in vpos/vnrm */
+    rast_vtx *vtx; size_t vtx_cap;          /* transformed vertices, all instances */
+    uint64_t *voff; size_t voff_cap;        /* per instance: its first vertex in vtx */
     uint64_t *tri_start; size_t tri_start_cap;
     uint32_t *vt_inst, *vt_block; size_t vt_cap, vt_block_cap;
     chunk_data *chunks; size_t chunks_cap;
@@ -389,8 +401,7 @@ void rast_workspace_destroy(rast_workspace *ws)
 {
     if (!ws)
         return;
-    obs_aligned_free(ws->vpos);
-    obs_aligned_free(ws->vnrm);
+    obs_aligned_free(ws->vtx);
     obs_aligned_free(ws->voff);
     obs_aligned_free(ws->tri_start);
     obs_aligned_free(ws->vt_inst);
@@ -424,10 +435,11 @@ typedef struct render_state {
     int64_t chunk_count;
     obs_tiling tiling;
     rast_i_tile_fn tile_fn;
+    rast_i_resolve4_fn resolve4;
     float bg_ndc;
 } render_state;
 
-/* ---- 1. vertex transform ---------------------------------------------------------------------- */
+/* ---- helpers of the transform and setup stages ------------------------------------------------- */
 
 /* Cofactor matrix of the upper 3x3 of view*world, row-major: proportional to the inverse-
  * transpose, which is how normals transform (the scale is removed by normalising). */
@@ -445,45 +457,6 @@ static void normal_matrix(const obs_mat4 *view, const obs_mat4 *world, double ou
         for (int k = 0; k < 9; k++)
             out[k] = -out[k];
 }
-
-static void transform_task(void *user, int64_t task, int thread)
-{
-    (void)thread;
-    render_state *rs = (render_state *)user;
-    rast_workspace *ws = rs->ws;
-    uint32_t i = ws->vt_inst[task];
-    const obs_instance *in = &rs->scene->instances[i];
-    const obs_mesh *m = &rs->scene->meshes[in->mesh];
-    obs_dmat4 mv = obs_dmat4_mul(obs_mat4_to_double(rs->vc->view), obs_mat4_to_double(in->world));
-    uint32_t v0 = ws->vt_block[task] * RAST_VERTEX_BLOCK;
-    uint32_t v1 = v0 + RAST_VERTEX_BLOCK < m->vertex_count ? v0 + RAST_VERTEX_BLOCK : m->vertex_count;
-    double *out = ws->vpos + 3 * ws->voff[i];
-    const double *a = mv.m;
-    for (uint32_t v = v0; v < v1; v++) {
-        double x = m->positions[3 * v], y = m->positions[3 * v + 1], z = m->positions[3 * v + 2];
-        out[3 * v + 0] = a[0] * x + a[4] * y + a[8] * z + a[12];
-        out[3 * v + 1] = a[1] * x + a[5] * y + a[9] * z + a[13];
-        out[3 * v + 2] = a[2] * x + a[6] * y + a[10] * z + a[14];
-    }
-    if (!m->normals || !(rs->p->outputs & RAST_OUT_NORMAL))
-        return;
-    double N[9];
-    normal_matrix(&rs->vc->view, &in->world, N);
-    double *on = ws->vnrm + 3 * ws->voff[i];
-    for (uint32_t v = v0; v < v1; v++) {
-        const float *n = &m->normals[3 * (size_t)v];
-        double nx = N[0] * n[0] + N[1] * n[1] + N[2] * n[2];
-        double ny = N[3] * n[0] + N[4] * n[1] + N[5] * n[2];
-        double nz = N[6] * n[0] + N[7] * n[1] + N[8] * n[2];
-        double l = sqrt(nx * nx + ny * ny + nz * nz);
-        double il = (l > 0.0 && isfinite(l)) ? 1.0 / l : 0.0; /* a bad normal contributes nothing */
-        on[3 * v] = nx * il;
-        on[3 * v + 1] = ny * il;
-        on[3 * v + 2] = nz * il;
-    }
-}
-
-/* ---- 2. setup -------------------------------------------------------------------------------- */
 
 typedef struct vtx { double x, y, z; } vtx;
 
@@ -529,24 +502,27 @@ static unsigned frustum_outcode(const render_state *rs, const vtx *v)
 /* Round half away from zero (as llround), without the libm call; |x| < 2^23 here. */
 static inline int64_t round_away(double x) { return (int64_t)(x < 0.0 ? x - 0.5 : x + 0.5); }
 
-/* floor(a / 256) and ceil(a / 256) for signed a. */
-static inline int64_t floor256(int64_t a) { return a >= 0 ? a / 256 : -((-a + 255) / 256); }
+/* floor(a / 256) and ceil(a / 256) for signed a (GCC and Clang shift signed values
+ * arithmetically, which is floor division by a power of two). */
+static inline int64_t floor256(int64_t a) { return a >> 8; }
 static inline int64_t ceil256(int64_t a) { return -floor256(-a); }
 
-/* Set up one snapped triangle (screen positions in pixels, keys) and append it.
- * Returns 1 if appended, 0 if zero area or no pixel centre in its box, -1 when out of memory. */
-static int setup_piece(const render_state *rs, chunk_data *cd, const double sx[3], const double sy[3],
+/* Snap a screen position (pixels) to 1/256 px. */
+static inline void snap(double sx, double sy, int64_t *X, int64_t *Y)
+{
+    const double lim = 8388607.0; /* 2^23 - 1 sub-pixel units; the guard band keeps us inside */
+    double xs = sx * 256.0, ys = sy * 256.0;
+    xs = xs < -lim ? -lim : (xs > lim ? lim : xs);
+    ys = ys < -lim ? -lim : (ys > lim ? lim : ys);
+    *X = round_away(xs);
+    *Y = round_away(ys);
+}
+
+/* Set up one snapped triangle (sub-pixel integer positions, keys) and append it.
+ * Returns 1 if appended, 0 if zero area or no pixel centre in its box, -1 when out of room. */
+static int setup_piece(const render_state *rs, chunk_data *cd, const int64_t X[3], const int64_t Y[3],
                        const double key[3], uint32_t instance, uint32_t prim)
 {
-    int64_t X[3], Y[3];
-    const double lim = 8388607.0; /* 2^23 - 1 sub-pixel units; the guard band keeps us inside */
-    for (int i = 0; i < 3; i++) {
-        double xs = sx[i] * 256.0, ys = sy[i] * 256.0;
-        xs = xs < -lim ? -lim : (xs > lim ? lim : xs);
-        ys = ys < -lim ? -lim : (ys > lim ? lim : ys);
-        X[i] = round_away(xs);
-        Y[i] = round_away(ys);
-    }
     int64_t area = (X[1] - X[0]) * (Y[2] - Y[0]) - (X[2] - X[0]) * (Y[1] - Y[0]);
     if (area == 0)
         return 0;
@@ -642,6 +618,64 @@ static int clip_polygon(const render_state *rs, vtx *poly, int n, unsigned plane
     return n;
 }
 
+/* ---- 1. vertex transform ---------------------------------------------------------------------- */
+
+static void transform_task(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    render_state *rs = (render_state *)user;
+    rast_workspace *ws = rs->ws;
+    uint32_t i = ws->vt_inst[task];
+    const obs_instance *in = &rs->scene->instances[i];
+    const obs_mesh *m = &rs->scene->meshes[in->mesh];
+    obs_dmat4 mv = obs_dmat4_mul(obs_mat4_to_double(rs->vc->view), obs_mat4_to_double(in->world));
+    uint32_t v0 = ws->vt_block[task] * RAST_VERTEX_BLOCK;
+    uint32_t v1 = v0 + RAST_VERTEX_BLOCK < m->vertex_count ? v0 + RAST_VERTEX_BLOCK : m->vertex_count;
+    rast_vtx *out = ws->vtx + ws->voff[i];
+    const double *a = mv.m;
+    const int want_normals = m->normals && (rs->p->outputs & RAST_OUT_NORMAL);
+    double N[9];
+    if (want_normals)
+        normal_matrix(&rs->vc->view, &in->world, N);
+    for (uint32_t v = v0; v < v1; v++) {
+        double x = m->positions[3 * v], y = m->positions[3 * v + 1], z = m->positions[3 * v + 2];
+        rast_vtx *o = &out[v];
+        vtx p = {a[0] * x + a[4] * y + a[8] * z + a[12], a[1] * x + a[5] * y + a[9] * z + a[13],
+                 a[2] * x + a[6] * y + a[10] * z + a[14]};
+        o->x = p.x;
+        o->y = p.y;
+        o->z = p.z;
+        o->nx = o->ny = o->nz = 0.0f;
+        if (!isfinite(p.x + p.y + p.z)) {
+            o->code = RAST_VTX_NONFINITE;
+            continue;
+        }
+        o->code = frustum_outcode(rs, &p);
+        if (!o->code) { /* inside the image: its projection is what every triangle corner uses */
+            double sx, sy;
+            int64_t X, Y;
+            project(rs, &p, &sx, &sy, &o->key);
+            snap(sx, sy, &X, &Y);
+            o->X = (int32_t)X;
+            o->Y = (int32_t)Y;
+        }
+        if (want_normals) {
+            const float *n = &m->normals[3 * (size_t)v];
+            double nx = N[0] * n[0] + N[1] * n[1] + N[2] * n[2];
+            double ny = N[3] * n[0] + N[4] * n[1] + N[5] * n[2];
+            double nz = N[6] * n[0] + N[7] * n[1] + N[8] * n[2];
+            double l = sqrt(nx * nx + ny * ny + nz * nz);
+            if (l > 0.0 && isfinite(l)) { /* a bad normal stays 0 and contributes nothing */
+                o->nx = (float)(nx / l);
+                o->ny = (float)(ny / l);
+                o->nz = (float)(nz / l);
+            }
+        }
+    }
+}
+
+/* ---- 2. setup -------------------------------------------------------------------------------- */
+
 static void setup_task(void *user, int64_t task, int thread)
 {
     (void)thread;
@@ -671,15 +705,10 @@ static void setup_task(void *user, int64_t task, int thread)
         const obs_mesh *m = &sc->meshes[sc->instances[inst].mesh];
         uint32_t prim = (uint32_t)(g - ws->tri_start[inst]);
         const uint32_t *ix = &m->indices[3 * (size_t)prim];
-        const double *P = ws->vpos + 3 * ws->voff[inst];
-        vtx v[3];
-        for (int k = 0; k < 3; k++) {
-            v[k].x = P[3 * (size_t)ix[k]];
-            v[k].y = P[3 * (size_t)ix[k] + 1];
-            v[k].z = P[3 * (size_t)ix[k] + 2];
-        }
-        if (!(isfinite(v[0].x + v[0].y + v[0].z) && isfinite(v[1].x + v[1].y + v[1].z) &&
-              isfinite(v[2].x + v[2].y + v[2].z))) {
+        const rast_vtx *V = ws->vtx + ws->voff[inst];
+        const rast_vtx *a = &V[ix[0]], *b = &V[ix[1]], *c = &V[ix[2]];
+        unsigned oc0 = a->code, oc1 = b->code, oc2 = c->code;
+        if ((oc0 | oc1 | oc2) & RAST_VTX_NONFINITE) {
             nonfinite++;
             continue;
         }
@@ -687,6 +716,7 @@ static void setup_task(void *user, int64_t task, int thread)
             degenerate++;
             continue;
         }
+        vtx v[3] = {{a->x, a->y, a->z}, {b->x, b->y, b->z}, {c->x, c->y, c->z}};
         vtx e1 = {v[1].x - v[0].x, v[1].y - v[0].y, v[1].z - v[0].z};
         vtx e2 = {v[2].x - v[0].x, v[2].y - v[0].y, v[2].z - v[0].z};
         vtx ng = {e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
@@ -703,42 +733,46 @@ static void setup_task(void *user, int64_t task, int thread)
                 continue;
             }
         }
-        unsigned oc0 = frustum_outcode(rs, &v[0]), oc1 = frustum_outcode(rs, &v[1]), oc2 = frustum_outcode(rs, &v[2]);
         if (oc0 & oc1 & oc2) {
             culled++;
             continue;
         }
-        unsigned planes = 0;
-        if (oc0 | oc1 | oc2) /* partly outside the image: which clip planes does it cross? */
+        int r = 0;
+        if (!(oc0 | oc1 | oc2)) {
+            /* Inside the image: the per-vertex projections apply. Pieces with zero area after
+             * snapping, or no pixel centre in their box, are dropped silently: that is
+             * sub-pixel geometry, not an error. */
+            int64_t X[3] = {a->X, b->X, c->X}, Y[3] = {a->Y, b->Y, c->Y};
+            double key[3] = {a->key, b->key, c->key};
+            r = setup_piece(rs, cd, X, Y, key, inst, prim);
+        } else {
+            /* Partly outside the image: which clip planes does it cross? */
+            unsigned planes = 0;
             for (int pl = 0; pl < PL_COUNT; pl++) {
                 if (pl == PL_FAR && !finite_far)
                     continue;
                 if (guard_eval(rs, pl, &v[0]) < 0.0 || guard_eval(rs, pl, &v[1]) < 0.0 || guard_eval(rs, pl, &v[2]) < 0.0)
                     planes |= 1u << pl;
             }
-        int r = 0;
-        if (!planes) {
-            /* Pieces with zero area after snapping, or no pixel centre in their box, are dropped
-             * silently: that is sub-pixel geometry, not an error. */
-            double sx[3], sy[3], key[3];
-            for (int k = 0; k < 3; k++)
-                project(rs, &v[k], &sx[k], &sy[k], &key[k]);
-            r = setup_piece(rs, cd, sx, sy, key, inst, prim);
-        } else {
-            clipped++;
+            if (planes)
+                clipped++;
             vtx poly[12] = {v[0], v[1], v[2]};
-            int n = clip_polygon(rs, poly, 3, planes);
+            int n = planes ? clip_polygon(rs, poly, 3, planes) : 3;
             if (n < 3) {
                 culled++;
                 continue;
             }
-            double sx[12], sy[12], key[12];
-            for (int k = 0; k < n; k++)
-                project(rs, &poly[k], &sx[k], &sy[k], &key[k]);
+            int64_t X[12], Y[12];
+            double key[12];
+            for (int k = 0; k < n; k++) {
+                double sx, sy;
+                project(rs, &poly[k], &sx, &sy, &key[k]);
+                snap(sx, sy, &X[k], &Y[k]);
+            }
             for (int k = 1; k + 1 < n && r >= 0; k++) {
-                double fx3[3] = {sx[0], sx[k], sx[k + 1]}, fy3[3] = {sy[0], sy[k], sy[k + 1]};
-                double fk3[3] = {key[0], key[k], key[k + 1]};
-                r = setup_piece(rs, cd, fx3, fy3, fk3, inst, prim);
+                int64_t X3[3] = {X[0], X[k], X[k + 1]}, Y3[3] = {Y[0], Y[k], Y[k + 1]};
+                double K3[3] = {key[0], key[k], key[k + 1]};
+                r = setup_piece(rs, cd, X3, Y3, K3, inst, prim);
             }
         }
         if (r < 0) {
@@ -788,54 +822,41 @@ static void setup_task(void *user, int64_t task, int thread)
 
 /* ---- 3. tiles: visibility, then resolve ------------------------------------------------------ */
 
-/* What the resolve needs of one visible triangle, computed once per run of pixels that show it.
- * The hit of ray o + t d with the triangle's plane n.p = n.v0 is t = (n.v0 - n.o) / (n.d); the
- * barycentrics of the hit P are u = (P - v0).m1, v = (P - v0).m2 with the dual basis
- * m1 = (e2 x n)/|n|^2, m2 = (n x e1)/|n|^2 (so that P - v0 = u e1 + v e2). All in double. */
-typedef struct resolve_tri {
-    uint32_t inst, prim;
-    obs_dvec3 v0, n, m1, m2, nunit;
-    double n_v0;
-    const double *vn[3];   /* unit view-space vertex normals, or NULL */
-    uint32_t material;
-} resolve_tri;
-
 static void resolve_tri_setup(const render_state *rs, uint32_t inst, uint32_t prim, resolve_tri *r)
 {
     const obs_scene *sc = rs->scene;
     const obs_mesh *m = &sc->meshes[sc->instances[inst].mesh];
     const uint32_t *ix = &m->indices[3 * (size_t)prim];
-    const double *P = rs->ws->vpos + 3 * rs->ws->voff[inst];
-    obs_dvec3 v0 = obs_dv3(P[3 * (size_t)ix[0]], P[3 * (size_t)ix[0] + 1], P[3 * (size_t)ix[0] + 2]);
-    obs_dvec3 v1 = obs_dv3(P[3 * (size_t)ix[1]], P[3 * (size_t)ix[1] + 1], P[3 * (size_t)ix[1] + 2]);
-    obs_dvec3 v2 = obs_dv3(P[3 * (size_t)ix[2]], P[3 * (size_t)ix[2] + 1], P[3 * (size_t)ix[2] + 2]);
+    const rast_vtx *V = rs->ws->vtx + rs->ws->voff[inst];
+    const rast_vtx *a = &V[ix[0]], *b = &V[ix[1]], *c = &V[ix[2]];
+    obs_dvec3 v0 = obs_dv3(a->x, a->y, a->z), v1 = obs_dv3(b->x, b->y, b->z), v2 = obs_dv3(c->x, c->y, c->z);
     obs_dvec3 e1 = obs_dv3_sub(v1, v0), e2 = obs_dv3_sub(v2, v0);
     obs_dvec3 n = obs_dv3_cross(e1, e2);
     double nn = obs_dv3_dot(n, n); /* > 0: setup skipped zero-area triangles */
     double inn = 1.0 / nn, il = 1.0 / sqrt(nn);
-    obs_dvec3 a = obs_dv3_cross(e2, n), b = obs_dv3_cross(n, e1);
+    obs_dvec3 d1 = obs_dv3_cross(e2, n), d2 = obs_dv3_cross(n, e1);
     r->inst = inst;
     r->prim = prim;
     r->v0 = v0;
     r->n = n;
     r->n_v0 = obs_dv3_dot(n, v0);
-    r->m1 = obs_dv3(a.x * inn, a.y * inn, a.z * inn);
-    r->m2 = obs_dv3(b.x * inn, b.y * inn, b.z * inn);
+    r->m1 = obs_dv3(d1.x * inn, d1.y * inn, d1.z * inn);
+    r->m2 = obs_dv3(d2.x * inn, d2.y * inn, d2.z * inn);
+    r->c1 = obs_dv3_dot(v0, r->m1);
+    r->c2 = obs_dv3_dot(v0, r->m2);
     r->nunit = obs_dv3(n.x * il, n.y * il, n.z * il);
-    if (m->normals && (rs->p->outputs & RAST_OUT_NORMAL)) {
-        const double *N = rs->ws->vnrm + 3 * rs->ws->voff[inst];
-        for (int k = 0; k < 3; k++)
-            r->vn[k] = N + 3 * (size_t)ix[k];
-    } else {
-        r->vn[0] = r->vn[1] = r->vn[2] = NULL;
+    r->has_vn = m->normals && (rs->p->outputs & RAST_OUT_NORMAL);
+    if (r->has_vn) {
+        const rast_vtx *abc[3] = {a, b, c};
+        for (int k = 0; k < 3; k++) {
+            r->vn[k][0] = abc[k]->nx;
+            r->vn[k][1] = abc[k]->ny;
+            r->vn[k][2] = abc[k]->nz;
+        }
     }
     r->material = m->material >= 0 ? (uint32_t)m->material : RAST_ID_NONE;
 }
 
-typedef struct out_rows {
-    float *depth, *ndc, *n[3], *ng[3];
-    uint32_t *prim, *inst, *mat;
-} out_rows;
 
 /* A small direct-mapped cache of resolve_tri per tile: a triangle spans several rows of a tile,
  * and fetching its indices and vertices again for every row was the resolve's main cost
@@ -886,48 +907,73 @@ static void resolve_row(const render_state *rs, int y, int x0, int n, const uint
             continue;
         }
         const resolve_tri *r = resolve_lookup(rs, cache, id, prim[i]);
-        /* The exact ray through the pixel centre (view space; see rast_pixel_ray). */
+        /* Four neighbours showing the same triangle: the SIMD path, when there is one, does
+         * exactly this arithmetic lane by lane (it returns 0 to leave a group to us). */
+        if (rs->resolve4 && i + 3 < n && inst[i + 3] == id && prim[i + 3] == prim[i] && inst[i + 1] == id &&
+            prim[i + 1] == prim[i] && inst[i + 2] == id && prim[i + 2] == prim[i] &&
+            rs->resolve4(r, &o, i, x0 + i, ay, rs->cx, inv_fx, rs->ortho, face_forward)) {
+            if (o.ndc)
+                for (int k = 0; k < 4; k++)
+                    o.ndc[i + k] = (float)rast_ndc_depth_from_linear(rs->vc, conv, (double)o.depth_exact[k]);
+            i += 3;
+            continue;
+        }
+        /* The exact ray through the pixel centre (view space; see rast_pixel_ray), with slopes
+         * (ax, ay): perspective o = 0, d = (ax, ay, -1); orthographic o = (ax, ay, 0),
+         * d = (0, 0, -1). Its hit with the plane n.p = n.v0 and the barycentrics
+         * b_k = (P - v0).m_k are linear forms in (ax, ay) and t: */
         double ax = ((x0 + i) + 0.5 - rs->cx) * inv_fx;
-        obs_dvec3 org = rs->ortho ? obs_dv3(ax, ay, 0.0) : obs_dv3(0.0, 0.0, 0.0);
-        obs_dvec3 d = rs->ortho ? obs_dv3(0.0, 0.0, -1.0) : obs_dv3(ax, ay, -1.0);
-        double nd = obs_dv3_dot(r->n, d);
-        double t = (r->n_v0 - obs_dv3_dot(r->n, org)) / nd; /* d.z = -1, so t is the linear depth */
+        double t, b1, b2, nd;
+        if (!rs->ortho) {
+            nd = r->n.x * ax + r->n.y * ay - r->n.z;
+            t = r->n_v0 / nd; /* the linear depth: d.z = -1 */
+            b1 = t * (r->m1.x * ax + r->m1.y * ay - r->m1.z) - r->c1;
+            b2 = t * (r->m2.x * ax + r->m2.y * ay - r->m2.z) - r->c2;
+        } else {
+            nd = -r->n.z;
+            t = (r->n_v0 - r->n.x * ax - r->n.y * ay) / nd;
+            b1 = r->m1.x * ax + r->m1.y * ay - r->m1.z * t - r->c1;
+            b2 = r->m2.x * ax + r->m2.y * ay - r->m2.z * t - r->c2;
+        }
         if (!(t > 0.0) || !isfinite(t)) /* edge-on under snapping: fall back to the raster key */
             t = rs->ortho ? -(double)key[i] : 1.0 / (double)key[i];
-        double flip = (face_forward && nd > 0.0) ? -1.0 : 1.0;
+        const float flip = (face_forward && nd > 0.0) ? -1.0f : 1.0f;
         if (o.depth) o.depth[i] = (float)t;
         if (o.ndc) o.ndc[i] = (float)rast_ndc_depth_from_linear(rs->vc, conv, t);
         if (o.ng[0]) {
-            o.ng[0][i] = (float)(flip * r->nunit.x);
-            o.ng[1][i] = (float)(flip * r->nunit.y);
-            o.ng[2][i] = (float)(flip * r->nunit.z);
+            o.ng[0][i] = flip * (float)r->nunit.x;
+            o.ng[1][i] = flip * (float)r->nunit.y;
+            o.ng[2][i] = flip * (float)r->nunit.z;
         }
         if (o.n[0]) {
-            obs_dvec3 ns = r->nunit;
-            if (r->vn[0]) {
-                obs_dvec3 q = obs_dv3_sub(obs_dv3(org.x + t * d.x, org.y + t * d.y, org.z + t * d.z), r->v0);
-                double b1 = obs_dv3_dot(q, r->m1), b2 = obs_dv3_dot(q, r->m2);
+            float nsx = (float)r->nunit.x, nsy = (float)r->nunit.y, nsz = (float)r->nunit.z;
+            if (r->has_vn) {
                 /* clamp to the triangle: snapping can put a centre just outside it */
                 b1 = b1 < 0.0 ? 0.0 : (b1 > 1.0 ? 1.0 : b1);
                 b2 = b2 < 0.0 ? 0.0 : (b2 > 1.0 ? 1.0 : b2);
                 if (b1 + b2 > 1.0) {
-                    double s = 1.0 / (b1 + b2);
-                    b1 *= s;
-                    b2 *= s;
+                    double sc = 1.0 / (b1 + b2);
+                    b1 *= sc;
+                    b2 *= sc;
                 }
-                double b0 = 1.0 - b1 - b2;
-                double sx = b0 * r->vn[0][0] + b1 * r->vn[1][0] + b2 * r->vn[2][0];
-                double sy = b0 * r->vn[0][1] + b1 * r->vn[1][1] + b2 * r->vn[2][1];
-                double sz = b0 * r->vn[0][2] + b1 * r->vn[1][2] + b2 * r->vn[2][2];
-                double l2 = sx * sx + sy * sy + sz * sz;
-                if (l2 > 1e-24) {
-                    double il = 1.0 / sqrt(l2);
-                    ns = obs_dv3(sx * il, sy * il, sz * il);
+                /* The blend of unit vertex normals runs in float: the shading normal is an
+                 * interpolated quantity with no exact reference, and float keeps it within
+                 * 1e-6 of the double result. */
+                float fb1 = (float)b1, fb2 = (float)b2, fb0 = 1.0f - fb1 - fb2;
+                float sx = fb0 * r->vn[0][0] + fb1 * r->vn[1][0] + fb2 * r->vn[2][0];
+                float sy = fb0 * r->vn[0][1] + fb1 * r->vn[1][1] + fb2 * r->vn[2][1];
+                float sz = fb0 * r->vn[0][2] + fb1 * r->vn[1][2] + fb2 * r->vn[2][2];
+                float l2 = sx * sx + sy * sy + sz * sz;
+                if (l2 > 1e-12f) {
+                    float il = 1.0f / sqrtf(l2);
+                    nsx = sx * il;
+                    nsy = sy * il;
+                    nsz = sz * il;
                 }
             }
-            o.n[0][i] = (float)(flip * ns.x);
-            o.n[1][i] = (float)(flip * ns.y);
-            o.n[2][i] = (float)(flip * ns.z);
+            o.n[0][i] = flip * nsx;
+            o.n[1][i] = flip * nsy;
+            o.n[2][i] = flip * nsz;
         }
         if (o.prim) o.prim[i] = r->prim;
         if (o.inst) o.inst[i] = r->inst;
@@ -1036,6 +1082,9 @@ static obs_status render_view(obs_context *ctx, obs_pool *pool, rast_workspace *
     rs.fx = vc.fx; rs.fy = vc.fy; rs.cx = vc.cx; rs.cy = vc.cy;
     rs.znear = vc.znear; rs.zfar = vc.zfar;
     rs.tile_fn = tile_fn;
+#if defined(OBS_HAVE_AVX2)
+    rs.resolve4 = tile_fn == rast_i_tile_avx2 ? rast_i_resolve4_avx2 : NULL;
+#endif
     rs.tiling = obs_tiling_make(rs.W, rs.H, p->tile_size);
     rs.bg_ndc = p->depth_convention == RAST_DEPTH_REVERSED_Z ? 0.0f : 1.0f;
     double t0 = obs_time_now();
@@ -1055,8 +1104,7 @@ static obs_status render_view(obs_context *ctx, obs_pool *pool, rast_workspace *
         ntasks += (m->vertex_count + RAST_VERTEX_BLOCK - 1) / RAST_VERTEX_BLOCK;
     }
     size_t nverts = (size_t)ws->voff[ni];
-    if (!grow((void **)&ws->vpos, &ws->vpos_cap, 3 * nverts + 3, sizeof(double)) ||
-        ((p->outputs & RAST_OUT_NORMAL) && !grow((void **)&ws->vnrm, &ws->vnrm_cap, 3 * nverts + 3, sizeof(double))) ||
+    if (!grow((void **)&ws->vtx, &ws->vtx_cap, nverts + 1, sizeof(rast_vtx)) ||
         !grow((void **)&ws->vt_inst, &ws->vt_cap, (size_t)ntasks + 1, sizeof(uint32_t)) ||
         !grow((void **)&ws->vt_block, &ws->vt_block_cap, (size_t)ntasks + 1, sizeof(uint32_t)))
         goto oom;

@@ -35,6 +35,36 @@ static inline float rast_i_key(const rast_i_tri *t, int x, int y)
     return t->k0 + t->kx * (fx - t->ox) + t->ky * (fy - t->oy);
 }
 
+/* What the resolve needs of one visible triangle, computed once per run of pixels that show it.
+ * The hit of ray o + t d with the triangle's plane n.p = n.v0 is t = (n.v0 - n.o) / (n.d); the
+ * barycentrics of the hit P are u = (P - v0).m1, v = (P - v0).m2 with the dual basis
+ * m1 = (e2 x n)/|n|^2, m2 = (n x e1)/|n|^2 (so that P - v0 = u e1 + v e2). All in double. */
+typedef struct resolve_tri {
+    uint32_t inst, prim;
+    obs_dvec3 v0, n, m1, m2, nunit;
+    double n_v0, c1, c2;   /* n.v0, v0.m1, v0.m2 */
+    float vn[3][3];        /* unit view-space vertex normals (when has_vn) */
+    int has_vn;
+    uint32_t material;
+} resolve_tri;
+
+typedef struct out_rows {
+    float *depth, *ndc, *n[3], *ng[3];
+    uint32_t *prim, *inst, *mat;
+    double depth_exact[4];   /* the SIMD resolve's t per lane, for the NDC depth */
+} out_rows;
+
+/* Resolve 4 adjacent pixels (row offset i, absolute x = px0) that show the same triangle r,
+ * writing every output of o at i..i+3 except the NDC depth (left to the caller, from
+ * o->depth_exact). Must equal the scalar resolve bit for bit. Returns 0, having written
+ * nothing, when a lane needs the scalar fallback (an edge-on triangle). */
+typedef int (*rast_i_resolve4_fn)(const resolve_tri *r, out_rows *o, int i, int px0, double ay, double cx,
+                                  double inv_fx, int ortho, int face_forward);
+#if defined(OBS_HAVE_AVX2)
+int rast_i_resolve4_avx2(const resolve_tri *r, out_rows *o, int i, int px0, double ay, double cx, double inv_fx,
+                         int ortho, int face_forward);
+#endif
+
 /* Rasterise the triangles tris[list[0..n)] in order into a tile whose top-left pixel is
  * (tx0, ty0), size tw x th; key/inst/prim are tile-local with row stride `stride`. A pixel
  * takes a triangle when its key is strictly greater than the stored one (ties: first wins). */

@@ -9,6 +9,7 @@
 
 #if defined(OBS_HAVE_AVX2)
 #include <immintrin.h>
+#include <math.h>
 
 /* One small triangle, 8 pixels of a row at a time, edges in exact int32 lanes. */
 static void tile_small(const rast_i_tri *t, int x0, int y0, int x1, int y1, int tx0, int ty0, int stride, float *key,
@@ -123,5 +124,101 @@ void rast_i_tile_avx2(const rast_i_tri *tris, const uint32_t *list, uint32_t n, 
                 e_row[i] += 256 * (int64_t)t->B[i];
         }
     }
+}
+#endif
+
+#if defined(OBS_HAVE_AVX2)
+/* The resolve of 4 adjacent pixels showing one triangle. Lanes: pixels px0 .. px0+3 of a row.
+ * Every expression is the scalar resolve's (raster.c, resolve_row), term for term and in the
+ * same order, with IEEE operations only (no FMA, exact sqrt and division), so the outputs are
+ * the same bits. */
+int rast_i_resolve4_avx2(const resolve_tri *r, out_rows *o, int i, int px0, double ay, double cx, double inv_fx,
+                         int ortho, int face_forward)
+{
+    const __m256d ax = _mm256_mul_pd(
+        _mm256_sub_pd(_mm256_add_pd(_mm256_cvtepi32_pd(_mm_add_epi32(_mm_set1_epi32(px0), _mm_setr_epi32(0, 1, 2, 3))),
+                                    _mm256_set1_pd(0.5)),
+                      _mm256_set1_pd(cx)),
+        _mm256_set1_pd(inv_fx));
+    const __m256d vay = _mm256_set1_pd(ay);
+    __m256d nd, t, b1, b2;
+    if (!ortho) {
+        nd = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r->n.x), ax), _mm256_mul_pd(_mm256_set1_pd(r->n.y), vay)),
+                           _mm256_set1_pd(r->n.z));
+        t = _mm256_div_pd(_mm256_set1_pd(r->n_v0), nd);
+        __m256d d1 = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r->m1.x), ax), _mm256_mul_pd(_mm256_set1_pd(r->m1.y), vay)),
+                                   _mm256_set1_pd(r->m1.z));
+        __m256d d2 = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r->m2.x), ax), _mm256_mul_pd(_mm256_set1_pd(r->m2.y), vay)),
+                                   _mm256_set1_pd(r->m2.z));
+        b1 = _mm256_sub_pd(_mm256_mul_pd(t, d1), _mm256_set1_pd(r->c1));
+        b2 = _mm256_sub_pd(_mm256_mul_pd(t, d2), _mm256_set1_pd(r->c2));
+    } else {
+        nd = _mm256_set1_pd(-r->n.z);
+        t = _mm256_div_pd(_mm256_sub_pd(_mm256_sub_pd(_mm256_set1_pd(r->n_v0), _mm256_mul_pd(_mm256_set1_pd(r->n.x), ax)),
+                                        _mm256_mul_pd(_mm256_set1_pd(r->n.y), vay)),
+                          nd);
+        b1 = _mm256_sub_pd(_mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r->m1.x), ax), _mm256_mul_pd(_mm256_set1_pd(r->m1.y), vay)),
+                                         _mm256_mul_pd(_mm256_set1_pd(r->m1.z), t)),
+                           _mm256_set1_pd(r->c1));
+        b2 = _mm256_sub_pd(_mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(_mm256_set1_pd(r->m2.x), ax), _mm256_mul_pd(_mm256_set1_pd(r->m2.y), vay)),
+                                         _mm256_mul_pd(_mm256_set1_pd(r->m2.z), t)),
+                           _mm256_set1_pd(r->c2));
+    }
+    /* The scalar fallback (t <= 0, NaN or infinite: an edge-on triangle) is left to the caller. */
+    __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, _mm256_setzero_pd(), _CMP_GT_OQ),
+                               _mm256_cmp_pd(t, _mm256_set1_pd(INFINITY), _CMP_LT_OQ));
+    if (_mm256_movemask_pd(ok) != 0xF)
+        return 0;
+    _mm256_storeu_pd(o->depth_exact, t);
+    const __m128 flip = face_forward
+                            ? _mm_blendv_ps(_mm_set1_ps(1.0f), _mm_set1_ps(-1.0f),
+                                            _mm256_cvtpd_ps(_mm256_and_pd(_mm256_cmp_pd(nd, _mm256_setzero_pd(), _CMP_GT_OQ),
+                                                                          _mm256_set1_pd(-1.0))))
+                            : _mm_set1_ps(1.0f);
+    if (o->depth)
+        _mm_storeu_ps(o->depth + i, _mm256_cvtpd_ps(t));
+    if (o->ng[0]) {
+        _mm_storeu_ps(o->ng[0] + i, _mm_mul_ps(flip, _mm_set1_ps((float)r->nunit.x)));
+        _mm_storeu_ps(o->ng[1] + i, _mm_mul_ps(flip, _mm_set1_ps((float)r->nunit.y)));
+        _mm_storeu_ps(o->ng[2] + i, _mm_mul_ps(flip, _mm_set1_ps((float)r->nunit.z)));
+    }
+    if (o->n[0]) {
+        __m128 nsx = _mm_set1_ps((float)r->nunit.x), nsy = _mm_set1_ps((float)r->nunit.y), nsz = _mm_set1_ps((float)r->nunit.z);
+        if (r->has_vn) {
+            const __m256d zero = _mm256_setzero_pd(), one = _mm256_set1_pd(1.0);
+            /* b < 0 ? 0 : (b > 1 ? 1 : b), as the scalar code */
+            b1 = _mm256_blendv_pd(_mm256_blendv_pd(b1, one, _mm256_cmp_pd(b1, one, _CMP_GT_OQ)), zero,
+                                  _mm256_cmp_pd(b1, zero, _CMP_LT_OQ));
+            b2 = _mm256_blendv_pd(_mm256_blendv_pd(b2, one, _mm256_cmp_pd(b2, one, _CMP_GT_OQ)), zero,
+                                  _mm256_cmp_pd(b2, zero, _CMP_LT_OQ));
+            __m256d sum = _mm256_add_pd(b1, b2);
+            __m256d over = _mm256_cmp_pd(sum, one, _CMP_GT_OQ);
+            __m256d sc = _mm256_div_pd(one, sum);
+            b1 = _mm256_blendv_pd(b1, _mm256_mul_pd(b1, sc), over);
+            b2 = _mm256_blendv_pd(b2, _mm256_mul_pd(b2, sc), over);
+            __m128 fb1 = _mm256_cvtpd_ps(b1), fb2 = _mm256_cvtpd_ps(b2);
+            __m128 fb0 = _mm_sub_ps(_mm_sub_ps(_mm_set1_ps(1.0f), fb1), fb2);
+            __m128 s[3];
+            for (int c = 0; c < 3; c++)
+                s[c] = _mm_add_ps(_mm_add_ps(_mm_mul_ps(fb0, _mm_set1_ps(r->vn[0][c])), _mm_mul_ps(fb1, _mm_set1_ps(r->vn[1][c]))),
+                                  _mm_mul_ps(fb2, _mm_set1_ps(r->vn[2][c])));
+            __m128 l2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(s[0], s[0]), _mm_mul_ps(s[1], s[1])), _mm_mul_ps(s[2], s[2]));
+            __m128 use = _mm_cmpgt_ps(l2, _mm_set1_ps(1e-12f));
+            __m128 il = _mm_div_ps(_mm_set1_ps(1.0f), _mm_sqrt_ps(l2));
+            nsx = _mm_blendv_ps(nsx, _mm_mul_ps(s[0], il), use);
+            nsy = _mm_blendv_ps(nsy, _mm_mul_ps(s[1], il), use);
+            nsz = _mm_blendv_ps(nsz, _mm_mul_ps(s[2], il), use);
+        }
+        _mm_storeu_ps(o->n[0] + i, _mm_mul_ps(flip, nsx));
+        _mm_storeu_ps(o->n[1] + i, _mm_mul_ps(flip, nsy));
+        _mm_storeu_ps(o->n[2] + i, _mm_mul_ps(flip, nsz));
+    }
+    if (o->prim)
+        _mm_storeu_si128((__m128i *)(o->prim + i), _mm_set1_epi32((int)r->prim));
+    if (o->inst)
+        _mm_storeu_si128((__m128i *)(o->inst + i), _mm_set1_epi32((int)r->inst));
+    if (o->mat)
+        _mm_storeu_si128((__m128i *)(o->mat + i), _mm_set1_epi32((int)r->material));
+    return 1;
 }
 #endif
