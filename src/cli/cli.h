@@ -1,0 +1,54 @@
+/* cli.h: shared pieces of the obscura command (not a library header). */
+#ifndef OBS_CLI_H
+#define OBS_CLI_H
+
+#include "core/obs.h"
+#include "io/io.h"
+#include "raster/raster.h"
+
+/* Exit codes (docs/cli.md). */
+enum {
+    CLI_EXIT_OK = 0,
+    CLI_EXIT_THRESHOLD = 1,   /* a comparison is outside its thresholds (compare) */
+    CLI_EXIT_USAGE = 2,       /* bad command line */
+    CLI_EXIT_INPUT = 3,       /* an input file is missing, unreadable, malformed or unsupported */
+    CLI_EXIT_LIMIT = 4,       /* a resource limit refused the work (raise it with the named flag) */
+    CLI_EXIT_OUTPUT = 5,      /* an output could not be written */
+    CLI_EXIT_INTERNAL = 6     /* out of memory or an internal error */
+};
+
+typedef struct cli_globals {
+    int threads;              /* --threads, 0 = all CPUs */
+    int quiet, verbose;
+    obs_limits limits;        /* --max-pixels etc. */
+} cli_globals;
+
+/* Map a status to an exit code. */
+int cli_exit_for(obs_status st);
+/* Print "obscura: <msg>" for the context's error and return its exit code. */
+int cli_fail(obs_context *ctx, obs_status st);
+/* Print a usage error and return CLI_EXIT_USAGE. */
+int cli_usage_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
+
+/* Option parsing helpers: return 1 and set *out on success, 0 on a malformed value. */
+int cli_parse_int(const char *s, long long lo, long long hi, long long *out);
+int cli_parse_float(const char *s, double *out);
+int cli_parse_size(const char *s, int *w, int *h);   /* "1920x1080" */
+
+/* Try to consume a global limit flag at argv[*i]; returns 1 if consumed, 0 if not a limit
+ * flag, -1 on a malformed value (after printing the error). */
+int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i);
+
+/* Load a scene, choosing a camera by name or index ("" = "default" if present, else the
+ * first camera, else a framing camera). */
+obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene);
+obs_status cli_pick_camera(obs_context *ctx, const obs_scene *scene, const char *which, obs_camera *out);
+
+/* Write the common sidecar fields (version, revision, command line). */
+void cli_json_header(io_json *j, const char *command, int argc, char **argv);
+
+int cmd_gbuffer(cli_globals *g, int argc, char **argv);
+int cmd_info(cli_globals *g, int argc, char **argv);
+int cmd_compare(cli_globals *g, int argc, char **argv);
+
+#endif
