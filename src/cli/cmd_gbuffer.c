@@ -292,8 +292,11 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
             st = obs_image_f32_alloc(ctx, w, h, &rgb[c]);
             for (int y = 0; st == OBS_STATUS_OK && y < h; y++)
                 for (int x = 0; x < w; x++) {
+                    /* background is the zero normal: all three components, not this one */
+                    int bg = obs_image_f32_row(&n[0], y)[x] == 0.0f && obs_image_f32_row(&n[1], y)[x] == 0.0f &&
+                             obs_image_f32_row(&n[2], y)[x] == 0.0f;
                     float v = obs_image_f32_row(&n[c], y)[x];
-                    obs_image_f32_row(&rgb[c], y)[x] = v == 0.0f ? 0.0f : 0.5f * v + 0.5f;
+                    obs_image_f32_row(&rgb[c], y)[x] = bg ? 0.0f : 0.5f * v + 0.5f;
                 }
         }
         if (st == OBS_STATUS_OK) {

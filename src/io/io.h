@@ -63,6 +63,9 @@ void io_json_int(io_json *j, const char *key, int64_t value);
 void io_json_bool(io_json *j, const char *key, int value);
 void io_json_null(io_json *j, const char *key);
 void io_json_floats(io_json *j, const char *key, const float *v, int n);  /* an array of numbers */
+/* Insert an already-serialised JSON value (object, array, ...) verbatim. The caller vouches for
+ * its validity (used for glTF extras kept from a loaded file, and for nested documents). */
+void io_json_raw(io_json *j, const char *key, const char *raw);
 /* Write the document atomically to path (adds a trailing newline). Returns INVALID_ARGUMENT for
  * a document that failed, is empty or is still open; IO_ERROR when the file cannot be written. */
 obs_status io_json_write(obs_context *ctx, const io_json *j, const char *path);

@@ -186,6 +186,18 @@ static void json_end(io_json *j, int is_array)
     json_putc(j, is_array ? ']' : '}');
 }
 
+void io_json_raw(io_json *j, const char *key, const char *raw)
+{
+    if (!j || !raw || !raw[0]) {
+        if (j)
+            j->failed = 1;
+        return;
+    }
+    if (!json_prefix(j, key))
+        return;
+    json_puts(j, raw);
+}
+
 void io_json_begin_object(io_json *j, const char *key) { json_begin(j, key, 0); }
 void io_json_end_object(io_json *j) { json_end(j, 0); }
 void io_json_begin_array(io_json *j, const char *key) { json_begin(j, key, 1); }
