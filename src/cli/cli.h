@@ -49,6 +49,7 @@ void cli_json_header(io_json *j, const char *command, int argc, char **argv);
 
 int cmd_gbuffer(cli_globals *g, int argc, char **argv);
 int cmd_info(cli_globals *g, int argc, char **argv);
+int cmd_truth(cli_globals *g, int argc, char **argv);
 int cmd_compare(cli_globals *g, int argc, char **argv);
 
 #endif

@@ -17,6 +17,7 @@ static const char *usage_text =
     "commands:\n"
     "  gbuffer SCENE   render the G-buffer of a glTF scene to EXR, PNG previews and a JSON sidecar\n"
     "  info FILE       describe a scene (.gltf/.glb) or an image (.exr, .png)\n"
+    "  truth ao SCENE  ray-traced AO ground truth (Embree) per estimator: EXR mean/stderr/count, PNG, JSON\n"
     "  compare A B     compare image B with reference A (RMSE, PSNR, SSIM ...; thresholds set the exit code)\n"
     "\n"
     "global options:\n"
@@ -195,6 +196,8 @@ int main(int argc, char **argv)
         return cmd_gbuffer(&g, argc - i, argv + i);
     if (!strcmp(cmd, "info"))
         return cmd_info(&g, argc - i, argv + i);
+    if (!strcmp(cmd, "truth"))
+        return cmd_truth(&g, argc - i, argv + i);
     if (!strcmp(cmd, "compare"))
         return cmd_compare(&g, argc - i, argv + i);
     if (!strcmp(cmd, "help")) {

@@ -50,6 +50,140 @@ typedef struct truth_hit {
 void truth_intersect1(const truth_scene *ts, obs_vec3 origin, obs_vec3 dir, float tnear, float tfar,
                       truth_hit *hit);
 
+/* ================================================================================================
+ * AO ground truth (truth_ao.c; every integral, the sampling, the offset rule and the convergence
+ * test are written out in docs/truth.md; the definitions are ../shared/reference/ao.md section 2)
+ * ================================================================================================
+ *
+ * For each pixel of a G-buffer from our rasterizer, the origin p is the G-buffer point (pixel ray
+ * and linear depth) or an Embree primary hit, and n is the geometric (face) normal or the
+ * shading normal, both facing the viewer. The estimators (V = visibility, 1 = unoccluded; t(w) =
+ * distance to the first hit along direction w, infinity on a miss; theta = angle from n):
+ *
+ *   COS             V = (1/pi)  Int_H [t(w) > r] cos(theta) dw        GT-cos(r), XeGTAO's reference
+ *   UNIF            V = (1/2pi) Int_H [t(w) > r] dw                   GT-unif(r)
+ *   OBS_SAO_B       V = 1 - (1/pi) Int_H rho(t) cos(theta) dw, rho(d) = (1 - d^2/r^2)^3 for d < r, else 0
+ *   OBS_SAO_LINEAR  as OBS_SAO_B with rho(d) = 1 - d^2/r^2           (G3D's high-quality SAO)
+ *   OBS_MSSAO       as OBS_SAO_B with rho(d) = 1 - d^2/dMax^2, dMax = r   (the same integral as
+ *                   OBS_SAO_LINEAR: both names exist so each method's pairing reads explicitly)
+ *   OBS_HBAO        V = 1 - (1/2pi) Int_H rho(t) dw, rho(d) = 1 - d^2/R^2, R = r: UNIFORM weighting,
+ *                   classic HBAO's slice integral (Bavoil & Sainz 2008; ao.md 1.6 and 2). HBAO+ and
+ *                   gl_ssao weight by cos instead: their reference is OBS_MSSAO.
+ *   VOL             V = fraction of the ball B(p, r) whose points q are visible from the eye (the
+ *                   segment eye->q meets no surface): the "camera-visibility variant" of GT-vol(r)
+ *                   (ao.md 2), the quantity Crytek SSAO approximates; a lone plane gives 1/2.
+ *
+ * COS and UNIF accept r = INFINITY; the others need a finite r. */
+
+struct rast_gbuffer; /* raster/raster.h */
+
+typedef enum truth_ao_estimator {
+    TRUTH_AO_COS = 0,
+    TRUTH_AO_UNIF,
+    TRUTH_AO_OBS_SAO_B,
+    TRUTH_AO_OBS_SAO_LINEAR,
+    TRUTH_AO_OBS_MSSAO,
+    TRUTH_AO_OBS_HBAO,
+    TRUTH_AO_VOL,
+    TRUTH_AO_COUNT
+} truth_ao_estimator;
+
+typedef enum truth_ao_normal {
+    TRUTH_AO_NORMAL_GEOMETRIC = 0,  /* the triangle's normal: XeGTAO's RT reference (ao.md 1.8) */
+    TRUTH_AO_NORMAL_SHADING,        /* interpolated vertex normals; directions below the geometric
+                                       tangent plane are blocked by the surface itself */
+    TRUTH_AO_NORMAL_COUNT
+} truth_ao_normal;
+
+typedef enum truth_ao_origin {
+    TRUTH_AO_ORIGIN_GBUFFER = 0,    /* pixel ray origin + depth * ray direction (rast_pixel_ray) */
+    TRUTH_AO_ORIGIN_EMBREE,         /* the Embree primary hit along the same pixel ray */
+    TRUTH_AO_ORIGIN_COUNT
+} truth_ao_origin;
+
+/* Progress: called on the calling thread only, after each task it finishes (one or more tiles;
+ * tiles finished by other threads are counted too). rays = AO rays traced so far. */
+typedef void (*truth_progress_fn)(void *user, int64_t tiles_done, int64_t tiles_total, uint64_t rays);
+
+typedef struct truth_ao_params {
+    truth_ao_estimator estimator; /* default TRUTH_AO_COS (ao.md 2: the common target) */
+    float radius;                 /* r in world units, > 0; INFINITY allowed for COS and UNIF.
+                                     Default 0.5: XeGTAO's default Radius (ao.md 1.8) */
+    double target_error;          /* stop a pixel when its standard error <= this (and min_samples
+                                     are done); >= 0. Default 0.002 (issue 3, "for example 0.002") */
+    int64_t min_samples;          /* default 64; a positive multiple of batch. A pixel whose samples
+                                     all agree stops here with std_error 0 */
+    int64_t max_samples;          /* default 4096; a multiple of batch, >= min_samples, <= 2^31, and
+                                     <= obs_limits.max_samples (LIMIT_EXCEEDED otherwise) */
+    int batch;                    /* B, samples per pixel per round, in [2, 1024]. Default 16: 16 rays
+                                     per pixel of an 8x8 tile is the 1024-ray rtcOccluded1M batch
+                                     that build-notes.md measured fastest */
+    uint64_t seed;                /* default 0; output is a function of (inputs, params, seed) only,
+                                     not of the thread count, tile size or guard band */
+    truth_ao_normal normal;       /* default TRUTH_AO_NORMAL_GEOMETRIC */
+    truth_ao_origin origin;       /* default TRUTH_AO_ORIGIN_GBUFFER (issue 3, item 1) */
+    int tile;                     /* tile side in pixels, in [4, 32]; default 8 (build-notes.md) */
+    float offset_ulps;            /* k of the self-intersection offset eps = k * 2^-24 * m along the
+                                     geometric normal, m = max(|p|inf, |eye|inf, triangle extent);
+                                     >= 0, default 64 (docs/truth.md, "Self-intersection") */
+    truth_progress_fn progress;   /* default NULL */
+    void *progress_user;
+} truth_ao_params;
+
+truth_ao_params truth_ao_params_default(void);
+
+/* "cos", "unif", "obs-sao", "obs-sao-linear", "obs-mssao", "obs-hbao", "vol" ("?" if out of range). */
+const char *truth_ao_estimator_name(truth_ao_estimator e);
+/* The inverse; returns 1 and sets *out, or 0 for an unknown name. */
+int truth_ao_estimator_from_name(const char *name, truth_ao_estimator *out);
+
+typedef struct truth_ao_stats {
+    uint64_t rays;              /* AO rays traced (occlusion, hit-distance or VOL segments) */
+    uint64_t primary_rays;      /* Embree primary rays (TRUTH_AO_ORIGIN_EMBREE only) */
+    int64_t pixels_surface;     /* pixels with a surface: count > 0 */
+    int64_t pixels_background;  /* no surface (depth +inf, or an Embree miss): count = 0 */
+    int64_t pixels_invalid;     /* a surface with an unusable normal (zero, non-finite): count = 0 */
+    int64_t pixels_converged;   /* surface pixels that stopped with std_error <= target_error */
+    int64_t pixels_at_max;      /* surface pixels that reached max_samples */
+    double max_std_error;       /* over surface pixels */
+    double max_offset;          /* the largest self-intersection offset eps used, world units */
+    double seconds;             /* wall time of the whole call */
+    double seconds_work;        /* of which the tile work: sampling, tracing, accumulation (not the
+                                   validation, set-up and allocation of the output planes) */
+} truth_ao_stats;
+
+/* Planes of the INNER image (the G-buffer without its guard band), row 0 at the top. Pixels with
+ * no usable surface (background, invalid normal) hold mean 1, std_error 0, count 0: count is the
+ * validity mask. No plane ever holds NaN or infinity. */
+typedef struct truth_ao_result {
+    int width, height;
+    obs_image_f32 mean;         /* estimated visibility V in [0, 1] */
+    obs_image_f32 std_error;    /* standard error of mean: the i.i.d. formula sqrt(M2/(n-1)/n), an
+                                   over-estimate for these low-discrepancy samples (docs/truth.md,
+                                   "Convergence") */
+    obs_image_f32 count;        /* samples taken (an integer; exact in float up to 2^24) */
+    truth_ao_stats stats;
+} truth_ao_result;
+
+/* Estimate the AO ground truth for every pixel of gb.
+ *   ts     the Embree scene built (truth_scene_create) from `scene`, the scene gb was rendered from;
+ *   camera the camera gb was rendered with; gb holds the constants (rast_render fills them).
+ *   gb must hold, for TRUTH_AO_ORIGIN_GBUFFER: RAST_OUT_DEPTH, RAST_OUT_FACE_NORMAL,
+ *   RAST_OUT_PRIM_ID and RAST_OUT_INSTANCE_ID (+ RAST_OUT_NORMAL for the shading normal);
+ *   for TRUTH_AO_ORIGIN_EMBREE only its size and constants are used.
+ * The output is identical for any pool (NULL = serial) and thread count. *out is allocated here
+ * (free it with truth_ao_result_free) and left zeroed on failure.
+ * Returns: OK; INVALID_ARGUMENT (a NULL, a parameter out of its documented range, a missing
+ * G-buffer plane, a G-buffer not rendered yet, an Embree scene from another scene: the message
+ * names it); LIMIT_EXCEEDED (max_samples over obs_limits.max_samples, image or scratch size over
+ * the limits); OUT_OF_MEMORY. */
+obs_status truth_ao_render(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                           const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,
+                           truth_ao_result *out);
+void truth_ao_result_free(truth_ao_result *r);   /* NULL-safe; zeroes it */
+
+/* ============================================ end of AO ground truth ============================ */
+
 #ifdef __cplusplus
 }
 #endif

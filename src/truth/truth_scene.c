@@ -1,5 +1,5 @@
 /* truth_scene.c: the Embree 3 scene that mirrors an obs_scene (meshes + instances). */
-#include "truth.h"
+#include "truth_internal.h" /* struct truth_scene */
 
 #include <embree3/rtcore.h>
 #include <math.h>
@@ -7,16 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <xmmintrin.h>
-
-struct truth_scene {
-    RTCDevice device;
-    RTCScene top;
-    RTCScene *meshes;        /* one Embree scene per obs_mesh */
-    uint32_t mesh_count;
-    obs_mat4 *normal_world;  /* per instance: normal matrix of the world transform */
-    uint32_t instance_count;
-    /* geomID of each instance in the top scene equals its instance index */
-};
 
 void truth_thread_init(void)
 {

@@ -1,0 +1,427 @@
+/* cmd_truth.c: `obscura truth ao SCENE`: ray-traced AO ground truth (docs/truth.md) for a glTF
+ * scene seen through one of its cameras: EXR (mean, standard error, sample count, depth), a PNG
+ * preview and a JSON sidecar. */
+#include "cli.h"
+#include "truth/truth.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static const char *truth_help =
+    "usage: obscura truth ao SCENE [options]\n"
+    "  -o, --output PREFIX   write PREFIX.exr, PREFIX.png, PREFIX.json (default: truth_ao);\n"
+    "                        missing directories are created\n"
+    "  --camera NAME|INDEX   camera to use (default: 'default', else the first, else a framing one)\n"
+    "  --size WxH            image size (default 1920x1080, or 1920 wide at the camera's aspect)\n"
+    "  --estimator NAME      cos (default): cosine-weighted visibility within the radius (GT-cos, XeGTAO's)\n"
+    "                        unif: uniform-weighted visibility within the radius (GT-unif)\n"
+    "                        obs-sao: obscurance, falloff (1-d^2/r^2)^3, cosine-weighted (SAO option B)\n"
+    "                        obs-sao-linear: falloff 1-d^2/r^2, cosine-weighted (G3D SAO high quality)\n"
+    "                        obs-mssao: falloff 1-d^2/dMax^2, cosine-weighted (MSSAO; = obs-sao-linear)\n"
+    "                        obs-hbao: falloff 1-d^2/R^2, uniform-weighted (classic HBAO)\n"
+    "                        vol: share of the ball of radius r visible from the eye (Crytek's quantity)\n"
+    "  --radius R            world units, > 0; 'inf' for cos and unif (default 0.5, XeGTAO's default)\n"
+    "  --target-error E      stop a pixel once its standard error is <= E (default 0.002)\n"
+    "  --min-samples N       samples per pixel before the target may stop it (default 64)\n"
+    "  --max-samples N       samples per pixel at most (default 4096; limit 1048576)\n"
+    "  --batch B             samples per pixel per round, a divisor of both counts (default 16)\n"
+    "  --seed S              random seed (default 0); output depends only on inputs and seed\n"
+    "  --normal KIND         geometric (default, XeGTAO's reference) or shading\n"
+    "  --origin KIND         gbuffer (default: the rasterized G-buffer point) or embree (a primary hit)\n"
+    "  --offset-ulps K       self-intersection offset, K * 2^-24 * scale (default 64; docs/truth.md)\n"
+    "  --tile T              tile side in pixels, 4..32 (default 8)\n"
+    "  --build Q             Embree BVH quality: low, medium (default), high\n"
+    "EXR channels: AO.mean (visibility, 1 = unoccluded), AO.stderr (its standard error), AO.count\n"
+    "(samples; 0 = no surface there, mean 1), Z (the G-buffer's linear depth, inf = background).\n"
+    "The PNG is AO.mean quantised linearly (255 = visibility 1), tagged linear (gamma 1.0), with\n"
+    "the background (AO.count 0) drawn black.\n"
+    "A progress bar with an ETA is drawn on stderr when it is a terminal.\n";
+
+/* mkdir -p for the directory part of path (as cmd_gbuffer.c does). */
+static obs_status make_parent_dirs(obs_context *ctx, const char *path)
+{
+    char buf[4096];
+    size_t n = strlen(path);
+    if (n >= sizeof buf)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "output path too long: %s", path);
+    memcpy(buf, path, n + 1);
+    char *slash = strrchr(buf, '/');
+    if (!slash)
+        return OBS_STATUS_OK;
+    *slash = '\0';
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
+            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
+        *p = '/';
+    }
+    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
+    return OBS_STATUS_OK;
+}
+
+static void json_camera(io_json *j, const obs_camera *c)
+{
+    io_json_begin_object(j, "camera");
+    io_json_string(j, "name", c->name);
+    io_json_string(j, "projection", c->projection == OBS_PROJECTION_PERSPECTIVE ? "perspective" : "orthographic");
+    if (c->projection == OBS_PROJECTION_PERSPECTIVE) {
+        io_json_number(j, "yfov_rad", c->yfov);
+        io_json_number(j, "aspect", c->aspect);
+    } else {
+        io_json_number(j, "xmag", c->xmag);
+        io_json_number(j, "ymag", c->ymag);
+    }
+    io_json_number(j, "znear", c->znear);
+    if (isinf(c->zfar))
+        io_json_string(j, "zfar", "infinity");
+    else
+        io_json_number(j, "zfar", c->zfar);
+    io_json_floats(j, "view_matrix_column_major", c->view.m, 16);
+    io_json_floats(j, "world_matrix_column_major", c->world.m, 16);
+    io_json_end_object(j);
+}
+
+/* ---- progress bar ---------------------------------------------------------------------------- */
+
+typedef struct progress {
+    double t0, last;
+    int drawn;
+} progress;
+
+static void draw_progress(void *user, int64_t done, int64_t total, uint64_t rays)
+{
+    progress *pr = (progress *)user;
+    double now = obs_time_now();
+    if (done < total && now - pr->last < 0.2)
+        return;
+    pr->last = now;
+    double el = now - pr->t0, f = total > 0 ? (double)done / (double)total : 1.0;
+    int width = 30, fill = (int)(f * width);
+    char bar[64];
+    for (int i = 0; i < width; i++)
+        bar[i] = i < fill ? '=' : i == fill ? '>' : ' ';
+    bar[width] = '\0';
+    double eta = done > 0 ? el * (double)(total - done) / (double)done : 0.0;
+    int es = (int)(eta + 0.5);
+    fprintf(stderr, "\robscura: truth ao [%s] %5.1f%%  %6.2f Mrays/s  ETA %d:%02d:%02d ", bar, 100.0 * f,
+            el > 0 ? (double)rays / el * 1e-6 : 0.0, es / 3600, es / 60 % 60, es % 60);
+    fflush(stderr);
+    pr->drawn = 1;
+}
+
+/* ---- the command ------------------------------------------------------------------------------ */
+
+int cmd_truth(cli_globals *g, int argc, char **argv)
+{
+    if (argc < 2 || !strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+        if (argc < 2) {
+            fputs(truth_help, stderr);
+            return CLI_EXIT_USAGE;
+        }
+        fputs(truth_help, stdout);
+        return CLI_EXIT_OK;
+    }
+    if (strcmp(argv[1], "ao") != 0)
+        return cli_usage_error("truth: unknown kind '%s' (only 'truth ao' exists)", argv[1]);
+    const char *scene_path = NULL, *prefix = "truth_ao", *camera = "";
+    truth_ao_params p = truth_ao_params_default();
+    truth_build_quality build = TRUTH_BUILD_MEDIUM;
+    int W = 1920, H = 1080, size_given = 0;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i];
+        const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+        long long ll;
+        double d;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            fputs(truth_help, stdout);
+            return CLI_EXIT_OK;
+        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
+            if (!v) return cli_usage_error("%s needs a path prefix", a);
+            prefix = v; i++;
+        } else if (!strcmp(a, "--camera")) {
+            if (!v) return cli_usage_error("--camera needs a name or index");
+            camera = v; i++;
+        } else if (!strcmp(a, "--size")) {
+            if (!cli_parse_size(v, &W, &H))
+                return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
+            size_given = 1; i++;
+        } else if (!strcmp(a, "--estimator")) {
+            if (!truth_ao_estimator_from_name(v, &p.estimator))
+                return cli_usage_error("--estimator needs cos, unif, obs-sao, obs-sao-linear, obs-mssao, obs-hbao or vol");
+            i++;
+        } else if (!strcmp(a, "--radius")) {
+            if (!cli_parse_float(v, &d)) return cli_usage_error("--radius needs a number (or inf)");
+            p.radius = (float)d; i++;
+        } else if (!strcmp(a, "--target-error")) {
+            if (!cli_parse_float(v, &d)) return cli_usage_error("--target-error needs a number");
+            p.target_error = d; i++;
+        } else if (!strcmp(a, "--min-samples")) {
+            if (!cli_parse_int(v, 1, (long long)1 << 40, &ll)) return cli_usage_error("--min-samples needs a positive integer");
+            p.min_samples = ll; i++;
+        } else if (!strcmp(a, "--max-samples")) {
+            if (!cli_parse_int(v, 1, (long long)1 << 40, &ll)) return cli_usage_error("--max-samples needs a positive integer");
+            p.max_samples = ll; i++;
+        } else if (!strcmp(a, "--batch")) {
+            if (!cli_parse_int(v, 1, 1 << 20, &ll)) return cli_usage_error("--batch needs a positive integer");
+            p.batch = (int)ll; i++;
+        } else if (!strcmp(a, "--seed")) {
+            if (!cli_parse_int(v, 0, INT64_MAX, &ll)) return cli_usage_error("--seed needs an integer >= 0");
+            p.seed = (uint64_t)ll; i++;
+        } else if (!strcmp(a, "--normal")) {
+            if (v && !strcmp(v, "geometric")) p.normal = TRUTH_AO_NORMAL_GEOMETRIC;
+            else if (v && !strcmp(v, "shading")) p.normal = TRUTH_AO_NORMAL_SHADING;
+            else return cli_usage_error("--normal needs geometric or shading");
+            i++;
+        } else if (!strcmp(a, "--origin")) {
+            if (v && !strcmp(v, "gbuffer")) p.origin = TRUTH_AO_ORIGIN_GBUFFER;
+            else if (v && !strcmp(v, "embree")) p.origin = TRUTH_AO_ORIGIN_EMBREE;
+            else return cli_usage_error("--origin needs gbuffer or embree");
+            i++;
+        } else if (!strcmp(a, "--offset-ulps")) {
+            if (!cli_parse_float(v, &d)) return cli_usage_error("--offset-ulps needs a number");
+            p.offset_ulps = (float)d; i++;
+        } else if (!strcmp(a, "--tile")) {
+            if (!cli_parse_int(v, 1, 1024, &ll)) return cli_usage_error("--tile needs a positive integer");
+            p.tile = (int)ll; i++;
+        } else if (!strcmp(a, "--build")) {
+            if (v && !strcmp(v, "low")) build = TRUTH_BUILD_LOW;
+            else if (v && !strcmp(v, "medium")) build = TRUTH_BUILD_MEDIUM;
+            else if (v && !strcmp(v, "high")) build = TRUTH_BUILD_HIGH;
+            else return cli_usage_error("--build needs low, medium or high");
+            i++;
+        } else {
+            int r = cli_limit_flag(g, argc, argv, &i);
+            if (r < 0) return CLI_EXIT_USAGE;
+            if (r > 0) continue;
+            if (a[0] == '-') return cli_usage_error("truth ao: unknown option '%s'", a);
+            if (scene_path) return cli_usage_error("truth ao: more than one scene given ('%s')", a);
+            scene_path = a;
+        }
+    }
+    if (!scene_path)
+        return cli_usage_error("truth ao: no scene given");
+
+    obs_context *ctx = obs_context_create();
+    if (!ctx)
+        return CLI_EXIT_INTERNAL;
+    obs_context_set_limits(ctx, &g->limits);
+    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
+    obs_scene scene;
+    obs_scene_init(&scene);
+    obs_pool *pool = NULL;
+    truth_scene *ts = NULL;
+    rast_gbuffer gb;
+    memset(&gb, 0, sizeof gb);
+    truth_ao_result res;
+    memset(&res, 0, sizeof res);
+    obs_image_f32 preview = {0};
+    io_json j;
+    io_json_init(&j);
+    int code = CLI_EXIT_OK;
+    obs_camera cam;
+    double t_load = obs_time_now();
+    obs_status st = cli_load_scene(ctx, scene_path, &scene);
+    if (st == OBS_STATUS_OK)
+        st = cli_pick_camera(ctx, &scene, camera, &cam);
+    if (st != OBS_STATUS_OK) {
+        code = cli_fail(ctx, st);
+        goto done;
+    }
+    if (!size_given && cam.projection == OBS_PROJECTION_PERSPECTIVE && cam.aspect > 0.0f) {
+        W = 1920;
+        H = (int)lround(1920.0 / cam.aspect);
+        if (H < 1 || H > RAST_MAX_DIM) {
+            code = cli_usage_error("camera aspect %g gives an unusable height; pass --size", (double)cam.aspect);
+            goto done;
+        }
+    }
+    pool = obs_pool_create(g->threads);
+    if (!pool) {
+        fprintf(stderr, "obscura: error: cannot start %d threads\n", g->threads);
+        code = CLI_EXIT_INTERNAL;
+        goto done;
+    }
+    /* The G-buffer the estimators start from (docs/truth.md, "Inputs"). */
+    rast_params rp = rast_params_default();
+    rp.width = W;
+    rp.height = H;
+    rp.outputs = RAST_OUT_DEPTH | RAST_OUT_FACE_NORMAL | RAST_OUT_NORMAL | RAST_OUT_PRIM_ID | RAST_OUT_INSTANCE_ID;
+    double t_raster = obs_time_now();
+    st = rast_gbuffer_alloc(ctx, &rp, &gb);
+    rast_view view = {cam};
+    if (st == OBS_STATUS_OK)
+        st = rast_render(ctx, pool, &scene, &view, 1, &rp, &gb, NULL);
+    double t_bvh = obs_time_now();
+    if (st == OBS_STATUS_OK)
+        st = truth_scene_create(ctx, &scene, build, &ts);
+    double t_ao = obs_time_now();
+    progress pr = {t_ao, 0.0, 0};
+    if (!g->quiet && isatty(fileno(stderr))) {
+        p.progress = draw_progress;
+        p.progress_user = &pr;
+    }
+    if (st == OBS_STATUS_OK)
+        st = truth_ao_render(ctx, pool, ts, &scene, &cam, &gb, &p, &res);
+    double t_end = obs_time_now();
+    if (pr.drawn)
+        fputc('\n', stderr);
+    if (st != OBS_STATUS_OK) {
+        code = cli_fail(ctx, st);
+        goto done;
+    }
+    const truth_ao_stats *S = &res.stats;
+    double ao_seconds = t_end - t_ao;
+    double mrays = ao_seconds > 0 ? (double)S->rays / ao_seconds * 1e-6 : 0.0;
+    if (!g->quiet)
+        fprintf(stderr,
+                "obscura: %s: %dx%d, %s, r = %g: %lld surface pixels, %llu rays in %.2f s (%.2f Mrays/s, %d threads); "
+                "%lld at the target error, %lld at max samples\n",
+                scene_path, W, H, truth_ao_estimator_name(p.estimator), (double)p.radius, (long long)S->pixels_surface,
+                (unsigned long long)S->rays, ao_seconds, mrays, obs_pool_threads(pool), (long long)S->pixels_converged,
+                (long long)S->pixels_at_max);
+
+    /* EXR: the three planes and the G-buffer's depth (the inner window; the guard is 0 here). */
+    obs_image_f32 depth = obs_image_f32_window(&gb.depth, gb.guard, gb.guard, W, H);
+    io_channel ch[4] = {
+        {"AO.mean", IO_PIXEL_FLOAT, &res.mean, NULL},
+        {"AO.stderr", IO_PIXEL_FLOAT, &res.std_error, NULL},
+        {"AO.count", IO_PIXEL_FLOAT, &res.count, NULL},
+        {"Z", IO_PIXEL_FLOAT, &depth, NULL},
+    };
+    const rast_view_constants *vc = &gb.constants;
+    obs_mat4 world_to_ndc = obs_mat4_mul(vc->projection_inner, vc->view);
+    float radius_attr = p.radius;
+    io_attr at[16];
+    memset(at, 0, sizeof at);
+    int na = 0;
+    strcpy(at[na].name, "worldToCamera"); at[na].type = IO_ATTR_MATRIX44; at[na].v = (float *)cam.view.m; na++;
+    strcpy(at[na].name, "worldToNDC"); at[na].type = IO_ATTR_MATRIX44; at[na].v = world_to_ndc.m; na++;
+    strcpy(at[na].name, "obscura:estimator"); at[na].type = IO_ATTR_STRING;
+    at[na].s = (char *)truth_ao_estimator_name(p.estimator); na++;
+    strcpy(at[na].name, "obscura:radius"); at[na].type = IO_ATTR_FLOAT; at[na].f = radius_attr; na++;
+    strcpy(at[na].name, "obscura:normal"); at[na].type = IO_ATTR_STRING;
+    at[na].s = (char *)(p.normal == TRUTH_AO_NORMAL_GEOMETRIC ? "geometric" : "shading"); na++;
+    strcpy(at[na].name, "obscura:origin"); at[na].type = IO_ATTR_STRING;
+    at[na].s = (char *)(p.origin == TRUTH_AO_ORIGIN_GBUFFER ? "gbuffer" : "embree"); na++;
+    strcpy(at[na].name, "obscura:target_error"); at[na].type = IO_ATTR_FLOAT; at[na].f = (float)p.target_error; na++;
+    strcpy(at[na].name, "obscura:min_samples"); at[na].type = IO_ATTR_INT; at[na].i = p.min_samples; na++;
+    strcpy(at[na].name, "obscura:max_samples"); at[na].type = IO_ATTR_INT; at[na].i = p.max_samples; na++;
+    strcpy(at[na].name, "obscura:seed"); at[na].type = IO_ATTR_STRING;
+    char seed_text[32];
+    snprintf(seed_text, sizeof seed_text, "%llu", (unsigned long long)p.seed);
+    at[na].s = seed_text; na++;
+    strcpy(at[na].name, "obscura:version"); at[na].type = IO_ATTR_STRING; at[na].s = (char *)OBS_VERSION_STRING; na++;
+    strcpy(at[na].name, "obscura:scene"); at[na].type = IO_ATTR_STRING; at[na].s = (char *)scene_path; na++;
+    strcpy(at[na].name, "obscura:conventions"); at[na].type = IO_ATTR_STRING;
+    at[na].s = (char *)"AO.mean = visibility (1 = unoccluded); AO.count = 0 where no surface (mean 1 there); "
+                       "row 0 at top; Z = linear depth, inf = background; docs/truth.md";
+    na++;
+
+    char path[4200];
+    st = make_parent_dirs(ctx, prefix);
+    if (st == OBS_STATUS_OK) {
+        snprintf(path, sizeof path, "%s.exr", prefix);
+        st = io_exr_write(ctx, path, ch, 4, at, na);
+    }
+    if (st == OBS_STATUS_OK) { /* the preview: AO.mean, background (count 0) black */
+        st = obs_image_f32_alloc(ctx, W, H, &preview);
+        for (int y = 0; st == OBS_STATUS_OK && y < H; y++)
+            for (int x = 0; x < W; x++)
+                obs_image_f32_row(&preview, y)[x] =
+                    obs_image_f32_row(&res.count, y)[x] > 0.0f ? obs_image_f32_row(&res.mean, y)[x] : 0.0f;
+        snprintf(path, sizeof path, "%s.png", prefix);
+        if (st == OBS_STATUS_OK)
+            st = io_png_write(ctx, path, &preview, 1, IO_PNG_LINEAR);
+    }
+    if (st != OBS_STATUS_OK) {
+        code = st == OBS_STATUS_IO_ERROR ? (fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx)), CLI_EXIT_OUTPUT)
+                                         : cli_fail(ctx, st);
+        goto done;
+    }
+
+    /* JSON sidecar: every parameter, timing and counters. */
+    double se_sum = 0.0, n_sum = 0.0;
+    for (int y = 0; y < res.height; y++)
+        for (int x = 0; x < res.width; x++)
+            if (obs_image_f32_row(&res.count, y)[x] > 0.0f) {
+                se_sum += obs_image_f32_row(&res.std_error, y)[x];
+                n_sum += obs_image_f32_row(&res.count, y)[x];
+            }
+    double surf = S->pixels_surface > 0 ? (double)S->pixels_surface : 1.0;
+    io_json_begin_object(&j, NULL);
+    cli_json_header(&j, "truth ao", argc, argv);
+    io_json_string(&j, "scene", scene_path);
+    json_camera(&j, &cam);
+    io_json_begin_object(&j, "params");
+    io_json_int(&j, "width", W);
+    io_json_int(&j, "height", H);
+    io_json_string(&j, "estimator", truth_ao_estimator_name(p.estimator));
+    if (isinf(p.radius))
+        io_json_string(&j, "radius", "infinity");
+    else
+        io_json_number(&j, "radius", p.radius);
+    io_json_number(&j, "target_error", p.target_error);
+    io_json_int(&j, "min_samples", p.min_samples);
+    io_json_int(&j, "max_samples", p.max_samples);
+    io_json_int(&j, "batch", p.batch);
+    io_json_string(&j, "seed", seed_text);
+    io_json_string(&j, "normal", p.normal == TRUTH_AO_NORMAL_GEOMETRIC ? "geometric" : "shading");
+    io_json_string(&j, "origin", p.origin == TRUTH_AO_ORIGIN_GBUFFER ? "gbuffer" : "embree");
+    io_json_number(&j, "offset_ulps", p.offset_ulps);
+    io_json_int(&j, "tile", p.tile);
+    io_json_string(&j, "build_quality", build == TRUTH_BUILD_LOW ? "low" : build == TRUTH_BUILD_HIGH ? "high" : "medium");
+    io_json_int(&j, "threads", obs_pool_threads(pool));
+    io_json_end_object(&j);
+    io_json_begin_object(&j, "stats");
+    io_json_int(&j, "rays", (int64_t)S->rays);
+    io_json_int(&j, "primary_rays", (int64_t)S->primary_rays);
+    io_json_int(&j, "pixels_surface", S->pixels_surface);
+    io_json_int(&j, "pixels_background", S->pixels_background);
+    io_json_int(&j, "pixels_invalid", S->pixels_invalid);
+    io_json_int(&j, "pixels_converged", S->pixels_converged);
+    io_json_int(&j, "pixels_at_max_samples", S->pixels_at_max);
+    io_json_number(&j, "mean_samples_per_surface_pixel", n_sum / surf);
+    io_json_number(&j, "mean_std_error", se_sum / surf);
+    io_json_number(&j, "max_std_error", S->max_std_error);
+    io_json_number(&j, "max_offset", S->max_offset);
+    io_json_number(&j, "seconds_load", t_raster - t_load);
+    io_json_number(&j, "seconds_raster", t_bvh - t_raster);
+    io_json_number(&j, "seconds_bvh", t_ao - t_bvh);
+    io_json_number(&j, "seconds_ao", ao_seconds);
+    io_json_number(&j, "seconds_ao_work", S->seconds_work);
+    io_json_number(&j, "mrays_per_second", mrays);
+    io_json_end_object(&j);
+    io_json_begin_array(&j, "channels");
+    for (int c = 0; c < 4; c++)
+        io_json_string(&j, NULL, ch[c].name);
+    io_json_end_array(&j);
+    io_json_string(&j, "preview_png", "AO.mean, linear quantisation, gamma 1.0; background (AO.count = 0) black");
+    io_json_end_object(&j);
+    snprintf(path, sizeof path, "%s.json", prefix);
+    st = io_json_write(ctx, &j, path);
+    if (st != OBS_STATUS_OK) {
+        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
+        code = CLI_EXIT_OUTPUT;
+        goto done;
+    }
+    if (!g->quiet)
+        fprintf(stderr, "obscura: wrote %s.exr, %s.png, %s.json\n", prefix, prefix, prefix);
+done:
+    io_json_free(&j);
+    obs_image_f32_free(&preview);
+    truth_ao_result_free(&res);
+    truth_scene_destroy(ts);
+    rast_gbuffer_free(&gb);
+    obs_pool_destroy(pool);
+    obs_scene_free(&scene);
+    obs_context_destroy(ctx);
+    return code;
+}

@@ -1,0 +1,1026 @@
+/* truth_ao.c: ray-traced ambient-occlusion ground truth for every estimator's definition.
+ *
+ * docs/truth.md is the full description: the integrals (../shared/reference/ao.md section 2),
+ * the sampling, the self-intersection offset and the convergence test. In short, per pixel:
+ *   - p and n from the G-buffer (or an Embree primary hit); n faces the viewer;
+ *   - the origin is offset along the geometric normal by eps = k 2^-24 m (setup_pixel);
+ *   - sample i of a pixel is point i of a low-discrepancy sequence (a (0,2)-sequence in base 2,
+ *     plus base-3 van der Corput for a third dimension), Cranley-Patterson rotated by the pixel's
+ *     own Philox shift, keyed by (pixel, seed); samples are taken in rounds of B;
+ *   - each pixel keeps the running mean and M2 of its samples (Welford; rounds are merged with
+ *     Chan et al.'s update); standard error = sqrt(M2 / (n - 1) / n), the i.i.d. formula, which
+ *     over-estimates the error of a low-discrepancy mean (docs/truth.md, "Convergence");
+ *   - a pixel stops at min_samples once its standard error is <= target, or at max_samples;
+ *   - a tile's active pixels trace each round as one rtcOccluded1M / rtcIntersect1M batch.
+ *
+ * References:
+ *   [Malley88]  T. Malley, "A Shading Method for Computer Generated Images", MSc thesis, Univ. of
+ *               Utah, 1988: cosine-distributed directions by lifting uniform disk points.
+ *   [Shirley97] P. Shirley, K. Chiu, "A Low Distortion Map Between Disk and Square", Journal of
+ *               Graphics Tools 2(3), 1997: the concentric map; z = 1 - r^2 with (x,y) scaled by
+ *               sqrt(2 - r^2) is its equal-area hemisphere.
+ *   [Duff17]    T. Duff, J. Burgess, P. Christensen, C. Hery, A. Kensler, M. Liani, R. Villemin,
+ *               "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017.
+ *   [Kollig02]  T. Kollig, A. Keller, "Efficient Multidimensional Sampling", Computer Graphics
+ *               Forum 21(3) (Eurographics 2002): the (0,2)-sequence (van der Corput, Sobol' dim 2).
+ *   [Cranley76] R. Cranley, T. Patterson, "Randomization of Number Theoretic Methods for Multiple
+ *               Integration", SIAM J. Numer. Anal. 13(6), 1976.
+ *   [Welford62] B. P. Welford, "Note on a Method for Calculating Corrected Sums of Squares and
+ *               Products", Technometrics 4(3), 1962.
+ *   [Chan83]    T. F. Chan, G. H. Golub, R. J. LeVeque, "Algorithms for Computing the Sample
+ *               Variance: Analysis and Recommendations", The American Statistician 37(3), 1983:
+ *               merging (n, mean, M2) of two sets.
+ *   [Wachter19] C. Waechter, N. Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
+ *               Ray Tracing Gems, ch. 6, 2019: offsets measured in ulps of the coordinates.
+ */
+#define _DEFAULT_SOURCE /* madvise(MADV_HUGEPAGE) */
+#include "truth_internal.h"
+
+#include "../raster/raster.h"
+
+#include <emmintrin.h>
+#include <math.h>
+#include <pmmintrin.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <xmmintrin.h>
+
+/* ------------------------------------------------------------------------------------------------
+ * Names, defaults, per-estimator properties
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef enum falloff_kind { FALLOFF_NONE = 0, FALLOFF_CUBIC, FALLOFF_QUADRATIC } falloff_kind;
+
+typedef struct est_info {
+    const char *name;
+    int hit_distance;      /* needs rtcIntersect1M (hit distance) rather than rtcOccluded1M */
+    int cosine;            /* cosine-weighted hemisphere (else uniform) */
+    int volume;            /* VOL: points in a ball, segments from the eye */
+    int needs_finite_r;
+    falloff_kind falloff;
+} est_info;
+
+static const est_info k_est[TRUTH_AO_COUNT] = {
+    [TRUTH_AO_COS] = {"cos", 0, 1, 0, 0, FALLOFF_NONE},
+    [TRUTH_AO_UNIF] = {"unif", 0, 0, 0, 0, FALLOFF_NONE},
+    /* SAO option B, "Recommended": (r^2 - vv)^3, normalised here to (1 - d^2/r^2)^3 (ao.md 1.3) */
+    [TRUTH_AO_OBS_SAO_B] = {"obs-sao", 1, 1, 0, 1, FALLOFF_CUBIC},
+    /* later G3D SAO, HIGH_QUALITY: max(1 - vv/r^2, 0) times n.v/|v| (ao.md 1.3) */
+    [TRUTH_AO_OBS_SAO_LINEAR] = {"obs-sao-linear", 1, 1, 0, 1, FALLOFF_QUADRATIC},
+    /* MSSAO: rho = 1 - min(1, d^2/dMax^2), times max(0, n.v/|v|) (ao.md 1.4) */
+    [TRUTH_AO_OBS_MSSAO] = {"obs-mssao", 1, 1, 0, 1, FALLOFF_QUADRATIC},
+    /* classic HBAO: W(r) = 1 - r^2 (r = |S-P|/R) over the solid angle, uniform (ao.md 1.6, 2) */
+    [TRUTH_AO_OBS_HBAO] = {"obs-hbao", 1, 0, 0, 1, FALLOFF_QUADRATIC},
+    [TRUTH_AO_VOL] = {"vol", 0, 0, 1, 1, FALLOFF_NONE},
+};
+
+truth_ao_params truth_ao_params_default(void)
+{
+    truth_ao_params p;
+    memset(&p, 0, sizeof p);
+    p.estimator = TRUTH_AO_COS;
+    p.radius = 0.5f;          /* XeGTAO GTAOSettings::Radius default (ao.md 1.8) */
+    p.target_error = 0.002;   /* issue 3, item 3 */
+    p.min_samples = 64;
+    p.max_samples = 4096;
+    p.batch = 16;             /* 8x8 tile x 16 rays = one 1024-ray rtcOccluded1M call (build-notes.md) */
+    p.seed = 0;
+    p.normal = TRUTH_AO_NORMAL_GEOMETRIC;
+    p.origin = TRUTH_AO_ORIGIN_GBUFFER;
+    p.tile = 8;               /* build-notes.md: "a batch per 8x8 tile" was the fastest */
+    p.offset_ulps = 64.0f;    /* docs/truth.md, "Self-intersection" */
+    return p;
+}
+
+const char *truth_ao_estimator_name(truth_ao_estimator e)
+{
+    return (unsigned)e < TRUTH_AO_COUNT ? k_est[e].name : "?";
+}
+
+int truth_ao_estimator_from_name(const char *name, truth_ao_estimator *out)
+{
+    if (!name)
+        return 0;
+    for (int e = 0; e < TRUTH_AO_COUNT; e++)
+        if (!strcmp(name, k_est[e].name)) {
+            *out = (truth_ao_estimator)e;
+            return 1;
+        }
+    return 0;
+}
+
+void truth_ao_result_free(truth_ao_result *r)
+{
+    if (!r)
+        return;
+    obs_image_f32_free(&r->mean);
+    obs_image_f32_free(&r->std_error);
+    obs_image_f32_free(&r->count);
+    memset(r, 0, sizeof *r);
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Sampling
+ * ---------------------------------------------------------------------------------------------- */
+
+static uint32_t bit_reverse32(uint32_t v)
+{
+    v = ((v & 0x55555555u) << 1) | ((v >> 1) & 0x55555555u);
+    v = ((v & 0x33333333u) << 2) | ((v >> 2) & 0x33333333u);
+    v = ((v & 0x0F0F0F0Fu) << 4) | ((v >> 4) & 0x0F0F0F0Fu);
+    v = ((v & 0x00FF00FFu) << 8) | ((v >> 8) & 0x00FF00FFu);
+    return (v << 16) | (v >> 16);
+}
+
+/* Sobol' dimension 2 (generator: the Pascal matrix mod 2), as in [Kollig02]. */
+static uint32_t sobol2(uint32_t i)
+{
+    uint32_t r = 0;
+    for (uint32_t v = 1u << 31; i; i >>= 1, v ^= v >> 1)
+        if (i & 1u)
+            r ^= v;
+    return r;
+}
+
+/* Local directions (z = the normal) of n samples (n a multiple of 4), 4 at a time with SSE2
+ * (baseline x86-64: one code path on every machine, so results never depend on the CPU).
+ *
+ * Input: the samples' two coordinates in 32-bit fixed point, b0[i] + s0 and b1[i] + s1 (mod 2^32:
+ * the Cranley-Patterson rotation done exactly [Cranley76]). Each is taken to the centre of its
+ * 2^-25 cell of [-1, 1): ((u >> 7) | 1 - 2^24) / 2^24, an odd integer over 2^24, never 0 and
+ * exact in float.
+ *
+ * Concentric map to the unit disk [Shirley97], in Shirley's two-case form: |a| > |b|: radius a,
+ * angle (pi/4)(b/a); else radius b, angle pi/2 - (pi/4)(a/b). sin and cos on [-pi/4, pi/4] are
+ * Taylor polynomials of degree 9 and 10 (truncation under 2e-9, below float rounding).
+ *
+ * Then, with rr = r^2:
+ *   DIRS_COSINE:  z = sqrt(1 - rr), lifting uniform disk points: cosine-distributed [Malley88];
+ *   DIRS_UNIFORM: z = 1 - rr, (x, y) scaled by sqrt(2 - rr): the equal-area hemisphere of
+ *                 [Shirley97]; z is uniform in [0, 1) exactly as with "z = u1, phi = 2 pi u2";
+ *   DIRS_SPHERE:  the top bit of the first coordinate picks the hemisphere (z sign), the other
+ *                 31 bits (shifted up) feed DIRS_UNIFORM: uniform on the whole sphere. */
+enum { DIRS_COSINE = 0, DIRS_UNIFORM, DIRS_SPHERE };
+
+static inline __m128 sel_ps(__m128 m, __m128 a, __m128 b) { return _mm_or_ps(_mm_and_ps(m, a), _mm_andnot_ps(m, b)); }
+
+static inline __m128 fixed_to_signed_unit(__m128i u)
+{
+    __m128i odd = _mm_sub_epi32(_mm_or_si128(_mm_srli_epi32(u, 7), _mm_set1_epi32(1)), _mm_set1_epi32(1 << 24));
+    return _mm_mul_ps(_mm_cvtepi32_ps(odd), _mm_set1_ps(0x1p-24f));
+}
+
+static void local_dirs(const uint32_t *b0, const uint32_t *b1, uint32_t s0, uint32_t s1, int n, int mode, float *lx,
+                       float *ly, float *lz)
+{
+    const __m128i vs0 = _mm_set1_epi32((int)s0), vs1 = _mm_set1_epi32((int)s1);
+    const __m128 absmask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
+    const __m128 one = _mm_set1_ps(1.0f), two = _mm_set1_ps(2.0f), pi4 = _mm_set1_ps(0.78539816339744831f);
+    const __m128 c6 = _mm_set1_ps(1.0f / 6.0f), c20 = _mm_set1_ps(1.0f / 20.0f), c42 = _mm_set1_ps(1.0f / 42.0f),
+                 c72 = _mm_set1_ps(1.0f / 72.0f);
+    const __m128 c2 = _mm_set1_ps(0.5f), c12 = _mm_set1_ps(1.0f / 12.0f), c30 = _mm_set1_ps(1.0f / 30.0f),
+                 c56 = _mm_set1_ps(1.0f / 56.0f), c90 = _mm_set1_ps(1.0f / 90.0f);
+    for (int i = 0; i < n; i += 4) {
+        __m128i ua = _mm_add_epi32(_mm_load_si128((const __m128i *)(b0 + i)), vs0);
+        __m128i ub = _mm_add_epi32(_mm_load_si128((const __m128i *)(b1 + i)), vs1);
+        __m128 zsign = _mm_setzero_ps();
+        if (mode == DIRS_SPHERE) {
+            zsign = _mm_castsi128_ps(_mm_and_si128(ua, _mm_set1_epi32((int)0x80000000u)));
+            ua = _mm_slli_epi32(ua, 1);
+        }
+        __m128 a = fixed_to_signed_unit(ua), b = fixed_to_signed_unit(ub);
+        __m128 first = _mm_cmpgt_ps(_mm_and_ps(a, absmask), _mm_and_ps(b, absmask));
+        __m128 rad = sel_ps(first, a, b);
+        __m128 q = _mm_div_ps(sel_ps(first, b, a), rad);
+        __m128 x = _mm_mul_ps(pi4, q), x2 = _mm_mul_ps(x, x);
+        __m128 sn = _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(x2, c42), _mm_sub_ps(one, _mm_mul_ps(x2, c72))));
+        sn = _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(x2, c20), sn));
+        sn = _mm_mul_ps(x, _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(x2, c6), sn)));
+        __m128 cs = _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(x2, c56), _mm_sub_ps(one, _mm_mul_ps(x2, c90))));
+        cs = _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(x2, c30), cs));
+        cs = _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(x2, c12), cs));
+        cs = _mm_sub_ps(one, _mm_mul_ps(_mm_mul_ps(x2, c2), cs));
+        __m128 px = _mm_mul_ps(rad, sel_ps(first, cs, sn)), py = _mm_mul_ps(rad, sel_ps(first, sn, cs));
+        __m128 rr = _mm_mul_ps(rad, rad), pz;
+        if (mode == DIRS_COSINE) {
+            pz = _mm_sqrt_ps(_mm_sub_ps(one, rr));
+        } else {
+            __m128 sc = _mm_sqrt_ps(_mm_sub_ps(two, rr));
+            px = _mm_mul_ps(px, sc);
+            py = _mm_mul_ps(py, sc);
+            pz = _mm_xor_ps(_mm_sub_ps(one, rr), zsign);
+        }
+        _mm_store_ps(lx + i, px);
+        _mm_store_ps(ly + i, py);
+        _mm_store_ps(lz + i, pz);
+    }
+}
+
+/* An orthonormal basis (t, b) around unit n, branchless [Duff17], listing 3. */
+static void onb_duff(const float n[3], float t[3], float b[3])
+{
+    float sign = copysignf(1.0f, n[2]);
+    float a = -1.0f / (sign + n[2]);
+    float bb = n[0] * n[1] * a;
+    t[0] = 1.0f + sign * n[0] * n[0] * a;
+    t[1] = sign * bb;
+    t[2] = -sign * n[0];
+    b[0] = bb;
+    b[1] = sign + n[1] * n[1] * a;
+    b[2] = -n[1];
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * The job
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef struct px_state {
+    float org[3];          /* hemisphere estimators: the offset origin; VOL: p itself */
+    float t[3], b[3], n[3];
+    uint64_t pixel;        /* inner pixel index y*W + x: the RNG key */
+    uint32_t shift[3];     /* Cranley-Patterson shift, 32-bit fixed point: Philox(pixel, 0, 0, seed) */
+    double mean, m2;       /* running mean and sum of squared deviations of the samples */
+    int64_t count;         /* samples taken */
+    int x, y;
+    int state;             /* 1 surface, 0 background, -1 invalid normal */
+} px_state;
+
+typedef struct thread_scratch {
+    _Alignas(64) px_state *px; /* 64-byte aligned, a multiple of 64 bytes: threads never share a cache line */
+    int *active;
+    uint32_t *b0, *b1, *b2; /* the round's points of the sequence, B rounded up to 4 of each */
+    float *lx, *ly, *lz;   /* local directions of one pixel's round */
+    __m128 *d4;            /* world directions of one pixel's round, one (x, y, z, 0) per ray */
+    double *f;             /* one pixel's sample values */
+    void *rays;            /* RTCRay or RTCRayHit, tile*tile*batch of them */
+    /* per-thread counters, summed at the end (deterministic) */
+    uint64_t rays_traced, primary_rays;
+    int64_t surface, background, invalid, converged, at_max;
+    double max_se, max_eps;
+} thread_scratch;
+
+typedef struct ao_job {
+    const truth_scene *ts;
+    const obs_scene *scene;
+    const obs_camera *cam;
+    const rast_gbuffer *gb;
+    truth_ao_params p;
+    est_info ei;
+    obs_tiling tiling;
+    int W, H, guard;
+    int group;             /* tiles per task, side by side (see ao_task) */
+    float *inst_norm;      /* per instance: |M|inf of its 3x3 */
+    float *tri_extent;     /* per triangle of every mesh: object-space bounding-box extent */
+    size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
+    thread_scratch *scratch;
+    truth_ao_result *out;
+    const truth_ao_hooks *hooks;
+    obs_vec3 eye;          /* perspective eye (world) */
+    obs_vec3 cam_back;     /* camera +Z axis in world (orthographic VOL) */
+    double inv_r2;
+    atomic_int_fast64_t tiles_done;
+    atomic_uint_fast64_t rays_done;
+} ao_job;
+
+static inline float max3abs(double x, double y, double z)
+{
+    double m = fabs(x);
+    m = fabs(y) > m ? fabs(y) : m;
+    m = fabs(z) > m ? fabs(z) : m;
+    return (float)m;
+}
+
+/* An upper bound of max_k |v_k - p|inf over the world-space vertices of the surface's triangle,
+ * for p on it: the object-space bounding-box extent (largest side, precomputed per triangle)
+ * times the instance's |M|inf (largest absolute row sum of its 3x3). 0 when the ids name no
+ * triangle. */
+static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
+{
+    const obs_scene *sc = J->scene;
+    if (inst >= sc->instance_count)
+        return 0.0;
+    uint32_t mesh = sc->instances[inst].mesh;
+    if (prim >= sc->meshes[mesh].triangle_count)
+        return 0.0;
+    return (double)J->tri_extent[J->mesh_first[mesh] + prim] * (double)J->inst_norm[inst];
+}
+
+/* Interpolated shading normal of an Embree hit, in world space (unit), or ng when the mesh has
+ * no normals. */
+static obs_vec3 hit_shading_normal(const ao_job *J, const truth_hit *h, obs_vec3 ng)
+{
+    const obs_scene *sc = J->scene;
+    const obs_mesh *m = &sc->meshes[sc->instances[h->instance].mesh];
+    if (!m->normals || h->prim >= m->triangle_count)
+        return ng;
+    const uint32_t *ix = &m->indices[3 * (size_t)h->prim];
+    float w0 = 1.0f - h->u - h->v, w1 = h->u, w2 = h->v;
+    obs_vec3 n = obs_v3(0, 0, 0);
+    for (int c = 0; c < 3; c++) {
+        float a = m->normals[3 * (size_t)ix[0] + c], b = m->normals[3 * (size_t)ix[1] + c],
+              d = m->normals[3 * (size_t)ix[2] + c];
+        float v = w0 * a + w1 * b + w2 * d;
+        if (c == 0) n.x = v; else if (c == 1) n.y = v; else n.z = v;
+    }
+    return obs_v3_normalize(obs_mat4_mul_dir(J->ts->normal_world[h->instance], n));
+}
+
+/* obs_v3_normalize, inline (the zero vector for a zero or non-finite input). */
+static inline obs_vec3 unit3(obs_vec3 a)
+{
+    float l2 = a.x * a.x + a.y * a.y + a.z * a.z;
+    if (!(l2 > 0.0f) || !isfinite(l2))
+        return obs_v3(0, 0, 0);
+    float inv = 1.0f / sqrtf(l2);
+    return obs_v3(a.x * inv, a.y * inv, a.z * inv);
+}
+
+static int unit_ok(obs_vec3 n)
+{
+    float l = n.x * n.x + n.y * n.y + n.z * n.z;
+    return isfinite(l) && l > 0.5f && l < 1.5f;
+}
+
+/* Set up one pixel: its point, normals and offset origin. */
+static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
+{
+    const rast_gbuffer *gb = J->gb;
+    const obs_camera *cam = J->cam;
+    int gx = x + J->guard, gy = y + J->guard;
+    s->x = x;
+    s->y = y;
+    s->state = 0;
+    s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
+    s->mean = s->m2 = 0.0;
+    s->count = 0;
+    float depth = 0.0f;
+    if (J->p.origin == TRUTH_AO_ORIGIN_GBUFFER) {
+        depth = obs_image_f32_row(&gb->depth, gy)[gx];
+        if (!(depth > 0.0f) || !isfinite(depth))
+            return; /* background */
+    }
+    obs_dvec3 o, d;
+    rast_pixel_ray(&gb->constants, cam, gx + 0.5, gy + 0.5, &o, &d);
+    obs_dvec3 p;
+    obs_vec3 ng, ns;
+    uint32_t inst, prim;
+    if (J->p.origin == TRUTH_AO_ORIGIN_GBUFFER) {
+        p = obs_dv3(o.x + (double)depth * d.x, o.y + (double)depth * d.y, o.z + (double)depth * d.z);
+        obs_vec3 nv = obs_v3(obs_image_f32_row(&gb->face_normal[0], gy)[gx], obs_image_f32_row(&gb->face_normal[1], gy)[gx],
+                             obs_image_f32_row(&gb->face_normal[2], gy)[gx]);
+        ng = unit3(obs_mat4_mul_dir(cam->world, nv));
+        /* facing the viewer already, unless the G-buffer was rendered with face_forward = 0 */
+        int flip = (double)ng.x * d.x + (double)ng.y * d.y + (double)ng.z * d.z > 0.0;
+        if (flip)
+            ng = obs_v3_scale(ng, -1.0f);
+        if (J->p.normal == TRUTH_AO_NORMAL_SHADING) {
+            obs_vec3 sv = obs_v3(obs_image_f32_row(&gb->normal[0], gy)[gx], obs_image_f32_row(&gb->normal[1], gy)[gx],
+                                 obs_image_f32_row(&gb->normal[2], gy)[gx]);
+            ns = unit3(obs_mat4_mul_dir(cam->world, sv));
+            if (flip)
+                ns = obs_v3_scale(ns, -1.0f);
+        } else {
+            ns = ng;
+        }
+        inst = obs_image_u32_row(&gb->instance_id, gy)[gx];
+        prim = obs_image_u32_row(&gb->prim_id, gy)[gx];
+    } else {
+        obs_vec3 of = obs_v3((float)o.x, (float)o.y, (float)o.z), df = obs_v3((float)d.x, (float)d.y, (float)d.z);
+        truth_hit h;
+        truth_intersect1(J->ts, of, df, cam->znear, isinf(cam->zfar) ? INFINITY : cam->zfar, &h);
+        S->primary_rays++;
+        if (h.instance == 0xFFFFFFFFu)
+            return; /* background */
+        p = obs_dv3(of.x + (double)h.t * df.x, of.y + (double)h.t * df.y, of.z + (double)h.t * df.z);
+        ng = h.ng;
+        int flip = obs_v3_dot(ng, df) > 0.0f; /* face the viewer, as the rasterizer's face_forward */
+        if (flip)
+            ng = obs_v3_scale(ng, -1.0f);
+        if (J->p.normal == TRUTH_AO_NORMAL_SHADING) {
+            ns = hit_shading_normal(J, &h, flip ? obs_v3_scale(ng, -1.0f) : ng);
+            if (flip)
+                ns = obs_v3_scale(ns, -1.0f);
+        } else {
+            ns = ng;
+        }
+        inst = h.instance;
+        prim = h.prim;
+    }
+    if (!unit_ok(ng) || !unit_ok(ns)) {
+        s->state = -1;
+        return;
+    }
+    s->state = 1;
+    uint32_t w[4];
+    obs_rng_u32x4(s->pixel, 0, 0, J->p.seed, w);
+    s->shift[0] = w[0];
+    s->shift[1] = w[1];
+    s->shift[2] = w[2];
+    /* Self-intersection offset (docs/truth.md): eps = k 2^-24 m along the geometric normal, where
+     * m bounds the magnitudes whose float rounding decides on which side of the surface's plane
+     * Embree finds the origin: the point, the eye (the G-buffer depth is measured from it), and the
+     * triangle's extent around p (Embree's plane test works on v0 - origin). */
+    double m = max3abs(p.x, p.y, p.z);
+    double mo = max3abs(o.x, o.y, o.z);
+    double L = triangle_extent(J, inst, prim);
+    m = mo > m ? mo : m;
+    m = L > m ? L : m;
+    double eps = (double)J->p.offset_ulps * 0x1p-24 * m;
+    S->max_eps = eps > S->max_eps ? eps : S->max_eps;
+    if (J->ei.volume) {
+        s->org[0] = (float)p.x;
+        s->org[1] = (float)p.y;
+        s->org[2] = (float)p.z;
+    } else {
+        s->org[0] = (float)(p.x + eps * ng.x);
+        s->org[1] = (float)(p.y + eps * ng.y);
+        s->org[2] = (float)(p.z + eps * ng.z);
+    }
+    s->n[0] = ns.x;
+    s->n[1] = ns.y;
+    s->n[2] = ns.z;
+    onb_duff(s->n, s->t, s->b);
+}
+
+/* World directions d = x t + y b + z n of n local directions (n a multiple of 4), transposed to
+ * one (dx, dy, dz, 0) vector per ray in d4[]. */
+static void world_dirs(const px_state *s, const float *lx, const float *ly, const float *lz, int n, __m128 *d4)
+{
+    const __m128 t0 = _mm_set1_ps(s->t[0]), t1 = _mm_set1_ps(s->t[1]), t2 = _mm_set1_ps(s->t[2]);
+    const __m128 b0 = _mm_set1_ps(s->b[0]), b1 = _mm_set1_ps(s->b[1]), b2 = _mm_set1_ps(s->b[2]);
+    const __m128 n0 = _mm_set1_ps(s->n[0]), n1 = _mm_set1_ps(s->n[1]), n2 = _mm_set1_ps(s->n[2]);
+    for (int i = 0; i < n; i += 4) {
+        __m128 x = _mm_load_ps(lx + i), y = _mm_load_ps(ly + i), z = _mm_load_ps(lz + i);
+        __m128 dx = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, t0), _mm_mul_ps(y, b0)), _mm_mul_ps(z, n0));
+        __m128 dy = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, t1), _mm_mul_ps(y, b1)), _mm_mul_ps(z, n1));
+        __m128 dz = _mm_add_ps(_mm_add_ps(_mm_mul_ps(x, t2), _mm_mul_ps(y, b2)), _mm_mul_ps(z, n2));
+        __m128 w = _mm_setzero_ps();
+        _MM_TRANSPOSE4_PS(dx, dy, dz, w);
+        d4[i] = dx;
+        d4[i + 1] = dy;
+        d4[i + 2] = dz;
+        d4[i + 3] = w;
+    }
+}
+
+static inline uint32_t float_bits(float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    return u;
+}
+
+/* The B occlusion rays of one pixel's round: origin the offset point, tnear 0, tfar r. */
+static void gen_hemisphere_occ(const ao_job *J, const thread_scratch *S, const px_state *s, RTCRay *rays)
+{
+    const int B = J->p.batch, B4 = (B + 3) & ~3;
+    local_dirs(S->b0, S->b1, s->shift[0], s->shift[1], B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
+    world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
+    const __m128 org = _mm_setr_ps(s->org[0], s->org[1], s->org[2], 0.0f);
+    const __m128 tail = _mm_castsi128_ps(_mm_setr_epi32((int)float_bits(J->p.radius), -1, 0, 0)); /* tfar, mask, id, flags */
+    for (int i = 0; i < B; i++) {
+        float *r = &rays[i].org_x;
+        _mm_store_ps(r, org);
+        _mm_store_ps(r + 4, S->d4[i]); /* time = 0 */
+        _mm_store_ps(r + 8, tail);
+    }
+}
+
+/* The same rays with a hit record, for the hit-distance estimators. */
+static void gen_hemisphere_hit(const ao_job *J, const thread_scratch *S, const px_state *s, RTCRayHit *rays)
+{
+    const int B = J->p.batch, B4 = (B + 3) & ~3;
+    local_dirs(S->b0, S->b1, s->shift[0], s->shift[1], B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
+    world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
+    const __m128 org = _mm_setr_ps(s->org[0], s->org[1], s->org[2], 0.0f);
+    const __m128 tail = _mm_castsi128_ps(_mm_setr_epi32((int)float_bits(J->p.radius), -1, 0, 0));
+    const __m128 h0 = _mm_setzero_ps(); /* Ng, u */
+    const __m128 h1 = _mm_castsi128_ps(_mm_setr_epi32(0, (int)RTC_INVALID_GEOMETRY_ID, (int)RTC_INVALID_GEOMETRY_ID,
+                                                      (int)RTC_INVALID_GEOMETRY_ID)); /* v, primID, geomID, instID */
+    for (int i = 0; i < B; i++) {
+        float *r = &rays[i].ray.org_x;
+        _mm_store_ps(r, org);
+        _mm_store_ps(r + 4, S->d4[i]);
+        _mm_store_ps(r + 8, tail);
+        _mm_store_ps(&rays[i].hit.Ng_x, h0);
+        _mm_store_ps(&rays[i].hit.v, h1);
+    }
+}
+
+/* VOL: q = p + r cbrt(u3) w, w uniform on the sphere (DIRS_SPHERE), and the segment from the
+ * eye (orthographic: from q's foot on the view plane) to q, as t in [0, 1]. */
+static void gen_volume(const ao_job *J, const thread_scratch *S, const px_state *s, RTCRay *rays)
+{
+    const int B = J->p.batch, B4 = (B + 3) & ~3;
+    local_dirs(S->b0, S->b1, s->shift[0], s->shift[1], B4, DIRS_SPHERE, S->lx, S->ly, S->lz);
+    world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
+    const float R = J->p.radius;
+    const int persp = J->cam->projection == OBS_PROJECTION_PERSPECTIVE;
+    for (int i = 0; i < B; i++) {
+        float d[4];
+        _mm_storeu_ps(d, S->d4[i]);
+        uint32_t c = S->b2[i] + s->shift[2];
+        float rad = R * cbrtf(((float)(c >> 8) + 0.5f) * 0x1p-24f);
+        float qx = s->org[0] + rad * d[0], qy = s->org[1] + rad * d[1], qz = s->org[2] + rad * d[2];
+        RTCRay *r = &rays[i];
+        r->tnear = 0.0f;
+        r->tfar = 1.0f;
+        if (persp) {
+            r->org_x = J->eye.x;
+            r->org_y = J->eye.y;
+            r->org_z = J->eye.z;
+            r->dir_x = qx - J->eye.x;
+            r->dir_y = qy - J->eye.y;
+            r->dir_z = qz - J->eye.z;
+        } else {
+            /* q = C + X right + Y up + Zq back; its foot on the view plane is q - Zq back */
+            float zq = (qx - J->eye.x) * J->cam_back.x + (qy - J->eye.y) * J->cam_back.y + (qz - J->eye.z) * J->cam_back.z;
+            r->dir_x = zq * J->cam_back.x;
+            r->dir_y = zq * J->cam_back.y;
+            r->dir_z = zq * J->cam_back.z;
+            r->org_x = qx - r->dir_x;
+            r->org_y = qy - r->dir_y;
+            r->org_z = qz - r->dir_z;
+            if (!(zq < 0.0f)) { /* q behind the view plane: an empty segment, never occluded */
+                r->dir_x = r->dir_y = 0.0f;
+                r->dir_z = -1.0f;
+                r->tfar = -1.0f;
+            }
+        }
+        r->time = 0.0f;
+        r->mask = 0xFFFFFFFFu;
+        r->id = 0;
+        r->flags = 0;
+    }
+}
+
+static inline double falloff(falloff_kind k, double x) /* x = d^2 / r^2 in [0, 1] */
+{
+    double v = 1.0 - x;
+    v = v > 0.0 ? v : 0.0;
+    return k == FALLOFF_CUBIC ? v * v * v : v;
+}
+
+/* One tile: set up its pixels, then rounds of one ray batch each until every pixel stopped.
+ * Returns the rays traced. */
+static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
+{
+    int x0, y0, x1, y1;
+    obs_tiling_rect(&J->tiling, tile, &x0, &y0, &x1, &y1);
+    const int B = J->p.batch;
+    {
+        /* The tile's rows in the G-buffer and output planes are strided: ask for all their cache
+         * lines at once, so that the misses overlap instead of queueing pixel by pixel. */
+        const rast_gbuffer *gb = J->gb;
+        const int g = J->guard, from_gb = J->p.origin == TRUTH_AO_ORIGIN_GBUFFER;
+        const size_t len = (size_t)(x1 - x0) * 4;
+        for (int y = y0; y < y1; y++) {
+            const char *rows[10] = {(const char *)(obs_image_f32_row(&J->out->mean, y) + x0),
+                                    (const char *)(obs_image_f32_row(&J->out->std_error, y) + x0),
+                                    (const char *)(obs_image_f32_row(&J->out->count, y) + x0), NULL};
+            if (from_gb) {
+                rows[3] = (const char *)(obs_image_f32_row(&gb->depth, y + g) + x0 + g);
+                rows[4] = (const char *)(obs_image_f32_row(&gb->face_normal[0], y + g) + x0 + g);
+                rows[5] = (const char *)(obs_image_f32_row(&gb->face_normal[1], y + g) + x0 + g);
+                rows[6] = (const char *)(obs_image_f32_row(&gb->face_normal[2], y + g) + x0 + g);
+                rows[7] = (const char *)(obs_image_u32_row(&gb->prim_id, y + g) + x0 + g);
+                rows[8] = (const char *)(obs_image_u32_row(&gb->instance_id, y + g) + x0 + g);
+            }
+            for (int k = 0; rows[k]; k++)
+                for (size_t off = 0; off < len + 63; off += 64)
+                    _mm_prefetch(rows[k] + (off < len ? off : len - 1), _MM_HINT_T0);
+        }
+    }
+    /* Set up the tile's surface pixels; the others get their output (mean 1, std_error 0,
+     * count 0) at once. */
+    int nactive = 0;
+    const int from_gb = J->p.origin == TRUTH_AO_ORIGIN_GBUFFER;
+    for (int y = y0; y < y1; y++) {
+        const float *depth = from_gb ? obs_image_f32_row(&J->gb->depth, y + J->guard) + J->guard : NULL;
+        float *om = obs_image_f32_row(&J->out->mean, y), *os = obs_image_f32_row(&J->out->std_error, y),
+              *oc = obs_image_f32_row(&J->out->count, y);
+        for (int x = x0; x < x1; x++) {
+            int state = 0;
+            if (!from_gb || (depth[x] > 0.0f && isfinite(depth[x]))) {
+                px_state *s = &S->px[nactive];
+                setup_pixel(J, S, s, x, y);
+                state = s->state;
+            }
+            if (state == 1) {
+                S->active[nactive] = nactive;
+                nactive++;
+                continue;
+            }
+            om[x] = 1.0f;
+            os[x] = 0.0f;
+            oc[x] = 0.0f;
+            if (state == 0)
+                S->background++;
+            else
+                S->invalid++;
+        }
+    }
+
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx); /* RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, the default (build-notes.md) */
+    const int hit_distance = J->ei.hit_distance;
+    const double inv_r2 = J->inv_r2;
+    const int64_t max_n = J->p.max_samples, min_n = J->p.min_samples;
+    uint64_t tile_rays = 0;
+    for (int64_t round = 0; nactive > 0; round++) {
+        /* this round's B points of the sequence, shared by the tile's pixels (each shifts them):
+         * (van der Corput base 2, Sobol' dim 2) is a (0,2)-sequence [Kollig02]; the third
+         * coordinate (VOL's radius) is van der Corput base 3. The padding up to 4 is never used. */
+        const int B4 = (B + 3) & ~3;
+        for (int i = 0; i < B4; i++) {
+            uint32_t idx = (uint32_t)(round * B + i);
+            S->b0[i] = bit_reverse32(idx);
+            S->b1[i] = sobol2(idx);
+            S->b2[i] = J->ei.volume ? (uint32_t)(obs_radical_inverse(3, idx) * 4294967296.0) : 0u;
+        }
+        int nr = 0;
+        for (int a = 0; a < nactive; a++) {
+            const px_state *s = &S->px[S->active[a]];
+            if (hit_distance)
+                gen_hemisphere_hit(J, S, s, (RTCRayHit *)S->rays + nr);
+            else if (J->ei.volume)
+                gen_volume(J, S, s, (RTCRay *)S->rays + nr);
+            else
+                gen_hemisphere_occ(J, S, s, (RTCRay *)S->rays + nr);
+            nr += B;
+        }
+        if (J->hooks && J->hooks->ray_sink)
+            J->hooks->ray_sink(J->hooks->user, tile, round, S->rays, nr, hit_distance ? sizeof(RTCRayHit) : sizeof(RTCRay));
+        if (hit_distance)
+            rtcIntersect1M(J->ts->top, &ictx, (RTCRayHit *)S->rays, (unsigned)nr, sizeof(RTCRayHit));
+        else
+            rtcOccluded1M(J->ts->top, &ictx, (RTCRay *)S->rays, (unsigned)nr, sizeof(RTCRay));
+        tile_rays += (uint64_t)nr;
+
+        int kept = 0;
+        for (int a = 0; a < nactive; a++) {
+            px_state *s = &S->px[S->active[a]];
+            double *f = S->f;
+            double mb, m2b;
+            if (hit_distance) {
+                const RTCRayHit *h = (const RTCRayHit *)S->rays + (size_t)a * B;
+                for (int i = 0; i < B; i++) {
+                    double v = 1.0;
+                    if (h[i].hit.geomID != RTC_INVALID_GEOMETRY_ID) {
+                        double dd = (double)h[i].ray.tfar; /* unit directions: the hit distance */
+                        v = 1.0 - falloff(J->ei.falloff, dd * dd * inv_r2);
+                    }
+                    f[i] = v;
+                }
+                /* the round's mean and M2, two passes */
+                double sum = 0.0;
+                for (int i = 0; i < B; i++)
+                    sum += f[i];
+                mb = sum / B;
+                m2b = 0.0;
+                for (int i = 0; i < B; i++)
+                    m2b += (f[i] - mb) * (f[i] - mb);
+            } else {
+                /* binary: k of the B rays are unoccluded (Embree marks an occluded ray with tfar = -inf);
+                 * mean k/B and M2 = k (B - k) / B, exactly */
+                const RTCRay *r = (const RTCRay *)S->rays + (size_t)a * B;
+                int k = 0;
+                for (int i = 0; i < B; i++)
+                    k += r[i].tfar != -INFINITY;
+                mb = (double)k / B;
+                m2b = (double)k * (double)(B - k) / B;
+            }
+            /* merged into the pixel's running mean and M2 [Welford62, Chan83] */
+            double na = (double)s->count, n = na + B, delta = mb - s->mean;
+            s->mean += delta * (B / n);
+            s->m2 += m2b + delta * delta * (na * B / n);
+            s->count += B;
+            double se = sqrt(s->m2 / (n - 1.0) / n);
+            int done_max = s->count >= max_n;
+            int done_target = s->count >= min_n && se <= J->p.target_error;
+            if (done_max || done_target) {
+                int oi = s->y, ox = s->x;
+                double mean = s->mean < 0.0 ? 0.0 : s->mean > 1.0 ? 1.0 : s->mean;
+                obs_image_f32_row(&J->out->mean, oi)[ox] = (float)mean;
+                obs_image_f32_row(&J->out->std_error, oi)[ox] = (float)se;
+                obs_image_f32_row(&J->out->count, oi)[ox] = (float)s->count;
+                S->surface++;
+                S->converged += se <= J->p.target_error;
+                S->at_max += done_max;
+                S->max_se = se > S->max_se ? se : S->max_se;
+            } else {
+                S->active[kept++] = S->active[a];
+            }
+        }
+        /* the active pixels' rays are regenerated densely next round */
+        nactive = kept;
+    }
+    if (x1 == J->W) /* the tile at the right edge zeroes its rows' padding */
+        for (int y = y0; y < y1; y++) {
+            size_t pad = (size_t)(J->out->mean.stride - J->W) * sizeof(float);
+            memset(obs_image_f32_row(&J->out->mean, y) + J->W, 0, pad);
+            memset(obs_image_f32_row(&J->out->std_error, y) + J->W, 0, pad);
+            memset(obs_image_f32_row(&J->out->count, y) + J->W, 0, pad);
+        }
+    return tile_rays;
+}
+
+/* A task is a run of `group` horizontally adjacent tiles, as many as make it at least 16 pixels
+ * (64 bytes of an output row) wide: tiles that share a cache line of the output planes are then
+ * written by the same thread (no false sharing between two 8-pixel tiles). */
+static void ao_task(void *user, int64_t task, int thread)
+{
+    ao_job *J = (ao_job *)user;
+    thread_scratch *S = &J->scratch[thread];
+    const unsigned int saved_csr = _mm_getcsr();
+    truth_thread_init(); /* FTZ/DAZ, as Embree asks; restored below */
+    const int64_t groups_x = (J->tiling.tiles_x + J->group - 1) / J->group;
+    const int64_t ty = task / groups_x, tx0 = (task % groups_x) * J->group;
+    uint64_t rays = 0;
+    int ntiles = 0;
+    for (int64_t tx = tx0; tx < tx0 + J->group && tx < J->tiling.tiles_x; tx++, ntiles++)
+        rays += ao_tile(J, S, ty * J->tiling.tiles_x + tx);
+    S->rays_traced += rays;
+    if (J->p.progress) { /* shared counters only when asked: their cache line is contended */
+        int64_t done = atomic_fetch_add(&J->tiles_done, ntiles) + ntiles;
+        uint64_t all = atomic_fetch_add(&J->rays_done, rays) + rays;
+        if (thread == 0)
+            J->p.progress(J->p.progress_user, done, obs_tiling_count(&J->tiling), all);
+    }
+    _mm_setcsr(saved_csr);
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Entry points
+ * ---------------------------------------------------------------------------------------------- */
+
+/* An output plane, as obs_image_f32_alloc makes them (rows of a multiple of 16 floats, the same
+ * limits, freed by obs_image_f32_free) but not zeroed: the tiles write every pixel and the row
+ * padding. Large planes are 2 MiB aligned and advised for transparent huge pages: first touches
+ * then fault 2 MiB at a time, not 4 KiB (on the reference VM, zero-filling three fresh 1080p
+ * planes page by page took 60-80 ms, as long as 0.5 M rays; with huge pages about 2 ms). */
+static obs_status alloc_out_plane(obs_context *ctx, int width, int height, obs_image_f32 *out)
+{
+    memset(out, 0, sizeof *out);
+    const obs_limits *lim = obs_context_limits(ctx);
+    size_t row = ((size_t)width + 15) & ~(size_t)15, elems, bytes;
+    if (!obs_mul_size(row, (size_t)height, &elems) || !obs_mul_size(elems, sizeof(float), &bytes))
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "image size %dx%d overflows size_t", width, height);
+    if ((int64_t)width * (int64_t)height > lim->max_image_pixels)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                         "image %dx%d has %lld pixels, over the limit of %lld (raise it with --max-pixels)", width,
+                         height, (long long)width * height, (long long)lim->max_image_pixels);
+    if ((int64_t)bytes > lim->max_memory_bytes)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                         "image %dx%d needs %lld bytes, over the limit of %lld (raise it with --max-memory)", width,
+                         height, (long long)bytes, (long long)lim->max_memory_bytes);
+    const size_t huge = (size_t)2 << 20;
+    void *p;
+    if (bytes >= 2 * huge) {
+        size_t rounded = (bytes + huge - 1) & ~(huge - 1);
+        p = aligned_alloc(huge, rounded);
+#ifdef MADV_HUGEPAGE
+        if (p)
+            (void)madvise(p, rounded, MADV_HUGEPAGE); /* advice only: failure changes nothing */
+#endif
+    } else {
+        p = obs_aligned_alloc(bytes);
+    }
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "cannot allocate %zu bytes for a %dx%d image", bytes, width,
+                         height);
+    out->data = (float *)p;
+    out->width = width;
+    out->height = height;
+    out->stride = (ptrdiff_t)row;
+    return OBS_STATUS_OK;
+}
+
+static obs_status validate(obs_context *ctx, const truth_scene *ts, const obs_scene *scene, const obs_camera *cam,
+                           const rast_gbuffer *gb, const truth_ao_params *p)
+{
+#define BAD(...) return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, __VA_ARGS__)
+    if (!ts || !scene || !cam || !gb || !p)
+        BAD("truth_ao_render: NULL argument");
+    if ((unsigned)p->estimator >= TRUTH_AO_COUNT)
+        BAD("truth_ao_render: estimator %d out of range", (int)p->estimator);
+    if ((unsigned)p->normal >= TRUTH_AO_NORMAL_COUNT)
+        BAD("truth_ao_render: normal %d out of range", (int)p->normal);
+    if ((unsigned)p->origin >= TRUTH_AO_ORIGIN_COUNT)
+        BAD("truth_ao_render: origin %d out of range", (int)p->origin);
+    const est_info *ei = &k_est[p->estimator];
+    if (!(p->radius > 0.0f))
+        BAD("truth_ao_render: radius %g must be > 0", (double)p->radius);
+    if (isinf(p->radius) && ei->needs_finite_r)
+        BAD("truth_ao_render: estimator '%s' needs a finite radius", ei->name);
+    if (!(p->target_error >= 0.0) || !isfinite(p->target_error))
+        BAD("truth_ao_render: target error %g must be finite and >= 0", p->target_error);
+    if (p->batch < 2 || p->batch > 1024)
+        BAD("truth_ao_render: batch %d must be in [2, 1024]", p->batch);
+    if (p->min_samples < p->batch || p->min_samples % p->batch)
+        BAD("truth_ao_render: min samples %lld must be a positive multiple of the batch (%d)", (long long)p->min_samples,
+            p->batch);
+    if (p->max_samples < p->min_samples || p->max_samples % p->batch || p->max_samples > ((int64_t)1 << 31))
+        BAD("truth_ao_render: max samples %lld must be a multiple of the batch (%d), >= min samples (%lld) and <= 2^31",
+            (long long)p->max_samples, p->batch, (long long)p->min_samples);
+    if (p->tile < 4 || p->tile > 32)
+        BAD("truth_ao_render: tile %d must be in [4, 32]", p->tile);
+    if (!(p->offset_ulps >= 0.0f) || !isfinite(p->offset_ulps))
+        BAD("truth_ao_render: offset %g ulps must be finite and >= 0", (double)p->offset_ulps);
+    if (gb->width < 1 || gb->height < 1 || gb->guard < 0 || gb->width - 2 * gb->guard < 1 ||
+        gb->height - 2 * gb->guard < 1)
+        BAD("truth_ao_render: G-buffer size %dx%d with guard %d is empty", gb->width, gb->height, gb->guard);
+    if (gb->constants.full_width != gb->width || gb->constants.full_height != gb->height)
+        BAD("truth_ao_render: the G-buffer's constants are not filled (render it with rast_render first)");
+    if (p->origin == TRUTH_AO_ORIGIN_GBUFFER) {
+        static const struct { uint32_t bit; const char *name; } need[] = {
+            {RAST_OUT_DEPTH, "depth"}, {RAST_OUT_FACE_NORMAL, "face normal"}, {RAST_OUT_PRIM_ID, "primitive id"},
+            {RAST_OUT_INSTANCE_ID, "instance id"}};
+        for (size_t k = 0; k < sizeof need / sizeof need[0]; k++)
+            if (!(gb->outputs & need[k].bit))
+                BAD("truth_ao_render: the G-buffer lacks its %s plane (needed for origin = G-buffer)", need[k].name);
+        if (p->normal == TRUTH_AO_NORMAL_SHADING && !(gb->outputs & RAST_OUT_NORMAL))
+            BAD("truth_ao_render: the G-buffer lacks its shading-normal plane (needed for normal = shading)");
+    }
+    if (ts->instance_count != scene->instance_count || ts->mesh_count != scene->mesh_count)
+        BAD("truth_ao_render: the Embree scene was not built from this scene (%u/%u instances, %u/%u meshes)",
+            ts->instance_count, scene->instance_count, ts->mesh_count, scene->mesh_count);
+    if (!obs_mat4_is_finite(cam->world))
+        BAD("truth_ao_render: camera world matrix is not finite");
+#undef BAD
+    int64_t lim = obs_context_limits(ctx)->max_samples;
+    if (p->max_samples > lim)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                         "truth_ao_render: max samples %lld per pixel is over the limit %lld (obs_limits.max_samples)",
+                         (long long)p->max_samples, (long long)lim);
+    return OBS_STATUS_OK;
+}
+
+obs_status truth_ao_render(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                           const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
+                           truth_ao_result *out)
+{
+    return truth_ao_render_ex(ctx, pool, ts, scene, camera, gb, p, out, NULL);
+}
+
+obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                              const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
+                              truth_ao_result *out, const truth_ao_hooks *hooks)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render: NULL result");
+    memset(out, 0, sizeof *out);
+    double t0 = obs_time_now();
+    obs_status st = validate(ctx, ts, scene, camera, gb, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+
+    ao_job *J = (ao_job *)calloc(1, sizeof *J);
+    if (!J)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
+    J->ts = ts;
+    J->scene = scene;
+    J->cam = camera;
+    J->gb = gb;
+    J->p = *p;
+    J->ei = k_est[p->estimator];
+    J->hooks = hooks;
+    J->guard = gb->guard;
+    J->W = gb->width - 2 * gb->guard;
+    J->H = gb->height - 2 * gb->guard;
+    J->tiling = obs_tiling_make(J->W, J->H, p->tile);
+    J->inv_r2 = isinf(p->radius) ? 0.0 : 1.0 / ((double)p->radius * (double)p->radius);
+    J->eye = obs_mat4_mul_point(camera->world, obs_v3(0, 0, 0));
+    J->cam_back = obs_v3_normalize(obs_mat4_mul_dir(camera->world, obs_v3(0, 0, 1)));
+    atomic_init(&J->tiles_done, 0);
+    atomic_init(&J->rays_done, 0);
+    const int threads = obs_pool_threads(pool);
+    const size_t tile_px = (size_t)p->tile * (size_t)p->tile;
+    size_t ray_bytes = 0;
+    int ok = obs_mul_size(tile_px * (size_t)p->batch, J->ei.hit_distance ? sizeof(RTCRayHit) : sizeof(RTCRay), &ray_bytes);
+    if (!ok || (int64_t)ray_bytes > obs_context_limits(ctx)->max_memory_bytes) {
+        free(J);
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "truth_ao_render: ray scratch of %zu bytes over the memory limit",
+                         ray_bytes);
+    }
+    size_t tri_total = 0;
+    for (uint32_t m = 0; m < scene->mesh_count; m++)
+        tri_total += scene->meshes[m].triangle_count; /* each < 2^32; the sum fits size_t on 64-bit */
+    J->inst_norm = (float *)malloc(sizeof(float) * (scene->instance_count ? scene->instance_count : 1));
+    J->mesh_first = (size_t *)malloc(sizeof(size_t) * (scene->mesh_count ? scene->mesh_count : 1));
+    J->tri_extent = (float *)malloc(sizeof(float) * (tri_total ? tri_total : 1));
+    J->scratch = (thread_scratch *)obs_aligned_alloc((size_t)threads * sizeof(thread_scratch));
+    if (J->scratch)
+        memset(J->scratch, 0, (size_t)threads * sizeof(thread_scratch));
+    st = OBS_STATUS_OK;
+    if (!J->inst_norm || !J->mesh_first || !J->tri_extent || !J->scratch) {
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
+        goto done;
+    }
+    for (int t = 0; t < threads && st == OBS_STATUS_OK; t++) {
+        thread_scratch *S = &J->scratch[t];
+        S->px = (px_state *)obs_aligned_alloc(tile_px * sizeof(px_state));
+        S->active = (int *)malloc(tile_px * sizeof(int));
+        S->rays = obs_aligned_alloc(ray_bytes);
+        const size_t B4 = ((size_t)p->batch + 3) & ~(size_t)3;
+        S->b0 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        S->b1 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        S->b2 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        S->lx = (float *)obs_aligned_alloc(sizeof(float) * B4);
+        S->ly = (float *)obs_aligned_alloc(sizeof(float) * B4);
+        S->lz = (float *)obs_aligned_alloc(sizeof(float) * B4);
+        S->d4 = (__m128 *)obs_aligned_alloc(sizeof(__m128) * B4);
+        S->f = (double *)malloc(sizeof(double) * (size_t)p->batch);
+        if (!S->px || !S->active || !S->rays || !S->b0 || !S->b1 || !S->b2 || !S->lx || !S->ly || !S->lz || !S->d4 ||
+            !S->f)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
+    }
+    if (st != OBS_STATUS_OK)
+        goto done;
+    /* the offset rule's triangle extents (docs/truth.md, "Self-intersection") */
+    for (uint32_t i = 0; i < scene->instance_count; i++) {
+        const float *w = scene->instances[i].world.m;
+        float nrm = 0.0f;
+        for (int r = 0; r < 3; r++) {
+            float row = fabsf(w[r]) + fabsf(w[4 + r]) + fabsf(w[8 + r]);
+            nrm = row > nrm ? row : nrm;
+        }
+        J->inst_norm[i] = nrm;
+    }
+    size_t first = 0;
+    for (uint32_t m = 0; m < scene->mesh_count; m++) {
+        const obs_mesh *mesh = &scene->meshes[m];
+        J->mesh_first[m] = first;
+        for (uint32_t t = 0; t < mesh->triangle_count; t++) {
+            float ext = 0.0f;
+            for (int c = 0; c < 3; c++) {
+                float a = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t] + c];
+                float b = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 1] + c];
+                float d = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 2] + c];
+                float lo = fminf(a, fminf(b, d)), hi = fmaxf(a, fmaxf(b, d));
+                float e = hi - lo;
+                ext = e > ext ? e : ext; /* NaN (a non-finite vertex: never hit) leaves it */
+            }
+            J->tri_extent[first + t] = ext;
+        }
+        first += mesh->triangle_count;
+    }
+
+    st = alloc_out_plane(ctx, J->W, J->H, &out->mean);
+    if (st == OBS_STATUS_OK)
+        st = alloc_out_plane(ctx, J->W, J->H, &out->std_error);
+    if (st == OBS_STATUS_OK)
+        st = alloc_out_plane(ctx, J->W, J->H, &out->count);
+    if (st != OBS_STATUS_OK)
+        goto done;
+    out->width = J->W;
+    out->height = J->H;
+    J->out = out;
+
+    double tw = obs_time_now();
+    J->group = p->tile < 16 ? (16 + p->tile - 1) / p->tile : 1;
+    obs_pool_run(pool, (int64_t)J->tiling.tiles_y * ((J->tiling.tiles_x + J->group - 1) / J->group), ao_task, J);
+    double t_work = obs_time_now() - tw;
+
+    truth_ao_stats *stt = &out->stats;
+    for (int t = 0; t < threads; t++) {
+        const thread_scratch *S = &J->scratch[t];
+        stt->rays += S->rays_traced;
+        stt->primary_rays += S->primary_rays;
+        stt->pixels_surface += S->surface;
+        stt->pixels_background += S->background;
+        stt->pixels_invalid += S->invalid;
+        stt->pixels_converged += S->converged;
+        stt->pixels_at_max += S->at_max;
+        stt->max_std_error = S->max_se > stt->max_std_error ? S->max_se : stt->max_std_error;
+        stt->max_offset = S->max_eps > stt->max_offset ? S->max_eps : stt->max_offset;
+    }
+    stt->seconds = obs_time_now() - t0;
+    stt->seconds_work = t_work;
+
+done:
+    if (J->scratch)
+        for (int t = 0; t < threads; t++) {
+            obs_aligned_free(J->scratch[t].px);
+            free(J->scratch[t].active);
+            obs_aligned_free(J->scratch[t].rays);
+            obs_aligned_free(J->scratch[t].b0);
+            obs_aligned_free(J->scratch[t].b1);
+            obs_aligned_free(J->scratch[t].b2);
+            obs_aligned_free(J->scratch[t].lx);
+            obs_aligned_free(J->scratch[t].ly);
+            obs_aligned_free(J->scratch[t].lz);
+            obs_aligned_free(J->scratch[t].d4);
+            free(J->scratch[t].f);
+        }
+    obs_aligned_free(J->scratch);
+    free(J->inst_norm);
+    free(J->mesh_first);
+    free(J->tri_extent);
+    free(J);
+    if (st != OBS_STATUS_OK)
+        truth_ao_result_free(out);
+    return st;
+}

@@ -1,0 +1,39 @@
+/* truth_internal.h: internals of the truth module, shared by truth_scene.c, truth_ao.c and the
+ * truth benchmark (bench/bench_truth.c). Not installed; not a public API. Includes Embree. */
+#ifndef TRUTH_INTERNAL_H
+#define TRUTH_INTERNAL_H
+
+#include "truth.h"
+
+#include <embree3/rtcore.h>
+#include <stddef.h>
+
+/* Embree 3's C headers declare the ray structs without typedefs. */
+typedef struct RTCRay RTCRay;
+typedef struct RTCRayHit RTCRayHit;
+
+struct truth_scene {
+    RTCDevice device;
+    RTCScene top;
+    RTCScene *meshes;        /* one Embree scene per obs_mesh */
+    uint32_t mesh_count;
+    obs_mat4 *normal_world;  /* per instance: normal matrix of the world transform */
+    uint32_t instance_count;
+    /* geomID of each instance in the top scene equals its instance index */
+};
+
+/* Hooks into truth_ao_render for the benchmark: ray_sink, when set, is called with the rays of
+ * every batch just before they are traced, from worker threads. `rays` points to `count`
+ * RTCRay (occlusion estimators) or RTCRayHit (hit-distance estimators), `stride` bytes apart;
+ * (tile, batch) pairs are unique, so a sink that stores per tile needs no lock. */
+typedef struct truth_ao_hooks {
+    void (*ray_sink)(void *user, int64_t tile, int64_t batch, const void *rays, int count, size_t stride);
+    void *user;
+} truth_ao_hooks;
+
+/* truth_ao_render with hooks (NULL = none). */
+obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                              const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,
+                              truth_ao_result *out, const truth_ao_hooks *hooks);
+
+#endif

@@ -1,0 +1,1021 @@
+/* test_truth_ao.c: the ray-traced AO ground truth (src/truth/truth_ao.c, docs/truth.md).
+ *
+ * Analytic cases (issue 3, item 6), each through the whole pipeline (rasterized G-buffer, then
+ * Embree), with the exact value derived in the comment and, where a closed form needs an
+ * idealisation (infinite planes), an independent quadrature of the finite scene as well:
+ *   - an open plane: visibility exactly 1 (any self-hit is a bug);
+ *   - a point under a sphere: cosine occlusion sin^2(alpha), uniform 1 - cos(alpha);
+ *   - a point in the inside corner of a floor and a wall;
+ *   - a point inside a closed box: visibility exactly 0;
+ * then the 1/sqrt(N) convergence, thread-count determinism, the obscurance estimators against a
+ * quadrature, parameter refusals, and the CLI. */
+#include "io/io.h"
+#include "raster/raster.h"
+#include "scene_util.h"
+#include "test.h"
+#include "truth/truth.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+/* ---- scene building ------------------------------------------------------------------------- */
+
+typedef struct mesh_b {
+    float *pos;
+    uint32_t *idx;
+    uint32_t nv, nt, cap_v, cap_t;
+} mesh_b;
+
+static uint32_t mb_vertex(mesh_b *m, double x, double y, double z)
+{
+    if (m->nv == m->cap_v) {
+        m->cap_v = m->cap_v ? 2 * m->cap_v : 1024;
+        m->pos = (float *)realloc(m->pos, sizeof(float) * 3 * m->cap_v);
+    }
+    m->pos[3 * m->nv] = (float)x;
+    m->pos[3 * m->nv + 1] = (float)y;
+    m->pos[3 * m->nv + 2] = (float)z;
+    return m->nv++;
+}
+
+static void mb_tri(mesh_b *m, uint32_t a, uint32_t b, uint32_t c)
+{
+    if (m->nt == m->cap_t) {
+        m->cap_t = m->cap_t ? 2 * m->cap_t : 1024;
+        m->idx = (uint32_t *)realloc(m->idx, sizeof(uint32_t) * 3 * m->cap_t);
+    }
+    m->idx[3 * m->nt] = a;
+    m->idx[3 * m->nt + 1] = b;
+    m->idx[3 * m->nt + 2] = c;
+    m->nt++;
+}
+
+/* A grid quad: corner o, edges u and v, n x n cells. */
+static void mb_quad(mesh_b *m, const double o[3], const double u[3], const double v[3], int n)
+{
+    uint32_t first = m->nv;
+    for (int j = 0; j <= n; j++)
+        for (int i = 0; i <= n; i++) {
+            double s = (double)i / n, t = (double)j / n;
+            mb_vertex(m, o[0] + s * u[0] + t * v[0], o[1] + s * u[1] + t * v[1], o[2] + s * u[2] + t * v[2]);
+        }
+    for (int j = 0; j < n; j++)
+        for (int i = 0; i < n; i++) {
+            uint32_t a = first + (uint32_t)(j * (n + 1) + i), b = a + 1, c = a + (uint32_t)(n + 1), d = c + 1;
+            mb_tri(m, a, b, d);
+            mb_tri(m, a, d, c);
+        }
+}
+
+/* A horizontal (y = y0) plane centred at (cx, cz), half-size h, n x n cells. */
+static void mb_floor(mesh_b *m, double cx, double y0, double cz, double h, int n)
+{
+    double o[3] = {cx - h, y0, cz + h}, u[3] = {2 * h, 0, 0}, v[3] = {0, 0, -2 * h};
+    mb_quad(m, o, u, v, n);
+}
+
+/* A UV sphere (slices x stacks), vertices on the sphere. */
+static void mb_sphere(mesh_b *m, double cx, double cy, double cz, double R, int slices, int stacks)
+{
+    uint32_t first = m->nv;
+    for (int j = 0; j <= stacks; j++)
+        for (int i = 0; i <= slices; i++) {
+            double th = OBS_PI * j / stacks, ph = 2 * OBS_PI * (i % slices) / slices;
+            mb_vertex(m, cx + R * sin(th) * cos(ph), cy + R * cos(th), cz - R * sin(th) * sin(ph));
+        }
+    for (int j = 0; j < stacks; j++)
+        for (int i = 0; i < slices; i++) {
+            uint32_t a = first + (uint32_t)(j * (slices + 1) + i), b = a + 1, c = a + (uint32_t)(slices + 1), d = c + 1;
+            mb_tri(m, a, c, b);
+            mb_tri(m, b, c, d);
+        }
+}
+
+static void mb_to_scene(mesh_b *m, obs_scene *s)
+{
+    tu_scene_one_mesh(s, m->pos, m->nv, NULL, m->idx, m->nt);
+    free(m->pos);
+    free(m->idx);
+    memset(m, 0, sizeof *m);
+}
+
+/* ---- running the pipeline ------------------------------------------------------------------- */
+
+typedef struct ao_run {
+    obs_context *ctx;
+    obs_scene scene;
+    truth_scene *ts;
+    obs_camera cam;
+    rast_gbuffer gb;
+    rast_params rp;
+} ao_run;
+
+/* Rasterize the G-buffer for a camera at eye looking at target, and build the Embree scene. */
+static int run_setup(ao_run *R, obs_vec3 eye, obs_vec3 target, int W, int H)
+{
+    R->ctx = obs_context_create();
+    R->cam = obs_camera_look_at(eye, target, obs_v3(0, 1, 0), 0.6f, 0.01f, 1e5f);
+    R->rp = rast_params_default();
+    R->rp.width = W;
+    R->rp.height = H;
+    if (rast_gbuffer_alloc(R->ctx, &R->rp, &R->gb) != OBS_STATUS_OK)
+        return 0;
+    rast_view v = {R->cam};
+    if (rast_render(R->ctx, NULL, &R->scene, &v, 1, &R->rp, &R->gb, NULL) != OBS_STATUS_OK)
+        return 0;
+    return truth_scene_create(R->ctx, &R->scene, TRUTH_BUILD_MEDIUM, &R->ts) == OBS_STATUS_OK;
+}
+
+static void run_free(ao_run *R)
+{
+    truth_scene_destroy(R->ts);
+    rast_gbuffer_free(&R->gb);
+    obs_scene_free(&R->scene);
+    obs_context_destroy(R->ctx);
+}
+
+static obs_status run_ao(ao_run *R, obs_pool *pool, const truth_ao_params *p, truth_ao_result *res)
+{
+    return truth_ao_render(R->ctx, pool, R->ts, &R->scene, &R->cam, &R->gb, p, res);
+}
+
+static float px(const obs_image_f32 *im, int x, int y) { return obs_image_f32_row(im, y)[x]; }
+
+/* Converged single-pixel runs take a few million samples: raise the context's sample limit. */
+static void allow_samples(obs_context *ctx, int64_t n)
+{
+    obs_limits lim = *obs_context_limits(ctx);
+    lim.max_samples = n;
+    obs_context_set_limits(ctx, &lim);
+}
+
+/* ---- open plane ----------------------------------------------------------------------------- */
+
+/* Every surface pixel sees only sky: every single ray must be unoccluded, so the mean is exactly
+ * 1 and the standard error exactly 0 (the pixel then stops at min_samples). Three planes stress
+ * the self-intersection offset: a fine grid near the origin, the same grid moved to large
+ * coordinates and tilted, and one huge two-triangle quad (Embree's plane test works on
+ * v0 - origin, so a large triangle is the hard case). Both origins, both normals. */
+static void check_open_plane(const char *what, mesh_b *mb, const obs_mat4 *world, obs_vec3 eye, obs_vec3 target)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mb_to_scene(mb, &R.scene);
+    R.scene.instances[0].world = *world;
+    obs_scene_update_bounds(&R.scene);
+    CHECK_MSG(run_setup(&R, eye, target, 40, 30), "%s: setup failed: %s", what, obs_context_last_error(R.ctx));
+    static const truth_ao_estimator est[] = {TRUTH_AO_COS, TRUTH_AO_UNIF, TRUTH_AO_OBS_SAO_B};
+    static const float radii[] = {1.0f, INFINITY};
+    for (int e = 0; e < 3; e++)
+        for (int ri = 0; ri < 2; ri++)
+            for (int org = 0; org < 2; org++)
+                for (int nrm = 0; nrm < 2; nrm++) {
+                    if (est[e] == TRUTH_AO_OBS_SAO_B && isinf(radii[ri]))
+                        continue;
+                    truth_ao_params p = truth_ao_params_default();
+                    p.estimator = est[e];
+                    p.radius = radii[ri];
+                    p.origin = (truth_ao_origin)org;
+                    p.normal = (truth_ao_normal)nrm;
+                    p.seed = 7;
+                    truth_ao_result res;
+                    CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+                    int64_t surface = 0;
+                    for (int y = 0; y < res.height; y++)
+                        for (int x = 0; x < res.width; x++) {
+                            if (px(&res.count, x, y) == 0.0f)
+                                continue;
+                            surface++;
+                            CHECK_MSG(px(&res.mean, x, y) == 1.0f && px(&res.std_error, x, y) == 0.0f,
+                                      "%s, %s, r=%g, origin %d, normal %d: pixel (%d,%d) mean %.9g se %g (a self-hit)",
+                                      what, truth_ao_estimator_name(est[e]), (double)radii[ri], org, nrm, x, y,
+                                      (double)px(&res.mean, x, y), (double)px(&res.std_error, x, y));
+                            CHECK_EQ_INT(px(&res.count, x, y), 64);
+                        }
+                    CHECK_MSG(surface > 600, "%s: only %lld surface pixels", what, (long long)surface);
+                    CHECK_EQ_INT(res.stats.pixels_surface, surface);
+                    CHECK_EQ_INT(res.stats.rays, (uint64_t)surface * 64);
+                    truth_ao_result_free(&res);
+                }
+    run_free(&R);
+}
+
+TEST(truth_open_plane_has_visibility_one)
+{
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 20, 40);
+    obs_mat4 id = obs_mat4_identity();
+    check_open_plane("grid plane", &mb, &id, obs_v3(3, 5, 8), obs_v3(0.3f, 0, -0.2f));
+    if (test_failed())
+        return;
+    /* the same grid at (1000, -300, 2500), tilted by 30 degrees about x then 20 about z */
+    mb_floor(&mb, 0, 0, 0, 20, 40);
+    double a = 30 * OBS_PI / 180, b = 20 * OBS_PI / 180;
+    obs_mat4 rx = obs_mat4_from_quat((obs_vec4){(float)sin(a / 2), 0, 0, (float)cos(a / 2)});
+    obs_mat4 rz = obs_mat4_from_quat((obs_vec4){0, 0, (float)sin(b / 2), (float)cos(b / 2)});
+    obs_mat4 w = obs_mat4_mul(obs_mat4_translation(obs_v3(1000, -300, 2500)), obs_mat4_mul(rz, rx));
+    check_open_plane("far tilted plane", &mb, &w, obs_mat4_mul_point(w, obs_v3(3, 5, 8)),
+                     obs_mat4_mul_point(w, obs_v3(0.3f, 0, -0.2f)));
+    if (test_failed())
+        return;
+    /* one quad of 20 km, two triangles */
+    mb_floor(&mb, 0, 0, 0, 10000, 1);
+    check_open_plane("huge quad", &mb, &id, obs_v3(3, 5, 8), obs_v3(0.3f, 0, -0.2f));
+}
+
+/* VOL on a lone plane: the ball's points in front of the plane are seen from the eye, those
+ * behind are not: exactly half of the ball, so V = 1/2 (ao.md 1.1: "flat = 0.5"). */
+TEST(truth_vol_of_open_plane_is_one_half)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 20, 40);
+    mb_to_scene(&mb, &R.scene);
+    CHECK_MSG(run_setup(&R, obs_v3(3, 5, 8), obs_v3(0.3f, 0, -0.2f), 12, 9), "setup: %s", obs_context_last_error(R.ctx));
+    truth_ao_params p = truth_ao_params_default();
+    p.estimator = TRUTH_AO_VOL;
+    p.radius = 0.5f;
+    p.target_error = 0.002;
+    p.max_samples = 1 << 16;
+    truth_ao_result res;
+    CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+    int n = 0;
+    for (int y = 0; y < res.height; y++)
+        for (int x = 0; x < res.width; x++) {
+            float c = px(&res.count, x, y), m = px(&res.mean, x, y), se = px(&res.std_error, x, y);
+            CHECK(c > 0);
+            CHECK_MSG(fabs(m - 0.5) <= 3 * se + 1e-6, "pixel (%d,%d): %.6f +- %.2g, want 0.5", x, y, m, se);
+            CHECK(se <= 0.002);
+            n++;
+        }
+    CHECK_EQ_INT(n, 12 * 9);
+    truth_ao_result_free(&res);
+    /* the same through an orthographic camera: segments start on the view plane */
+    obs_camera oc = R.cam;
+    oc.projection = OBS_PROJECTION_ORTHOGRAPHIC;
+    oc.xmag = 2.0f;
+    oc.ymag = 1.5f;
+    oc.znear = 0.0f;
+    oc.zfar = 100.0f;
+    R.cam = oc;
+    rast_view v = {oc};
+    CHECK_OK(rast_render(R.ctx, NULL, &R.scene, &v, 1, &R.rp, &R.gb, NULL), R.ctx);
+    CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+    n = 0;
+    for (int y = 0; y < res.height; y++)
+        for (int x = 0; x < res.width; x++) {
+            float m = px(&res.mean, x, y), se = px(&res.std_error, x, y);
+            CHECK(px(&res.count, x, y) > 0);
+            CHECK_MSG(fabs(m - 0.5) <= 3 * se + 1e-6, "orthographic pixel (%d,%d): %.6f +- %.2g, want 0.5", x, y, m, se);
+            n++;
+        }
+    CHECK_EQ_INT(n, 12 * 9);
+    truth_ao_result_free(&res);
+    run_free(&R);
+}
+
+/* ---- a point under a sphere ------------------------------------------------------------------- */
+
+/* A point p on the floor, a sphere of radius R centred at p + h n. The sphere subtends a cap of
+ * half-angle alpha, sin(alpha) = R/h, around n. With r = infinity:
+ *   cosine-weighted: O = (1/pi) Int_cap cos(theta) dw = 2 Int_0^alpha cos sin dtheta = sin^2(alpha);
+ *   uniform:         O = (1/2pi) Int_cap dw = 1 - cos(alpha).
+ * The sphere is a 256 x 128 UV sphere with its vertices on the true sphere: its faces lie
+ * between radius R cos^2(pi/256) and R, so the exact occlusion of the mesh is within
+ * 2 (1 - cos^2(pi/256)) sin^2(alpha) < 1e-4 of the formula (tess_tol below). */
+#define CAP_H 2.0
+#define CAP_R 1.0
+static const double k_px = 0.013, k_pz = 0.021; /* p, off the grid's vertices */
+
+static int cap_setup(ao_run *R)
+{
+    memset(R, 0, sizeof *R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 50, 20);
+    mb_sphere(&mb, k_px, CAP_H, k_pz, CAP_R, 256, 128);
+    mb_to_scene(&mb, &R->scene);
+    /* a 1x1 image: its pixel centre ray is the look-at ray, so the pixel's point is p */
+    return run_setup(R, obs_v3(8, 1, 0.5f), obs_v3((float)k_px, 0, (float)k_pz), 1, 1);
+}
+
+static const double tess_tol = 1e-4;
+
+TEST(truth_point_under_sphere_matches_cap_formula)
+{
+    ao_run R;
+    CHECK_MSG(cap_setup(&R), "setup: %s", obs_context_last_error(R.ctx));
+    allow_samples(R.ctx, (int64_t)1 << 22);
+    double s = CAP_R / CAP_H, c = sqrt(1 - s * s);
+    struct { truth_ao_estimator e; double want; } cases[] = {{TRUTH_AO_COS, 1 - s * s}, {TRUTH_AO_UNIF, c}};
+    for (int k = 0; k < 2; k++)
+        for (int org = 0; org < 2; org++) {
+            truth_ao_params p = truth_ao_params_default();
+            p.estimator = cases[k].e;
+            p.radius = INFINITY;
+            p.origin = (truth_ao_origin)org;
+            p.target_error = 3e-4; /* so that 3 standard errors are under 1e-3 */
+            p.min_samples = 1024;
+            p.max_samples = (int64_t)1 << 22;
+            truth_ao_result res;
+            CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+            double m = px(&res.mean, 0, 0), se = px(&res.std_error, 0, 0);
+            printf("%s (origin %d): V = %.6f +- %.2g (%g samples), exact %.6f, diff %.2g\n",
+                   truth_ao_estimator_name(cases[k].e), org, m, se, (double)px(&res.count, 0, 0), cases[k].want,
+                   m - cases[k].want);
+            CHECK(se <= 3e-4 && se > 0);
+            CHECK_MSG(fabs(m - cases[k].want) <= 3 * se + tess_tol, "%.6f vs %.6f: over 3 standard errors (%.2g)", m,
+                      cases[k].want, se);
+            CHECK(fabs(m - cases[k].want) <= 1e-3);
+            truth_ao_result_free(&res);
+        }
+    run_free(&R);
+}
+
+/* ---- the inside corner of a floor and a wall -------------------------------------------------- */
+
+/* p on the floor (normal +y) at distance a from a wall, the plane x = a, rising from the floor.
+ * A direction w (theta from the normal) reaches the wall plane at distance a / w_x when w_x > 0.
+ *
+ * (i) finite radius r, a wall taller than r: occluded iff w_x > c = a/r.
+ *   cosine: project the cosine-distributed directions to the unit disk (Malley): uniform in the
+ *   disk with x = w_x, so O = area{x > c}/pi = (acos c - c sqrt(1 - c^2)) / pi;
+ *   uniform: w_x of a uniform hemisphere direction is uniform in [-1, 1] (Archimedes), so
+ *   O = (1 - c)/2. At c = 0 (a point on the corner line) both give 1/2.
+ * (ii) r = infinity, a wall of height H, infinitely long: occluded iff w_x > 0 and the elevation
+ *   in the xy-plane is below atan(H/a). The geometry is 2-D, so the cosine-weighted fraction is
+ *   the 2-D form factor (1/2) Int cos(phi) dphi over phi in [atan(a/H), pi/2] from the normal:
+ *   O = (1 - a/sqrt(a^2 + H^2)) / 2.
+ * The scene's wall is finite (+-L along z); an independent quadrature of the finite rectangle
+ * (midpoint rule in theta, phi) checks both closed forms and bounds the finite-size error. */
+static double corner_quadrature(double a, double H, double L, double r, int cosine)
+{
+    const int nt = 1500, np = 3000;
+    double sum = 0;
+    for (int i = 0; i < nt; i++) {
+        double th = (i + 0.5) * (OBS_PI / 2) / nt, st = sin(th), ct = cos(th);
+        double w = cosine ? ct * st : st;
+        for (int j = 0; j < np; j++) {
+            double ph = (j + 0.5) * 2 * OBS_PI / np;
+            double wx = st * cos(ph), wz = st * sin(ph), wy = ct;
+            if (wx <= 0)
+                continue;
+            double t = a / wx;
+            if (t >= r)
+                continue;
+            double y = t * wy, z = t * wz;
+            if (y <= H && fabs(z) <= L)
+                sum += w;
+        }
+    }
+    double dA = (OBS_PI / 2 / nt) * (2 * OBS_PI / np);
+    return sum * dA / (cosine ? OBS_PI : 2 * OBS_PI);
+}
+
+static int corner_setup(ao_run *R, double a, double H, double L)
+{
+    memset(R, 0, sizeof *R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 1000, 10);
+    double o[3] = {a, 0, -L}, u[3] = {0, 0, 2 * L}, v[3] = {0, H, 0};
+    mb_quad(&mb, o, u, v, 8);
+    mb_to_scene(&mb, &R->scene);
+    return run_setup(R, obs_v3(-3, 2, 1), obs_v3(0, 0, 0), 1, 1);
+}
+
+TEST(truth_inside_corner_of_two_planes)
+{
+    struct {
+        double a, H, L, r;
+        truth_ao_estimator e;
+    } cases[] = {
+        {0.3, 5, 50, 1.0, TRUTH_AO_COS},
+        {0.3, 5, 50, 1.0, TRUTH_AO_UNIF},
+        {0.05, 5, 50, 0.5, TRUTH_AO_COS},
+        {1.0, 2, 500, INFINITY, TRUTH_AO_COS},
+    };
+    for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+        double a = cases[k].a, H = cases[k].H, L = cases[k].L, r = cases[k].r;
+        int cosine = cases[k].e == TRUTH_AO_COS;
+        double closed;
+        if (isinf(r))
+            closed = 0.5 * (1 - a / sqrt(a * a + H * H));
+        else {
+            double c = a / r;
+            closed = cosine ? (acos(c) - c * sqrt(1 - c * c)) / OBS_PI : (1 - c) / 2;
+        }
+        double quad = corner_quadrature(a, H, L, r, cosine);
+        printf("corner a=%g H=%g r=%g %s: closed form O = %.6f, quadrature %.6f\n", a, H, r,
+               truth_ao_estimator_name(cases[k].e), closed, quad);
+        CHECK_MSG(fabs(quad - closed) < 3e-4, "quadrature %.6f vs closed form %.6f", quad, closed);
+        ao_run R;
+        CHECK_MSG(corner_setup(&R, a, H, L), "setup: %s", obs_context_last_error(R.ctx));
+        allow_samples(R.ctx, (int64_t)1 << 22);
+        truth_ao_params p = truth_ao_params_default();
+        p.estimator = cases[k].e;
+        p.radius = (float)r;
+        p.target_error = 3e-4;
+        p.min_samples = 1024;
+        p.max_samples = (int64_t)1 << 22;
+        truth_ao_result res;
+        CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+        double m = px(&res.mean, 0, 0), se = px(&res.std_error, 0, 0);
+        printf("  estimate V = %.6f +- %.2g (%g samples), 1 - O = %.6f\n", m, se, (double)px(&res.count, 0, 0), 1 - closed);
+        CHECK(se > 0 && se <= 3e-4);
+        CHECK_MSG(fabs(m - (1 - quad)) <= 3 * se + 3e-4, "V %.6f vs quadrature %.6f (se %.2g)", m, 1 - quad, se);
+        CHECK_MSG(fabs(m - (1 - closed)) <= 3 * se + 1e-5 || fabs(m - (1 - closed)) <= 1e-3,
+                  "V %.6f vs closed form %.6f (se %.2g)", m, 1 - closed, se);
+        CHECK(fabs(m - (1 - closed)) <= 1e-3);
+        truth_ao_result_free(&res);
+        run_free(&R);
+    }
+}
+
+/* ---- a closed box ------------------------------------------------------------------------------ */
+
+/* A point inside a closed box sees walls in every direction: with r = infinity every ray is
+ * occluded, V = 0 exactly (a leak through an edge or a missed wall would show). */
+TEST(truth_point_inside_closed_box_has_visibility_zero)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    static const double P[8][3] = {{-1, -1, -1}, {1, -1, -1}, {1, 1, -1}, {-1, 1, -1},
+                                   {-1, -1, 1},  {1, -1, 1},  {1, 1, 1},  {-1, 1, 1}};
+    for (int i = 0; i < 8; i++)
+        mb_vertex(&mb, P[i][0], P[i][1], P[i][2]);
+    static const uint32_t F[12][3] = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                                      {3, 6, 2}, {3, 7, 6}, {0, 4, 7}, {0, 7, 3}, {1, 2, 6}, {1, 6, 5}};
+    for (int f = 0; f < 12; f++)
+        mb_tri(&mb, F[f][0], F[f][1], F[f][2]);
+    mb_to_scene(&mb, &R.scene);
+    CHECK_MSG(run_setup(&R, obs_v3(0.2f, 0.3f, 0.5f), obs_v3(-0.5f, -1, -0.4f), 24, 18), "setup: %s",
+              obs_context_last_error(R.ctx));
+    for (int org = 0; org < 2; org++) {
+        truth_ao_params p = truth_ao_params_default();
+        p.radius = INFINITY;
+        p.origin = (truth_ao_origin)org;
+        truth_ao_result res;
+        CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+        CHECK_EQ_INT(res.stats.pixels_surface, 24 * 18);
+        for (int y = 0; y < res.height; y++)
+            for (int x = 0; x < res.width; x++) {
+                CHECK_MSG(px(&res.mean, x, y) == 0.0f, "pixel (%d,%d): mean %g", x, y, (double)px(&res.mean, x, y));
+                CHECK(px(&res.std_error, x, y) == 0.0f);
+                CHECK_EQ_INT(px(&res.count, x, y), 64);
+            }
+        truth_ao_result_free(&res);
+    }
+    run_free(&R);
+}
+
+/* ---- convergence ------------------------------------------------------------------------------ */
+
+/* The sphere cap with fixed sample counts N = 64 .. 4096 and 64 seeds per N. The reported
+ * standard error (the i.i.d. formula) must fall as N^-1/2 (log-log slope in [-0.65, -0.35]). The
+ * actual RMS error against sin^2(alpha) must fall at least as fast (slope <= -0.35: randomised
+ * low-discrepancy points do better than N^-1/2 on this integrand), and stay below the reported
+ * standard error at every N: the error bars are conservative (docs/truth.md, "Convergence"). */
+static double slope(const double *x, const double *y, int n)
+{
+    double mx = 0, my = 0;
+    for (int i = 0; i < n; i++) {
+        mx += log(x[i]) / n;
+        my += log(y[i]) / n;
+    }
+    double sxy = 0, sxx = 0;
+    for (int i = 0; i < n; i++) {
+        sxy += (log(x[i]) - mx) * (log(y[i]) - my);
+        sxx += (log(x[i]) - mx) * (log(x[i]) - mx);
+    }
+    return sxy / sxx;
+}
+
+TEST(truth_error_falls_as_inverse_sqrt_n)
+{
+    ao_run R;
+    CHECK_MSG(cap_setup(&R), "setup: %s", obs_context_last_error(R.ctx));
+    double s = CAP_R / CAP_H, want = 1 - s * s;
+    double N[4] = {64, 256, 1024, 4096}, rms[4], mse[4];
+    const int seeds = 64;
+    for (int k = 0; k < 4; k++) {
+        double e2 = 0, se_sum = 0;
+        for (int seed = 0; seed < seeds; seed++) {
+            truth_ao_params p = truth_ao_params_default();
+            p.radius = INFINITY;
+            p.seed = (uint64_t)seed * 7919u + 1;
+            p.min_samples = p.max_samples = (int64_t)N[k];
+            truth_ao_result res;
+            CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+            CHECK_EQ_INT(px(&res.count, 0, 0), N[k]);
+            double d = px(&res.mean, 0, 0) - want;
+            e2 += d * d / seeds;
+            se_sum += px(&res.std_error, 0, 0) / seeds;
+            truth_ao_result_free(&res);
+        }
+        rms[k] = sqrt(e2);
+        mse[k] = se_sum;
+        printf("N = %5.0f: RMS error %.5f, mean standard error %.5f, ratio %.2f\n", N[k], rms[k], mse[k], rms[k] / mse[k]);
+        CHECK_MSG(rms[k] <= mse[k], "actual RMS error %.5f over the reported standard error %.5f", rms[k], mse[k]);
+    }
+    double s_rms = slope(N, rms, 4), s_se = slope(N, mse, 4);
+    printf("slopes: RMS error %.3f, standard error %.3f\n", s_rms, s_se);
+    CHECK_MSG(s_rms >= -1.25 && s_rms <= -0.35, "RMS error slope %.3f", s_rms);
+    CHECK_MSG(s_se >= -0.65 && s_se <= -0.35, "standard error slope %.3f", s_se);
+    run_free(&R);
+}
+
+/* ---- determinism -------------------------------------------------------------------------------- */
+
+static int planes_equal(const truth_ao_result *a, const truth_ao_result *b)
+{
+    if (a->width != b->width || a->height != b->height)
+        return 0;
+    for (int y = 0; y < a->height; y++) {
+        size_t n = sizeof(float) * (size_t)a->width;
+        if (memcmp(obs_image_f32_row(&a->mean, y), obs_image_f32_row(&b->mean, y), n) ||
+            memcmp(obs_image_f32_row(&a->std_error, y), obs_image_f32_row(&b->std_error, y), n) ||
+            memcmp(obs_image_f32_row(&a->count, y), obs_image_f32_row(&b->count, y), n))
+            return 0;
+    }
+    return a->stats.rays == b->stats.rays && a->stats.pixels_converged == b->stats.pixels_converged;
+}
+
+TEST(truth_output_identical_for_1_2_and_8_threads)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 5, 16);
+    mb_sphere(&mb, 0, 0.5, 0, 0.5, 32, 16);
+    mb_sphere(&mb, 0.8, 0.3, 0.4, 0.3, 24, 12);
+    mb_to_scene(&mb, &R.scene);
+    CHECK_MSG(run_setup(&R, obs_v3(1.5f, 1.5f, 2.5f), obs_v3(0.2f, 0.3f, 0), 37, 29), "setup: %s",
+              obs_context_last_error(R.ctx));
+    static const truth_ao_estimator est[] = {TRUTH_AO_COS, TRUTH_AO_OBS_SAO_B, TRUTH_AO_VOL};
+    for (int e = 0; e < 3; e++) {
+        truth_ao_params p = truth_ao_params_default();
+        p.estimator = est[e];
+        p.radius = 0.6f;
+        p.target_error = 0.03; /* adaptive: pixels stop at different rounds */
+        p.max_samples = 512;
+        p.seed = 12345;
+        truth_ao_result res[3];
+        int threads[3] = {1, 2, 8};
+        for (int t = 0; t < 3; t++) {
+            obs_pool *pool = obs_pool_create(threads[t]);
+            CHECK_OK(run_ao(&R, pool, &p, &res[t]), R.ctx);
+            obs_pool_destroy(pool);
+        }
+        int64_t c64 = 0, cmax = 0, cmid = 0;
+        for (int y = 0; y < res[0].height; y++)
+            for (int x = 0; x < res[0].width; x++) {
+                float c = px(&res[0].count, x, y);
+                c64 += c == 64;
+                cmax += c == 512;
+                cmid += c > 64 && c < 512;
+            }
+        printf("%s: %lld pixels stopped at 64 samples, %lld between, %lld at 512\n", truth_ao_estimator_name(est[e]),
+               (long long)c64, (long long)cmid, (long long)cmax);
+        CHECK(cmid > 0);
+        CHECK_MSG(planes_equal(&res[0], &res[1]), "%s: 1 and 2 threads differ", truth_ao_estimator_name(est[e]));
+        CHECK_MSG(planes_equal(&res[0], &res[2]), "%s: 1 and 8 threads differ", truth_ao_estimator_name(est[e]));
+        /* a different seed gives a different (but close) image */
+        truth_ao_result other;
+        p.seed = 54321;
+        CHECK_OK(run_ao(&R, NULL, &p, &other), R.ctx);
+        CHECK(!planes_equal(&res[0], &other));
+        for (int t = 0; t < 3; t++)
+            truth_ao_result_free(&res[t]);
+        truth_ao_result_free(&other);
+    }
+    run_free(&R);
+}
+
+/* A G-buffer rendered with a guard band gives the same inner pixels (the same rays, see
+ * docs/conventions.md), so the ground truth of its inner image is the same, bit for bit; the
+ * tile size does not matter either. */
+TEST(truth_guard_band_and_tile_size_do_not_change_the_result)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 5, 16);
+    mb_sphere(&mb, 0, 0.5, 0, 0.5, 32, 16);
+    mb_to_scene(&mb, &R.scene);
+    CHECK_MSG(run_setup(&R, obs_v3(1.5f, 1.5f, 2.5f), obs_v3(0.2f, 0.3f, 0), 33, 21), "setup: %s",
+              obs_context_last_error(R.ctx));
+    truth_ao_params p = truth_ao_params_default();
+    p.radius = 0.6f;
+    p.target_error = 0.02;
+    p.max_samples = 256;
+    truth_ao_result a, b, c;
+    CHECK_OK(run_ao(&R, NULL, &p, &a), R.ctx);
+    p.tile = 16;
+    CHECK_OK(run_ao(&R, NULL, &p, &c), R.ctx);
+    CHECK_MSG(planes_equal(&a, &c), "tile 8 and tile 16 differ");
+    p.tile = 8;
+    rast_params rp = R.rp;
+    rp.guard = 5;
+    rast_gbuffer gb;
+    CHECK_OK(rast_gbuffer_alloc(R.ctx, &rp, &gb), R.ctx);
+    rast_view v = {R.cam};
+    CHECK_OK(rast_render(R.ctx, NULL, &R.scene, &v, 1, &rp, &gb, NULL), R.ctx);
+    CHECK_OK(truth_ao_render(R.ctx, NULL, R.ts, &R.scene, &R.cam, &gb, &p, &b), R.ctx);
+    CHECK_EQ_INT(b.width, 33);
+    CHECK_EQ_INT(b.height, 21);
+    CHECK_MSG(planes_equal(&a, &b), "guard band 0 and 5 differ");
+    truth_ao_result_free(&a);
+    truth_ao_result_free(&b);
+    truth_ao_result_free(&c);
+    rast_gbuffer_free(&gb);
+    run_free(&R);
+}
+
+/* ---- obscurance estimators ---------------------------------------------------------------------- */
+
+/* The sphere cap with a finite radius r: along a direction at angle theta from n (the sphere's
+ * centre lies along n), the hit distance is t(theta) = h cos(theta) - sqrt(R^2 - h^2 sin^2(theta))
+ * for theta < alpha. So
+ *   cosine-weighted: V = 1 - 2 Int_0^alpha rho(min(t, r)) cos sin dtheta
+ *   uniform:         V = 1 -   Int_0^alpha rho(min(t, r)) sin dtheta
+ * with rho = 0 from r on; a composite midpoint rule with 2e5 steps is the reference. */
+static double rho_of(truth_ao_estimator e, double d, double r)
+{
+    if (d >= r)
+        return 0;
+    double x = 1 - d * d / (r * r);
+    return e == TRUTH_AO_OBS_SAO_B ? x * x * x : x;
+}
+
+static double cap_obscurance_quadrature(truth_ao_estimator e, double r)
+{
+    double alpha = asin(CAP_R / CAP_H);
+    const int n = 200000;
+    double sum = 0, dt = alpha / n;
+    for (int i = 0; i < n; i++) {
+        double th = (i + 0.5) * dt, st = sin(th), ct = cos(th);
+        double t = CAP_H * ct - sqrt(fmax(0, CAP_R * CAP_R - CAP_H * CAP_H * st * st));
+        double rho = rho_of(e, t, r);
+        sum += e == TRUTH_AO_OBS_HBAO ? rho * st : 2 * rho * ct * st;
+    }
+    return 1 - sum * dt;
+}
+
+TEST(truth_obscurance_estimators_match_quadrature)
+{
+    ao_run R;
+    CHECK_MSG(cap_setup(&R), "setup: %s", obs_context_last_error(R.ctx));
+    allow_samples(R.ctx, (int64_t)1 << 22);
+    static const truth_ao_estimator est[] = {TRUTH_AO_OBS_SAO_B, TRUTH_AO_OBS_SAO_LINEAR, TRUTH_AO_OBS_MSSAO,
+                                             TRUTH_AO_OBS_HBAO};
+    const double r = 1.5; /* the cap's hit distances run from h - R = 1 to h cos(alpha) = 1.73 */
+    float linear_mean = -1;
+    for (int k = 0; k < 4; k++) {
+        double want = cap_obscurance_quadrature(est[k], r);
+        truth_ao_params p = truth_ao_params_default();
+        p.estimator = est[k];
+        p.radius = (float)r;
+        p.target_error = 1.5e-4;
+        p.min_samples = 1024;
+        p.max_samples = (int64_t)1 << 22;
+        truth_ao_result res;
+        CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+        double m = px(&res.mean, 0, 0), se = px(&res.std_error, 0, 0);
+        printf("%s r=%g: V = %.6f +- %.2g (%g samples), quadrature %.6f\n", truth_ao_estimator_name(est[k]), r, m, se,
+               (double)px(&res.count, 0, 0), want);
+        /* the mesh's hit distances are longer by up to R (1 - cos^2(pi/256)) = 1.5e-4: |drho| <= 2 d/r^2 * 1.5e-4 */
+        CHECK_MSG(fabs(m - want) <= 3 * se + 1.5e-4, "%s: %.6f vs %.6f (se %.2g)", truth_ao_estimator_name(est[k]), m, want, se);
+        CHECK(se <= 1.5e-4 && fabs(m - want) <= 1e-3);
+        /* SAO's linear falloff and MSSAO's are the same integral: the same seed gives the same bits */
+        if (est[k] == TRUTH_AO_OBS_SAO_LINEAR)
+            linear_mean = (float)m;
+        if (est[k] == TRUTH_AO_OBS_MSSAO)
+            CHECK(linear_mean == (float)m);
+        truth_ao_result_free(&res);
+    }
+    run_free(&R);
+}
+
+/* ---- the two origins agree -------------------------------------------------------------------- */
+
+TEST(truth_embree_origin_agrees_with_gbuffer_origin)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 5, 16);
+    mb_sphere(&mb, 0, 0.5, 0, 0.5, 48, 24);
+    mb_to_scene(&mb, &R.scene);
+    CHECK_MSG(run_setup(&R, obs_v3(1.5f, 1.5f, 2.5f), obs_v3(0, 0.3f, 0), 24, 18), "setup: %s",
+              obs_context_last_error(R.ctx));
+    truth_ao_params p = truth_ao_params_default();
+    p.radius = 0.5f;
+    p.target_error = 0.004;
+    truth_ao_result a, b;
+    CHECK_OK(run_ao(&R, NULL, &p, &a), R.ctx);
+    p.origin = TRUTH_AO_ORIGIN_EMBREE;
+    p.seed = 99;
+    CHECK_OK(run_ao(&R, NULL, &p, &b), R.ctx);
+    CHECK_EQ_INT(b.stats.primary_rays, 24 * 18);
+    int both = 0, far = 0;
+    for (int y = 0; y < a.height; y++)
+        for (int x = 0; x < a.width; x++) {
+            if (px(&a.count, x, y) == 0 || px(&b.count, x, y) == 0)
+                continue;
+            both++;
+            double d = px(&a.mean, x, y) - px(&b.mean, x, y);
+            double s = sqrt(px(&a.std_error, x, y) * px(&a.std_error, x, y) + px(&b.std_error, x, y) * px(&b.std_error, x, y));
+            if (fabs(d) > 4 * s + 1e-6) {
+                far++;
+                printf("  pixel (%d,%d): G-buffer %.4f +- %.4f (%g), Embree %.4f +- %.4f (%g)\n", x, y,
+                       (double)px(&a.mean, x, y), (double)px(&a.std_error, x, y), (double)px(&a.count, x, y),
+                       (double)px(&b.mean, x, y), (double)px(&b.std_error, x, y), (double)px(&b.count, x, y));
+            }
+        }
+    printf("%d pixels with a surface in both, %d differ by more than 4 standard errors\n", both, far);
+    CHECK(both > 300);
+    CHECK(far <= both / 100);
+    truth_ao_result_free(&a);
+    truth_ao_result_free(&b);
+    run_free(&R);
+}
+
+/* ---- refusals ----------------------------------------------------------------------------------- */
+
+TEST(truth_bad_parameters_are_refused)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 5, 2);
+    mb_to_scene(&mb, &R.scene);
+    CHECK_MSG(run_setup(&R, obs_v3(1, 2, 3), obs_v3(0, 0, 0), 8, 8), "setup: %s", obs_context_last_error(R.ctx));
+    struct { const char *what; truth_ao_params p; obs_status want; } c[32];
+    int n = 0;
+#define CASE(desc, field, value, status)                                                         \
+    do {                                                                                         \
+        c[n].what = desc;                                                                        \
+        c[n].p = truth_ao_params_default();                                                      \
+        c[n].p.field = value;                                                                    \
+        c[n].want = status;                                                                      \
+        n++;                                                                                     \
+    } while (0)
+    CASE("radius 0", radius, 0.0f, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("radius < 0", radius, -1.0f, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("radius NaN", radius, NAN, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("target < 0", target_error, -0.001, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("target NaN", target_error, NAN, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("target inf", target_error, INFINITY, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("batch 1", batch, 1, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("batch 2048", batch, 2048, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("min below the batch", min_samples, 8, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("min 0", min_samples, 0, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("max over 2^31", max_samples, ((int64_t)1 << 31) + 16, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("min not a multiple", min_samples, 70, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("max < min", max_samples, 32, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("max not a multiple", max_samples, 4100, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("max over the limit", max_samples, (int64_t)1 << 21, OBS_STATUS_LIMIT_EXCEEDED);
+    CASE("tile 2", tile, 2, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("tile 64", tile, 64, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("offset < 0", offset_ulps, -1.0f, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("offset inf", offset_ulps, INFINITY, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("estimator out of range", estimator, TRUTH_AO_COUNT, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("normal out of range", normal, TRUTH_AO_NORMAL_COUNT, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("origin out of range", origin, TRUTH_AO_ORIGIN_COUNT, OBS_STATUS_INVALID_ARGUMENT);
+    /* obscurance and VOL need a finite radius */
+    CASE("SAO with r = inf", estimator, TRUTH_AO_OBS_SAO_B, OBS_STATUS_INVALID_ARGUMENT);
+    c[n - 1].p.radius = INFINITY;
+    CASE("VOL with r = inf", estimator, TRUTH_AO_VOL, OBS_STATUS_INVALID_ARGUMENT);
+    c[n - 1].p.radius = INFINITY;
+#undef CASE
+    for (int k = 0; k < n; k++) {
+        truth_ao_result res;
+        memset(&res, 0xAB, sizeof res);
+        obs_context_clear_error(R.ctx);
+        obs_status st = run_ao(&R, NULL, &c[k].p, &res);
+        CHECK_MSG(st == c[k].want, "%s: got %s, want %s", c[k].what, obs_status_string(st), obs_status_string(c[k].want));
+        CHECK_MSG(obs_context_last_error(R.ctx)[0] != '\0', "%s: no message", c[k].what);
+        CHECK(res.mean.data == NULL && res.count.data == NULL && res.width == 0);
+    }
+    /* the limit is the context's: raising it lets the same request through */
+    obs_limits lim = *obs_context_limits(R.ctx);
+    lim.max_samples = (int64_t)1 << 22;
+    obs_context_set_limits(R.ctx, &lim);
+    truth_ao_params p = truth_ao_params_default();
+    p.max_samples = (int64_t)1 << 21;
+    truth_ao_result res;
+    CHECK_OK(run_ao(&R, NULL, &p, &res), R.ctx);
+    truth_ao_result_free(&res);
+    /* NULLs */
+    p = truth_ao_params_default();
+    CHECK(truth_ao_render(R.ctx, NULL, NULL, &R.scene, &R.cam, &R.gb, &p, &res) == OBS_STATUS_INVALID_ARGUMENT);
+    CHECK(truth_ao_render(R.ctx, NULL, R.ts, &R.scene, &R.cam, &R.gb, NULL, &res) == OBS_STATUS_INVALID_ARGUMENT);
+    CHECK(truth_ao_render(R.ctx, NULL, R.ts, &R.scene, &R.cam, &R.gb, &p, NULL) == OBS_STATUS_INVALID_ARGUMENT);
+    /* a G-buffer without the planes the G-buffer origin needs */
+    rast_params rp = R.rp;
+    rp.outputs = RAST_OUT_DEPTH | RAST_OUT_NORMAL;
+    rast_gbuffer gb2;
+    CHECK_OK(rast_gbuffer_alloc(R.ctx, &rp, &gb2), R.ctx);
+    rast_view v = {R.cam};
+    CHECK_OK(rast_render(R.ctx, NULL, &R.scene, &v, 1, &rp, &gb2, NULL), R.ctx);
+    obs_context_clear_error(R.ctx);
+    CHECK(truth_ao_render(R.ctx, NULL, R.ts, &R.scene, &R.cam, &gb2, &p, &res) == OBS_STATUS_INVALID_ARGUMENT);
+    CHECK(strstr(obs_context_last_error(R.ctx), "face normal") != NULL);
+    /* ... which the Embree origin does not need */
+    p.origin = TRUTH_AO_ORIGIN_EMBREE;
+    CHECK_OK(truth_ao_render(R.ctx, NULL, R.ts, &R.scene, &R.cam, &gb2, &p, &res), R.ctx);
+    truth_ao_result_free(&res);
+    rast_gbuffer_free(&gb2);
+    /* names round-trip */
+    for (int e = 0; e < TRUTH_AO_COUNT; e++) {
+        truth_ao_estimator back;
+        CHECK(truth_ao_estimator_from_name(truth_ao_estimator_name((truth_ao_estimator)e), &back) && back == (truth_ao_estimator)e);
+    }
+    truth_ao_estimator dummy;
+    CHECK(!truth_ao_estimator_from_name("ssao", &dummy));
+    run_free(&R);
+}
+
+/* ---- the CLI ------------------------------------------------------------------------------------ */
+
+/* A small glTF (external .bin) with a unit sphere resting on a plane, no camera (the CLI frames
+ * the bounds). */
+static int write_sphere_on_plane_gltf(const char *dir, char *path, size_t path_size)
+{
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 3, 6);
+    mb_sphere(&mb, 0, 1, 0, 1, 32, 16);
+    char bin[4096];
+    snprintf(bin, sizeof bin, "%s/scene.bin", dir);
+    FILE *f = fopen(bin, "wb");
+    if (!f)
+        return 0;
+    size_t pos_bytes = sizeof(float) * 3 * mb.nv, idx_bytes = sizeof(uint32_t) * 3 * mb.nt;
+    fwrite(mb.pos, 1, pos_bytes, f);
+    fwrite(mb.idx, 1, idx_bytes, f);
+    fclose(f);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (uint32_t v = 0; v < mb.nv; v++)
+        for (int c = 0; c < 3; c++) {
+            lo[c] = fminf(lo[c], mb.pos[3 * v + c]);
+            hi[c] = fmaxf(hi[c], mb.pos[3 * v + c]);
+        }
+    snprintf(path, path_size, "%s/scene.gltf", dir);
+    f = fopen(path, "w");
+    if (!f)
+        return 0;
+    fprintf(f,
+            "{\"asset\":{\"version\":\"2.0\"},\"scene\":0,\"scenes\":[{\"nodes\":[0]}],"
+            "\"nodes\":[{\"mesh\":0,\"name\":\"sphere_on_plane\"}],"
+            "\"meshes\":[{\"primitives\":[{\"attributes\":{\"POSITION\":0},\"indices\":1,\"mode\":4}]}],"
+            "\"buffers\":[{\"uri\":\"scene.bin\",\"byteLength\":%zu}],"
+            "\"bufferViews\":[{\"buffer\":0,\"byteOffset\":0,\"byteLength\":%zu},"
+            "{\"buffer\":0,\"byteOffset\":%zu,\"byteLength\":%zu}],"
+            "\"accessors\":[{\"bufferView\":0,\"componentType\":5126,\"count\":%u,\"type\":\"VEC3\","
+            "\"min\":[%.9g,%.9g,%.9g],\"max\":[%.9g,%.9g,%.9g]},"
+            "{\"bufferView\":1,\"componentType\":5125,\"count\":%u,\"type\":\"SCALAR\"}]}\n",
+            pos_bytes + idx_bytes, pos_bytes, pos_bytes, idx_bytes, mb.nv, (double)lo[0], (double)lo[1],
+            (double)lo[2], (double)hi[0], (double)hi[1], (double)hi[2], 3 * mb.nt);
+    fclose(f);
+    free(mb.pos);
+    free(mb.idx);
+    return 1;
+}
+
+static int run_cli(const char *args)
+{
+    char cmd[8192];
+    if ((size_t)snprintf(cmd, sizeof cmd, "'%s' %s > /dev/null 2>&1", OBS_CLI_PATH, args) >= sizeof cmd)
+        return -1;
+    int rc = system(cmd);
+    return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
+}
+
+static char *slurp(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *b = (char *)malloc((size_t)n + 1);
+    size_t got = fread(b, 1, (size_t)n, f);
+    b[got] = '\0';
+    fclose(f);
+    return b;
+}
+
+static int file_exists(const char *path)
+{
+    struct stat sb;
+    return stat(path, &sb) == 0 && S_ISREG(sb.st_mode);
+}
+
+/* The generated sphere_on_plane.glb (two instances, two cameras) when the data generator has run,
+ * else a glTF written here. */
+TEST(truth_cli_writes_exr_with_mean_stderr_count)
+{
+    const char *dir = test_tmpdir();
+    char scene[1024];
+    const char *gen = test_path(test_data_dir(), "sphere_on_plane.glb");
+    if (file_exists(gen) && strlen(gen) < sizeof scene) {
+        strcpy(scene, gen);
+        printf("scene: %s (generated)\n", scene);
+    } else {
+        CHECK(write_sphere_on_plane_gltf(dir, scene, sizeof scene));
+        printf("scene: %s (written by this test: no generated sphere_on_plane.glb)\n", scene);
+    }
+    char prefix[1024], args[4096];
+    snprintf(prefix, sizeof prefix, "%s/out/ao", dir);
+    snprintf(args, sizeof args, "--threads 2 truth ao '%s' --size 64x48 --radius 0.5 --estimator cos --max-samples 256 "
+                                "--seed 3 -o '%s'", scene, prefix);
+    CHECK_EQ_INT(run_cli(args), 0);
+    obs_context *ctx = obs_context_create();
+    io_image im;
+    char path[1100];
+    snprintf(path, sizeof path, "%s.exr", prefix);
+    CHECK_OK(io_image_read(ctx, path, &im), ctx);
+    CHECK_EQ_INT(im.width, 64);
+    CHECK_EQ_INT(im.height, 48);
+    int cm = io_image_find_channel(&im, "AO.mean"), cs = io_image_find_channel(&im, "AO.stderr"),
+        cc = io_image_find_channel(&im, "AO.count"), cz = io_image_find_channel(&im, "Z");
+    CHECK(cm >= 0 && cs >= 0 && cc >= 0 && cz >= 0);
+    int surface = 0, occluded = 0;
+    for (int y = 0; y < 48; y++)
+        for (int x = 0; x < 64; x++) {
+            float m = px(&im.f32[cm], x, y), s = px(&im.f32[cs], x, y), c = px(&im.f32[cc], x, y), z = px(&im.f32[cz], x, y);
+            CHECK(isfinite(m) && isfinite(s) && isfinite(c));
+            CHECK(m >= 0 && m <= 1 && s >= 0);
+            if (isfinite(z)) {
+                CHECK(c >= 64 && c <= 256);
+                surface++;
+                occluded += m < 0.9f;
+            } else {
+                CHECK(c == 0 && m == 1 && s == 0);
+            }
+        }
+    CHECK(surface > 200);
+    CHECK(occluded > 10); /* the contact of sphere and plane */
+    io_image_free(&im);
+    snprintf(path, sizeof path, "%s.png", prefix);
+    struct stat sb;
+    CHECK(stat(path, &sb) == 0 && sb.st_size > 0);
+    snprintf(path, sizeof path, "%s.json", prefix);
+    char *json = slurp(path);
+    CHECK(json != NULL);
+    CHECK(strstr(json, "\"estimator\": \"cos\"") || strstr(json, "\"estimator\":\"cos\""));
+    CHECK(strstr(json, "rays") != NULL && strstr(json, "mrays_per_second") != NULL);
+    free(json);
+    /* the same command on 1 thread writes the same EXR bytes */
+    char prefix1[1024];
+    snprintf(prefix1, sizeof prefix1, "%s/out/ao1", dir);
+    snprintf(args, sizeof args, "--threads 1 truth ao '%s' --size 64x48 --radius 0.5 --estimator cos --max-samples 256 "
+                                "--seed 3 -o '%s'", scene, prefix1);
+    CHECK_EQ_INT(run_cli(args), 0);
+    snprintf(path, sizeof path, "%s.exr", prefix);
+    char *e2 = slurp(path);
+    snprintf(path, sizeof path, "%s.exr", prefix1);
+    char *e1 = slurp(path);
+    CHECK(e1 && e2);
+    struct stat s1, s2;
+    snprintf(path, sizeof path, "%s.exr", prefix);
+    stat(path, &s2);
+    snprintf(path, sizeof path, "%s.exr", prefix1);
+    stat(path, &s1);
+    CHECK(s1.st_size == s2.st_size && memcmp(e1, e2, (size_t)s1.st_size) == 0);
+    free(e1);
+    free(e2);
+    /* usage errors exit 2; a missing scene exits 3; an infinite radius with an obscurance estimator is refused */
+    snprintf(args, sizeof args, "truth ao '%s' --estimator nope -o '%s'", scene, prefix);
+    CHECK_EQ_INT(run_cli(args), 2);
+    snprintf(args, sizeof args, "truth ao '%s' --radius -1 -o '%s'", scene, prefix);
+    CHECK_EQ_INT(run_cli(args), 2);
+    snprintf(args, sizeof args, "truth ao '%s' --estimator obs-sao --radius inf -o '%s'", scene, prefix);
+    CHECK_EQ_INT(run_cli(args), 2);
+    snprintf(args, sizeof args, "truth ao '%s/missing.glb' -o '%s'", dir, prefix);
+    CHECK_EQ_INT(run_cli(args), 3);
+    snprintf(args, sizeof args, "truth nope '%s'", scene);
+    CHECK_EQ_INT(run_cli(args), 2);
+    /* the generated closed box, seen from inside: every AO ray is occluded, V = 0 exactly */
+    const char *box = test_path(test_data_dir(), "closed_box.glb");
+    if (file_exists(box)) {
+        snprintf(args, sizeof args, "--threads 2 truth ao '%s' --size 32x24 --radius inf -o '%s/out/box'", box, dir);
+        CHECK_EQ_INT(run_cli(args), 0);
+        snprintf(path, sizeof path, "%s/out/box.exr", dir);
+        CHECK_OK(io_image_read(ctx, path, &im), ctx);
+        int cm2 = io_image_find_channel(&im, "AO.mean"), cc2 = io_image_find_channel(&im, "AO.count");
+        CHECK(cm2 >= 0 && cc2 >= 0);
+        for (int y = 0; y < im.height; y++)
+            for (int x = 0; x < im.width; x++) {
+                CHECK(px(&im.f32[cc2], x, y) == 64);
+                CHECK(px(&im.f32[cm2], x, y) == 0.0f);
+            }
+        io_image_free(&im);
+    }
+    obs_context_destroy(ctx);
+}
