@@ -44,6 +44,9 @@ int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i);
 obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene);
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *scene, const char *which, obs_camera *out);
 
+/* mkdir -p for the directory part of path (outputs may name new directories). */
+obs_status cli_make_parent_dirs(obs_context *ctx, const char *path);
+
 /* Write the common sidecar fields (version, revision, command line). */
 void cli_json_header(io_json *j, const char *command, int argc, char **argv);
 

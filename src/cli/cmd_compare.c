@@ -61,30 +61,6 @@ typedef struct thresholds {
     int has_max_rmse, has_max_abs, has_max_bias, has_min_psnr, has_min_ssim, has_max_over;
 } thresholds;
 
-/* mkdir -p for the directory part of path. */
-static obs_status make_parent_dirs(obs_context *ctx, const char *path)
-{
-    char buf[4096];
-    size_t n = strlen(path);
-    if (n >= sizeof buf)
-        return obs_error(ctx, OBS_STATUS_IO_ERROR, "output path too long: %s", path);
-    memcpy(buf, path, n + 1);
-    char *slash = strrchr(buf, '/');
-    if (!slash || slash == buf)
-        return OBS_STATUS_OK;
-    *slash = '\0';
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-        *p = '/';
-    }
-    if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-    return OBS_STATUS_OK;
-}
 
 static int is_id_name(const char *n) { return !strcmp(n, "primid") || !strcmp(n, "instid") || !strcmp(n, "matid"); }
 
@@ -599,7 +575,7 @@ int cmd_compare(cli_globals *g, int argc, char **argv)
         io_json_bool(&j, "passed", violated == 0);
         io_json_end_object(&j);
         io_json_end_object(&j);
-        st = make_parent_dirs(ctx, json_path);
+        st = cli_make_parent_dirs(ctx, json_path);
         if (st == OBS_STATUS_OK)
             st = io_json_write(ctx, &j, json_path);
         if (st != OBS_STATUS_OK) {
@@ -651,7 +627,7 @@ int cmd_compare(cli_globals *g, int argc, char **argv)
                     obs_image_f32_row(&rgb[q], y)[x] = c[q];
             }
         }
-        st = make_parent_dirs(ctx, heat_path);
+        st = cli_make_parent_dirs(ctx, heat_path);
         if (st == OBS_STATUS_OK)
             st = io_png_write(ctx, heat_path, rgb, 3, IO_PNG_SRGB);
         if (st != OBS_STATUS_OK) {

@@ -24,30 +24,6 @@ static const char *gbuffer_help =
     "EXR channels: Z (linear depth, inf = background), Zndc, N.X N.Y N.Z (shading normal, view space),\n"
     "Ng.X Ng.Y Ng.Z (face normal), primid, instid, matid (uint, 4294967295 = none).\n";
 
-/* mkdir -p for the directory part of path. */
-static obs_status make_parent_dirs(obs_context *ctx, const char *path)
-{
-    char buf[4096];
-    size_t n = strlen(path);
-    if (n >= sizeof buf)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "output path too long: %s", path);
-    memcpy(buf, path, n + 1);
-    char *slash = strrchr(buf, '/');
-    if (!slash)
-        return OBS_STATUS_OK;
-    *slash = '\0';
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-        *p = '/';
-    }
-    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
-        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-    return OBS_STATUS_OK;
-}
 
 static int parse_outputs(const char *s, uint32_t *out)
 {
@@ -279,7 +255,7 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     na++;
 
     char path[4200];
-    st = make_parent_dirs(ctx, prefix);
+    st = cli_make_parent_dirs(ctx, prefix);
     if (st == OBS_STATUS_OK) {
         snprintf(path, sizeof path, "%s.exr", prefix);
         st = io_exr_write(ctx, path, ch, nch, at, na);

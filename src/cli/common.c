@@ -1,9 +1,11 @@
 /* common.c: scene loading and camera choice shared by the subcommands. */
 #include "cli.h"
 
+#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene)
 {
@@ -37,5 +39,30 @@ obs_status cli_pick_camera(obs_context *ctx, const obs_scene *s, const char *whi
         return OBS_STATUS_OK;
     }
     *out = obs_camera_frame_bounds(s->bounds, (float)(45.0 * OBS_PI / 180.0));
+    return OBS_STATUS_OK;
+}
+
+/* mkdir -p for the directory part of path. */
+obs_status cli_make_parent_dirs(obs_context *ctx, const char *path)
+{
+    char buf[4096];
+    size_t n = strlen(path);
+    if (n >= sizeof buf)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "output path too long: %s", path);
+    memcpy(buf, path, n + 1);
+    char *slash = strrchr(buf, '/');
+    if (!slash)
+        return OBS_STATUS_OK;
+    *slash = '\0';
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
+            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
+        *p = '/';
+    }
+    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
     return OBS_STATUS_OK;
 }
