@@ -1,7 +1,7 @@
 /* bench.c: obscura's benchmarks. Speed is measured here, never in tests.
  *
  *   obscura_bench gbuffer MESH.glb [--size WxH] [--threads N] [--reps R] [--warmup W]
- *                                  [--outputs peer|all] [--isa auto|scalar|avx2]
+ *                                  [--outputs peer|all] [--isa auto|scalar|avx2] [--tile 16..256]
  *
  * The scene is framed exactly as the llvmpipe peer (../shared/tools/llvmpipe-peer) frames its
  * OFF mesh, so both render the same pixels: the mesh is centred on its bounding-box centre and
@@ -37,6 +37,7 @@ static int bench_gbuffer(int argc, char **argv)
         else if (!strcmp(a, "--threads")) { threads = atoi(v); i++; }
         else if (!strcmp(a, "--reps")) { reps = atoi(v); i++; }
         else if (!strcmp(a, "--warmup")) { warmup = atoi(v); i++; }
+        else if (!strcmp(a, "--tile")) { p.tile_size = atoi(v); i++; }
         else if (!strcmp(a, "--outputs")) { p.outputs = !strcmp(v, "all") ? RAST_OUT_ALL : RAST_OUT_DEPTH | RAST_OUT_NORMAL; i++; }
         else if (!strcmp(a, "--isa")) { p.isa = !strcmp(v, "scalar") ? RAST_ISA_SCALAR : !strcmp(v, "avx2") ? RAST_ISA_AVX2 : RAST_ISA_AUTO; i++; }
         else if (a[0] != '-') mesh = a;
@@ -101,9 +102,9 @@ static int bench_gbuffer(int argc, char **argv)
     }
     qsort(t, (size_t)reps, sizeof(double), cmp_double);
     double median = reps % 2 ? t[reps / 2] : 0.5 * (t[reps / 2 - 1] + t[reps / 2]);
-    printf("RESULT gbuffer mesh=%s size=%dx%d threads=%d isa=%s outputs=%s tris=%llu coverage=%.4f "
+    printf("RESULT gbuffer mesh=%s size=%dx%d tile=%d threads=%d isa=%s outputs=%s tris=%llu coverage=%.4f "
            "median_ms=%.3f min_ms=%.3f max_ms=%.3f setup_ms=%.3f reps=%d\n",
-           mesh, W, H, obs_pool_threads(pool), rast_isa_name(st.isa_used), p.outputs == RAST_OUT_ALL ? "all" : "peer",
+           mesh, W, H, p.tile_size, obs_pool_threads(pool), rast_isa_name(st.isa_used), p.outputs == RAST_OUT_ALL ? "all" : "peer",
            (unsigned long long)st.triangles_in, (double)st.pixels_covered / ((double)W * H), median, t[0],
            t[reps - 1], setup, reps);
     free(t);
