@@ -17,6 +17,11 @@ int test_failed(void);
 const char *test_tmpdir(void);
 /* Path join into a static rotating buffer. */
 const char *test_path(const char *dir, const char *name);
+/* Run exe with args (a NULL-terminated list, argv[0] excluded), stdout and stderr redirected to
+ * the given files (NULL = /dev/null). Returns the exit code, or -1 when it did not exit normally. */
+int test_spawn(const char *exe, const char *const *args, const char *out_path, const char *err_path);
+/* A whole file, NUL-terminated, malloc'd (NULL when unreadable); *len gets its size if non-NULL. */
+char *test_slurp(const char *path, size_t *len);
 /* Generated data directory (the build's data/), and the source tree. */
 const char *test_data_dir(void);
 const char *test_source_dir(void);

@@ -5,61 +5,22 @@
 #include "test.h"
 
 #include <dirent.h>
-#include <fcntl.h>
-#include <spawn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-extern char **environ;
-
-/* Run the CLI with a NULL-terminated argument list (argv[0] excluded); stdout and stderr go to
- * files in the test directory. Returns the exit code, or -1 when it did not exit normally. */
+/* Run the CLI; stdout and stderr go to <tag>.stdout / <tag>.stderr in the test directory. */
 static int run_cli(const char *const *args, const char *tag)
 {
-    const char *argv[64];
-    int n = 0;
-    argv[n++] = OBS_CLI_PATH;
-    for (int i = 0; args[i] && n < 63; i++)
-        argv[n++] = args[i];
-    argv[n] = NULL;
     char out[4200], err[4200];
     snprintf(out, sizeof out, "%s/%s.stdout", test_tmpdir(), tag);
     snprintf(err, sizeof err, "%s/%s.stderr", test_tmpdir(), tag);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    pid_t pid;
-    int rc = posix_spawn(&pid, OBS_CLI_PATH, &fa, NULL, (char *const *)argv, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0)
-        return -1;
-    int status;
-    if (waitpid(pid, &status, 0) < 0 || !WIFEXITED(status))
-        return -1;
-    return WEXITSTATUS(status);
+    return test_spawn(OBS_CLI_PATH, args, out, err);
 }
 
-static char *slurp(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    fseek(f, 0, SEEK_END);
-    long n = ftell(f);
-    fseek(f, 0, SEEK_SET);
-    char *b = malloc((size_t)n + 1);
-    size_t got = fread(b, 1, (size_t)n, f);
-    fclose(f);
-    b[got] = '\0';
-    if (len)
-        *len = got;
-    return b;
-}
+static char *slurp(const char *path, size_t *len) { return test_slurp(path, len); }
 
 static int file_contains(const char *path, const char *needle)
 {

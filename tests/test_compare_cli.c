@@ -4,16 +4,12 @@
 #include "io/io.h"
 #include "test.h"
 
-#include <fcntl.h>
 #include <stdarg.h>
-#include <spawn.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
-extern char **environ;
 
 /* ---- helpers ------------------------------------------------------------------------------ */
 
@@ -47,23 +43,10 @@ static int run_compare(const char *first, ...)
     char out_path[4200], err_path[4200];
     snprintf(out_path, sizeof out_path, "%s/stdout.txt", test_tmpdir());
     snprintf(err_path, sizeof err_path, "%s/stderr.txt", test_tmpdir());
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, 1, out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    posix_spawn_file_actions_addopen(&fa, 2, err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-    pid_t pid;
-    int rc = posix_spawn(&pid, OBS_CLI_PATH, &fa, NULL, (char *const *)args, environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0)
-        return -1;
-    int status;
-    if (waitpid(pid, &status, 0) != pid)
-        return -1;
+    int rc = test_spawn(OBS_CLI_PATH, args + 1, out_path, err_path);
     slurp(out_path, g_out, sizeof g_out);
     slurp(err_path, g_err, sizeof g_err);
-    if (!WIFEXITED(status))
-        return -1;
-    return WEXITSTATUS(status);
+    return rc;
 }
 
 static int file_exists(const char *path)

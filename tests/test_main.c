@@ -2,6 +2,9 @@
 #include "test.h"
 
 #include <dirent.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <errno.h>
 #include <stdarg.h>
 #include <stdlib.h>
@@ -76,6 +79,50 @@ static void remove_tree(const char *path)
 }
 
 const char *test_tmpdir(void) { return g_tmp; }
+
+extern char **environ;
+
+int test_spawn(const char *exe, const char *const *args, const char *out_path, const char *err_path)
+{
+    const char *argv[128];
+    int n = 0;
+    argv[n++] = exe;
+    for (int i = 0; args[i] && n < 127; i++)
+        argv[n++] = args[i];
+    argv[n] = NULL;
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    posix_spawn_file_actions_addopen(&fa, 1, out_path ? out_path : "/dev/null", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    posix_spawn_file_actions_addopen(&fa, 2, err_path ? err_path : "/dev/null", O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    pid_t pid;
+    int rc = posix_spawn(&pid, exe, &fa, NULL, (char *const *)argv, environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0)
+        return -1;
+    int status;
+    if (waitpid(pid, &status, 0) != pid || !WIFEXITED(status))
+        return -1;
+    return WEXITSTATUS(status);
+}
+
+char *test_slurp(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    fseek(f, 0, SEEK_END);
+    long n = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    char *b = n >= 0 ? (char *)malloc((size_t)n + 1) : NULL;
+    size_t got = b ? fread(b, 1, (size_t)n, f) : 0;
+    fclose(f);
+    if (!b)
+        return NULL;
+    b[got] = '\0';
+    if (len)
+        *len = got;
+    return b;
+}
 
 int main(int argc, char **argv)
 {
