@@ -8,10 +8,12 @@
 #include "io/io.h"
 #include "off.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 /* ------------------------------------------------------------------------------------------------
  * Mesh builder
@@ -264,12 +266,18 @@ static int load_mesh(obs_context *ctx, const char *dir, const char *file, float 
     snprintf(path, sizeof path, "%s/%s", dir, file);
     char *text;
     size_t len;
-    if (io_read_file(ctx, path, (size_t)1 << 30, &text, &len) != OBS_STATUS_OK ||
-        off_parse(ctx, path, text, len, &out->pos, &out->nv, &out->idx, &out->nt) != OBS_STATUS_OK) {
+    if (io_read_file(ctx, path, (size_t)1 << 30, &text, &len) != OBS_STATUS_OK) {
         fprintf(stderr, "obscura_mkdata: %s (run scripts/setup.sh to extract the meshes)\n", obs_context_last_error(ctx));
+        obs_context_clear_error(ctx);
         return 0;
     }
+    obs_status st = off_parse(ctx, path, text, len, &out->pos, &out->nv, &out->idx, &out->nt);
     free(text);
+    if (st != OBS_STATUS_OK) {
+        fprintf(stderr, "obscura_mkdata: %s\n", obs_context_last_error(ctx));
+        obs_context_clear_error(ctx);
+        return 0;
+    }
     double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY}, c[3], r2 = 0, vol = 0;
     for (uint32_t v = 0; v < out->nv; v++)
         for (int k = 0; k < 3; k++) {
@@ -484,6 +492,9 @@ static void scene_village(obs_context *ctx, const char *out)
 {
     int32_t grass = sb_material("ground", 0.45f, 0.55f, 0.35f), wall = sb_material("wall", 0.85f, 0.8f, 0.7f),
             roof = sb_material("roof", 0.55f, 0.2f, 0.15f);
+    /* The roof is two single quads whose eaves overhang the walls: seen from the street, their
+     * undersides face the camera, so the material says double-sided (glTF 2.0 §3.9.5). */
+    g_scene.materials[roof].double_sided = 1;
     ground(30.0f, 30, grass);
     /* A two-storey house: a 6 x 6 x 6 m body and a gabled roof with its ridge along x at 8.5 m. */
     mb body = {0}, rf = {0};
@@ -526,7 +537,8 @@ static void scene_room(obs_context *ctx, const char *out)
         float x = i & 1 ? 0.17f : -0.22f, z = i & 2 ? 0.17f : -0.22f;
         mb_box(&chair, obs_v3(x, 0, z), obs_v3(x + 0.05f, 0.42f, z + 0.05f), 0);
     }
-    mb_box(&chair, obs_v3(-0.22f, 0.47f, 0.18f), obs_v3(0.22f, 0.95f, 0.22f), 0);
+    /* the back on the chair's -z side: a chair faces +z (an unrotated chair south of the table faces it) */
+    mb_box(&chair, obs_v3(-0.22f, 0.47f, -0.22f), obs_v3(0.22f, 0.95f, -0.18f), 0);
     /* bookshelf against the back wall: sides, back, five shelves */
     mb_box(&shelf, obs_v3(-0.6f, 0, -0.175f), obs_v3(-0.57f, 2.0f, 0.175f), 0);
     mb_box(&shelf, obs_v3(0.57f, 0, -0.175f), obs_v3(0.6f, 2.0f, 0.175f), 0);
@@ -552,6 +564,35 @@ static void scene_room(obs_context *ctx, const char *out)
     sb_write(ctx, out, "room.glb");
 }
 
+/* mkdir -p: each missing component of dir, mode 0777 (less the umask). Returns 0 or -1 (errno). */
+static int make_dirs(const char *dir)
+{
+    char p[4096];
+    size_t n = strlen(dir);
+    if (n == 0 || n >= sizeof p) {
+        errno = ENAMETOOLONG;
+        return -1;
+    }
+    memcpy(p, dir, n + 1);
+    for (size_t i = 1; i <= n; i++) {
+        if (p[i] == '/' || p[i] == '\0') {
+            char saved = p[i];
+            p[i] = '\0';
+            if (mkdir(p, 0777) != 0 && errno != EEXIST)
+                return -1;
+            p[i] = saved;
+        }
+    }
+    struct stat st;
+    if (stat(dir, &st) != 0)
+        return -1;
+    if (!S_ISDIR(st.st_mode)) {
+        errno = ENOTDIR;
+        return -1;
+    }
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     const char *out = NULL, *meshes = NULL;
@@ -569,7 +610,29 @@ int main(int argc, char **argv)
         fprintf(stderr, "usage: obscura_mkdata --out DIR --meshes DIR_WITH_OFF_FILES\n");
         return 2;
     }
+    /* The meshes first: a missing one is named before anything is written. */
+    static const char *const offs[] = {"bunny00.off", "ChineseDragon-10kv.off", "armadillo.off"};
+    int missing = 0;
+    for (size_t k = 0; k < sizeof offs / sizeof offs[0]; k++) {
+        char path[4096];
+        struct stat stt;
+        snprintf(path, sizeof path, "%s/%s", meshes, offs[k]);
+        int found = stat(path, &stt) == 0;
+        if (!found || !S_ISREG(stt.st_mode)) {
+            fprintf(stderr, "obscura_mkdata: missing mesh '%s' (%s); run scripts/setup.sh to extract it\n", path,
+                    found ? "not a regular file" : strerror(errno));
+            missing = 1;
+        }
+    }
+    if (missing)
+        return 1;
+    if (make_dirs(out) != 0) {
+        fprintf(stderr, "obscura_mkdata: cannot create the output directory '%s': %s\n", out, strerror(errno));
+        return 1;
+    }
     obs_context *ctx = obs_context_create();
+    if (!ctx)
+        die("out of memory");
     obs_scene_init(&g_scene);
     printf("obscura_mkdata: writing scenes to %s\n", out);
     scene_plane(ctx, out);
