@@ -13,6 +13,9 @@ PKGS=(
 )
 if [ "${1:-}" = "--dev" ]; then
   PKGS+=(valgrind linux-perf hyperfine gnuplot-nox)
+  # the llvmpipe peer (../shared/tools/llvmpipe-peer) that test ao_sao_matches_llvmpipe_peer builds
+  # and runs; without them that test is skipped, so CI does not need them
+  PKGS+=(libegl-dev libopengl-dev libgl-dev zlib1g-dev libegl-mesa0 libgl1-mesa-dri)
 fi
 
 missing=()

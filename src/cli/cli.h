@@ -50,9 +50,14 @@ obs_status cli_make_parent_dirs(obs_context *ctx, const char *path);
 /* Write the common sidecar fields (version, revision, command line). */
 void cli_json_header(io_json *j, const char *command, int argc, char **argv);
 
+/* The whole command (main.c): main() calls it; the fuzz target fuzz_cli_args calls it in-process.
+ * Returns the exit code. */
+int cli_main(int argc, char **argv);
+
 int cmd_gbuffer(cli_globals *g, int argc, char **argv);
 int cmd_info(cli_globals *g, int argc, char **argv);
 int cmd_truth(cli_globals *g, int argc, char **argv);
 int cmd_compare(cli_globals *g, int argc, char **argv);
+int cmd_ao(cli_globals *g, int argc, char **argv);
 
 #endif

@@ -19,6 +19,7 @@ static const char *usage_text =
     "  info FILE       describe a scene (.gltf/.glb) or an image (.exr, .png)\n"
     "  truth ao SCENE  ray-traced AO ground truth (Embree) per estimator: EXR mean/stderr/count, PNG, JSON\n"
     "  compare A B     compare image B with reference A (RMSE, PSNR, SSIM ...; thresholds set the exit code)\n"
+    "  ao --method M   screen-space AO (sao) on a scene's G-buffer or an external one: EXR, PNGs, JSON\n"
     "\n"
     "global options:\n"
     "  --threads N         worker threads (default: all CPUs); output is identical for any N\n"
@@ -146,7 +147,7 @@ void cli_json_header(io_json *j, const char *command, int argc, char **argv)
     io_json_end_array(j);
 }
 
-int main(int argc, char **argv)
+int cli_main(int argc, char **argv)
 {
     cli_globals g;
     memset(&g, 0, sizeof g);
@@ -200,9 +201,17 @@ int main(int argc, char **argv)
         return cmd_truth(&g, argc - i, argv + i);
     if (!strcmp(cmd, "compare"))
         return cmd_compare(&g, argc - i, argv + i);
+    if (!strcmp(cmd, "ao"))
+        return cmd_ao(&g, argc - i, argv + i);
     if (!strcmp(cmd, "help")) {
         fputs(usage_text, stdout);
         return CLI_EXIT_OK;
     }
     return cli_usage_error("unknown command '%s'", cmd);
 }
+
+#ifndef OBS_CLI_NO_MAIN
+/* The fuzz target fuzz_cli_args (tests/fuzz) compiles this file with OBS_CLI_NO_MAIN and calls
+ * cli_main itself. */
+int main(int argc, char **argv) { return cli_main(argc, argv); }
+#endif

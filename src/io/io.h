@@ -57,7 +57,9 @@ void io_json_begin_object(io_json *j, const char *key);   /* key NULL inside arr
 void io_json_end_object(io_json *j);
 void io_json_begin_array(io_json *j, const char *key);
 void io_json_end_array(io_json *j);
-void io_json_string(io_json *j, const char *key, const char *value);  /* escapes per RFC 8259 */
+/* Escapes per RFC 8259; keys and values that are not well-formed UTF-8 get U+FFFD for each
+ * offending byte (JSON text must be UTF-8). */
+void io_json_string(io_json *j, const char *key, const char *value);
 void io_json_number(io_json *j, const char *key, double value);       /* %.9g; non-finite -> null */
 void io_json_int(io_json *j, const char *key, int64_t value);
 void io_json_bool(io_json *j, const char *key, int value);
@@ -92,6 +94,14 @@ io_gltf_options io_gltf_options_default(void);
  * UNSUPPORTED (non-triangle modes, sparse accessors, unknown required extensions);
  * NOT_FOUND (opt->scene_index names no scene); LIMIT_EXCEEDED; OUT_OF_MEMORY. */
 obs_status io_gltf_load(obs_context *ctx, const char *path, const io_gltf_options *opt, obs_scene *out);
+
+/* The same loader over len bytes in memory (a .gltf's JSON text or a .glb). `name` stands for the
+ * path in messages and in out->source ("<memory>" when NULL); a name ending in ".glb", or bytes
+ * starting with the "glTF" magic, select the binary container. Buffers must be inside the bytes
+ * (the GLB BIN chunk or data: URIs): an external URI resolves against nothing and gives IO_ERROR.
+ * Same checks and statuses as io_gltf_load (for fuzzing and for callers that hold the bytes). */
+obs_status io_gltf_load_memory(obs_context *ctx, const char *name, const void *data, size_t len,
+                               const io_gltf_options *opt, obs_scene *out);
 
 /* Write a scene as a .glb (binary glTF 2.0) atomically: meshes (POSITION, NORMAL, indices as
  * UNSIGNED_INT), one node per instance with its matrix, cameras as nodes, lights through
@@ -164,6 +174,11 @@ typedef struct io_image {
  * unreadable), PARSE_ERROR (anything OpenImageIO cannot decode), UNSUPPORTED (deep or volume
  * images), LIMIT_EXCEEDED, OUT_OF_MEMORY; on failure *out is empty. */
 obs_status io_image_read(obs_context *ctx, const char *path, io_image *out);
+/* The same reader over len bytes in memory (through OpenImageIO's IOMemReader). `name` stands for
+ * the path in messages ("<memory>" when NULL or empty). EXR and PNG bytes are recognised by their
+ * magic numbers; other formats by the name's extension, as a file name would be. Same statuses
+ * as io_image_read (no bytes: PARSE_ERROR). */
+obs_status io_image_read_memory(obs_context *ctx, const char *name, const void *data, size_t len, io_image *out);
 void io_image_free(io_image *im);
 /* Index of a channel by exact name, or -1. */
 int io_image_find_channel(const io_image *im, const char *name);

@@ -13,6 +13,8 @@
  *     arithmetic before reading a byte, and checks counts against the context's limits before
  *     allocating;
  *   - checks the node graph (child ranges, single parent, no cycles) iteratively before walking.
+ * io_gltf_load_memory takes the same path from the bytes on: only Loader::read_file differs (it
+ * copies the caller's bytes), and the file-system callbacks then resolve no external file.
  * Every error message starts with the file path and names the offending glTF object.
  * No C++ exception leaves this file. */
 #include "io.h"
@@ -224,11 +226,14 @@ struct FsState {
     std::string base;        /* directory of the .gltf ("" = current directory) */
     uint64_t max_bytes;      /* cap on one external file */
     std::string failure;     /* first external-file failure, for the message */
+    bool memory = false;     /* loading from memory: no external file resolves */
 };
 
 bool fs_file_exists(const std::string &p, void *user)
 {
     FsState *st = static_cast<FsState *>(user);
+    if (st->memory)
+        return false;
     /* tinygltf tries <base>/<uri> and then ./<uri>; only accept the first when there is a base */
     if (!st->base.empty() && p.compare(0, st->base.size(), st->base) != 0)
         return false;
@@ -241,6 +246,11 @@ std::string fs_expand(const std::string &p, void *) { return p; }
 bool fs_read(std::vector<unsigned char> *out, std::string *err, const std::string &p, void *user)
 {
     FsState *st = static_cast<FsState *>(user);
+    if (st->memory) {
+        if (err)
+            *err += "external files cannot be read when loading from memory";
+        return false;
+    }
     FILE *f = fopen(p.c_str(), "rb");
     if (!f) {
         if (err)
@@ -298,8 +308,12 @@ struct AccessorView {
 
 class Loader {
 public:
-    Loader(obs_context *ctx, const char *path, const io_gltf_options &opt, obs_scene *out)
-        : ctx_(ctx), path_(path), opt_(opt), out_(out)
+    /* mem != NULL: parse the mem_len bytes there instead of reading the file `path`, which then
+     * only names them in messages */
+    Loader(obs_context *ctx, const char *path, const io_gltf_options &opt, obs_scene *out,
+           const void *mem = nullptr, size_t mem_len = 0)
+        : ctx_(ctx), path_(path), opt_(opt), out_(out), mem_(static_cast<const unsigned char *>(mem)),
+          mem_len_(mem_len)
     {
         lim_ = ctx ? *obs_context_limits(ctx) : obs_limits_default();
     }
@@ -336,6 +350,8 @@ private:
     const char *path_;
     io_gltf_options opt_;
     obs_scene *out_;
+    const unsigned char *mem_;
+    size_t mem_len_;
     obs_limits lim_;
     tinygltf::Model model_;
     FsState fs_;
@@ -360,6 +376,17 @@ obs_status Loader::fail(obs_status st, const char *fmt, ...)
 
 obs_status Loader::read_file(std::vector<unsigned char> &bytes)
 {
+    if (mem_) {
+        if (static_cast<uint64_t>(mem_len_) > 0xFFFFFFFFull || static_cast<int64_t>(mem_len_) > lim_.max_memory_bytes)
+            return fail(OBS_STATUS_LIMIT_EXCEEDED, "%zu bytes are too many to load (limit %llu; --max-memory)",
+                        mem_len_,
+                        static_cast<unsigned long long>(lim_.max_memory_bytes < 0xFFFFFFFFll ? lim_.max_memory_bytes
+                                                                                             : 0xFFFFFFFFll));
+        bytes.assign(mem_, mem_ + mem_len_);
+        if (bytes.empty())
+            return fail(OBS_STATUS_PARSE_ERROR, "empty file");
+        return OBS_STATUS_OK;
+    }
     FILE *f = fopen(path_, "rb");
     if (!f)
         return fail(OBS_STATUS_IO_ERROR, "cannot open: %s", strerror(errno));
@@ -455,7 +482,8 @@ obs_status Loader::parse(std::vector<unsigned char> &bytes)
     std::string ext = lower_ext(path_);
     bool binary = ext == "glb" || (bytes.size() >= 4 && memcmp(bytes.data(), "glTF", 4) == 0);
 
-    fs_.base = base_dir(path_);
+    fs_.base = mem_ ? std::string() : base_dir(path_);
+    fs_.memory = mem_ != nullptr;
     fs_.max_bytes = static_cast<uint64_t>(lim_.max_memory_bytes > 0 ? lim_.max_memory_bytes : 0);
     if (fs_.max_bytes > 0xFFFFFFFFull)
         fs_.max_bytes = 0xFFFFFFFFull;
@@ -487,6 +515,12 @@ obs_status Loader::parse(std::vector<unsigned char> &bytes)
     if (!warn.empty())
         obs_log(ctx_, OBS_LOG_WARN, "%s: tinygltf: %s", path_, one_line(warn).c_str());
     if (!ok) {
+        if (fs_.memory && (err.find("File not found") != std::string::npos ||
+                           err.find("File read error") != std::string::npos))
+            return fail(OBS_STATUS_IO_ERROR,
+                        "an external buffer cannot be resolved when loading from memory (only the GLB BIN chunk "
+                        "and data: URIs can be): %s",
+                        one_line(err).c_str());
         if (err.find("File not found") != std::string::npos)
             return fail(OBS_STATUS_IO_ERROR, "cannot load an external buffer (looked in '%s'): %s",
                         fs_.base.empty() ? "." : fs_.base.c_str(), one_line(err).c_str());
@@ -1213,16 +1247,15 @@ extern "C" io_gltf_options io_gltf_options_default(void)
     return o;
 }
 
-extern "C" obs_status io_gltf_load(obs_context *ctx, const char *path, const io_gltf_options *opt, obs_scene *out)
+namespace {
+
+obs_status load(obs_context *ctx, const char *path, const void *mem, size_t mem_len, const io_gltf_options *opt,
+                obs_scene *out)
 {
-    if (out)
-        obs_scene_init(out);
-    if (!path || !out)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_gltf_load: %s is NULL", !path ? "path" : "out");
     io_gltf_options o = opt ? *opt : io_gltf_options_default();
     obs_status st;
     try {
-        Loader loader(ctx, path, o, out);
+        Loader loader(ctx, path, o, out, mem, mem_len);
         st = loader.run();
     } catch (const std::bad_alloc &) {
         st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "%s: out of memory while loading glTF", path);
@@ -1234,4 +1267,29 @@ extern "C" obs_status io_gltf_load(obs_context *ctx, const char *path, const io_
     if (st != OBS_STATUS_OK)
         obs_scene_free(out);
     return st;
+}
+
+} // namespace
+
+extern "C" obs_status io_gltf_load(obs_context *ctx, const char *path, const io_gltf_options *opt, obs_scene *out)
+{
+    if (out)
+        obs_scene_init(out);
+    if (!path || !out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_gltf_load: %s is NULL", !path ? "path" : "out");
+    return load(ctx, path, nullptr, 0, opt, out);
+}
+
+extern "C" obs_status io_gltf_load_memory(obs_context *ctx, const char *name, const void *data, size_t len,
+                                          const io_gltf_options *opt, obs_scene *out)
+{
+    if (out)
+        obs_scene_init(out);
+    if (!out || (!data && len > 0))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_gltf_load_memory: %s is NULL", !out ? "out" : "data");
+    if (!name || !name[0])
+        name = "<memory>";
+    if (len == 0)
+        return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "%s: empty file", name);
+    return load(ctx, name, data, len, opt, out);
 }

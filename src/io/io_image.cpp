@@ -17,6 +17,7 @@
 
 #include "io.h"
 
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/half.h>
 #include <OpenImageIO/imageio.h>
 #include <OpenImageIO/typedesc.h>
@@ -223,6 +224,100 @@ bool convert_attr(const OIIO::ParamValue &p, io_attr *a, bool *oom)
     for (size_t i = 0; i < count; i++)
         a->v[i] = (float)base_to_double(base, data + i * esize);
     return true;
+}
+
+// ---- EXR header pre-check ---------------------------------------------------------------------
+// OpenEXR 3.1 allocates an attribute's declared size before reading it, and the offset tables of
+// the declared data window: a 65-byte file declaring a 1.6 GB "capDate" string made every reader
+// (iinfo too) take 1.7 GB and 5 s before failing with "unexpected end of file" (found by
+// fuzz_exr, docs/reliability.md). So before OpenImageIO sees an EXR, walk its header(s)
+// (OpenEXR file layout: magic, version flags, then per part "name\0type\0<int32 size><value>"
+// attributes ending with an empty name) and refuse an attribute larger than what is left of
+// the file, and a data window over max_image_pixels. Anything else malformed is left to
+// OpenImageIO to report.
+
+struct ExrBytes {
+    const unsigned char *mem; // memory source, or
+    FILE *f;                  // file source
+    uint64_t size;
+    bool read(uint64_t off, void *dst, size_t n) const
+    {
+        if (off > size || n > size - off)
+            return false;
+        if (mem) {
+            std::memcpy(dst, mem + off, n);
+            return true;
+        }
+        return fseeko(f, (off_t)off, SEEK_SET) == 0 && std::fread(dst, 1, n, f) == n;
+    }
+};
+
+uint32_t rd_le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+// A NUL-terminated name of at most 255 bytes at *pos into out[256]; false when malformed.
+bool exr_cstr(const ExrBytes &b, uint64_t *pos, char out[256])
+{
+    for (int k = 0; k < 256; k++) {
+        unsigned char c;
+        if (!b.read(*pos, &c, 1))
+            return false;
+        ++*pos;
+        out[k] = (char)c;
+        if (!c)
+            return true;
+    }
+    return false;
+}
+
+obs_status exr_precheck(obs_context *ctx, const char *path, const ExrBytes &b)
+{
+    unsigned char head[8];
+    if (!b.read(0, head, 8) || head[0] != 0x76 || head[1] != 0x2f || head[2] != 0x31 || head[3] != 0x01)
+        return OBS_STATUS_OK; // not an EXR (or too short): OpenImageIO decides
+    const bool multipart = (rd_le32(head + 4) & 0x1000u) != 0;
+    const obs_limits *lim = obs_context_limits(ctx);
+    const int64_t max_px = lim ? lim->max_image_pixels : obs_limits_default().max_image_pixels;
+    uint64_t pos = 8;
+    for (int part = 0; part < (1 << 20); part++) {
+        int attrs = 0;
+        for (;;) {
+            char name[256], type[256];
+            if (!exr_cstr(b, &pos, name))
+                return OBS_STATUS_OK;
+            if (!name[0])
+                break; // the end of this header
+            attrs++;
+            unsigned char sz[4];
+            if (!exr_cstr(b, &pos, type) || !b.read(pos, sz, 4))
+                return OBS_STATUS_OK;
+            pos += 4;
+            const int64_t size = (int32_t)rd_le32(sz);
+            if (size < 0 || (uint64_t)size > b.size - pos)
+                return obs_error(ctx, OBS_STATUS_PARSE_ERROR,
+                                 "cannot read image '%s': EXR attribute '%s' (%s) declares %lld bytes, but only %llu "
+                                 "bytes are left in the file",
+                                 path, name, type, (long long)size, (unsigned long long)(b.size - pos));
+            if (size == 16 && !std::strcmp(name, "dataWindow") && !std::strcmp(type, "box2i")) {
+                unsigned char box[16];
+                if (!b.read(pos, box, 16))
+                    return OBS_STATUS_OK;
+                const int64_t w = (int64_t)(int32_t)rd_le32(box + 8) - (int32_t)rd_le32(box) + 1;
+                const int64_t h = (int64_t)(int32_t)rd_le32(box + 12) - (int32_t)rd_le32(box + 4) + 1;
+                if (w > 0 && h > 0 && (w > max_px / h || w * h > max_px))
+                    return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                                     "image '%s' is %lldx%lld (EXR dataWindow), over the limit of %lld pixels "
+                                     "(raise it with --max-pixels)",
+                                     path, (long long)w, (long long)h, (long long)max_px);
+            }
+            pos += (uint64_t)size;
+        }
+        if (!multipart || attrs == 0)
+            break; // one header, or the empty header that ends a multi-part file's list
+    }
+    return OBS_STATUS_OK;
 }
 
 } // namespace
@@ -450,31 +545,37 @@ const io_attr *io_image_find_attr(const io_image *im, const char *name)
 // converted plane by plane: UINT32
 // channels to uint32 planes, everything else to float32 planes (8/16-bit integer formats such
 // as PNG are normalised to [0,1] by OIIO, half is widened exactly). NaN and Inf pass through.
-obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
+// The reader shared by io_image_read (proxy NULL: OIIO opens `path`) and io_image_read_memory
+// (proxy: OIIO reads the bytes through it; `open_name`'s extension picks the plugin, `path` names
+// the bytes in messages).
+static obs_status read_image(obs_context *ctx, const char *path, const char *open_name,
+                             OIIO::Filesystem::IOProxy *proxy, io_image *out)
 {
-    if (out)
-        std::memset(out, 0, sizeof *out);
-    if (!path || !out)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_image_read: NULL argument");
     io_image im;
     std::memset(&im, 0, sizeof im);
     try {
-        // Distinguish "cannot open" (IO_ERROR) from "OpenImageIO cannot make sense of it" (PARSE_ERROR).
-        FILE *probe = std::fopen(path, "rb");
-        if (!probe) {
-            int e = errno;
-            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot open image '%s': %s", path, std::strerror(e));
+        if (!proxy) {
+            // Distinguish "cannot open" (IO_ERROR) from "OpenImageIO cannot make sense of it" (PARSE_ERROR).
+            FILE *probe = std::fopen(path, "rb");
+            if (!probe) {
+                int e = errno;
+                return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot open image '%s': %s", path, std::strerror(e));
+            }
+            std::fclose(probe);
+            struct stat sb;
+            if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
+                return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot open image '%s': %s", path, std::strerror(EISDIR));
         }
-        std::fclose(probe);
-        struct stat sb;
-        if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
-            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot open image '%s': %s", path, std::strerror(EISDIR));
 
         // Return the values stored in the file: without this, OIIO multiplies the colour of
         // PNG/TIFF images with unassociated alpha by alpha on reading.
         ImageSpec config;
         config.attribute("oiio:UnassociatedAlpha", 1);
-        auto in = ImageInput::open(path, &config);
+        // OIIO 2.4.7 ignores the ioproxy argument of ImageInput::open ("Could not open file");
+        // the "oiio:ioproxy" configuration attribute works.
+        if (proxy)
+            config.attribute("oiio:ioproxy", TypeDesc::PTR, &proxy);
+        auto in = ImageInput::open(open_name, &config);
         if (!in)
             return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "cannot read image '%s': %s", path,
                              oiio_error_text(OIIO::geterror()).c_str());
@@ -607,6 +708,60 @@ obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
     } catch (...) {
         io_image_free(&im);
         return obs_error(ctx, OBS_STATUS_INTERNAL, "cannot read image '%s': unknown exception", path);
+    }
+}
+
+obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
+{
+    if (out)
+        std::memset(out, 0, sizeof *out);
+    if (!path || !out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_image_read: NULL argument");
+    if (FILE *f = std::fopen(path, "rb")) {
+        struct stat sb;
+        obs_status st = OBS_STATUS_OK;
+        if (fstat(fileno(f), &sb) == 0 && S_ISREG(sb.st_mode)) {
+            ExrBytes b = {nullptr, f, (uint64_t)sb.st_size};
+            st = exr_precheck(ctx, path, b);
+        }
+        std::fclose(f);
+        if (st != OBS_STATUS_OK)
+            return st;
+    }
+    return read_image(ctx, path, path, nullptr, out);
+}
+
+// OIIO 2.4 reads from memory through Filesystem::IOMemReader for the plugins that support
+// IOProxy (OpenEXR and PNG among them). OIIO picks the plugin from the name's extension only
+// (with a proxy it does not try the others), so EXR and PNG bytes are recognised by their magic
+// numbers and opened under a name with the matching extension.
+obs_status io_image_read_memory(obs_context *ctx, const char *name, const void *data, size_t len, io_image *out)
+{
+    if (out)
+        std::memset(out, 0, sizeof *out);
+    if (!out || (!data && len > 0))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "io_image_read_memory: NULL argument");
+    if (!name || !name[0])
+        name = "<memory>";
+    if (len == 0)
+        return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "cannot read image '%s': no bytes", name);
+    ExrBytes eb = {static_cast<const unsigned char *>(data), nullptr, (uint64_t)len};
+    obs_status pre = exr_precheck(ctx, name, eb);
+    if (pre != OBS_STATUS_OK)
+        return pre;
+    try {
+        const unsigned char *b = static_cast<const unsigned char *>(data);
+        std::string open_name = name;
+        if (len >= 4 && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01)
+            open_name = "memory.exr";
+        else if (len >= 8 && std::memcmp(b, "\x89PNG\r\n\x1a\n", 8) == 0)
+            open_name = "memory.png";
+        OIIO::Filesystem::IOMemReader proxy(data, len);
+        return read_image(ctx, name, open_name.c_str(), &proxy, out);
+    } catch (const std::bad_alloc &) {
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory reading '%s'", name);
+    } catch (...) {
+        return obs_error(ctx, OBS_STATUS_INTERNAL, "cannot read image '%s': unknown exception", name);
     }
 }
 

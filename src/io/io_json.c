@@ -86,7 +86,40 @@ static void json_newline_indent(io_json *j, int depth)
         json_put(j, "  ", 2);
 }
 
-/* A quoted, escaped JSON string (RFC 8259 section 7). Bytes >= 0x80 (UTF-8) pass through. */
+/* Length of the well-formed UTF-8 sequence (RFC 3629; Unicode table 3-7: no overlong forms, no
+ * surrogates, nothing above U+10FFFF) starting at the non-ASCII byte p[0], or 0. p is
+ * NUL-terminated, so a truncated sequence stops at a byte that is not a continuation. */
+static size_t utf8_sequence(const unsigned char *p)
+{
+    unsigned char c = p[0], lo = 0x80, hi = 0xBF;
+    size_t len;
+    if (c >= 0xC2 && c <= 0xDF)
+        len = 2;
+    else if (c == 0xE0)
+        len = 3, lo = 0xA0;
+    else if ((c >= 0xE1 && c <= 0xEC) || c == 0xEE || c == 0xEF)
+        len = 3;
+    else if (c == 0xED)
+        len = 3, hi = 0x9F;
+    else if (c == 0xF0)
+        len = 4, lo = 0x90;
+    else if (c >= 0xF1 && c <= 0xF3)
+        len = 4;
+    else if (c == 0xF4)
+        len = 4, hi = 0x8F;
+    else
+        return 0;
+    if (p[1] < lo || p[1] > hi)
+        return 0;
+    for (size_t k = 2; k < len; k++)
+        if (p[k] < 0x80 || p[k] > 0xBF)
+            return 0;
+    return len;
+}
+
+/* A quoted, escaped JSON string (RFC 8259 section 7). Well-formed UTF-8 passes through; any
+ * other byte >= 0x80 (e.g. a Latin-1 file name in argv) becomes U+FFFD, because JSON text must
+ * be UTF-8 (RFC 8259 section 8.1) and strict readers refuse anything else. */
 static void json_quoted(io_json *j, const char *s)
 {
     static const char hex[] = "0123456789abcdef";
@@ -106,7 +139,14 @@ static void json_quoted(io_json *j, const char *s)
         case '\r': esc = "\\r"; break;
         case '\t': esc = "\\t"; break;
         default:
-            if (c < 0x20) {
+            if (c >= 0x80) {
+                size_t n = utf8_sequence(p);
+                if (n) {
+                    p += n - 1; /* the whole sequence stays in the run */
+                    continue;
+                }
+                esc = "\xEF\xBF\xBD"; /* U+FFFD REPLACEMENT CHARACTER */
+            } else if (c < 0x20) {
                 ubuf[0] = '\\';
                 ubuf[1] = 'u';
                 ubuf[2] = '0';

@@ -605,8 +605,19 @@ static int clip_polygon(const render_state *rs, vtx *poly, int n, unsigned plane
             if (da >= 0.0)
                 tmp[m++] = *a;
             if ((da >= 0.0) != (db >= 0.0)) {
-                double t = da / (da - db);
-                vtx c = {a->x + t * (b->x - a->x), a->y + t * (b->y - a->y), a->z + t * (b->z - a->z)};
+                /* Interpolate from the endpoint nearer the plane. From a, t = da / (da - db)
+                 * rounds to 1 when |da| >> |db| and a + t (b - a) cancels: a vertex at depth
+                 * 1.5e29 and one at 10.8 gave an intersection at z = 0, hence w = 0 and a NaN
+                 * screen position (found by fuzz_gltf; docs/hard-cases.md). This way a shared
+                 * edge is also cut at the same point whichever triangle clips it. */
+                const vtx *p = a, *q = b;
+                double dp = da, dq = db;
+                if (fabs(da) > fabs(db)) {
+                    p = b, q = a;
+                    dp = db, dq = da;
+                }
+                double t = dp / (dp - dq);
+                vtx c = {p->x + t * (q->x - p->x), p->y + t * (q->y - p->y), p->z + t * (q->z - p->z)};
                 if (pl == PL_NEAR) /* land exactly on the plane */
                     c.z = -rs->znear;
                 else if (pl == PL_FAR)

@@ -1,0 +1,19 @@
+/* ao_internal.h: cross-file internals of the AO module (prefix ao_i_), exposed to the tests. Not
+ * installed, not part of the API. */
+#ifndef AO_INTERNAL_H
+#define AO_INTERNAL_H
+
+#include <stdint.h>
+
+/* cos and sin of a float angle, each rounded to float from a double-precision evaluation with an
+ * exact argument reduction: the same floats as (float)cos((double)a), (float)sin((double)a) with a
+ * correctly rounded libm, for every finite angle (checked exhaustively for |a| < 2^31, see
+ * docs/ao/sao.md), using only IEEE double + - * (identical on every platform). */
+void ao_i_cos_sin(float angle, float *c, float *s);
+
+/* floor((float)log2(x)) for x > 0: the floor of the correctly rounded float log2 (which rounds
+ * up to the next integer for x a few ulps below a power of two). x <= 0 or NaN: INT32_MIN;
+ * +inf: INT32_MAX. */
+int ao_i_floor_log2f(float x);
+
+#endif
