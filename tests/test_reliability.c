@@ -327,10 +327,11 @@ TEST(json_strings_that_are_not_utf8_get_replacement_characters)
 
 /* ---- EXR headers that lie about their size (fuzz_exr finding) ------------------------------- */
 
-TEST(exr_attribute_larger_than_the_file_is_refused_before_openexr_allocates_it)
+TEST(image_header_sizes_that_lie_are_refused_before_the_decoders_allocate)
 {
     /* The fuzzer's 65 bytes: a "capDate" string attribute declaring 1,668,481,024 bytes. Through
-     * OpenImageIO alone this took 1.7 GB and 4.5 s to fail; it must now fail at once. */
+     * OpenImageIO alone this took 1.7 GB and 4.5 s to fail; it must now fail at once (the header
+     * pre-check of io_image.cpp). */
     const char *path = test_path(test_source_dir(), "tests/fuzz/regressions/exr/capdate-declares-1.6GB-in-65-bytes.exr");
     size_t len = 0;
     char *bytes = test_slurp(path, &len);
@@ -343,7 +344,35 @@ TEST(exr_attribute_larger_than_the_file_is_refused_before_openexr_allocates_it)
     obs_context_clear_error(ctx);
     CHECK_EQ_INT(io_image_read_memory(ctx, "lie.exr", bytes, len, &im), OBS_STATUS_PARSE_ERROR);
     CHECK(strstr(obs_context_last_error(ctx), "'capDate'") != NULL);
+    /* the second finding: a channel list that runs past its declared 231 bytes, after which
+     * OpenEXR read the following bytes as a string attribute of 1.6 GB (22 s, 1.7 GB) */
+    obs_context_clear_error(ctx);
+    const char *path2 = test_path(test_source_dir(),
+                                  "tests/fuzz/regressions/exr/chlist-overrunning-its-size-then-1.6GB-string.exr");
+    CHECK_EQ_INT(io_image_read(ctx, path2, &im), OBS_STATUS_PARSE_ERROR);
+    CHECK(strstr(obs_context_last_error(ctx), "'channels' (chlist) does not fill its declared 231 bytes") != NULL);
+    /* the third: a 144-byte PNG whose tEXt chunk declares 2,003,133,040 bytes, which libpng
+     * allocated and cleared before failing (2 GB, 14 s) */
+    obs_context_clear_error(ctx);
+    const char *path3 = test_path(test_source_dir(),
+                                  "tests/fuzz/regressions/exr/png-text-chunk-declaring-2GB-in-144-bytes.png");
+    CHECK_EQ_INT(io_image_read(ctx, path3, &im), OBS_STATUS_PARSE_ERROR);
+    CHECK(strstr(obs_context_last_error(ctx), "PNG chunk 'tEXt'") && strstr(obs_context_last_error(ctx), "2003133040"));
     CHECK_MSG(now() - t0 < 2.0, "the refusals took %.2f s", now() - t0);
+    /* the fourth: a chunk offset of -1, which OpenImageIO's own memory reader turned into a read
+     * of the byte before the buffer (ASan); the bounded reader fails it cleanly */
+    obs_context_clear_error(ctx);
+    size_t len4 = 0;
+    char *bytes4 = test_slurp(test_path(test_source_dir(),
+                                        "tests/fuzz/regressions/exr/negative-chunk-offset-reads-before-the-buffer.exr"),
+                              &len4);
+    CHECK(bytes4 != NULL && len4 > 0);
+    char *exact = malloc(len4); /* an exact-size heap copy, so that ASan sees a read outside it */
+    memcpy(exact, bytes4, len4);
+    CHECK_EQ_INT(io_image_read_memory(ctx, "offsets.exr", exact, len4, &im), OBS_STATUS_PARSE_ERROR);
+    CHECK(im.channel_count == 0 && im.f32 == NULL);
+    free(exact);
+    free(bytes4);
     CHECK(im.channel_count == 0 && im.f32 == NULL);
     free(bytes);
 

@@ -227,14 +227,18 @@ bool convert_attr(const OIIO::ParamValue &p, io_attr *a, bool *oom)
 }
 
 // ---- EXR header pre-check ---------------------------------------------------------------------
-// OpenEXR 3.1 allocates an attribute's declared size before reading it, and the offset tables of
-// the declared data window: a 65-byte file declaring a 1.6 GB "capDate" string made every reader
-// (iinfo too) take 1.7 GB and 5 s before failing with "unexpected end of file" (found by
-// fuzz_exr, docs/reliability.md). So before OpenImageIO sees an EXR, walk its header(s)
-// (OpenEXR file layout: magic, version flags, then per part "name\0type\0<int32 size><value>"
-// attributes ending with an empty name) and refuse an attribute larger than what is left of
-// the file, and a data window over max_image_pixels. Anything else malformed is left to
-// OpenImageIO to report.
+// OpenEXR 3.1 trusts an EXR header's sizes: it allocates a string attribute's declared size
+// before reading it (a 65-byte file declaring a 1.6 GB "capDate" made every reader, iinfo too,
+// take 1.7 GB and 5 s before "unexpected end of file"), reads string vectors, previews and chunk
+// offset tables of whatever size they declare, and parses a channel list past its declared size,
+// after which it reads the following bytes as other attributes (found by fuzz_exr,
+// docs/reliability.md). So before OpenImageIO sees an EXR, this walks its header(s) as OpenEXR
+// does (magic, version flags, then per part "name\0type\0<int32 size><value>" ending with an
+// empty name) and refuses, as PARSE_ERROR, what OpenEXR would read beyond the file or out of step
+// with the declared sizes: a value larger than the rest of the file, a known type with another
+// size than its own, a channel list, preview or string vector that does not fill its size
+// exactly, and more chunk offsets than the file can hold; a data window over max_image_pixels is
+// LIMIT_EXCEEDED. Anything else malformed is left to OpenEXR to report.
 
 struct ExrBytes {
     const unsigned char *mem; // memory source, or
@@ -250,14 +254,18 @@ struct ExrBytes {
         }
         return fseeko(f, (off_t)off, SEEK_SET) == 0 && std::fread(dst, 1, n, f) == n;
     }
+    bool le32(uint64_t off, int32_t *v) const
+    {
+        unsigned char p[4];
+        if (!read(off, p, 4))
+            return false;
+        *v = (int32_t)((uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24);
+        return true;
+    }
 };
 
-uint32_t rd_le32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-// A NUL-terminated name of at most 255 bytes at *pos into out[256]; false when malformed.
+// A NUL-terminated name of at most 255 bytes (OpenEXR's Name::SIZE) at *pos into out[256];
+// false when it does not end within 256 bytes or the file.
 bool exr_cstr(const ExrBytes &b, uint64_t *pos, char out[256])
 {
     for (int k = 0; k < 256; k++) {
@@ -272,17 +280,67 @@ bool exr_cstr(const ExrBytes &b, uint64_t *pos, char out[256])
     return false;
 }
 
+// The size OpenEXR 3.1 reads for a fixed-size attribute type, or -1 (variable or unknown).
+int exr_fixed_size(const char *type)
+{
+    static const struct { const char *type; int size; } fixed[] = {
+        {"box2i", 16}, {"box2f", 16}, {"chromaticities", 32}, {"compression", 1}, {"deepImageState", 1},
+        {"double", 8}, {"envmap", 1}, {"float", 4}, {"int", 4}, {"keycode", 28}, {"lineOrder", 1},
+        {"m33f", 36}, {"m33d", 72}, {"m44f", 64}, {"m44d", 128}, {"rational", 8}, {"tiledesc", 9},
+        {"timecode", 8}, {"v2i", 8}, {"v2f", 8}, {"v2d", 16}, {"v3i", 12}, {"v3f", 12}, {"v3d", 24},
+    };
+    for (const auto &f : fixed)
+        if (!std::strcmp(type, f.type))
+            return f.size;
+    return -1;
+}
+
+// Whether the structured value of a variable-size type fills exactly [pos, end).
+bool exr_value_fills(const ExrBytes &b, const char *type, uint64_t pos, uint64_t end)
+{
+    if (!std::strcmp(type, "chlist")) { // channels "name\0" + 16 bytes, then a NUL
+        for (;;) {
+            char name[256];
+            if (!exr_cstr(b, &pos, name) || pos > end)
+                return false;
+            if (!name[0])
+                return pos == end;
+            pos += 16;
+            if (pos > end)
+                return false;
+        }
+    }
+    if (!std::strcmp(type, "preview")) { // width, height, then 4 bytes per pixel
+        int32_t w, h;
+        if (end - pos < 8 || !b.le32(pos, &w) || !b.le32(pos + 4, &h))
+            return false;
+        return (uint64_t)(uint32_t)w * (uint32_t)h * 4 == end - pos - 8;
+    }
+    if (!std::strcmp(type, "stringvector")) { // (int32 length, bytes)*
+        while (pos < end) {
+            int32_t n;
+            if (end - pos < 4 || !b.le32(pos, &n) || n < 0 || (uint64_t)n > end - pos - 4)
+                return false;
+            pos += 4 + (uint64_t)n;
+        }
+        return true;
+    }
+    return true; // string, floatvector, idmanifest, opaque types: read as `size` bytes
+}
+
 obs_status exr_precheck(obs_context *ctx, const char *path, const ExrBytes &b)
 {
     unsigned char head[8];
-    if (!b.read(0, head, 8) || head[0] != 0x76 || head[1] != 0x2f || head[2] != 0x31 || head[3] != 0x01)
-        return OBS_STATUS_OK; // not an EXR (or too short): OpenImageIO decides
-    const bool multipart = (rd_le32(head + 4) & 0x1000u) != 0;
+    if (!b.read(0, head, 8) || head[0] != 0x76 || head[1] != 0x2f || head[2] != 0x31 || head[3] != 0x01 ||
+        head[4] != 2)
+        return OBS_STATUS_OK; // not an EXR, or a version OpenEXR refuses itself
+    const bool multipart = (head[5] & 0x10) != 0, tiled_file = (head[5] & 0x02) != 0;
     const obs_limits *lim = obs_context_limits(ctx);
     const int64_t max_px = lim ? lim->max_image_pixels : obs_limits_default().max_image_pixels;
-    uint64_t pos = 8;
+    uint64_t pos = 8, offsets = 0;
     for (int part = 0; part < (1 << 20); part++) {
-        int attrs = 0;
+        int attrs = 0, compression = 0;
+        int64_t w = 0, h = 0, tile_w = 0, tile_h = 0, chunk_count = -1;
         for (;;) {
             char name[256], type[256];
             if (!exr_cstr(b, &pos, name))
@@ -290,34 +348,138 @@ obs_status exr_precheck(obs_context *ctx, const char *path, const ExrBytes &b)
             if (!name[0])
                 break; // the end of this header
             attrs++;
-            unsigned char sz[4];
-            if (!exr_cstr(b, &pos, type) || !b.read(pos, sz, 4))
+            int32_t size;
+            if (!exr_cstr(b, &pos, type) || !b.le32(pos, &size) || size < 0)
                 return OBS_STATUS_OK;
             pos += 4;
-            const int64_t size = (int32_t)rd_le32(sz);
-            if (size < 0 || (uint64_t)size > b.size - pos)
+            if ((uint64_t)size > b.size - pos)
                 return obs_error(ctx, OBS_STATUS_PARSE_ERROR,
-                                 "cannot read image '%s': EXR attribute '%s' (%s) declares %lld bytes, but only %llu "
+                                 "cannot read image '%s': EXR attribute '%s' (%s) declares %d bytes, but only %llu "
                                  "bytes are left in the file",
-                                 path, name, type, (long long)size, (unsigned long long)(b.size - pos));
-            if (size == 16 && !std::strcmp(name, "dataWindow") && !std::strcmp(type, "box2i")) {
-                unsigned char box[16];
-                if (!b.read(pos, box, 16))
-                    return OBS_STATUS_OK;
-                const int64_t w = (int64_t)(int32_t)rd_le32(box + 8) - (int32_t)rd_le32(box) + 1;
-                const int64_t h = (int64_t)(int32_t)rd_le32(box + 12) - (int32_t)rd_le32(box + 4) + 1;
+                                 path, name, type, size, (unsigned long long)(b.size - pos));
+            const int fixed = exr_fixed_size(type);
+            if ((fixed >= 0 && size != fixed) || !exr_value_fills(b, type, pos, pos + (uint64_t)size))
+                return obs_error(ctx, OBS_STATUS_PARSE_ERROR,
+                                 "cannot read image '%s': EXR attribute '%s' (%s) does not fill its declared %d bytes",
+                                 path, name, type, size);
+            int32_t v[4];
+            if (!std::strcmp(name, "dataWindow") && !std::strcmp(type, "box2i") && b.le32(pos, &v[0]) &&
+                b.le32(pos + 4, &v[1]) && b.le32(pos + 8, &v[2]) && b.le32(pos + 12, &v[3])) {
+                w = (int64_t)v[2] - v[0] + 1;
+                h = (int64_t)v[3] - v[1] + 1;
                 if (w > 0 && h > 0 && (w > max_px / h || w * h > max_px))
                     return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
                                      "image '%s' is %lldx%lld (EXR dataWindow), over the limit of %lld pixels "
                                      "(raise it with --max-pixels)",
                                      path, (long long)w, (long long)h, (long long)max_px);
+            } else if (!std::strcmp(name, "compression") && !std::strcmp(type, "compression")) {
+                unsigned char c;
+                if (b.read(pos, &c, 1))
+                    compression = c;
+            } else if (!std::strcmp(name, "tiles") && !std::strcmp(type, "tiledesc") && b.le32(pos, &v[0]) &&
+                       b.le32(pos + 4, &v[1])) {
+                tile_w = (uint32_t)v[0];
+                tile_h = (uint32_t)v[1];
+            } else if (!std::strcmp(name, "chunkCount") && !std::strcmp(type, "int") && b.le32(pos, &v[0])) {
+                chunk_count = v[0];
             }
             pos += (uint64_t)size;
         }
-        if (!multipart || attrs == 0)
-            break; // one header, or the empty header that ends a multi-part file's list
+        if (multipart && attrs == 0)
+            break; // the empty header that ends a multi-part file's list
+        // the chunk offset table OpenEXR will read for this part (level 0 only for tiles)
+        static const int lines_per_chunk[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
+        int64_t chunks = 0;
+        if (w > 0 && h > 0) {
+            if (tile_w > 0 && tile_h > 0 && (tiled_file || multipart))
+                chunks = ((w + tile_w - 1) / tile_w) * ((h + tile_h - 1) / tile_h);
+            else if (compression >= 0 && compression < 10)
+                chunks = (h + lines_per_chunk[compression] - 1) / lines_per_chunk[compression];
+        }
+        offsets += (uint64_t)(chunk_count > chunks ? chunk_count : chunks);
+        if (!multipart)
+            break;
+    }
+    if (offsets > (b.size - pos) / 8)
+        return obs_error(ctx, OBS_STATUS_PARSE_ERROR,
+                         "cannot read image '%s': the EXR header calls for %llu chunk offsets (%llu bytes), but only "
+                         "%llu bytes follow it",
+                         path, (unsigned long long)offsets, (unsigned long long)offsets * 8,
+                         (unsigned long long)(b.size - pos));
+    return OBS_STATUS_OK;
+}
+
+// PNG: libpng 1.6 (Debian 12, as OpenImageIO 2.4 drives it) allocates and clears a chunk's declared
+// length before reading it: a 144-byte PNG whose tEXt chunk declared 2,003,133,040 bytes took 2 GB
+// and 14 s to fail (found by fuzz_exr). Walk the chunks (8-byte signature, then per chunk a
+// big-endian length, a type, the data and a CRC, up to IEND) and refuse a chunk longer than the
+// rest of the file. Anything else malformed is left to libpng to report.
+obs_status png_precheck(obs_context *ctx, const char *path, const ExrBytes &b)
+{
+    static const unsigned char sig[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    unsigned char head[8];
+    if (!b.read(0, head, 8) || std::memcmp(head, sig, 8) != 0)
+        return OBS_STATUS_OK;
+    uint64_t pos = 8;
+    while (pos < b.size) {
+        unsigned char c[8];
+        if (!b.read(pos, c, 8))
+            return OBS_STATUS_OK; // a truncated chunk header: libpng reports it
+        const uint64_t len = (uint64_t)c[0] << 24 | (uint64_t)c[1] << 16 | (uint64_t)c[2] << 8 | c[3];
+        char type[5] = {(char)c[4], (char)c[5], (char)c[6], (char)c[7], '\0'};
+        for (int k = 0; k < 4; k++)
+            if (!((type[k] >= 'A' && type[k] <= 'Z') || (type[k] >= 'a' && type[k] <= 'z')))
+                type[k] = '?';
+        if (len > b.size - pos - 8 || b.size - pos - 8 - len < 4)
+            return obs_error(ctx, OBS_STATUS_PARSE_ERROR,
+                             "cannot read image '%s': PNG chunk '%s' at offset %llu declares %llu bytes, but only "
+                             "%llu bytes are left in the file",
+                             path, type, (unsigned long long)pos, (unsigned long long)len,
+                             (unsigned long long)(b.size - pos - 8));
+        if (!std::memcmp(c + 4, "IEND", 4))
+            break;
+        pos += 12 + len;
     }
     return OBS_STATUS_OK;
+}
+
+// OpenImageIO 2.4.7's IOMemReader::pread tests `size + size_t(offset) > buffer size`, which wraps
+// around for a negative offset: a corrupt EXR chunk offset of -1 made OpenEXR read the byte before
+// the caller's buffer (heap-buffer-overflow, found by fuzz_exr). This reader bounds every access.
+class BoundedMemReader final : public OIIO::Filesystem::IOMemReader {
+public:
+    BoundedMemReader(const void *buf, size_t size) : IOMemReader(buf, size) {}
+    bool seek(int64_t offset) override
+    {
+        if (offset < 0)
+            return false;
+        m_pos = offset;
+        return true;
+    }
+    size_t read(void *buf, size_t n) override
+    {
+        n = pread(buf, n, m_pos);
+        m_pos += (int64_t)n;
+        return n;
+    }
+    size_t pread(void *buf, size_t n, int64_t offset) override
+    {
+        const size_t len = m_buf.size();
+        if (offset < 0 || (uint64_t)offset >= len)
+            return 0;
+        if (n > len - (size_t)offset)
+            n = len - (size_t)offset;
+        if (n)
+            std::memcpy(buf, m_buf.data() + offset, n);
+        return n;
+    }
+};
+
+// Both pre-checks (each ignores other formats).
+obs_status header_precheck(obs_context *ctx, const char *path, const ExrBytes &b)
+{
+    obs_status st = exr_precheck(ctx, path, b);
+    return st != OBS_STATUS_OK ? st : png_precheck(ctx, path, b);
 }
 
 } // namespace
@@ -722,7 +884,7 @@ obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
         obs_status st = OBS_STATUS_OK;
         if (fstat(fileno(f), &sb) == 0 && S_ISREG(sb.st_mode)) {
             ExrBytes b = {nullptr, f, (uint64_t)sb.st_size};
-            st = exr_precheck(ctx, path, b);
+            st = header_precheck(ctx, path, b);
         }
         std::fclose(f);
         if (st != OBS_STATUS_OK)
@@ -731,7 +893,8 @@ obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
     return read_image(ctx, path, path, nullptr, out);
 }
 
-// OIIO 2.4 reads from memory through Filesystem::IOMemReader for the plugins that support
+// OIIO 2.4 reads from memory through an IOProxy (BoundedMemReader: IOMemReader, bounds-checked)
+// for the plugins that support
 // IOProxy (OpenEXR and PNG among them). OIIO picks the plugin from the name's extension only
 // (with a proxy it does not try the others), so EXR and PNG bytes are recognised by their magic
 // numbers and opened under a name with the matching extension.
@@ -746,7 +909,7 @@ obs_status io_image_read_memory(obs_context *ctx, const char *name, const void *
     if (len == 0)
         return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "cannot read image '%s': no bytes", name);
     ExrBytes eb = {static_cast<const unsigned char *>(data), nullptr, (uint64_t)len};
-    obs_status pre = exr_precheck(ctx, name, eb);
+    obs_status pre = header_precheck(ctx, name, eb);
     if (pre != OBS_STATUS_OK)
         return pre;
     try {
@@ -756,7 +919,7 @@ obs_status io_image_read_memory(obs_context *ctx, const char *name, const void *
             open_name = "memory.exr";
         else if (len >= 8 && std::memcmp(b, "\x89PNG\r\n\x1a\n", 8) == 0)
             open_name = "memory.png";
-        OIIO::Filesystem::IOMemReader proxy(data, len);
+        BoundedMemReader proxy(data, len);
         return read_image(ctx, name, open_name.c_str(), &proxy, out);
     } catch (const std::bad_alloc &) {
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory reading '%s'", name);

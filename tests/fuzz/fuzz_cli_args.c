@@ -7,7 +7,7 @@
  *   - runs in a private directory (under $TMPDIR, else /dev/shm, else /tmp) holding small valid
  *     inputs, rewritten before every run: s.glb (a scene with two cameras, a light and a
  *     material), a.exr and b.exr (G-buffer-like EXRs with float, half and uint channels and
- *     metadata), p.png (a grey PNG);
+ *     metadata), p.png (a grey PNG), i.json (camera intrinsics for `ao --gbuffer`);
  *   - turns every '/' in an argument into '_', so everything the command writes stays in that
  *     directory (the working directory is switched to it for the call and back afterwards), and
  *     every ".tmp." into "_tmp.", so that only io_temp_path makes such names;
@@ -45,7 +45,13 @@ typedef struct fixture {
     size_t len;
 } fixture;
 
-static fixture g_fix[4] = {{"s.glb", NULL, 0}, {"a.exr", NULL, 0}, {"b.exr", NULL, 0}, {"p.png", NULL, 0}};
+#define FIXTURES 5
+static fixture g_fix[FIXTURES] = {
+    {"s.glb", NULL, 0}, {"a.exr", NULL, 0}, {"b.exr", NULL, 0}, {"p.png", NULL, 0}, {"i.json", NULL, 0}};
+/* camera intrinsics for `ao --gbuffer a.exr --intrinsics i.json` (the AO module's JSON reader) */
+static const char g_intrinsics[] =
+    "{\"fx\": 20.5, \"fy\": 20.5, \"cx\": 8, \"cy\": 6, \"projection\": \"perspective\", \"znear\": 0.1, "
+    "\"zfar\": 100, \"depth_kind\": \"linear\", \"inner_window\": [0, 0, 16, 12]}\n";
 static char g_dir[4096];
 static int g_ready;
 
@@ -234,6 +240,10 @@ static void setup(void)
         g_fix[k].bytes = slurp(path, &g_fix[k].len);
         fuzz_require(g_fix[k].bytes != NULL, "cannot read a fixture back");
     }
+    g_fix[4].len = sizeof g_intrinsics - 1;
+    g_fix[4].bytes = malloc(g_fix[4].len);
+    fuzz_require(g_fix[4].bytes != NULL, "allocation");
+    memcpy(g_fix[4].bytes, g_intrinsics, g_fix[4].len);
     /* the command's tables and help go to stdout: not wanted in the fuzzer's output */
     int devnull = open("/dev/null", O_WRONLY);
     if (devnull >= 0) {
@@ -247,7 +257,7 @@ static void setup(void)
 static void restore_fixtures(void)
 {
     clear_dir(g_dir);
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < FIXTURES; k++) {
         char path[8192];
         snprintf(path, sizeof path, "%s/%s", g_dir, g_fix[k].name);
         FILE *f = fopen(path, "wb");
@@ -255,6 +265,27 @@ static void restore_fixtures(void)
         fuzz_require(fwrite(g_fix[k].bytes, 1, g_fix[k].len, f) == g_fix[k].len, "cannot restore a fixture");
         fclose(f);
     }
+}
+
+/* Whether a name is one of this process's io_temp_path names: it ends in ".tmp.<pid>.<n>". (The
+ * arguments cannot contain ".tmp.", so only io_temp_path makes such an ending; an output prefix
+ * ending in ".tmp" gives "x.tmp.exr", which is not one.) */
+static int is_temporary(const char *name)
+{
+    char mark[48];
+    int m = snprintf(mark, sizeof mark, ".tmp.%ld.", (long)getpid());
+    const char *p = NULL;
+    for (const char *q = strstr(name, mark); q; q = strstr(q + 1, mark))
+        p = q;
+    if (!p)
+        return 0;
+    p += m;
+    if (!*p)
+        return 0;
+    for (; *p; p++)
+        if (*p < '0' || *p > '9')
+            return 0;
+    return 1;
 }
 
 /* Files in the directory beyond the fixtures: 0 none, else 1 (and temporary ones in *tmp). */
@@ -269,10 +300,10 @@ static int scan_outputs(int *tmp)
         const char *n = e->d_name;
         if (!strcmp(n, ".") || !strcmp(n, ".."))
             continue;
-        if (strstr(n, ".tmp."))
+        if (is_temporary(n))
             *tmp = 1;
         int fixture = 0;
-        for (int k = 0; k < 4; k++)
+        for (int k = 0; k < FIXTURES; k++)
             fixture |= !strcmp(n, g_fix[k].name);
         if (!fixture)
             extra = 1;
