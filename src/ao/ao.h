@@ -164,6 +164,90 @@ obs_status ao_external_from_image(obs_context *ctx, const struct io_image *im, c
 void ao_external_free(ao_external *e);   /* NULL-safe */
 
 /* ================================================================================================
+ * The method registry: one descriptor per technique. The CLI (`obscura ao --list`, the parameter
+ * flags), the study (issue 5: the sample, radius and blur axes, the matched ground truth), the
+ * benchmarks and the generic tests (flat plane, thread counts, hard cases) all work through it, so
+ * a technique is added by writing its file and one line in ao_methods.c.
+ * ============================================================================================== */
+
+typedef enum ao_param_type {
+    AO_PARAM_FLOAT = 0,             /* a float field */
+    AO_PARAM_INT,                   /* an int field */
+    AO_PARAM_BOOL,                  /* an int field, 0 or 1: flags --NAME and --no-NAME */
+    AO_PARAM_ENUM,                  /* an enum field (int-sized; each method static-asserts it):
+                                       --NAME CHOICE; when choice 0 is "none", --no-NAME sets 0 */
+    AO_PARAM_TYPE_COUNT
+} ao_param_type;
+
+/* One parameter of a technique's *_params struct, as the CLI and the study see it. */
+typedef struct ao_param_desc {
+    const char *name;               /* flag name without "--", e.g. "radius" */
+    ao_param_type type;
+    size_t offset;                  /* offsetof(params struct, field) */
+    double min, max;                /* inclusive range the CLI accepts (FLOAT, INT); the method's
+                                       validate step is still the authority */
+    const char *const *choices;     /* ENUM: names by value, NULL-terminated; else NULL */
+    const char *help;               /* one line: meaning and unit */
+} ao_param_desc;
+
+/* What every kernel reports. Methods with more detail keep their own stats struct beside it. */
+typedef struct ao_stats {
+    int64_t pixels_computed;        /* pixels the AO pass ran on (window plus blur reach) */
+    int64_t pixels_background;      /* of those: background (visibility 1) */
+    double seconds_prepare;         /* depth conversion, MIP pyramids, normals, noise */
+    double seconds_kernel;          /* the AO pass(es) */
+    double seconds_blur;            /* the post-process (0 without) */
+} ao_stats;
+
+/* Largest sizeof of any technique's params struct (the CLI keeps one on the stack). */
+#define AO_PARAMS_MAX_SIZE 1024
+
+typedef struct ao_method {
+    const char *name;               /* "sao": --method NAME */
+    const char *title;              /* one line: technique and reference key */
+    const char *doc;                /* its page: "docs/ao/sao.md" */
+    size_t params_size;             /* sizeof its params struct, <= AO_PARAMS_MAX_SIZE */
+    void (*params_default)(void *p);
+    int (*params_preset)(const char *name, void *p); /* 1 and *p filled, or 0 for an unknown name */
+    const char *const *preset_names;                 /* NULL-terminated (may be empty) */
+    const ao_param_desc *params;                     /* the flags, in --list order */
+    int param_count;
+    /* Optional: called once after the CLI applied its flags; given[i] != 0 when params[i] was set
+     * on the command line (SAO: --samples without --turns takes the table's spiral turns). */
+    void (*params_adjust)(void *p, const unsigned char *given);
+    obs_status (*params_validate)(obs_context *ctx, const void *p);   /* OK or INVALID_ARGUMENT */
+    int (*params_to_string)(const void *p, char *buf, size_t size);  /* snprintf semantics */
+    /* The study's axes (issue 5): samples per pixel (GTAO maps n to slices x steps and says how in
+     * its page), world-space radius in metres, and the technique's reference blur on or off. */
+    void (*set_samples)(void *p, int n);
+    void (*set_radius)(void *p, float r);
+    void (*set_blur)(void *p, int on);
+    float (*get_radius)(const void *p);
+    /* The matched ground truth for these params: a truth_ao estimator name
+     * (truth_ao_estimator_from_name), run with radius get_radius(p). docs/truth.md and
+     * ../shared/reference/ao.md section 2. */
+    const char *(*truth_estimator)(const void *p);
+    /* The documented visibility on an open flat plane with the default params (1 for most; 0.75
+     * for Crytek SSAO), and the tolerance the flat-plane test holds it to. */
+    float flat_value, flat_tolerance;
+    /* Optional: the resolved constant block as one JSON object (text), for the sidecar, so that a
+     * shader port can be fed the same uniforms. snprintf semantics. NULL when the method has none. */
+    int (*constants_to_json)(const void *p, const ao_input *in, char *buf, size_t size);
+    /* Run the technique over in's window. out (w x h) gets the final AO (after the blur when the
+     * params ask for one); out_raw (may be NULL) the AO before it. stats may be NULL.
+     * Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
+    obs_status (*compute)(obs_context *ctx, obs_pool *pool, const ao_input *in, const void *p,
+                          obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats);
+} ao_method;
+
+/* Every registered method, in a fixed order, NULL-terminated. */
+const ao_method *const *ao_methods(void);
+/* The method called name, or NULL. */
+const ao_method *ao_method_find(const char *name);
+/* The descriptor of a method's parameter called name, or NULL. */
+const ao_param_desc *ao_method_param(const ao_method *m, const char *name);
+
+/* ================================================================================================
  * SAO: Scalable Ambient Obscurance [McGuire12] (McGuire, Mara, Luebke, HPG 2012), as the HPG12
  * reference shader (SAO_AO.pix) computes it and as the llvmpipe peer
  * (../shared/tools/llvmpipe-peer, README section 5) runs it. docs/ao/sao.md has every detail.
@@ -329,6 +413,62 @@ obs_status ao_sao_blur_gl(obs_context *ctx, obs_pool *pool, const obs_image_f32 
 
 /* The blur's Gaussian (stddev 2) weights g[0..4], SAO_blur.pix. */
 extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
+
+/* ================================================================================================
+ * Crytek SSAO (src/ao/ao_crytek.c)
+ * ============================================================================================== */
+
+/* (end of Crytek SSAO) */
+
+
+/* ================================================================================================
+ * Alchemy AO (src/ao/ao_alchemy.c)
+ * ============================================================================================== */
+
+/* (end of Alchemy AO) */
+
+
+/* ================================================================================================
+ * HBAO (src/ao/ao_hbao.c)
+ * ============================================================================================== */
+
+/* (end of HBAO) */
+
+
+/* ================================================================================================
+ * UE4 AO (src/ao/ao_ue4.c)
+ * ============================================================================================== */
+
+/* (end of UE4 AO) */
+
+
+/* ================================================================================================
+ * GTAO as XeGTAO (src/ao/ao_gtao.c)
+ * ============================================================================================== */
+
+/* (end of GTAO as XeGTAO) */
+
+
+/* ================================================================================================
+ * MSSAO (src/ao/ao_mssao.c)
+ * ============================================================================================== */
+
+/* (end of MSSAO) */
+
+
+/* ================================================================================================
+ * The seed's multi-resolution Alchemy AO (src/ao/ao_mssao_seed.c)
+ * ============================================================================================== */
+
+/* (end of The seed's multi-resolution Alchemy AO) */
+
+
+/* ================================================================================================
+ * Shared post-process blurs (src/ao/ao_blur.c)
+ * ============================================================================================== */
+
+/* (end of Shared post-process blurs) */
+
 
 #ifdef __cplusplus
 }

@@ -16,4 +16,16 @@ void ao_i_cos_sin(float angle, float *c, float *s);
  * +inf: INT32_MAX. */
 int ao_i_floor_log2f(float x);
 
+/* The method descriptors (ao.h, "The method registry"), one per technique file; ao_methods.c lists
+ * them. */
+struct ao_method;
+extern const struct ao_method ao_i_method_crytek;     /* ao_crytek.c */
+extern const struct ao_method ao_i_method_alchemy;    /* ao_alchemy.c */
+extern const struct ao_method ao_i_method_sao;        /* ao_sao.c */
+extern const struct ao_method ao_i_method_hbao;       /* ao_hbao.c */
+extern const struct ao_method ao_i_method_ue4;        /* ao_ue4.c */
+extern const struct ao_method ao_i_method_gtao;       /* ao_gtao.c */
+extern const struct ao_method ao_i_method_mssao;      /* ao_mssao.c */
+extern const struct ao_method ao_i_method_mssao_seed; /* ao_mssao_seed.c */
+
 #endif

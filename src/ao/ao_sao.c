@@ -825,3 +825,122 @@ obs_status ao_sao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     ao_sao_constants k = ao_sao_constants_from_params(params, in);
     return ao_sao_compute_constants(ctx, pool, in, &k, out, out_raw, stats);
 }
+
+/* ================================================================================================
+ * The registry descriptor (ao.h, "The method registry")
+ * ============================================================================================== */
+
+_Static_assert(sizeof(ao_sao_variant) == sizeof(int) && sizeof(ao_sao_normals) == sizeof(int),
+               "ENUM params are int-sized");
+_Static_assert(sizeof(ao_sao_params) <= AO_PARAMS_MAX_SIZE, "AO_PARAMS_MAX_SIZE");
+
+static const char *const sao_variant_names[] = {"hpg12", "g3d-hq", NULL};
+static const char *const sao_normals_names[] = {"depth", "gbuffer", NULL};
+
+#define SAO_F(field) offsetof(ao_sao_params, field)
+static const ao_param_desc sao_param_descs[] = {
+    {"variant", AO_PARAM_ENUM, SAO_F(variant), 0, 0, sao_variant_names,
+     "hpg12 (falloff B) or g3d-hq (the later G3D HIGH_QUALITY estimator)"},
+    {"radius", AO_PARAM_FLOAT, SAO_F(radius), 1e-6, 1e6, NULL, "world-space radius r (m)"},
+    {"bias", AO_PARAM_FLOAT, SAO_F(bias), -1e30, 1e30, NULL, "bias (m)"},
+    {"intensity", AO_PARAM_FLOAT, SAO_F(intensity), 0, 1e30, NULL, "intensity (g3d-hq: the exponent)"},
+    {"epsilon", AO_PARAM_FLOAT, SAO_F(epsilon), 1e-30, 1e30, NULL, "epsilon in (vn - bias)/(vv + epsilon)"},
+    {"samples", AO_PARAM_INT, SAO_F(samples), 1, AO_SAO_MAX_SAMPLES, NULL,
+     "taps N (NUM_SAMPLES); without --turns, the turns come from the table"},
+    {"turns", AO_PARAM_INT, SAO_F(spiral_turns), 0, 1000000, NULL,
+     "spiral turns (NUM_SPIRAL_TURNS); 0 = McGuire's minimum-discrepancy table for N"},
+    {"max-mip", AO_PARAM_INT, SAO_F(max_mip_level), 0, AO_SAO_MAX_MIP, NULL,
+     "deepest depth MIP level a tap may read (0 = none)"},
+    {"log-max-offset", AO_PARAM_INT, SAO_F(log_max_offset), 0, 30, NULL, "LOG_MAX_OFFSET of the MIP selection"},
+    {"normals", AO_PARAM_ENUM, SAO_F(normals), 0, 0, sao_normals_names,
+     "depth: face normals from depth (reference); gbuffer: the G-buffer's"},
+    {"blur", AO_PARAM_BOOL, SAO_F(blur), 0, 1, NULL, "the separable bilateral blur (R = 4), SAO_blur.pix"},
+    {"blur-stride", AO_PARAM_INT, SAO_F(blur_stride), 1, 64, NULL, "blur tap spacing (px)"},
+    {"edge-sharpness", AO_PARAM_FLOAT, SAO_F(edge_sharpness), 0, 1e30, NULL, "blur EDGE_SHARPNESS"},
+    {"blur-key-far", AO_PARAM_FLOAT, SAO_F(blur_key_far), 1e-30, 1e30, NULL,
+     "blur key scale (m): edgeK = sharpness * 2000 / this"},
+};
+#undef SAO_F
+
+static void m_default(void *p) { *(ao_sao_params *)p = ao_sao_params_default(); }
+static int m_preset(const char *name, void *p) { return ao_sao_params_preset(name, (ao_sao_params *)p); }
+static void m_adjust(void *p, const unsigned char *given)
+{
+    /* --samples without --turns: the minimum-discrepancy table's turns (documented in --list). */
+    const ptrdiff_t i_samples = ao_method_param(&ao_i_method_sao, "samples") - sao_param_descs;
+    const ptrdiff_t i_turns = ao_method_param(&ao_i_method_sao, "turns") - sao_param_descs;
+    if (given[i_samples] && !given[i_turns])
+        ((ao_sao_params *)p)->spiral_turns = AO_SAO_TURNS_FROM_TABLE;
+}
+static obs_status m_validate(obs_context *ctx, const void *p) { return ao_sao_params_validate(ctx, (const ao_sao_params *)p); }
+static int m_to_string(const void *p, char *buf, size_t size) { return ao_sao_params_to_string((const ao_sao_params *)p, buf, size); }
+static void m_set_samples(void *p, int n)
+{
+    ((ao_sao_params *)p)->samples = n;
+    ((ao_sao_params *)p)->spiral_turns = AO_SAO_TURNS_FROM_TABLE;
+}
+static void m_set_radius(void *p, float r) { ((ao_sao_params *)p)->radius = r; }
+static void m_set_blur(void *p, int on) { ((ao_sao_params *)p)->blur = on != 0; }
+static float m_get_radius(const void *p) { return ((const ao_sao_params *)p)->radius; }
+static const char *m_truth(const void *p)
+{
+    /* HPG12 estimates obscurance with falloff B, (1 - d^2/r^2)^3; G3D HQ the linear one. */
+    return ((const ao_sao_params *)p)->variant == AO_SAO_VARIANT_G3D_HQ ? "obs-sao-linear" : "obs-sao";
+}
+static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t size)
+{
+    const ao_sao_constants K = ao_sao_constants_from_params((const ao_sao_params *)p, in);
+    return snprintf(buf, size,
+                    "{\"projInfo\": [%.9g, %.9g, %.9g, %.9g], \"projScale\": %.9g, \"radius2\": %.9g, "
+                    "\"bias\": %.9g, \"intensity\": %.9g, \"epsilon\": %.9g, \"NUM_SAMPLES\": %d, "
+                    "\"NUM_SPIRAL_TURNS\": %d, \"inv_num_samples\": %.9g, \"turns_angle\": %.9g, "
+                    "\"final_scale\": %.9g, \"max_mip\": %d, \"LOG_MAX_OFFSET\": %d, \"blur\": %d, "
+                    "\"blur_R\": %d, \"blur_stride\": %d, \"blur_edgeK\": %.9g, "
+                    "\"blur_gaussian\": [%.9g, %.9g, %.9g, %.9g, %.9g]}",
+                    (double)K.proj_info[0], (double)K.proj_info[1], (double)K.proj_info[2], (double)K.proj_info[3],
+                    (double)K.proj_scale, (double)K.radius2, (double)K.bias, (double)K.intensity, (double)K.epsilon,
+                    K.num_samples, K.num_spiral_turns, (double)K.inv_num_samples, (double)K.turns_angle,
+                    (double)K.final_scale, K.max_mip, K.log_max_offset, K.blur, K.blur_radius, K.blur_stride,
+                    (double)K.edge_k, (double)ao_sao_blur_gaussian[0], (double)ao_sao_blur_gaussian[1],
+                    (double)ao_sao_blur_gaussian[2], (double)ao_sao_blur_gaussian[3], (double)ao_sao_blur_gaussian[4]);
+}
+static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const void *p, obs_image_f32 *out,
+                            obs_image_f32 *out_raw, ao_stats *stats)
+{
+    ao_sao_stats s;
+    memset(&s, 0, sizeof s);
+    obs_status st = ao_sao_compute(ctx, pool, in, (const ao_sao_params *)p, out, out_raw, &s);
+    if (stats) {
+        memset(stats, 0, sizeof *stats);
+        stats->pixels_computed = s.pixels_computed;
+        stats->pixels_background = s.pixels_background;
+        stats->seconds_prepare = s.seconds_csz + s.seconds_mip;
+        stats->seconds_kernel = s.seconds_ao;
+        stats->seconds_blur = s.seconds_blur;
+    }
+    return st;
+}
+
+const ao_method ao_i_method_sao = {
+    .name = "sao",
+    .title = "Scalable Ambient Obscurance [McGuire12]: the HPG12 shader as the llvmpipe peer runs it",
+    .doc = "docs/ao/sao.md",
+    .params_size = sizeof(ao_sao_params),
+    .params_default = m_default,
+    .params_preset = m_preset,
+    .preset_names = preset_names,
+    .params = sao_param_descs,
+    .param_count = (int)(sizeof sao_param_descs / sizeof sao_param_descs[0]),
+    .params_adjust = m_adjust,
+    .params_validate = m_validate,
+    .params_to_string = m_to_string,
+    .set_samples = m_set_samples,
+    .set_radius = m_set_radius,
+    .set_blur = m_set_blur,
+    .get_radius = m_get_radius,
+    .truth_estimator = m_truth,
+    .flat_value = 1.0f,
+    .flat_tolerance = 1e-6f,
+    .constants_to_json = m_constants_json,
+    .compute = m_compute,
+};

@@ -26,12 +26,12 @@ static const char *ao_help =
     "    --intrinsics F.json  fx, fy, cx, cy, projection, znear, zfar, depth_kind, inner_window (they\n"
     "                         override the EXR's obscura:* metadata; our gbuffer sidecar works too)\n"
     "    --no-gbuffer-normals ignore N.X/N.Y/N.Z (normals for the blend are then reconstructed)\n"
-    "method and parameters (see --list):\n"
-    "  --method NAME          sao\n"
-    "  --preset NAME          start from a named parameter set (sao: default, peer, hpg12, thesis, g3d, g3d-hq)\n"
-    "  --radius R --bias B --intensity I --epsilon E --samples N --turns T (0 = from the table)\n"
-    "  --max-mip L (0 = no MIP pyramid) --log-max-offset K --normals depth|gbuffer --variant hpg12|g3d-hq\n"
-    "  --no-blur --blur-stride S --edge-sharpness K --blur-key-far Z\n"
+    "method and parameters (each method's flags, defaults and presets: --list):\n"
+    "  --method NAME          the technique (see --list)\n"
+    "  --preset NAME          start from a named parameter set; parameter flags apply on top of it,\n"
+    "                         whatever their order\n"
+    "  --PARAM VALUE          a number, or a choice for named options; --PARAM / --no-PARAM for\n"
+    "                         switches (e.g. --no-blur)\n"
     "output:\n"
     "  -o, --output PREFIX    PREFIX.exr (channels AO, AO.raw, Z), PREFIX.png (AO preview),\n"
     "                         PREFIX_blend.png (AO times a Lambert-plus-ambient shading), PREFIX.json\n"
@@ -44,40 +44,131 @@ static const char *ao_help =
 
 /* ---- method table (for --list and the sidecar) ------------------------------------------------ */
 
+static void format_param_value(const ao_param_desc *d, const void *params, char *buf, size_t size)
+{
+    const char *base = (const char *)params + d->offset;
+    int iv;
+    float fv;
+    switch (d->type) {
+    case AO_PARAM_FLOAT:
+        memcpy(&fv, base, sizeof fv);
+        snprintf(buf, size, "%g", (double)fv);
+        break;
+    case AO_PARAM_INT:
+        memcpy(&iv, base, sizeof iv);
+        snprintf(buf, size, "%d", iv);
+        break;
+    case AO_PARAM_BOOL:
+        memcpy(&iv, base, sizeof iv);
+        snprintf(buf, size, "%s", iv ? "on" : "off");
+        break;
+    default: {
+        memcpy(&iv, base, sizeof iv);
+        int n = 0;
+        while (d->choices[n])
+            n++;
+        snprintf(buf, size, "%s", iv >= 0 && iv < n ? d->choices[iv] : "?");
+    }
+    }
+}
+
 static void list_methods(void)
 {
-    ao_sao_params d = ao_sao_params_default();
-    printf("sao     Scalable Ambient Obscurance [McGuire12]: the HPG12 shader as the llvmpipe peer runs it\n"
-           "        (docs/ao/sao.md)\n");
-    printf("  %-22s %-10s %s\n", "parameter", "default", "meaning");
-    printf("  %-22s %-10s %s\n", "--variant", "hpg12", "hpg12 (falloff B) or g3d-hq (later G3D HIGH_QUALITY estimator)");
-    printf("  %-22s %-10g %s\n", "--radius", (double)d.radius, "world-space radius r (m)");
-    printf("  %-22s %-10g %s\n", "--bias", (double)d.bias, "bias (m)");
-    printf("  %-22s %-10g %s\n", "--intensity", (double)d.intensity, "intensity (g3d-hq: the exponent)");
-    printf("  %-22s %-10g %s\n", "--epsilon", (double)d.epsilon, "epsilon in (vn - bias)/(vv + epsilon)");
-    printf("  %-22s %-10d %s\n", "--samples", d.samples, "taps N (NUM_SAMPLES)");
-    printf("  %-22s %-10d %s\n", "--turns", d.spiral_turns,
-           "spiral turns (NUM_SPIRAL_TURNS); 0 = McGuire's minimum-discrepancy table for N;\n"
-           "                                    --samples without --turns uses the table");
-    printf("  %-22s %-10d %s\n", "--max-mip", d.max_mip_level, "deepest depth MIP level a tap may read (0 = none)");
-    printf("  %-22s %-10d %s\n", "--log-max-offset", d.log_max_offset, "LOG_MAX_OFFSET of the MIP selection");
-    printf("  %-22s %-10s %s\n", "--normals", "depth", "depth: face normals from depth (reference); gbuffer");
-    printf("  %-22s %-10s %s\n", "--no-blur", "(blur on)", "skip the separable bilateral blur (R = 4)");
-    printf("  %-22s %-10d %s\n", "--blur-stride", d.blur_stride, "blur tap spacing (px)");
-    printf("  %-22s %-10g %s\n", "--edge-sharpness", (double)d.edge_sharpness, "blur EDGE_SHARPNESS");
-    printf("  %-22s %-10g %s\n", "--blur-key-far", (double)d.blur_key_far,
-           "blur key scale (m): edgeK = sharpness * 2000 / this");
-    printf("  presets (--preset):");
-    for (const char *const *n = ao_sao_preset_names(); *n; n++)
-        printf(" %s", *n);
-    printf("\n");
-    for (const char *const *n = ao_sao_preset_names(); *n; n++) {
-        ao_sao_params p;
-        char buf[512];
-        ao_sao_params_preset(*n, &p);
-        ao_sao_params_to_string(&p, buf, sizeof buf);
-        printf("    %-8s %s\n", *n, buf);
+    unsigned char params[AO_PARAMS_MAX_SIZE];
+    for (const ao_method *const *mp = ao_methods(); *mp; mp++) {
+        const ao_method *m = *mp;
+        m->params_default(params);
+        printf("%-10s %s\n           (%s; matched ground truth: obscura truth ao --estimator %s)\n", m->name, m->title,
+               m->doc, m->truth_estimator(params));
+        printf("  %-22s %-10s %s\n", "parameter", "default", "meaning");
+        for (int i = 0; i < m->param_count; i++) {
+            const ao_param_desc *d = &m->params[i];
+            char flag[64], val[64], range[160] = "";
+            snprintf(flag, sizeof flag, "--%s", d->name);
+            if (d->type == AO_PARAM_BOOL)
+                snprintf(flag, sizeof flag, "--[no-]%s", d->name);
+            format_param_value(d, params, val, sizeof val);
+            if (d->type == AO_PARAM_ENUM) {
+                size_t o = 0;
+                for (int c = 0; d->choices[c] && o < sizeof range; c++)
+                    o += (size_t)snprintf(range + o, sizeof range - o, "%s%s", c ? "|" : " [", d->choices[c]);
+                if (o < sizeof range)
+                    snprintf(range + o, sizeof range - o, "]");
+            } else if (d->type != AO_PARAM_BOOL) {
+                snprintf(range, sizeof range, " [%g, %g]", d->min, d->max);
+            }
+            printf("  %-22s %-10s %s%s\n", flag, val, d->help, range);
+        }
+        printf("  presets (--preset):");
+        for (const char *const *n = m->preset_names; *n; n++)
+            printf(" %s", *n);
+        printf("\n");
+        for (const char *const *n = m->preset_names; *n; n++) {
+            char buf[1024];
+            if (!m->params_preset(*n, params))
+                continue;
+            m->params_to_string(params, buf, sizeof buf);
+            printf("    %-10s %s\n", *n, buf);
+        }
+        printf("\n");
     }
+}
+
+/* Apply one parameter flag (argv[*i] is "--NAME" or "--no-NAME"). Returns 1 when it was the
+ * method's, 0 when it is not a parameter of m, -1 on a usage error (printed). */
+static int apply_param_flag(const ao_method *m, void *params, unsigned char *given, int argc, char **argv, int *i)
+{
+    const char *a = argv[*i];
+    if (strncmp(a, "--", 2) != 0)
+        return 0;
+    const char *name = a + 2;
+    int negated = 0;
+    const ao_param_desc *d = ao_method_param(m, name);
+    if (!d && !strncmp(name, "no-", 3)) {
+        d = ao_method_param(m, name + 3);
+        negated = 1;
+        if (d && !(d->type == AO_PARAM_BOOL || (d->type == AO_PARAM_ENUM && !strcmp(d->choices[0], "none"))))
+            return cli_usage_error("%s: %s is not a switch", m->name, a), -1;
+    }
+    if (!d)
+        return 0;
+    given[d - m->params] = 1;
+    char *field = (char *)params + d->offset;
+    const char *v = *i + 1 < argc ? argv[*i + 1] : NULL;
+    int iv;
+    if (negated || d->type == AO_PARAM_BOOL) {
+        iv = negated ? 0 : 1;
+        memcpy(field, &iv, sizeof iv);
+        return 1;
+    }
+    if (d->type == AO_PARAM_FLOAT) {
+        double x;
+        if (!cli_parse_float(v, &x) || !isfinite(x) || x < d->min || x > d->max)
+            return cli_usage_error("%s: %s needs a number in [%g, %g]", m->name, a, d->min, d->max), -1;
+        float fv = (float)x;
+        memcpy(field, &fv, sizeof fv);
+    } else if (d->type == AO_PARAM_INT) {
+        long long ll;
+        if (!cli_parse_int(v, (long long)d->min, (long long)d->max, &ll))
+            return cli_usage_error("%s: %s needs an integer in [%lld, %lld]", m->name, a, (long long)d->min,
+                                   (long long)d->max), -1;
+        iv = (int)ll;
+        memcpy(field, &iv, sizeof iv);
+    } else {
+        int c = 0;
+        while (d->choices[c] && (!v || strcmp(d->choices[c], v) != 0))
+            c++;
+        if (!d->choices[c]) {
+            char list[256];
+            size_t o = 0;
+            for (int k = 0; d->choices[k] && o < sizeof list; k++)
+                o += (size_t)snprintf(list + o, sizeof list - o, "%s%s", k ? ", " : "", d->choices[k]);
+            return cli_usage_error("%s: %s needs one of: %s", m->name, a, list), -1;
+        }
+        memcpy(field, &c, sizeof c);
+    }
+    (*i)++;
+    return 1;
 }
 
 /* mkdir -p for the directory part of path (as cmd_gbuffer.c does). */
@@ -135,22 +226,48 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     const char *intrinsics_path = NULL;
     int W = 1920, H = 1080, size_given = 0, guard = 0, infinite_far = 0, gbuffer_normals = 1;
     ao_external_options xo = ao_external_options_default();
-    ao_sao_params sp = ao_sao_params_default();
-    /* Parameter flags are applied after --preset, whatever their order: remember them. */
+    /* Parameters: the method's defaults, then --preset, then the parameter flags in their order
+     * (so flags apply on top of the preset, whatever their order). */
     const char *preset = NULL;
-    double radius = NAN, bias = NAN, intensity = NAN, epsilon = NAN, edge = NAN, keyfar = NAN;
-    long long samples = -1, turns = -1, max_mip = -1, log_max_offset = -1, blur_stride = -1;
-    int no_blur = 0, normals = -1, variant = -1;
+    const ao_method *m = NULL;
+    unsigned char params[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
+    unsigned char given[256];
+    memset(given, 0, sizeof given);
 
     if (argc < 2) {
         fputs(ao_help, stderr);
         return CLI_EXIT_USAGE;
     }
+    /* Pre-pass: the method and the preset decide what the parameter flags mean. */
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            fputs(ao_help, stdout);
+            return CLI_EXIT_OK;
+        } else if (!strcmp(a, "--list")) {
+            list_methods();
+            return CLI_EXIT_OK;
+        } else if (!strcmp(a, "--method") && i + 1 < argc) {
+            method = argv[++i];
+        } else if (!strcmp(a, "--preset") && i + 1 < argc) {
+            preset = argv[++i];
+        }
+    }
+    if (!method)
+        return cli_usage_error("ao: no --method given (see 'obscura ao --list')");
+    m = ao_method_find(method);
+    if (!m)
+        return cli_usage_error("ao: unknown method '%s' (see 'obscura ao --list')", method);
+    if (m->params_size > sizeof params || m->param_count > (int)sizeof given)
+        return CLI_EXIT_INTERNAL;
+    m->params_default(params);
+    if (preset && !m->params_preset(preset, params))
+        return cli_usage_error("ao: unknown %s preset '%s' (see 'obscura ao --list')", m->name, preset);
+
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
-        double d;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(ao_help, stdout);
             return CLI_EXIT_OK;
@@ -195,83 +312,25 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
             gbuffer_normals = 0;
         } else if (!strcmp(a, "--preset")) {
             if (!v) return cli_usage_error("--preset needs a name (see 'obscura ao --list')");
-            preset = v; i++;
-        } else if (!strcmp(a, "--radius") || !strcmp(a, "--bias") || !strcmp(a, "--intensity") ||
-                   !strcmp(a, "--epsilon") || !strcmp(a, "--edge-sharpness") || !strcmp(a, "--blur-key-far")) {
-            if (!cli_parse_float(v, &d) || !isfinite(d)) return cli_usage_error("%s needs a finite number", a);
-            if (!strcmp(a, "--radius")) radius = d;
-            else if (!strcmp(a, "--bias")) bias = d;
-            else if (!strcmp(a, "--intensity")) intensity = d;
-            else if (!strcmp(a, "--epsilon")) epsilon = d;
-            else if (!strcmp(a, "--edge-sharpness")) edge = d;
-            else keyfar = d;
-            i++;
-        } else if (!strcmp(a, "--samples")) {
-            if (!cli_parse_int(v, 1, AO_SAO_MAX_SAMPLES, &samples))
-                return cli_usage_error("--samples needs an integer in [1, %d]", AO_SAO_MAX_SAMPLES);
-            i++;
-        } else if (!strcmp(a, "--turns")) {
-            if (!cli_parse_int(v, 0, 1000000, &turns)) return cli_usage_error("--turns needs an integer in [0, 1000000]");
-            i++;
-        } else if (!strcmp(a, "--max-mip")) {
-            if (!cli_parse_int(v, 0, AO_SAO_MAX_MIP, &max_mip))
-                return cli_usage_error("--max-mip needs an integer in [0, %d]", AO_SAO_MAX_MIP);
-            i++;
-        } else if (!strcmp(a, "--log-max-offset")) {
-            if (!cli_parse_int(v, 0, 30, &log_max_offset)) return cli_usage_error("--log-max-offset needs an integer in [0, 30]");
-            i++;
-        } else if (!strcmp(a, "--blur-stride")) {
-            if (!cli_parse_int(v, 1, 64, &blur_stride)) return cli_usage_error("--blur-stride needs an integer in [1, 64]");
-            i++;
-        } else if (!strcmp(a, "--no-blur")) {
-            no_blur = 1;
-        } else if (!strcmp(a, "--normals")) {
-            if (v && !strcmp(v, "depth")) normals = AO_SAO_NORMALS_FROM_DEPTH;
-            else if (v && !strcmp(v, "gbuffer")) normals = AO_SAO_NORMALS_GBUFFER;
-            else return cli_usage_error("--normals needs depth or gbuffer");
-            i++;
-        } else if (!strcmp(a, "--variant")) {
-            if (v && !strcmp(v, "hpg12")) variant = AO_SAO_VARIANT_HPG12;
-            else if (v && !strcmp(v, "g3d-hq")) variant = AO_SAO_VARIANT_G3D_HQ;
-            else return cli_usage_error("--variant needs hpg12 or g3d-hq");
             i++;
         } else {
-            int r = cli_limit_flag(g, argc, argv, &i);
+            int r = apply_param_flag(m, params, given, argc, argv, &i);
+            if (r < 0) return CLI_EXIT_USAGE;
+            if (r > 0) continue;
+            r = cli_limit_flag(g, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             return cli_usage_error("ao: unknown option '%s' (input is --scene or --gbuffer)", a);
         }
     }
-    if (!method)
-        return cli_usage_error("ao: no --method given (see 'obscura ao --list')");
-    if (strcmp(method, "sao") != 0)
-        return cli_usage_error("ao: unknown method '%s' (see 'obscura ao --list')", method);
     if (!scene_path == !gbuffer_path)
         return cli_usage_error("ao: give exactly one of --scene and --gbuffer");
     if (gbuffer_path && (size_given || guard || infinite_far || camera[0]))
         return cli_usage_error("ao: --camera, --size, --guard and --infinite-far apply to --scene only");
     if (scene_path && (xo.depth_channel || xo.depth_kind != AO_DEPTH_KIND_AUTO || intrinsics_path))
         return cli_usage_error("ao: --depth-channel, --depth-kind and --intrinsics apply to --gbuffer only");
-    if (preset && !ao_sao_params_preset(preset, &sp))
-        return cli_usage_error("ao: unknown sao preset '%s' (see 'obscura ao --list')", preset);
-    if (variant >= 0) sp.variant = (ao_sao_variant)variant;
-    if (!isnan(radius)) sp.radius = (float)radius;
-    if (!isnan(bias)) sp.bias = (float)bias;
-    if (!isnan(intensity)) sp.intensity = (float)intensity;
-    if (!isnan(epsilon)) sp.epsilon = (float)epsilon;
-    if (!isnan(edge)) sp.edge_sharpness = (float)edge;
-    if (!isnan(keyfar)) sp.blur_key_far = (float)keyfar;
-    if (samples > 0) {
-        sp.samples = (int)samples;
-        if (turns < 0)
-            sp.spiral_turns = AO_SAO_TURNS_FROM_TABLE; /* documented: --samples alone takes the table's turns */
-    }
-    if (turns >= 0) sp.spiral_turns = (int)turns;
-    if (max_mip >= 0) sp.max_mip_level = (int)max_mip;
-    if (log_max_offset >= 0) sp.log_max_offset = (int)log_max_offset;
-    if (blur_stride > 0) sp.blur_stride = (int)blur_stride;
-    if (no_blur) sp.blur = 0;
-    if (normals >= 0) sp.normals = (ao_sao_normals)normals;
+    if (m->params_adjust)
+        m->params_adjust(params, given);
 
     obs_context *ctx = obs_context_create();
     if (!ctx)
@@ -299,7 +358,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     ao_intrinsics intr = ao_intrinsics_unknown();
     double t_in0 = obs_time_now(), t_in1, t_ao0, t_ao1;
 
-    obs_status st = ao_sao_params_validate(ctx, &sp);
+    obs_status st = m->params_validate(ctx, params);
     if (st != OBS_STATUS_OK) {
         code = cli_fail(ctx, st);
         goto done;
@@ -370,30 +429,25 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
         H = in.h;
     }
     t_in1 = obs_time_now();
-    if (sp.normals == AO_SAO_NORMALS_GBUFFER && !in.normal[0]) {
-        code = cli_usage_error("ao: --normals gbuffer, but the G-buffer has no normals");
-        goto done;
-    }
 
     /* ---- AO ---- */
     st = obs_image_f32_alloc(ctx, in.w, in.h, &ao);
     if (st == OBS_STATUS_OK)
         st = obs_image_f32_alloc(ctx, in.w, in.h, &ao_raw);
-    ao_sao_stats stats;
+    ao_stats stats;
     memset(&stats, 0, sizeof stats);
     t_ao0 = obs_time_now();
     if (st == OBS_STATUS_OK)
-        st = ao_sao_compute(ctx, pool, &in, &sp, &ao, &ao_raw, &stats);
+        st = m->compute(ctx, pool, &in, params, &ao, &ao_raw, &stats);
     t_ao1 = obs_time_now();
     if (st != OBS_STATUS_OK) {
         code = cli_fail(ctx, st);
         goto done;
     }
-    ao_sao_constants K = ao_sao_constants_from_params(&sp, &in);
-    char params_text[512];
-    ao_sao_params_to_string(&sp, params_text, sizeof params_text);
+    char params_text[1024];
+    m->params_to_string(params, params_text, sizeof params_text);
     if (!g->quiet)
-        fprintf(stderr, "obscura: ao sao: %dx%d (buffer %dx%d), %s: %.2f ms (%d threads)\n", in.w, in.h, in.width,
+        fprintf(stderr, "obscura: ao %s: %dx%d (buffer %dx%d), %s: %.2f ms (%d threads)\n", m->name, in.w, in.h, in.width,
                 in.height, params_text, 1e3 * (t_ao1 - t_ao0), obs_pool_threads(pool));
 
     /* ---- Normals for the blend: the G-buffer's, else reconstructed from depth ---- */
@@ -443,7 +497,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     io_attr at[12];
     memset(at, 0, sizeof at);
     int na = 0;
-    strcpy(at[na].name, "obscura:method"); at[na].type = IO_ATTR_STRING; at[na].s = (char *)"sao"; na++;
+    strcpy(at[na].name, "obscura:method"); at[na].type = IO_ATTR_STRING; at[na].s = (char *)m->name; na++;
     strcpy(at[na].name, "obscura:params"); at[na].type = IO_ATTR_STRING; at[na].s = params_text; na++;
     strcpy(at[na].name, "obscura:pixel_model_fx_fy_cx_cy"); at[na].type = IO_ATTR_FLOATS; at[na].v = fxyc; at[na].n = 4; na++;
     strcpy(at[na].name, "obscura:projection_type"); at[na].type = IO_ATTR_STRING;
@@ -453,8 +507,8 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     at[na].s = (char *)(scene_path ? scene_path : gbuffer_path); na++;
     strcpy(at[na].name, "obscura:conventions"); at[na].type = IO_ATTR_STRING;
     at[na].s = (char *)"AO = visibility (1 = unoccluded), after the blur; AO.raw = before the blur; row 0 at top; "
-                       "Z = linear depth, inf = background; SAO's pattern in GL pixel coordinates of the full "
-                       "buffer (docs/ao/sao.md)";
+                       "Z = linear depth, inf = background; the technique's sample pattern as its page says "
+                       "(docs/ao/)";
     na++;
     char path[4200];
     st = make_parent_dirs(ctx, prefix);
@@ -489,7 +543,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
         }
     io_json_begin_object(&j, NULL);
     cli_json_header(&j, "ao", argc, argv);
-    io_json_string(&j, "method", "sao");
+    io_json_string(&j, "method", m->name);
     io_json_begin_object(&j, "input");
     if (scene_path) {
         io_json_string(&j, "scene", scene_path);
@@ -523,47 +577,49 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     io_json_bool(&j, "has_normals", in.normal[0] != NULL);
     io_json_end_object(&j);
     io_json_begin_object(&j, "params");
-    io_json_string(&j, "variant", sp.variant == AO_SAO_VARIANT_G3D_HQ ? "g3d-hq" : "hpg12");
     io_json_string(&j, "preset", preset ? preset : "default");
-    io_json_number(&j, "radius", sp.radius);
-    io_json_number(&j, "bias", sp.bias);
-    io_json_number(&j, "intensity", sp.intensity);
-    io_json_number(&j, "epsilon", sp.epsilon);
-    io_json_int(&j, "samples", sp.samples);
-    io_json_int(&j, "spiral_turns", K.num_spiral_turns);
-    io_json_bool(&j, "spiral_turns_from_table", sp.spiral_turns == AO_SAO_TURNS_FROM_TABLE);
-    io_json_int(&j, "max_mip_level", sp.max_mip_level);
-    io_json_int(&j, "log_max_offset", sp.log_max_offset);
-    io_json_string(&j, "normals", sp.normals == AO_SAO_NORMALS_GBUFFER ? "gbuffer" : "depth");
-    io_json_bool(&j, "blur", sp.blur);
-    io_json_int(&j, "blur_radius", AO_SAO_BLUR_RADIUS);
-    io_json_int(&j, "blur_stride", sp.blur_stride);
-    io_json_number(&j, "edge_sharpness", sp.edge_sharpness);
-    io_json_number(&j, "blur_key_far", sp.blur_key_far);
+    for (int i = 0; i < m->param_count; i++) {
+        const ao_param_desc *d = &m->params[i];
+        const char *field = (const char *)params + d->offset;
+        int iv;
+        float fv;
+        char val[64];
+        if (d->type == AO_PARAM_FLOAT) {
+            memcpy(&fv, field, sizeof fv);
+            io_json_number(&j, d->name, fv);
+        } else if (d->type == AO_PARAM_INT) {
+            memcpy(&iv, field, sizeof iv);
+            io_json_int(&j, d->name, iv);
+        } else if (d->type == AO_PARAM_BOOL) {
+            memcpy(&iv, field, sizeof iv);
+            io_json_bool(&j, d->name, iv);
+        } else {
+            format_param_value(d, params, val, sizeof val);
+            io_json_string(&j, d->name, val);
+        }
+    }
+    io_json_string(&j, "resolved", params_text);
     io_json_int(&j, "threads", obs_pool_threads(pool));
     io_json_end_object(&j);
-    io_json_begin_object(&j, "constants");
-    io_json_floats(&j, "projInfo", K.proj_info, 4);
-    io_json_number(&j, "projScale", K.proj_scale);
-    io_json_number(&j, "radius2", K.radius2);
-    io_json_number(&j, "inv_num_samples", K.inv_num_samples);
-    io_json_number(&j, "turns_angle", K.turns_angle);
-    io_json_number(&j, "final_scale", K.final_scale);
-    io_json_int(&j, "max_mip", K.max_mip);
-    io_json_number(&j, "blur_edgeK", K.edge_k);
-    io_json_floats(&j, "blur_gaussian", ao_sao_blur_gaussian, AO_SAO_BLUR_RADIUS + 1);
-    io_json_end_object(&j);
+    io_json_string(&j, "matched_ground_truth_estimator", m->truth_estimator(params));
+    io_json_number(&j, "matched_ground_truth_radius", m->get_radius(params));
+    if (m->constants_to_json) {
+        int need = m->constants_to_json(params, &in, NULL, 0);
+        char *ktext = need > 0 ? malloc((size_t)need + 1) : NULL;
+        if (ktext) {
+            m->constants_to_json(params, &in, ktext, (size_t)need + 1);
+            io_json_raw(&j, "constants", ktext);
+            free(ktext);
+        }
+    }
     io_json_begin_object(&j, "stats");
     io_json_int(&j, "pixels_computed", stats.pixels_computed);
     io_json_int(&j, "pixels_background", stats.pixels_background);
-    io_json_int(&j, "pixels_degenerate_normal", stats.pixels_degenerate_normal);
-    io_json_int(&j, "pixels_below_min_radius", stats.pixels_below_min_radius);
     io_json_int(&j, "surface_pixels_in_window", nsurf);
     io_json_number(&j, "mean_visibility_surface", nsurf ? sum / (double)nsurf : 1.0);
     io_json_number(&j, "seconds_input", t_in1 - t_in0);
-    io_json_number(&j, "seconds_csz", stats.seconds_csz);
-    io_json_number(&j, "seconds_mip", stats.seconds_mip);
-    io_json_number(&j, "seconds_ao", stats.seconds_ao);
+    io_json_number(&j, "seconds_prepare", stats.seconds_prepare);
+    io_json_number(&j, "seconds_kernel", stats.seconds_kernel);
     io_json_number(&j, "seconds_blur", stats.seconds_blur);
     io_json_number(&j, "seconds_total_ao", t_ao1 - t_ao0);
     io_json_end_object(&j);

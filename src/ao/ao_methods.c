@@ -1,0 +1,40 @@
+/* ao_methods.c: the method registry (ao.h, "The method registry"). One line per technique; the
+ * order is the order of `obscura ao --list` and of the study. */
+#include "ao.h"
+#include "ao_internal.h"
+
+#include <string.h>
+
+static const ao_method *const methods[] = {
+    /* crytek */
+    /* alchemy */
+    &ao_i_method_sao,
+    /* hbao */
+    /* ue4 */
+    /* gtao */
+    /* mssao */
+    /* mssao-seed */
+    NULL,
+};
+
+const ao_method *const *ao_methods(void) { return methods; }
+
+const ao_method *ao_method_find(const char *name)
+{
+    if (!name)
+        return NULL;
+    for (const ao_method *const *m = methods; *m; m++)
+        if (!strcmp((*m)->name, name))
+            return *m;
+    return NULL;
+}
+
+const ao_param_desc *ao_method_param(const ao_method *m, const char *name)
+{
+    if (!m || !name)
+        return NULL;
+    for (int i = 0; i < m->param_count; i++)
+        if (!strcmp(m->params[i].name, name))
+            return &m->params[i];
+    return NULL;
+}
