@@ -554,3 +554,43 @@ TEST(ao_methods_cli_runs_every_method)
     }
     free(list);
 }
+
+/* ---- the final blend ------------------------------------------------------------------------- */
+
+TEST(ao_blend_lambert_shades_and_masks_background)
+{
+    obs_context *ctx = obs_context_create();
+    synth s;
+    CHECK_OK(synth_plane(ctx, 8, 6, 10.0, obs_dv3(0, 0, 1), -3.0, OBS_PROJECTION_PERSPECTIVE, &s), ctx);
+    obs_image_f32_row(&s.depth, 2)[3] = INFINITY;   /* one background pixel */
+    obs_image_f32 n[3], ao, out;
+    for (int c = 0; c < 3; c++) {
+        CHECK_OK(obs_image_f32_alloc(ctx, 8, 6, &n[c]), ctx);
+        for (int y = 0; y < 6; y++)
+            for (int x = 0; x < 8; x++)
+                obs_image_f32_row(&n[c], y)[x] = c == 2 ? 1.0f : 0.0f;
+    }
+    obs_image_f32_row(&n[2], 4)[5] = -1.0f;          /* a normal facing away: ambient only */
+    CHECK_OK(obs_image_f32_alloc(ctx, 8, 6, &ao), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, 8, 6, &out), ctx);
+    for (int y = 0; y < 6; y++)
+        for (int x = 0; x < 8; x++)
+            obs_image_f32_row(&ao, y)[x] = 0.125f * (float)x;
+    const obs_image_f32 *np[3] = {&n[0], &n[1], &n[2]};
+    CHECK_OK(ao_blend_lambert(ctx, NULL, &s.in, &ao, np, &out), ctx);
+    const double ndl = 0.72 / sqrt(0.35 * 0.35 + 0.6 * 0.6 + 0.72 * 0.72);
+    CHECK_NEAR(obs_image_f32_row(&out, 1)[4], 0.5 * (0.25 + 0.75 * ndl), 1e-6);
+    CHECK(obs_image_f32_row(&out, 2)[3] == 0.0f);
+    CHECK_NEAR(obs_image_f32_row(&out, 4)[5], 0.625 * 0.25, 1e-7);
+    /* bad sizes are refused */
+    obs_image_f32 small;
+    CHECK_OK(obs_image_f32_alloc(ctx, 4, 4, &small), ctx);
+    CHECK(ao_blend_lambert(ctx, NULL, &s.in, &small, np, &out) == OBS_STATUS_INVALID_ARGUMENT);
+    obs_image_f32_free(&small);
+    for (int c = 0; c < 3; c++)
+        obs_image_f32_free(&n[c]);
+    obs_image_f32_free(&ao);
+    obs_image_f32_free(&out);
+    obs_image_f32_free(&s.depth);
+    obs_context_destroy(ctx);
+}

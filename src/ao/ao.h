@@ -248,6 +248,25 @@ const ao_method *ao_method_find(const char *name);
 const ao_param_desc *ao_method_param(const ao_method *m, const char *name);
 
 /* ================================================================================================
+ * The final blend (issue 4, item 3): AO multiplied into a simply shaded image
+ * ============================================================================================== */
+
+/* The blend's light: view-space direction toward the light, normalize(0.35, 0.6, 0.72) (upper
+ * right, behind the viewer), and the ambient share. Our choice (the seed thesis blends AO into its
+ * forward-shaded scenes; a fixed Lambert-plus-ambient image is the neutral stand-in). */
+#define AO_BLEND_LIGHT_X 0.35f
+#define AO_BLEND_LIGHT_Y 0.6f
+#define AO_BLEND_LIGHT_Z 0.72f
+#define AO_BLEND_AMBIENT 0.25f      /* shade = AO * (ambient + (1 - ambient) * max(0, n.l)) */
+
+/* out(x, y) = AO * (AO_BLEND_AMBIENT + (1 - AO_BLEND_AMBIENT) max(0, n.l)) over in's window, with
+ * n the normal planes (full buffer size, view space; the G-buffer's, or ao_normals_from_depth);
+ * background pixels get 0. ao and out are w x h (they may alias). Linear values in [0, 1].
+ * Returns OK or INVALID_ARGUMENT (sizes, NULLs). */
+obs_status ao_blend_lambert(obs_context *ctx, obs_pool *pool, const ao_input *in, const obs_image_f32 *ao,
+                            const obs_image_f32 *const normal[3], obs_image_f32 *out);
+
+/* ================================================================================================
  * SAO: Scalable Ambient Obscurance [McGuire12] (McGuire, Mara, Luebke, HPG 2012), as the HPG12
  * reference shader (SAO_AO.pix) computes it and as the llvmpipe peer
  * (../shared/tools/llvmpipe-peer, README section 5) runs it. docs/ao/sao.md has every detail.

@@ -465,22 +465,14 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
         st = obs_image_f32_alloc(ctx, in.w, in.h, &preview);
     if (st == OBS_STATUS_OK)
         st = obs_image_f32_alloc(ctx, in.w, in.h, &blend);
-    if (st == OBS_STATUS_OK) {
-        const float L[3] = {0.35f, 0.6f, 0.72f};
-        const float il = 1.0f / sqrtf(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]);
+    if (st == OBS_STATUS_OK)
+        st = ao_blend_lambert(ctx, pool, &in, &ao, bn, &blend);
+    if (st == OBS_STATUS_OK)
         for (int y = 0; y < in.h; y++)
             for (int x = 0; x < in.w; x++) {
-                const int fx = in.x0 + x, fy = in.y0 + y;
-                const float d = obs_image_f32_row(in.depth, fy)[fx];
-                const float a = obs_image_f32_row(&ao, y)[x];
-                const int bg = !(d > 0.0f && d < INFINITY);
-                obs_image_f32_row(&preview, y)[x] = bg ? 0.0f : a;
-                float ndl = (obs_image_f32_row(bn[0], fy)[fx] * L[0] + obs_image_f32_row(bn[1], fy)[fx] * L[1] +
-                             obs_image_f32_row(bn[2], fy)[fx] * L[2]) * il;
-                ndl = ndl > 0.0f ? ndl : 0.0f;
-                obs_image_f32_row(&blend, y)[x] = bg ? 0.0f : a * (0.25f + 0.75f * ndl);
+                const float d = obs_image_f32_row(in.depth, in.y0 + y)[in.x0 + x];
+                obs_image_f32_row(&preview, y)[x] = d > 0.0f && d < INFINITY ? obs_image_f32_row(&ao, y)[x] : 0.0f;
             }
-    }
     if (st != OBS_STATUS_OK) {
         code = cli_fail(ctx, st);
         goto done;
