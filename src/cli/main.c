@@ -203,6 +203,8 @@ int cli_main(int argc, char **argv)
         return cmd_compare(&g, argc - i, argv + i);
     if (!strcmp(cmd, "ao"))
         return cmd_ao(&g, argc - i, argv + i);
+    if (!strcmp(cmd, "study"))
+        return cmd_study(&g, argc - i, argv + i);
     if (!strcmp(cmd, "help")) {
         fputs(usage_text, stdout);
         return CLI_EXIT_OK;
