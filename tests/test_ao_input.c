@@ -4,7 +4,7 @@
 #include "core/obs.h"
 #include "io/io.h"
 #include "raster/raster.h"
-#include "scene_util.h"
+#include "ao_test_util.h"
 #include "test.h"
 
 #include <math.h>
@@ -13,26 +13,7 @@
 #include <string.h>
 
 /* A sphere of radius 1 at (0, 0, -4) above a ground quad at y = -1.2 (clipped by the far plane). */
-static void scene_sphere_ground(obs_scene *s)
-{
-    tu_sphere(s, 32, 16, 1.0f, obs_v3(0.0f, 0.0f, -4.0f), 0.05f);
-    obs_mesh *m = &s->meshes[0];
-    uint32_t nv = m->vertex_count, nt = m->triangle_count;
-    m->positions = realloc(m->positions, sizeof(float) * 3 * (nv + 4));
-    m->normals = realloc(m->normals, sizeof(float) * 3 * (nv + 4));
-    m->indices = realloc(m->indices, sizeof(uint32_t) * 3 * (nt + 2));
-    const float q[4][3] = {{-30, -1.2f, 10}, {30, -1.2f, 10}, {30, -1.2f, -60}, {-30, -1.2f, -60}};
-    for (int i = 0; i < 4; i++)
-        for (int a = 0; a < 3; a++) {
-            m->positions[3 * (nv + i) + a] = q[i][a];
-            m->normals[3 * (nv + i) + a] = a == 1 ? 1.0f : 0.0f;
-        }
-    const uint32_t t[6] = {nv, nv + 1, nv + 2, nv, nv + 2, nv + 3};
-    memcpy(m->indices + 3 * nt, t, sizeof t);
-    m->vertex_count = nv + 4;
-    m->triangle_count = nt + 2;
-    obs_scene_update_bounds(s);
-}
+static void scene_sphere_ground(obs_scene *s) { tu_sphere_over_ground(s, 32, 16, 0.05f, -1.2f, 30.0f, -60.0f); }
 
 /* Write what `obscura gbuffer --keep-guard` writes (channels Z, Zndc, N.*; its metadata). */
 static obs_status write_gbuffer_exr(obs_context *ctx, const char *path, const rast_gbuffer *gb, const obs_camera *cam,

@@ -5,7 +5,7 @@
  * depth discontinuity, the study's axes, and the CLI. Technique-specific behaviour (sample patterns,
  * constants, accuracy against the matched ground truth) is tested in each test_ao_<tech>.c. */
 #include "ao/ao.h"
-#include "scene_util.h"
+#include "ao_test_util.h"
 #include "test.h"
 #include "truth/truth.h"
 
@@ -32,16 +32,6 @@ static int finite_unit(const obs_image_f32 *a, int *bad_x, int *bad_y, float *ba
                 return 0;
             }
         }
-    return 1;
-}
-
-static int same_plane(const obs_image_f32 *a, const obs_image_f32 *b)
-{
-    if (a->width != b->width || a->height != b->height)
-        return 0;
-    for (int y = 0; y < a->height; y++)
-        if (memcmp(obs_image_f32_row(a, y), obs_image_f32_row(b, y), sizeof(float) * (size_t)a->width) != 0)
-            return 0;
     return 1;
 }
 
@@ -74,88 +64,6 @@ static void check_finite(obs_context *ctx, const ao_method *m, const void *p, co
     }
     obs_image_f32_free(&out);
     obs_image_f32_free(&raw);
-}
-
-/* A synthetic input: depth of the plane n.p = c (view space) seen by a centred camera. */
-typedef struct synth {
-    obs_image_f32 depth;
-    ao_input in;
-} synth;
-
-static obs_status synth_plane(obs_context *ctx, int W, int H, double f, obs_dvec3 n, double c, obs_projection proj,
-                              synth *s)
-{
-    memset(s, 0, sizeof *s);
-    obs_status st = obs_image_f32_alloc(ctx, W, H, &s->depth);
-    if (st != OBS_STATUS_OK)
-        return st;
-    ao_input *in = &s->in;
-    in->width = in->w = W;
-    in->height = in->h = H;
-    in->depth = &s->depth;
-    in->fx = in->fy = f;
-    in->cx = 0.5 * W;
-    in->cy = 0.5 * H;
-    in->projection = proj;
-    in->znear = 0.1;
-    in->zfar = INFINITY;
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            double ax = (x + 0.5 - in->cx) / f, ay = -(y + 0.5 - in->cy) / f, t;
-            if (proj == OBS_PROJECTION_PERSPECTIVE) {
-                obs_dvec3 dir = obs_dv3(ax, ay, -1.0);
-                t = c / obs_dv3_dot(n, dir); /* the depth is t (dir.z = -1) */
-            } else {
-                /* n.(ax, ay, -d) = c */
-                t = (n.x * ax + n.y * ay - c) / n.z;
-            }
-            obs_image_f32_row(&s->depth, y)[x] = t > 0.0 ? (float)t : INFINITY;
-        }
-    return OBS_STATUS_OK;
-}
-
-/* The bumpy sphere of radius 1 at (0, 0, -4) near a large ground quad at y = -1.05 (as in
- * test_ao_sao.c), and a camera looking down at it. */
-static void make_scene(obs_scene *s)
-{
-    tu_sphere(s, 48, 24, 1.0f, obs_v3(0.0f, 0.0f, -4.0f), 0.08f);
-    obs_mesh *m = &s->meshes[0];
-    uint32_t nv = m->vertex_count, nt = m->triangle_count;
-    m->positions = realloc(m->positions, sizeof(float) * 3 * (nv + 4));
-    m->normals = realloc(m->normals, sizeof(float) * 3 * (nv + 4));
-    m->indices = realloc(m->indices, sizeof(uint32_t) * 3 * (nt + 2));
-    const float q[4][3] = {{-20, -1.05f, 10}, {20, -1.05f, 10}, {20, -1.05f, -40}, {-20, -1.05f, -40}};
-    for (int i = 0; i < 4; i++)
-        for (int a = 0; a < 3; a++) {
-            m->positions[3 * (nv + i) + a] = q[i][a];
-            m->normals[3 * (nv + i) + a] = a == 1 ? 1.0f : 0.0f;
-        }
-    const uint32_t t[6] = {nv, nv + 1, nv + 2, nv, nv + 2, nv + 3};
-    memcpy(m->indices + 3 * nt, t, sizeof t);
-    m->vertex_count = nv + 4;
-    m->triangle_count = nt + 2;
-    obs_scene_update_bounds(s);
-}
-
-static obs_camera make_camera(void)
-{
-    return obs_camera_look_at(obs_v3(0.3f, 0.6f, 0.0f), obs_v3(0.0f, -0.5f, -4.0f), obs_v3(0, 1, 0),
-                              (float)(50.0 * OBS_PI / 180.0), 0.1f, 100.0f);
-}
-
-static obs_status render(obs_context *ctx, const obs_scene *s, obs_camera cam, int W, int H, int guard,
-                         rast_gbuffer *gb)
-{
-    rast_params p = rast_params_default();
-    p.width = W;
-    p.height = H;
-    p.guard = guard;
-    p.outputs = RAST_OUT_DEPTH | RAST_OUT_NORMAL;
-    obs_status st = rast_gbuffer_alloc(ctx, &p, gb);
-    rast_view v = {cam};
-    if (st == OBS_STATUS_OK)
-        st = rast_render(ctx, NULL, s, &v, 1, &p, gb, NULL);
-    return st;
 }
 
 static int param_int(const void *p, const ao_param_desc *d)
@@ -270,8 +178,8 @@ TEST(ao_methods_flat_open_plane_gives_documented_value)
     for (const ao_method *const *mp = ao_methods(); *mp; mp++) {
         const ao_method *m = *mp;
         for (int pl = 0; pl < 2; pl++) {
-            synth s;
-            CHECK_OK(synth_plane(ctx, W, H, 80.0, normals[pl], offsets[pl], OBS_PROJECTION_PERSPECTIVE, &s), ctx);
+            tu_synth s;
+            CHECK_OK(tu_synth_plane(ctx, W, H, 80.0, normals[pl], offsets[pl], OBS_PROJECTION_PERSPECTIVE, &s), ctx);
             for (int blur = 0; blur < 2; blur++) {
                 params_buf p;
                 m->params_default(p.b);
@@ -307,9 +215,9 @@ TEST(ao_methods_output_identical_for_1_2_8_threads)
 {
     obs_context *ctx = obs_context_create();
     obs_scene s;
-    make_scene(&s);
+    tu_ao_scene(&s);
     rast_gbuffer gb;
-    CHECK_OK(render(ctx, &s, make_camera(), 61, 47, 6, &gb), ctx);
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 61, 47, 6, &gb), ctx);
     ao_input in;
     CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
     obs_pool *pools[3] = {obs_pool_create(1), obs_pool_create(2), obs_pool_create(8)};
@@ -323,7 +231,7 @@ TEST(ao_methods_output_identical_for_1_2_8_threads)
             for (int t = 0; t < 3; t++)
                 CHECK_OK(run(ctx, pools[t], m, p.b, &in, &out[t], &raw[t]), ctx);
             for (int t = 1; t < 3; t++) {
-                CHECK_MSG(same_plane(&out[0], &out[t]) && same_plane(&raw[0], &raw[t]),
+                CHECK_MSG(tu_same_plane(&out[0], &out[t]) && tu_same_plane(&raw[0], &raw[t]),
                           "%s, blur %d: %d threads differ from 1", m->name, blur, obs_pool_threads(pools[t]));
             }
             for (int t = 0; t < 3; t++) {
@@ -345,7 +253,7 @@ TEST(ao_methods_hard_cases_stay_finite_and_in_unit_range)
 {
     obs_context *ctx = obs_context_create();
     obs_scene s;
-    make_scene(&s);
+    tu_ao_scene(&s);
     for (const ao_method *const *mp = ao_methods(); *mp; mp++) {
         const ao_method *m = *mp;
         params_buf p;
@@ -353,7 +261,7 @@ TEST(ao_methods_hard_cases_stay_finite_and_in_unit_range)
         static const int sizes[][2] = {{1, 1}, {1, 7}, {9, 1}, {3, 5}, {7, 2}, {33, 17}};
         for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
             rast_gbuffer gb;
-            CHECK_OK(render(ctx, &s, make_camera(), sizes[i][0], sizes[i][1], 0, &gb), ctx);
+            CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), sizes[i][0], sizes[i][1], 0, &gb), ctx);
             ao_input in;
             CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
             for (int blur = 0; blur < 2; blur++) {
@@ -366,7 +274,7 @@ TEST(ao_methods_hard_cases_stay_finite_and_in_unit_range)
         /* depth discontinuities (sphere silhouettes over the ground), grazing ground, every preset,
          * tiny and huge radii, 1 and 64 samples, a guard band, the input without normals */
         rast_gbuffer gb;
-        CHECK_OK(render(ctx, &s, make_camera(), 80, 60, 5, &gb), ctx);
+        CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 80, 60, 5, &gb), ctx);
         ao_input in;
         CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
         for (const char *const *pn = m->preset_names; *pn; pn++) {
@@ -422,15 +330,15 @@ TEST(ao_methods_hard_cases_stay_finite_and_in_unit_range)
 
         /* reversed-Z with an infinite far plane: the linear depth a GPU engineer's buffer gives
          * (near 0.01 m, far +inf: depths from 0.01 m to 1e4 m), and an orthographic camera */
-        synth sp;
-        CHECK_OK(synth_plane(ctx, 40, 30, 30.0, obs_dv3(0, 0.99, 0.1410674), -0.05, OBS_PROJECTION_PERSPECTIVE, &sp),
+        tu_synth sp;
+        CHECK_OK(tu_synth_plane(ctx, 40, 30, 30.0, obs_dv3(0, 0.99, 0.1410674), -0.05, OBS_PROJECTION_PERSPECTIVE, &sp),
                  ctx);
         sp.in.znear = 0.01;
         sp.in.zfar = INFINITY;
         m->params_default(p.b);
         check_finite(ctx, m, p.b, &sp.in, "grazing plane to the horizon, infinite far");
         obs_image_f32_free(&sp.depth);
-        CHECK_OK(synth_plane(ctx, 40, 30, 10.0, obs_dv3(0, 0.6, 0.8), -4.0, OBS_PROJECTION_ORTHOGRAPHIC, &sp), ctx);
+        CHECK_OK(tu_synth_plane(ctx, 40, 30, 10.0, obs_dv3(0, 0.6, 0.8), -4.0, OBS_PROJECTION_ORTHOGRAPHIC, &sp), ctx);
         check_finite(ctx, m, p.b, &sp.in, "orthographic");
         obs_image_f32_free(&sp.depth);
     }
@@ -560,8 +468,8 @@ TEST(ao_methods_cli_runs_every_method)
 TEST(ao_blend_lambert_shades_and_masks_background)
 {
     obs_context *ctx = obs_context_create();
-    synth s;
-    CHECK_OK(synth_plane(ctx, 8, 6, 10.0, obs_dv3(0, 0, 1), -3.0, OBS_PROJECTION_PERSPECTIVE, &s), ctx);
+    tu_synth s;
+    CHECK_OK(tu_synth_plane(ctx, 8, 6, 10.0, obs_dv3(0, 0, 1), -3.0, OBS_PROJECTION_PERSPECTIVE, &s), ctx);
     obs_image_f32_row(&s.depth, 2)[3] = INFINITY;   /* one background pixel */
     obs_image_f32 n[3], ao, out;
     for (int c = 0; c < 3; c++) {

@@ -5,7 +5,7 @@
 #include "core/obs.h"
 #include "io/io.h"
 #include "raster/raster.h"
-#include "scene_util.h"
+#include "ao_test_util.h"
 #include "test.h"
 
 #include <fcntl.h>
@@ -22,59 +22,6 @@ extern char **environ;
 
 /* ---- helpers ----------------------------------------------------------------------------------- */
 
-/* A bumpy sphere of radius 1 at (0, 0, -4) resting near a large ground quad at y = -1. */
-static void make_scene(obs_scene *s)
-{
-    tu_sphere(s, 48, 24, 1.0f, obs_v3(0.0f, 0.0f, -4.0f), 0.08f);
-    obs_mesh *m = &s->meshes[0];
-    uint32_t nv = m->vertex_count, nt = m->triangle_count;
-    m->positions = realloc(m->positions, sizeof(float) * 3 * (nv + 4));
-    m->normals = realloc(m->normals, sizeof(float) * 3 * (nv + 4));
-    m->indices = realloc(m->indices, sizeof(uint32_t) * 3 * (nt + 2));
-    const float q[4][3] = {{-20, -1.05f, 10}, {20, -1.05f, 10}, {20, -1.05f, -40}, {-20, -1.05f, -40}};
-    for (int i = 0; i < 4; i++)
-        for (int a = 0; a < 3; a++) {
-            m->positions[3 * (nv + i) + a] = q[i][a];
-            m->normals[3 * (nv + i) + a] = a == 1 ? 1.0f : 0.0f;
-        }
-    const uint32_t t[6] = {nv, nv + 1, nv + 2, nv, nv + 2, nv + 3};
-    memcpy(m->indices + 3 * nt, t, sizeof t);
-    m->vertex_count = nv + 4;
-    m->triangle_count = nt + 2;
-    obs_scene_update_bounds(s);
-}
-
-static obs_camera make_camera(void)
-{
-    return obs_camera_look_at(obs_v3(0.3f, 0.6f, 0.0f), obs_v3(0.0f, -0.5f, -4.0f), obs_v3(0, 1, 0),
-                              (float)(50.0 * OBS_PI / 180.0), 0.1f, 100.0f);
-}
-
-static obs_status render(obs_context *ctx, const obs_scene *s, obs_camera cam, int W, int H, int guard,
-                         rast_gbuffer *gb)
-{
-    rast_params p = rast_params_default();
-    p.width = W;
-    p.height = H;
-    p.guard = guard;
-    p.outputs = RAST_OUT_DEPTH | RAST_OUT_NORMAL;
-    obs_status st = rast_gbuffer_alloc(ctx, &p, gb);
-    rast_view v = {cam};
-    if (st == OBS_STATUS_OK)
-        st = rast_render(ctx, NULL, s, &v, 1, &p, gb, NULL);
-    return st;
-}
-
-static int same_plane(const obs_image_f32 *a, const obs_image_f32 *b)
-{
-    if (a->width != b->width || a->height != b->height)
-        return 0;
-    for (int y = 0; y < a->height; y++)
-        if (memcmp(obs_image_f32_row(a, y), obs_image_f32_row(b, y), sizeof(float) * a->width) != 0)
-            return 0;
-    return 1;
-}
-
 static int all_finite_unit(const obs_image_f32 *a)
 {
     for (int y = 0; y < a->height; y++)
@@ -86,35 +33,10 @@ static int all_finite_unit(const obs_image_f32 *a)
     return 1;
 }
 
-/* A synthetic input: depth from a plane n.p = c seen by a centred perspective camera. */
-typedef struct synth {
-    obs_image_f32 depth;
-    ao_input in;
-} synth;
-
+typedef tu_synth synth;
 static obs_status synth_plane(obs_context *ctx, int W, int H, double f, obs_dvec3 n, double c, synth *s)
 {
-    memset(s, 0, sizeof *s);
-    obs_status st = obs_image_f32_alloc(ctx, W, H, &s->depth);
-    if (st != OBS_STATUS_OK)
-        return st;
-    ao_input *in = &s->in;
-    in->width = in->w = W;
-    in->height = in->h = H;
-    in->depth = &s->depth;
-    in->fx = in->fy = f;
-    in->cx = 0.5 * W;
-    in->cy = 0.5 * H;
-    in->projection = OBS_PROJECTION_PERSPECTIVE;
-    in->znear = 0.1;
-    in->zfar = INFINITY;
-    for (int y = 0; y < H; y++)
-        for (int x = 0; x < W; x++) {
-            obs_dvec3 dir = obs_dv3((x + 0.5 - in->cx) / f, -(y + 0.5 - in->cy) / f, -1.0);
-            double t = c / obs_dv3_dot(n, dir);
-            obs_image_f32_row(&s->depth, y)[x] = t > 0.0 ? (float)t : INFINITY;
-        }
-    return OBS_STATUS_OK;
+    return tu_synth_plane(ctx, W, H, f, n, c, OBS_PROJECTION_PERSPECTIVE, s);
 }
 
 /* ---- flat plane ------------------------------------------------------------------------------- */
@@ -167,9 +89,9 @@ TEST(sao_output_identical_for_1_2_8_threads)
 {
     obs_context *ctx = obs_context_create();
     obs_scene s;
-    make_scene(&s);
+    tu_ao_scene(&s);
     rast_gbuffer gb;
-    CHECK_OK(render(ctx, &s, make_camera(), 160, 97, 6, &gb), ctx);
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 160, 97, 6, &gb), ctx);
     ao_input in;
     CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
     CHECK_EQ_INT(in.w, 160);
@@ -210,7 +132,7 @@ TEST(sao_output_identical_for_1_2_8_threads)
                         dark += obs_image_f32_row(&raw, y)[x] < 0.97f;
                 CHECK_MSG(dark > 50, "config %d: only %d occluded pixels", cfg, dark);
             } else {
-                CHECK_MSG(same_plane(&ref, &out) && same_plane(&ref_raw, &raw),
+                CHECK_MSG(tu_same_plane(&ref, &out) && tu_same_plane(&ref_raw, &raw),
                           "config %d: %d threads differ from 1 thread", cfg, threads[t]);
             }
             obs_image_f32_free(&out);
@@ -234,7 +156,7 @@ TEST(sao_background_pixels_are_one_and_never_nan)
     tu_sphere(&s, 32, 16, 1.0f, obs_v3(0.0f, 0.0f, -4.0f), 0.1f); /* a sphere alone: lots of sky */
     rast_gbuffer gb;
     obs_camera cam = obs_camera_look_at(obs_v3(0, 0, 0), obs_v3(0, 0, -4), obs_v3(0, 1, 0), 0.8f, 0.1f, 50.0f);
-    CHECK_OK(render(ctx, &s, cam, 81, 63, 0, &gb), ctx);
+    CHECK_OK(tu_render_depth_normal(ctx, &s, cam, 81, 63, 0, &gb), ctx);
     ao_input in;
     CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
     obs_image_f32 out = {0}, raw = {0};
@@ -447,12 +369,12 @@ TEST(sao_hard_cases_stay_finite)
 {
     obs_context *ctx = obs_context_create();
     obs_scene s;
-    make_scene(&s);
+    tu_ao_scene(&s);
     /* sizes: 1x1, a row, a column, odd sizes; MIP levels deeper than the image (15) */
     static const int sizes[][2] = {{1, 1}, {1, 7}, {9, 1}, {3, 5}, {7, 2}, {33, 17}};
     for (size_t i = 0; i < sizeof sizes / sizeof sizes[0]; i++) {
         rast_gbuffer gb;
-        CHECK_OK(render(ctx, &s, make_camera(), sizes[i][0], sizes[i][1], 0, &gb), ctx);
+        CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), sizes[i][0], sizes[i][1], 0, &gb), ctx);
         ao_input in;
         CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
         for (int v = 0; v < AO_SAO_VARIANT_COUNT; v++) {
@@ -468,7 +390,7 @@ TEST(sao_hard_cases_stay_finite)
     /* depth discontinuities (sphere silhouettes against the far ground), grazing ground, tiny and
      * huge radii, huge bias and intensity, the table's turns, a guard band */
     rast_gbuffer gb;
-    CHECK_OK(render(ctx, &s, make_camera(), 120, 80, 9, &gb), ctx);
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 120, 80, 9, &gb), ctx);
     ao_input in;
     CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
     const float radii[] = {1e-4f, 0.01f, 1.0f, 50.0f, 1e5f};
@@ -487,12 +409,12 @@ TEST(sao_hard_cases_stay_finite)
     rast_gbuffer_free(&gb);
 
     /* orthographic */
-    obs_camera oc = make_camera();
+    obs_camera oc = tu_ao_camera();
     oc.projection = OBS_PROJECTION_ORTHOGRAPHIC;
     oc.xmag = 3.0f;
     oc.ymag = 2.0f;
     oc.znear = 0.0f;
-    CHECK_OK(render(ctx, &s, oc, 90, 60, 0, &gb), ctx);
+    CHECK_OK(tu_render_depth_normal(ctx, &s, oc, 90, 60, 0, &gb), ctx);
     CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
     {
         ao_sao_params p = ao_sao_params_default();
@@ -502,7 +424,7 @@ TEST(sao_hard_cases_stay_finite)
     rast_gbuffer_free(&gb);
 
     /* External G-buffers: reversed-Z with an infinite far plane, and NaN / negative / -inf depths. */
-    obs_camera rc = make_camera();
+    obs_camera rc = tu_ao_camera();
     rc.zfar = INFINITY;
     rast_params rp = rast_params_default();
     rp.width = 64;
