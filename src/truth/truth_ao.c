@@ -33,7 +33,6 @@
  *   [Wachter19] C. Waechter, N. Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
  *               Ray Tracing Gems, ch. 6, 2019: offsets measured in ulps of the coordinates.
  */
-#define _DEFAULT_SOURCE /* madvise(MADV_HUGEPAGE) */
 #include "truth_internal.h"
 
 #include "../raster/raster.h"
@@ -44,7 +43,6 @@
 #include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/mman.h>
 #include <xmmintrin.h>
 
 /* ------------------------------------------------------------------------------------------------
@@ -776,18 +774,7 @@ static obs_status alloc_out_plane(obs_context *ctx, int width, int height, obs_i
         return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
                          "image %dx%d needs %lld bytes, over the limit of %lld (raise it with --max-memory)", width,
                          height, (long long)bytes, (long long)lim->max_memory_bytes);
-    const size_t huge = (size_t)2 << 20;
-    void *p;
-    if (bytes >= 2 * huge) {
-        size_t rounded = (bytes + huge - 1) & ~(huge - 1);
-        p = aligned_alloc(huge, rounded);
-#ifdef MADV_HUGEPAGE
-        if (p)
-            (void)madvise(p, rounded, MADV_HUGEPAGE); /* advice only: failure changes nothing */
-#endif
-    } else {
-        p = obs_aligned_alloc(bytes);
-    }
+    void *p = obs_aligned_alloc(bytes); /* huge-page advice for large planes (core/image.c) */
     if (!p)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "cannot allocate %zu bytes for a %dx%d image", bytes, width,
                          height);
