@@ -2,6 +2,7 @@
  *
  *   obscura_bench gbuffer MESH.glb [--size WxH] [--threads N] [--reps R] [--warmup W]
  *                                  [--outputs peer|all] [--isa auto|scalar|avx2] [--tile 16..256]
+ *   obscura_bench methods          (the registered AO methods, one per line)
  *   obscura_bench ao MESH.glb --method NAME [--preset P] [--samples N] [--radius R] [--blur on|off]
  *                             [--set NAME=VALUE]... [--size WxH] [--threads N] [--reps R] [--warmup W]
  *
@@ -294,6 +295,11 @@ int main(int argc, char **argv)
         return bench_gbuffer(argc, argv);
     if (argc >= 2 && !strcmp(argv[1], "ao"))
         return bench_ao(argc, argv);
+    if (argc >= 2 && !strcmp(argv[1], "methods")) { /* the registered AO methods, one per line */
+        for (const ao_method *const *m = ao_methods(); *m; m++)
+            printf("%s\n", (*m)->name);
+        return 0;
+    }
     fprintf(stderr, "usage: obscura_bench gbuffer|ao MESH.glb [options]\n");
     return 2;
 }
