@@ -142,6 +142,38 @@ def exr_seeds(build, tmp):
     put("exr", "broken_garbage.bin", bytes(range(256)))
 
 
+def gbuffer_seeds(build, tmp):
+    """fuzz_gbuffer: byte 0 options, bytes 1-2 the JSON length, the JSON, then the image."""
+    cli = os.path.join(build, "obscura")
+    sp = os.path.join(build, "data", "sphere_on_plane.glb")
+    run([cli, "--threads", "1", "gbuffer", sp, "--size", "24x16", "--guard", "3", "-o", "lin"], tmp)
+    run([cli, "--threads", "1", "gbuffer", sp, "--size", "20x12", "--depth", "reversed-z", "--infinite-far",
+         "--outputs", "depth,ndc", "-o", "rev"], tmp)
+    run([cli, "--threads", "1", "gbuffer", sp, "--size", "17x9", "--depth", "gl", "--outputs", "ndc,normal",
+         "-o", "gl"], tmp)
+
+    def seed(name, opt, js, image):
+        j = js.encode()
+        put("gbuffer", name, bytes([opt, len(j) & 255, len(j) >> 8]) + j + image)
+
+    imgs = {}
+    for k in ("lin", "rev", "gl"):
+        with open(os.path.join(tmp, k + ".exr"), "rb") as f:
+            imgs[k] = f.read()
+    flat = json.dumps({"fx": 20.5, "fy": 20.5, "cx": 12, "cy": 8, "projection": "perspective", "znear": 0.1,
+                       "zfar": "infinity", "depth_kind": "reversed-z", "inner_window": [2, 2, 16, 10]})
+    with open(os.path.join(tmp, "lin.json"), "rb") as f:
+        sidecar = f.read().decode()
+    seed("linear_metadata", 0, "", imgs["lin"])
+    seed("linear_no_normals", 1 | (1 << 3), "", imgs["lin"])
+    seed("linear_sidecar_json", 0x20, sidecar[:6000], imgs["lin"])
+    seed("reversed_z_metadata", 0, "", imgs["rev"])
+    seed("reversed_z_flat_json", 0x20 | 4, flat, imgs["rev"])
+    seed("gl_ndc_metadata", 2, "", imgs["gl"])
+    seed("broken_json_value", 0x20, '{"fx": "wide", "projection": 3}', imgs["gl"])
+    seed("broken_image", 0, "", imgs["lin"][:200])
+
+
 def off_seeds():
     put("off", "tetrahedron.off", "OFF\n4 4 6\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n3 0 2 1\n3 0 1 3\n3 0 3 2\n3 1 2 3\n")
     put("off", "quads_comments_colours.off",
@@ -225,6 +257,7 @@ def main():
     try:
         gltf_seeds(build)
         exr_seeds(build, tmp)
+        gbuffer_seeds(build, tmp)
         off_seeds()
         cli_seeds()
         json_seeds()

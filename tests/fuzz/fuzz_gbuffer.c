@@ -1,0 +1,143 @@
+/* fuzz_gbuffer.c: the external G-buffer path of `obscura ao --gbuffer` (issue 4, item 4), end to
+ * end: intrinsics JSON (ao_intrinsics_parse_json), an EXR or PNG (io_image_read_memory), the
+ * G-buffer built from it and its metadata (ao_external_from_image, every depth kind and normals
+ * mode), and then EVERY registered AO method with its default parameters, and the final blend, on
+ * it. Hostile depth values, lying intrinsics and odd sizes must give a clear refusal or finite
+ * visibility in [0, 1], never a crash or a sanitizer report.
+ *
+ * Input layout: byte 0 = options (bits 0-2: depth kind, 0 = auto; bits 3-4: normals mode; bit 5:
+ * use the JSON part), bytes 1-2 = the JSON part's length L
+ * (little endian), then L bytes of intrinsics JSON, then the image file.
+ *
+ * Invariants:
+ *   - ao_intrinsics_parse_json: OK leaves every known field either unknown or finite/valid;
+ *   - ao_external_from_image: failure says why and leaves nothing to free; success gives an input
+ *     that ao_input_validate accepts, depth > 0 or +inf everywhere (unusable values counted);
+ *   - every method on an image of at most 64x64 pixels returns OK, or INVALID_ARGUMENT /
+ *     LIMIT_EXCEEDED with a message, and when OK, out and out_raw are finite and in [0, 1];
+ *   - ao_blend_lambert gives values in [0, 1]. */
+#include "fuzz.h"
+
+#include "ao/ao.h"
+#include "io/io.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static void check_unit_plane(const obs_image_f32 *a, const char *what)
+{
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            const float v = obs_image_f32_row(a, y)[x];
+            fuzz_require(v >= 0.0f && v <= 1.0f, what);
+        }
+}
+
+static void run_methods(obs_context *ctx, const ao_input *in)
+{
+    obs_image_f32 out = {0}, raw = {0}, blend = {0};
+    if (obs_image_f32_alloc(ctx, in->w, in->h, &out) != OBS_STATUS_OK ||
+        obs_image_f32_alloc(ctx, in->w, in->h, &raw) != OBS_STATUS_OK ||
+        obs_image_f32_alloc(ctx, in->w, in->h, &blend) != OBS_STATUS_OK) {
+        obs_image_f32_free(&out);
+        obs_image_f32_free(&raw);
+        return;
+    }
+    unsigned char params[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
+    for (const ao_method *const *mp = ao_methods(); *mp; mp++) {
+        const ao_method *m = *mp;
+        m->params_default(params);
+        obs_context_clear_error(ctx);
+        obs_status st = m->compute(ctx, NULL, in, params, &out, &raw, NULL);
+        if (st != OBS_STATUS_OK) {
+            fuzz_require(st == OBS_STATUS_INVALID_ARGUMENT || st == OBS_STATUS_LIMIT_EXCEEDED ||
+                             st == OBS_STATUS_OUT_OF_MEMORY,
+                         "an AO method refuses a G-buffer only with INVALID_ARGUMENT or a limit");
+            fuzz_require(obs_context_last_error(ctx)[0] != '\0', "an AO method's refusal says why");
+            continue;
+        }
+        check_unit_plane(&out, "AO is finite and in [0, 1] on any G-buffer");
+        check_unit_plane(&raw, "raw AO is finite and in [0, 1] on any G-buffer");
+    }
+    /* the blend with reconstructed normals (the CLI's path when the file has none) */
+    obs_image_f32 n[3] = {{0}, {0}, {0}};
+    int ok = 1;
+    for (int c = 0; c < 3; c++)
+        ok = ok && obs_image_f32_alloc(ctx, in->width, in->height, &n[c]) == OBS_STATUS_OK;
+    if (ok && ao_normals_from_depth(ctx, NULL, in, n) == OBS_STATUS_OK) {
+        const obs_image_f32 *np[3] = {&n[0], &n[1], &n[2]};
+        if (ao_blend_lambert(ctx, NULL, in, &out, np, &blend) == OBS_STATUS_OK)
+            check_unit_plane(&blend, "the blend is in [0, 1]");
+    }
+    for (int c = 0; c < 3; c++)
+        obs_image_f32_free(&n[c]);
+    obs_image_f32_free(&out);
+    obs_image_f32_free(&raw);
+    obs_image_f32_free(&blend);
+}
+
+int obs_fuzz_gbuffer(const uint8_t *data, size_t size)
+{
+    if (size < 3)
+        return 0;
+    const unsigned opt = data[0];
+    size_t jl = (size_t)data[1] | ((size_t)data[2] << 8);
+    if (jl > size - 3)
+        jl = size - 3;
+    const uint8_t *json = data + 3, *img = data + 3 + jl;
+    const size_t img_size = size - 3 - jl;
+    obs_context *ctx = fuzz_context();
+
+    ao_intrinsics K = ao_intrinsics_unknown();
+    int have_k = 0;
+    if (opt & 0x20u) {
+        char *text = malloc(jl + 1);
+        fuzz_require(text != NULL, "malloc");
+        memcpy(text, json, jl);
+        text[jl] = 0;
+        obs_status st = ao_intrinsics_parse_json(ctx, text, &K);
+        free(text);
+        if (st == OBS_STATUS_OK) {
+            have_k = 1;
+            fuzz_require(K.fx <= 0.0 || isfinite(K.fx), "parsed fx is finite or unknown");
+            fuzz_require(K.projection == -1 || K.projection == OBS_PROJECTION_PERSPECTIVE ||
+                             K.projection == OBS_PROJECTION_ORTHOGRAPHIC,
+                         "parsed projection is known or unknown");
+            fuzz_require(K.depth_kind >= 0 && K.depth_kind < AO_DEPTH_KIND_COUNT, "parsed depth kind is in range");
+        } else {
+            fuzz_require(obs_context_last_error(ctx)[0] != '\0', "a refused intrinsics file says why");
+            K = ao_intrinsics_unknown();
+        }
+        obs_context_clear_error(ctx);
+    }
+
+    io_image im;
+    if (io_image_read_memory(ctx, "fuzz.exr", img, img_size, &im) != OBS_STATUS_OK) {
+        obs_context_destroy(ctx);
+        return 0;
+    }
+    ao_external_options eo = ao_external_options_default();
+    eo.depth_kind = (ao_depth_kind)((opt & 7u) % AO_DEPTH_KIND_COUNT);
+    eo.normals = (ao_external_normals)(((opt >> 3) & 3u) % AO_EXTERNAL_NORMALS_COUNT);
+    eo.intrinsics = have_k ? &K : NULL;
+    ao_external e;
+    obs_context_clear_error(ctx);
+    obs_status st = ao_external_from_image(ctx, &im, &eo, &e);
+    if (st != OBS_STATUS_OK) {
+        fuzz_require(obs_context_last_error(ctx)[0] != '\0', "a refused G-buffer says why");
+    } else {
+        fuzz_require(ao_input_validate(ctx, &e.input) == OBS_STATUS_OK, "an external G-buffer is a valid input");
+        for (int y = 0; y < e.depth.height; y++)
+            for (int x = 0; x < e.depth.width; x++) {
+                const float d = obs_image_f32_row(&e.depth, y)[x];
+                fuzz_require(d > 0.0f, "external depth is > 0 or +inf (unusable values become background)");
+            }
+        if ((int64_t)e.input.width * e.input.height <= 64 * 64)
+            run_methods(ctx, &e.input);
+        ao_external_free(&e);
+    }
+    io_image_free(&im);
+    obs_context_destroy(ctx);
+    return 0;
+}
