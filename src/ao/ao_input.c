@@ -462,8 +462,15 @@ obs_status ao_external_from_image(obs_context *ctx, const io_image *im, const ao
         k.zfar = a->f;
     if (k.window[2] <= 0 && (a = find_attr(im, "obscura:inner_window_x_y_w_h")) && a->type == IO_ATTR_FLOATS &&
         a->n == 4 && a->v)
-        for (int i = 0; i < 4; i++)
+        for (int i = 0; i < 4; i++) {
+            /* a float outside int's range (or NaN) would make the conversion undefined (C11
+             * 6.3.1.4): refuse it (found by fuzz_gbuffer) */
+            if (!(a->v[i] >= -2147483648.0f && a->v[i] < 2147483648.0f))
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                 "external G-buffer: obscura:inner_window_x_y_w_h[%d] = %g is not a pixel coordinate",
+                                 i, (double)a->v[i]);
             k.window[i] = (int)a->v[i];
+        }
 
     /* ---- Depth kind ---- */
     /* explicit option > "Z" is linear > the intrinsics' depth kind > the file's obscura:depth_convention
