@@ -360,14 +360,20 @@ static void ds_row(void *user, int64_t task, int thread)
 
 /* ---- The per-sample term (ComputeOcclusion in ao*.frag) ---- */
 
-static inline void occlusion_tap(const ao_mssao_level *L, int tx, int ty, const float p[3], const float n[3],
+/* Each level's taps read one interleaved (x, y, z, w) texel (the posTex.xyz and normTex.w the
+ * shader fetches), packed from the planes once per level: one cache line per tap. */
+typedef struct packed_level {
+    const float *t;             /* width * height * 4 floats, GL rows */
+    int width, height;
+} packed_level;
+
+static inline void occlusion_tap(const packed_level *L, int tx, int ty, const float p[3], const float n[3],
                                  float d_max2, float *occ, float *cnt)
 {
     tx = clampi(tx, 0, L->width - 1);
     ty = clampi(ty, 0, L->height - 1);
-    const float q0 = at(&L->pos[0], tx, ty), q1 = at(&L->pos[1], tx, ty), q2 = at(&L->pos[2], tx, ty);
-    const float w = at(&L->valid, tx, ty);
-    const float v0 = q0 - p[0], v1 = q1 - p[1], v2 = q2 - p[2];
+    const float *q = L->t + 4 * ((size_t)ty * (size_t)L->width + (size_t)tx);
+    const float v0 = q[0] - p[0], v1 = q[1] - p[1], v2 = q[2] - p[2];
     const float vv = v0 * v0 + v1 * v1 + v2 * v2;
     const float d = sqrtf(vv);                           /* distance(p.xyz, samplePos.xyz) */
     float t = fminf(1.0f, (d * d) / d_max2);              /* min(1.0, (d * d) / (dMax * dMax)) */
@@ -380,8 +386,30 @@ static inline void occlusion_tap(const ao_mssao_level *L, int tx, int ty, const 
         const float c = n[0] * (v0 * inv) + n[1] * (v1 * inv) + n[2] * (v2 * inv);
         cosTheta = fmaxf(c, 0.0f);
     }
-    *occ += t * cosTheta * w; /* occlusion += t * cosTheta * sampleNorm.w */
+    *occ += t * cosTheta * q[3]; /* occlusion += t * cosTheta * sampleNorm.w */
     *cnt += 1.0f;
+}
+
+typedef struct pack_job {
+    const ao_mssao_level *L;
+    float *t;
+} pack_job;
+
+static void pack_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const pack_job *J = (const pack_job *)user;
+    const ao_mssao_level *L = J->L;
+    const int j = (int)task;
+    float *o = J->t + 4 * (size_t)j * (size_t)L->width;
+    const float *P0 = obs_image_f32_row(&L->pos[0], j), *P1 = obs_image_f32_row(&L->pos[1], j),
+                *P2 = obs_image_f32_row(&L->pos[2], j), *V = obs_image_f32_row(&L->valid, j);
+    for (int i = 0; i < L->width; i++) {
+        o[4 * i] = P0[i];
+        o[4 * i + 1] = P1[i];
+        o[4 * i + 2] = P2[i];
+        o[4 * i + 3] = V[i];
+    }
 }
 
 /* ---- Bilateral upsampling (Upsample() in ao.frag / aoLast.frag) ---- */
@@ -437,6 +465,7 @@ typedef struct ao_job {
     const ao_mssao_constants *K;
     int l;
     ao_mssao_level *L;
+    const packed_level *T;            /* L's packed taps */
     const ao_mssao_level *C;          /* coarser level, NULL for the coarsest */
     const obs_image_f32 *cao;         /* its (blurred) AO planes */
     int64_t *fallback;                /* per row */
@@ -460,10 +489,10 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
         for (float x = 1.0f; x <= rangeMax; x += 2.0f)
             for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
                 const int ix = (int)x, iy = (int)y;
-                occlusion_tap(L, i + ix, j + iy, p, n, d_max2, &occ, &cnt);
-                occlusion_tap(L, i - ix, j + iy, p, n, d_max2, &occ, &cnt);
-                occlusion_tap(L, i - ix, j - iy, p, n, d_max2, &occ, &cnt);
-                occlusion_tap(L, i + ix, j - iy, p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, i + ix, j + iy, p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, i - ix, j + iy, p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, i - ix, j - iy, p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, i + ix, j - iy, p, n, d_max2, &occ, &cnt);
             }
         const float own = occ / cnt;
         float o[3];
@@ -525,6 +554,7 @@ static void blur_row(void *user, int64_t task, int thread)
 typedef struct last_job {
     const ao_mssao_constants *K;
     const ao_mssao_level *L;          /* level 0 G-buffer */
+    const packed_level *T;            /* its packed taps */
     ao_mssao_level *Lout;             /* NULL, or level 0 with own/ao planes to fill (whole buffer) */
     const ao_mssao_level *C;          /* level 1, or NULL with 1 level */
     const obs_image_f32 *cao;
@@ -557,7 +587,7 @@ static void last_row(void *user, int64_t task, int thread)
             for (int k = 0; k < K->samples; k++) {
                 /* gl_FragCoord.xy + vec2(poissonDisk[i], poissonDisk[i + 1]) * rangeMax, NEAREST */
                 const float sx = fcx + K->taps[2 * k] * rangeMax, sy = fcy + K->taps[2 * k + 1] * rangeMax;
-                occlusion_tap(L, (int)floorf(sx), (int)floorf(sy), p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, (int)floorf(sx), (int)floorf(sy), p, n, d_max2, &occ, &cnt);
             }
             own = occ / cnt;
             float aoMax, aoAverage;
@@ -619,6 +649,9 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
     int64_t *rows = NULL;
     int64_t(*counts)[2] = NULL;
     int64_t fallback = 0;
+    float *pk[AO_MSSAO_MAX_LEVELS] = {NULL};
+    packed_level T[AO_MSSAO_MAX_LEVELS];
+    memset(T, 0, sizeof T);
 
     /* ---- 1. Normals: the G-buffer's, else reconstructed from depth ---- */
     double t0 = obs_time_now();
@@ -654,6 +687,16 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
             ds_job J = {&lv->level[l - 1], L, K->downsample, K->d_threshold};
             obs_pool_run(pool, L->height, ds_row, &J);
         }
+        pk[l] = (float *)obs_aligned_alloc(sizeof(float) * 4 * (size_t)L->width * (size_t)L->height);
+        if (!pk[l]) {
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
+            break;
+        }
+        pack_job PJ = {L, pk[l]};
+        obs_pool_run(pool, L->height, pack_row, &PJ);
+        T[l].t = pk[l];
+        T[l].width = L->width;
+        T[l].height = L->height;
         if (stats)
             stats->seconds_level[l] += obs_time_now() - ta;
     }
@@ -664,7 +707,7 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
         double ta = obs_time_now();
         ao_mssao_level *L = &lv->level[l];
         const ao_mssao_level *C = l + 1 < NL ? &lv->level[l + 1] : NULL;
-        ao_job J = {K, l, L, C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL, rows};
+        ao_job J = {K, l, L, &T[l], C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL, rows};
         obs_pool_run(pool, L->height, ao_coarse_row, &J);
         fallback += sum_rows(rows, L->height);
         if (K->level_blur) {
@@ -679,6 +722,7 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
         const ao_mssao_level *C = NL > 1 ? &lv->level[1] : NULL;
         last_job J = {K,
                       &lv->level[0],
+                      &T[0],
                       lv->count < 0 ? &lv->level[0] : NULL,
                       C,
                       C ? (K->level_blur ? C->ao_blur : C->ao) : NULL,
@@ -708,6 +752,8 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
     }
     free(rows);
     free(counts);
+    for (int l = 0; l < AO_MSSAO_MAX_LEVELS; l++)
+        obs_aligned_free(pk[l]);
     if (own_nrm)
         for (int c = 0; c < 3; c++)
             obs_image_f32_free(&nrm[c]);
