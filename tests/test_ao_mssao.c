@@ -394,6 +394,28 @@ TEST(mssao_levels_blur_and_upsample_with_published_weights)
                                  (1.0 - px(&lv.level[0].ao[1], i, j) / px(&lv.level[0].ao[2], i, j));
                 CHECK_NEAR(px(&lv.visibility, i, j), e, 1e-6);
             }
+    /* per-level images in our row order: level 0 combined = the final visibility flipped; level 3's
+     * own view = 1 - own */
+    {
+        obs_image_f32 v0, v3;
+        CHECK_OK(obs_image_f32_alloc(ctx, 72, 54, &v0), ctx);
+        CHECK_OK(obs_image_f32_alloc(ctx, 9, 7, &v3), ctx);
+        CHECK_OK(ao_mssao_level_visibility(ctx, &lv, 0, AO_MSSAO_LEVEL_COMBINED, &v0), ctx);
+        CHECK_OK(ao_mssao_level_visibility(ctx, &lv, 3, AO_MSSAO_LEVEL_OWN, &v3), ctx);
+        for (int y = 0; y < 54; y++)
+            for (int x = 0; x < 72; x++)
+                CHECK(fabsf(px(&v0, x, y) - px(&lv.visibility, x, 53 - y)) <= 1e-6f);
+        for (int y = 0; y < 7; y++)
+            for (int x = 0; x < 9; x++) {
+                const ao_mssao_level *L3 = &lv.level[3];
+                const float e = px(&L3->valid, x, 6 - y) > 0.0f ? 1.0f - px(&L3->own, x, 6 - y) : 1.0f;
+                CHECK(px(&v3, x, y) == e);
+            }
+        CHECK(ao_mssao_level_visibility(ctx, &lv, 5, AO_MSSAO_LEVEL_OWN, &v3) == OBS_STATUS_INVALID_ARGUMENT);
+        CHECK(ao_mssao_level_visibility(ctx, &lv, 2, AO_MSSAO_LEVEL_OWN, &v3) == OBS_STATUS_INVALID_ARGUMENT);
+        obs_image_f32_free(&v0);
+        obs_image_f32_free(&v3);
+    }
     ao_mssao_levels_free(&lv);
     rast_gbuffer_free(&gb);
     obs_scene_free(&s);

@@ -594,6 +594,19 @@ obs_status ao_mssao_compute_levels(obs_context *ctx, obs_pool *pool, const ao_in
                                    ao_mssao_levels *out);
 void ao_mssao_levels_free(ao_mssao_levels *lv);   /* NULL-safe */
 
+typedef enum ao_mssao_level_view {
+    AO_MSSAO_LEVEL_OWN = 0,         /* 1 - occlusion / sampleCount: the level's own kernel alone */
+    AO_MSSAO_LEVEL_COMBINED,        /* (1 - ao.x)(1 - ao.y / ao.z): levels coarsest..l combined, as the
+                                       finest level's combine would give if l were the finest */
+    AO_MSSAO_LEVEL_VIEW_COUNT
+} ao_mssao_level_view;
+
+/* Level l of lv as a visibility image in OUR row order (row 0 = top), for per-level figures (the seed
+ * thesis' Figura 85 / Tabla 24). out must be level_width x level_height of level l; background
+ * texels (valid == 0) get 1. Returns OK or INVALID_ARGUMENT (l out of range, sizes, NULLs). */
+obs_status ao_mssao_level_visibility(obs_context *ctx, const ao_mssao_levels *lv, int l, ao_mssao_level_view view,
+                                     obs_image_f32 *out);
+
 typedef struct ao_mssao_stats {
     int64_t pixels_computed;        /* level-0 pixels (window plus final-blur reach) */
     int64_t pixels_background;      /* of those: background (visibility 1) */

@@ -234,6 +234,37 @@ static inline float pow8(float x)
     return x4 * x4;
 }
 
+obs_status ao_mssao_level_visibility(obs_context *ctx, const ao_mssao_levels *lv, int l, ao_mssao_level_view view,
+                                     obs_image_f32 *out)
+{
+    if (!lv || !out || !out->data)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: NULL levels or output");
+    if (l < 0 || l >= lv->count)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: level %d not in [0, %d)", l,
+                         lv->count);
+    if ((int)view < 0 || view >= AO_MSSAO_LEVEL_VIEW_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: view %d unknown", (int)view);
+    const ao_mssao_level *L = &lv->level[l];
+    if (!L->own.data || out->width != L->width || out->height != L->height)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: output must be %dx%d (level %d)",
+                         L->width, L->height, l);
+    for (int y = 0; y < L->height; y++) {
+        const int j = L->height - 1 - y;
+        float *o = obs_image_f32_row(out, y);
+        for (int i = 0; i < L->width; i++) {
+            float v;
+            if (!(at(&L->valid, i, j) > 0.0f))
+                v = 1.0f;
+            else if (view == AO_MSSAO_LEVEL_OWN)
+                v = 1.0f - at(&L->own, i, j);
+            else
+                v = (1.0f - at(&L->ao[0], i, j)) * (1.0f - at(&L->ao[1], i, j) / at(&L->ao[2], i, j));
+            o[i] = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
+        }
+    }
+    return OBS_STATUS_OK;
+}
+
 /* ---- Level 0 G-buffer (GL rows): positions from depth, normals, validity ---- */
 
 typedef struct g0_job {
