@@ -337,6 +337,46 @@ TEST(mssao_levels_blur_and_upsample_with_published_weights)
         CHECK(lv.level[l].width == ew[l] && lv.level[l].height == eh[l]);
         CHECK(all_finite_unit(&lv.level[l].own));
     }
+    /* aoFirst.frag at the coarsest level (4, 5x4), every surface texel, recomputed in double: the grid
+     * (+-x, +-y), x, y = 1, 3, ... <= rangeMax = min(r_4 / |z|, 5), r_4 = fy * dMax / 16, taps clamped */
+    {
+        const ao_mssao_level *L = &lv.level[4];
+        const double r4 = in.fy * 3.0 / 16.0;
+        int checked = 0;
+        double occ_max = 0.0;
+        for (int j = 0; j < L->height; j++)
+            for (int i = 0; i < L->width; i++) {
+                if (px(&L->valid, i, j) <= 0.0f)
+                    continue;
+                const double p[3] = {px(&L->pos[0], i, j), px(&L->pos[1], i, j), px(&L->pos[2], i, j)};
+                const double n[3] = {px(&L->normal[0], i, j), px(&L->normal[1], i, j), px(&L->normal[2], i, j)};
+                const double rm = fmin(r4 / fabs(p[2]), 5.0);
+                double occ = 0.0, cnt = 0.0001;
+                for (int x = 1; x <= rm; x += 2)
+                    for (int y = 1; y <= rm; y += 2)
+                        for (int s = 0; s < 4; s++) {
+                            const int tx = i + (s == 0 || s == 3 ? x : -x), ty = j + (s < 2 ? y : -y);
+                            const int cx = tx < 0 ? 0 : tx >= L->width ? L->width - 1 : tx;
+                            const int cy = ty < 0 ? 0 : ty >= L->height ? L->height - 1 : ty;
+                            double v[3], vv = 0.0, vn = 0.0;
+                            for (int c = 0; c < 3; c++) {
+                                v[c] = px(&L->pos[c], cx, cy) - p[c];
+                                vv += v[c] * v[c];
+                            }
+                            for (int c = 0; c < 3; c++)
+                                vn += n[c] * (vv > 0.0 ? v[c] / sqrt(vv) : 0.0);
+                            occ += (1.0 - fmin(1.0, vv / 9.0)) * fmax(vn, 0.0) * px(&L->valid, cx, cy);
+                            cnt += 1.0;
+                        }
+                CHECK_NEAR(px(&L->ao[1], i, j), occ, 1e-5);
+                CHECK_NEAR(px(&L->ao[2], i, j), cnt, 1e-5);
+                CHECK_NEAR(px(&L->ao[0], i, j), occ / cnt, 1e-5);
+                occ_max = fmax(occ_max, occ / cnt);
+                checked++;
+            }
+        CHECK(checked >= 10);
+        CHECK_MSG(occ_max > 0.05, "the coarsest level sees the sphere (max own AO %g)", occ_max);
+    }
     /* blur.frag at level 2, texel (7, 5), recomputed: 3x3, weights ((n.n'+1.2)/2.2)^8 (1/(1+0.2|dz|))^16
      * / ((|i|+1)(|j|+1)) */
     {
