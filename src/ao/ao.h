@@ -472,6 +472,158 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
  * MSSAO (src/ao/ao_mssao.c)
  * ============================================================================================== */
 
+/* Multi-resolution screen-space AO [Hoang12] (Hoang & Low, "Multi-resolution screen-space ambient
+ * occlusion", VRCAI 2010 / The Visual Computer 28(3):289-304, 2012), as Hoang's original code
+ * computes it (main.cpp, shaders/downsample.frag, aoFirst.frag, ao.frag, aoLast.frag, blur.frag;
+ * ../shared/reference/ao.md 1.4, verification.md 3). docs/ao/mssao.md has every detail.
+ *
+ * Pipeline: level 0 is the full buffer; level l (1 <= l < levels) has size ceil(size_{l-1} / 2) and
+ * its positions and normals are downsampled from level l-1 by the median rule. AO runs coarse to
+ * fine: the coarsest level with the grid kernel alone (aoFirst.frag), middle levels with the grid
+ * kernel plus the bilateral upsampling of the blurred coarser level (ao.frag), level 0 with 16
+ * Poisson taps plus the upsampling and the final combine (aoLast.frag). Every coarse level is
+ * blurred (blur.frag) before it is upsampled. All planes here are in GL row order (row 0 = BOTTOM). */
+
+#define AO_MSSAO_DEFAULT_D_MAX 3.0f       /* dMax, m, > 0; main.cpp "const float dMax = 3.0f; // AO radius of influence" */
+#define AO_MSSAO_DEFAULT_R_MAX 5.0f       /* rMax, level pixels, > 0; main.cpp "rMax = 5.0; // maximum screen-space sampling radius" */
+#define AO_MSSAO_DEFAULT_LEVELS 5         /* [1, AO_MSSAO_MAX_LEVELS]; main.cpp LEVEL_COUNT 5 */
+#define AO_MSSAO_DEFAULT_D_THRESHOLD 1.0f /* m, >= 0; downsample.frag "if (d < 1.0)"; kool uMedianThresh 1 */
+#define AO_MSSAO_DEFAULT_SAMPLES 16       /* level-0 Poisson taps; aoLast.frag (poissonDisk[32] = 16 taps) */
+#define AO_MSSAO_MAX_LEVELS 16
+#define AO_MSSAO_POISSON_COUNT 16         /* Hoang's disk: main.cpp SetupAOPrograms poissonDisk[32] */
+#define AO_MSSAO_MAX_SAMPLES 32           /* 17..32: our extension (the disk rotated by 90 degrees) */
+
+/* Hoang's Poisson disk, (x, y) pairs in GL pixel units before the scale by rangeMax (main.cpp). */
+extern const float ao_mssao_poisson_disk[2 * AO_MSSAO_POISSON_COUNT];
+
+typedef enum ao_mssao_downsample {
+    AO_MSSAO_DOWNSAMPLE_HOANG = 0,  /* default: downsample.frag: the children with min and max z (last
+                                       index wins ties); d = |p_max - p_min| (3-D distance); the other two
+                                       in index order are the "median"; d < threshold: their average,
+                                       else the first of them */
+    AO_MSSAO_DOWNSAMPLE_SORTED,     /* the slides / kool: sort by z, z4 - z1 < threshold: average of the
+                                       2nd and 3rd, else the 2nd */
+    AO_MSSAO_DOWNSAMPLE_COUNT
+} ao_mssao_downsample;
+
+typedef enum ao_mssao_normals {
+    AO_MSSAO_NORMALS_AUTO = 0,      /* default: the G-buffer's when the input has them, else from depth */
+    AO_MSSAO_NORMALS_DEPTH,         /* ao_normals_from_depth even when the input has normals */
+    AO_MSSAO_NORMALS_COUNT
+} ao_mssao_normals;
+
+typedef struct ao_mssao_params {
+    float d_max;                    /* dMax: world-space radius of influence, metres */
+    float r_max;                    /* rMax: largest sampling radius, pixels of each level */
+    int levels;                     /* LEVEL_COUNT */
+    float d_threshold;              /* median-rule threshold, metres */
+    int samples;                    /* level-0 taps: 16 = Hoang's disk; docs/ao/mssao.md "Samples" */
+    ao_mssao_downsample downsample;
+    ao_mssao_normals normals;
+    int level_blur;                 /* 1 (Hoang): blur.frag on each coarse level before upsampling */
+    int blur;                       /* 1: a final post-blur, ao_blur_gaussian21 (the seed's); Hoang has none */
+} ao_mssao_params;
+
+/* Hoang's defaults (AO_MSSAO_DEFAULT_*), level blur on, final blur off. */
+ao_mssao_params ao_mssao_params_default(void);
+
+/* Named presets. Returns 1 and fills *out, or 0 for an unknown name.
+ *   "default", "hoang": ao_mssao_params_default() (main.cpp's constants).
+ *   "thesis": the seed thesis' Table 3 (ssao-thesis-2017): radius 2 m (= dMax), 16 samples, with the
+ *             seed's final 21-tap Gaussian blur on (5.2, "Blur Multi Scale AO").
+ *   "kool": fabmax/kool's downsampling rule (sorted, z range) with Hoang's other constants. */
+int ao_mssao_params_preset(const char *name, ao_mssao_params *out);
+const char *const *ao_mssao_preset_names(void);
+
+/* Returns OK or INVALID_ARGUMENT naming the field and its range. */
+obs_status ao_mssao_params_validate(obs_context *ctx, const ao_mssao_params *p);
+
+/* "d_max=3 r_max=5 ..." (snprintf semantics). */
+int ao_mssao_params_to_string(const ao_mssao_params *p, char *buf, size_t size);
+
+/* The constant block (main.cpp's uniforms per level), float32. */
+typedef struct ao_mssao_constants {
+    int full_width, full_height;    /* level 0 = the whole buffer (GL pixel grid) */
+    int levels;
+    int level_width[AO_MSSAO_MAX_LEVELS], level_height[AO_MSSAO_MAX_LEVELS]; /* ceil halving, >= 1 */
+    /* uniform r per level: perspective r_l = fy * dMax / 2^l (main.cpp: size * dMax / (2 tan(fov/2))
+     * with size = the level's nominal height, i.e. fy / 2^l pixels per metre at 1 m), so that
+     * rangeMax = min(r_l / |z|, rMax) is dMax projected into level-l pixels. Orthographic (our
+     * extension): rangeMax = min(r_l, rMax) with r_l = fy * dMax / 2^l. */
+    float r[AO_MSSAO_MAX_LEVELS];
+    int orthographic;
+    float d_max, d_max2, r_max, d_threshold;  /* d_max2 = dMax * dMax in float */
+    int samples;
+    float taps[2 * AO_MSSAO_MAX_SAMPLES];     /* level-0 offsets (x, y), GL pixels per unit rangeMax */
+    int downsample, level_blur, blur;
+} ao_mssao_constants;
+
+/* The pure params -> constants step. Params are assumed validated. */
+ao_mssao_constants ao_mssao_constants_from_params(const ao_mssao_params *p, const ao_input *in);
+
+/* The level-0 tap set for n samples (1..AO_MSSAO_MAX_SAMPLES), n (x, y) pairs into taps:
+ * n <= 16: disk indices floor(k * 16 / n), k = 0..n-1 (16 = Hoang's disk in his order);
+ * n > 16: the 16, then the disk rotated by +90 degrees, (x, y) -> (-y, x), at indices
+ * floor(k * 16 / (n - 16)). */
+void ao_mssao_taps(int n, float *taps);
+
+/* One level of the pyramid, GL row order, all planes level_width x level_height. */
+typedef struct ao_mssao_level {
+    int width, height;
+    obs_image_f32 pos[3];           /* view-space position (x, y, z), z < 0; background 0 */
+    obs_image_f32 normal[3];        /* normal (averaged, not renormalised, as downsample.frag) */
+    obs_image_f32 valid;            /* normTex.w: 1 surface, 0 background, averages in between */
+    obs_image_f32 own;              /* the level's own AO, occlusion / sampleCount */
+    obs_image_f32 ao[3];            /* the pass output (maxAO, sumAO, count); level 0: the combined
+                                       (aoMax, upsampled sum + occ, upsampled count + count) */
+    obs_image_f32 ao_blur[3];       /* after blur.frag (levels >= 1 with level_blur; else unset) */
+    double seconds;                 /* downsample + AO pass + blur of this level */
+} ao_mssao_level;
+
+typedef struct ao_mssao_levels {
+    int count;
+    ao_mssao_level level[AO_MSSAO_MAX_LEVELS];
+    obs_image_f32 visibility;       /* level 0's final visibility (1 - aoMax)(1 - aoAvg), GL rows,
+                                       background 1, before any final blur */
+} ao_mssao_levels;
+
+/* Run the pipeline over the whole buffer and keep every level (for tests, the per-level figures and
+ * a shader port's intermediate images). Free with ao_mssao_levels_free.
+ * Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
+obs_status ao_mssao_compute_levels(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *params,
+                                   ao_mssao_levels *out);
+void ao_mssao_levels_free(ao_mssao_levels *lv);   /* NULL-safe */
+
+typedef enum ao_mssao_level_view {
+    AO_MSSAO_LEVEL_OWN = 0,         /* 1 - occlusion / sampleCount: the level's own kernel alone */
+    AO_MSSAO_LEVEL_COMBINED,        /* (1 - ao.x)(1 - ao.y / ao.z): levels coarsest..l combined, as the
+                                       finest level's combine would give if l were the finest */
+    AO_MSSAO_LEVEL_VIEW_COUNT
+} ao_mssao_level_view;
+
+/* Level l of lv as a visibility image in OUR row order (row 0 = top), for per-level figures (the seed
+ * thesis' Figura 85 / Tabla 24). out must be level_width x level_height of level l; background
+ * texels (valid == 0) get 1. Returns OK or INVALID_ARGUMENT (l out of range, sizes, NULLs). */
+obs_status ao_mssao_level_visibility(obs_context *ctx, const ao_mssao_levels *lv, int l, ao_mssao_level_view view,
+                                     obs_image_f32 *out);
+
+typedef struct ao_mssao_stats {
+    int64_t pixels_computed;        /* level-0 pixels (window plus final-blur reach) */
+    int64_t pixels_background;      /* of those: background (visibility 1) */
+    int64_t pixels_upsample_fallback; /* of those and of coarse levels: all four bilateral weights
+                                       underflowed to 0, plain bilinear used (docs) */
+    int levels;
+    double seconds_level[AO_MSSAO_MAX_LEVELS]; /* downsample + AO + level blur, per level */
+    double seconds_prepare, seconds_kernel, seconds_blur;
+} ao_mssao_stats;
+
+/* MSSAO over the input's window. out (required) and out_raw (optional) are w x h planes in our
+ * row order; out gets the final-blurred AO when params->blur, else the raw AO. Coarse levels are
+ * computed over the whole buffer; level 0 over the window plus the final blur's reach.
+ * Returns OK; INVALID_ARGUMENT; OUT_OF_MEMORY; LIMIT_EXCEEDED. */
+obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *params,
+                            obs_image_f32 *out, obs_image_f32 *out_raw, ao_mssao_stats *stats);
+
 /* (end of MSSAO) */
 
 

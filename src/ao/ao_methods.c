@@ -12,7 +12,7 @@ static const ao_method *const methods[] = {
     /* hbao */
     /* ue4 */
     /* gtao */
-    /* mssao */
+    &ao_i_method_mssao,
     /* mssao-seed */
     NULL,
 };

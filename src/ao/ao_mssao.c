@@ -1,0 +1,999 @@
+/* ao_mssao.c: Multi-resolution screen-space ambient occlusion [Hoang12] (Hoang & Low, VRCAI 2010;
+ * The Visual Computer 28(3):289-304, 2012), exact to Hoang's original code: main.cpp (the host:
+ * LEVEL_COUNT, dMax, rMax, the per-level r, the Poisson disk), shaders/downsample.frag (the median
+ * rule), aoFirst.frag (coarsest level), ao.frag (middle levels), aoLast.frag (finest level and the
+ * combine) and blur.frag (the per-level blur). ../shared/reference/ao.md 1.4, verification.md 3,
+ * docs/ao/mssao.md.
+ *
+ * Everything here works in the shader's pixel grid: GL window coordinates, y UP (row 0 of every
+ * level plane is the BOTTOM row). gl_FragCoord of texel (i, j) is (i + 0.5, j + 0.5); the shaders
+ * read GL_TEXTURE_RECTANGLE textures with NEAREST filtering and CLAMP_TO_EDGE, i.e. the texel
+ * floor(coord) clamped to the texture. Arithmetic is float32 in the shaders' operation order (the
+ * build uses -ffp-contract=off). Remaining differences from a GPU (pow as repeated squaring,
+ * normalize as v * (1 / sqrt), the zero-length tap, the all-zero upsampling weights, denormals)
+ * are listed in docs/ao/mssao.md, "Differences from the reference".
+ */
+#include "ao.h"
+#include "ao_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* [Hoang12] main.cpp SetupAOPrograms: "GLfloat poissonDisk[] = { ... }" (16 (x, y) pairs). */
+const float ao_mssao_poisson_disk[2 * AO_MSSAO_POISSON_COUNT] = {
+    -0.6116678f, 0.04548655f, -0.26605980f, -0.6445347f, -0.4798763f, 0.78557830f, -0.19723210f, -0.1348270f,
+    -0.7351842f, -0.58396650f, -0.35353550f, 0.3798947f, 0.1423388f, 0.39469180f, -0.01819171f, 0.8008046f,
+    0.3313283f, -0.04656135f, 0.58593510f, 0.4467109f, 0.8577477f, 0.11188750f, 0.03690137f, -0.9906120f,
+    0.4768903f, -0.84335800f, 0.13749180f, -0.4746810f, 0.7814927f, -0.48938420f, 0.38269190f, 0.8695006f,
+};
+
+/* ================================================================================================
+ * Parameters, presets, constants
+ * ============================================================================================== */
+
+ao_mssao_params ao_mssao_params_default(void)
+{
+    ao_mssao_params p;
+    memset(&p, 0, sizeof p);
+    p.d_max = AO_MSSAO_DEFAULT_D_MAX;
+    p.r_max = AO_MSSAO_DEFAULT_R_MAX;
+    p.levels = AO_MSSAO_DEFAULT_LEVELS;
+    p.d_threshold = AO_MSSAO_DEFAULT_D_THRESHOLD;
+    p.samples = AO_MSSAO_DEFAULT_SAMPLES;
+    p.downsample = AO_MSSAO_DOWNSAMPLE_HOANG;
+    p.normals = AO_MSSAO_NORMALS_AUTO;
+    p.level_blur = 1;   /* main.cpp RenderAO: "if (size < RESOLUTION) Blur(size, index)" */
+    p.blur = 0;         /* Hoang has no final spatial blur (only a temporal filter, not reproduced) */
+    return p;
+}
+
+static const char *const preset_names[] = {"default", "hoang", "thesis", "kool", NULL};
+
+const char *const *ao_mssao_preset_names(void) { return preset_names; }
+
+int ao_mssao_params_preset(const char *name, ao_mssao_params *out)
+{
+    if (!name || !out)
+        return 0;
+    ao_mssao_params p = ao_mssao_params_default();
+    if (!strcmp(name, "default") || !strcmp(name, "hoang")) {
+        /* main.cpp as published */
+    } else if (!strcmp(name, "thesis")) {
+        /* ssao-thesis-2017 Tabla 3: "Multi Scale AO 2 (m) 16 (muestras)"; 5.2: "Blur Multi Scale AO" */
+        p.d_max = 2.0f;
+        p.samples = 16;
+        p.blur = 1;
+    } else if (!strcmp(name, "kool")) {
+        /* fabmax/kool GbufferDownsamplingPass: bubble sort by depth, dRange < uMedianThresh (1) */
+        p.downsample = AO_MSSAO_DOWNSAMPLE_SORTED;
+    } else {
+        return 0;
+    }
+    *out = p;
+    return 1;
+}
+
+obs_status ao_mssao_params_validate(obs_context *ctx, const ao_mssao_params *p)
+{
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: params is NULL");
+    if (!isfinite(p->d_max) || !(p->d_max > 0.0f) || !(p->d_max <= 1e6f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: d_max must be in (0, 1e6] m (got %g)",
+                         (double)p->d_max);
+    if (!isfinite(p->r_max) || !(p->r_max > 0.0f) || !(p->r_max <= 64.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: r_max must be in (0, 64] pixels (got %g)",
+                         (double)p->r_max);
+    if (p->levels < 1 || p->levels > AO_MSSAO_MAX_LEVELS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: levels must be in [1, %d] (got %d)",
+                         AO_MSSAO_MAX_LEVELS, p->levels);
+    if (!isfinite(p->d_threshold) || !(p->d_threshold >= 0.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: d_threshold must be finite and >= 0 m (got %g)",
+                         (double)p->d_threshold);
+    if (p->samples < 1 || p->samples > AO_MSSAO_MAX_SAMPLES)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: samples must be in [1, %d] (got %d)",
+                         AO_MSSAO_MAX_SAMPLES, p->samples);
+    if ((int)p->downsample < 0 || p->downsample >= AO_MSSAO_DOWNSAMPLE_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: downsample must be hoang or sorted (got %d)",
+                         (int)p->downsample);
+    if ((int)p->normals < 0 || p->normals >= AO_MSSAO_NORMALS_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: normals must be auto or depth (got %d)",
+                         (int)p->normals);
+    if (p->level_blur != 0 && p->level_blur != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_blur must be 0 or 1 (got %d)", p->level_blur);
+    if (p->blur != 0 && p->blur != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: blur must be 0 or 1 (got %d)", p->blur);
+    return OBS_STATUS_OK;
+}
+
+static const char *const downsample_names[] = {"hoang", "sorted", NULL};
+static const char *const normals_names[] = {"auto", "depth", NULL};
+
+int ao_mssao_params_to_string(const ao_mssao_params *p, char *buf, size_t size)
+{
+    const int ds = (int)p->downsample, nm = (int)p->normals;
+    return snprintf(buf, size,
+                    "d_max=%.9g r_max=%.9g levels=%d d_threshold=%.9g samples=%d downsample=%s normals=%s "
+                    "level_blur=%d blur=%d",
+                    (double)p->d_max, (double)p->r_max, p->levels, (double)p->d_threshold, p->samples,
+                    ds >= 0 && ds < AO_MSSAO_DOWNSAMPLE_COUNT ? downsample_names[ds] : "?",
+                    nm >= 0 && nm < AO_MSSAO_NORMALS_COUNT ? normals_names[nm] : "?", p->level_blur, p->blur);
+}
+
+void ao_mssao_taps(int n, float *taps)
+{
+    const float *D = ao_mssao_poisson_disk;
+    const int N = AO_MSSAO_POISSON_COUNT;
+    if (n < 1)
+        return;
+    if (n > AO_MSSAO_MAX_SAMPLES)
+        n = AO_MSSAO_MAX_SAMPLES;
+    const int first = n < N ? n : N;
+    for (int k = 0; k < first; k++) {
+        const int i = k * N / first; /* floor(k * 16 / n): an even spread over Hoang's order */
+        taps[2 * k] = D[2 * i];
+        taps[2 * k + 1] = D[2 * i + 1];
+    }
+    const int extra = n - first;   /* our extension beyond Hoang's 16: the disk rotated by +90 deg */
+    for (int k = 0; k < extra; k++) {
+        const int i = k * N / extra;
+        taps[2 * (N + k)] = -D[2 * i + 1];
+        taps[2 * (N + k) + 1] = D[2 * i];
+    }
+}
+
+ao_mssao_constants ao_mssao_constants_from_params(const ao_mssao_params *p, const ao_input *in)
+{
+    ao_mssao_constants K;
+    memset(&K, 0, sizeof K);
+    K.full_width = in->width;
+    K.full_height = in->height;
+    K.levels = p->levels;
+    int w = in->width, h = in->height;
+    double scale = 1.0;
+    for (int l = 0; l < p->levels; l++) {
+        /* Level sizes: ceil halving (main.cpp halves RESOLUTION = 800 exactly; for odd sizes the
+         * coarse texel of the last column / row has children outside the finer level, read clamped
+         * to its edge as texture2DRect with CLAMP_TO_EDGE does). A 1x1 level stays 1x1. */
+        K.level_width[l] = w;
+        K.level_height[l] = h;
+        /* main.cpp: r = size * dMax / (2 * tan(fov/2)); size / (2 tan(fov/2)) = fy / 2^l */
+        K.r[l] = (float)(in->fy * scale * (double)p->d_max);
+        w = (w + 1) / 2;
+        h = (h + 1) / 2;
+        scale *= 0.5;
+    }
+    K.orthographic = in->projection == OBS_PROJECTION_ORTHOGRAPHIC;
+    K.d_max = p->d_max;
+    K.d_max2 = p->d_max * p->d_max;  /* ao*.frag: (dMax * dMax), float */
+    K.r_max = p->r_max;
+    K.d_threshold = p->d_threshold;
+    K.samples = p->samples;
+    ao_mssao_taps(p->samples, K.taps);
+    K.downsample = (int)p->downsample;
+    K.level_blur = p->level_blur;
+    K.blur = p->blur;
+    return K;
+}
+
+/* ================================================================================================
+ * Levels
+ * ============================================================================================== */
+
+static void level_free(ao_mssao_level *L)
+{
+    for (int c = 0; c < 3; c++) {
+        obs_image_f32_free(&L->pos[c]);
+        obs_image_f32_free(&L->normal[c]);
+        obs_image_f32_free(&L->ao[c]);
+        obs_image_f32_free(&L->ao_blur[c]);
+    }
+    obs_image_f32_free(&L->valid);
+    obs_image_f32_free(&L->own);
+}
+
+void ao_mssao_levels_free(ao_mssao_levels *lv)
+{
+    if (!lv)
+        return;
+    for (int l = 0; l < AO_MSSAO_MAX_LEVELS; l++)
+        level_free(&lv->level[l]);
+    obs_image_f32_free(&lv->visibility);
+    memset(lv, 0, sizeof *lv);
+}
+
+/* Allocate the G-buffer planes (and, when ao, the AO planes) of one level. */
+static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h, int ao, int blur)
+{
+    obs_status st = OBS_STATUS_OK;
+    L->width = w;
+    L->height = h;
+    for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++) {
+        st = obs_image_f32_alloc(ctx, w, h, &L->pos[c]);
+        if (st == OBS_STATUS_OK)
+            st = obs_image_f32_alloc(ctx, w, h, &L->normal[c]);
+        if (st == OBS_STATUS_OK && ao)
+            st = obs_image_f32_alloc(ctx, w, h, &L->ao[c]);
+        if (st == OBS_STATUS_OK && blur)
+            st = obs_image_f32_alloc(ctx, w, h, &L->ao_blur[c]);
+    }
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, w, h, &L->valid);
+    if (st == OBS_STATUS_OK && ao)
+        st = obs_image_f32_alloc(ctx, w, h, &L->own);
+    return st;
+}
+
+static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+static inline float at(const obs_image_f32 *im, int x, int y) { return obs_image_f32_row(im, y)[x]; }
+static inline float pow8(float x)
+{
+    /* pow(x, 8.0) as x^2^2^2 (a GPU evaluates exp2(8 log2 x); docs: "Differences") */
+    const float x2 = x * x, x4 = x2 * x2;
+    return x4 * x4;
+}
+
+obs_status ao_mssao_level_visibility(obs_context *ctx, const ao_mssao_levels *lv, int l, ao_mssao_level_view view,
+                                     obs_image_f32 *out)
+{
+    if (!lv || !out || !out->data)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: NULL levels or output");
+    if (l < 0 || l >= lv->count)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: level %d not in [0, %d)", l,
+                         lv->count);
+    if ((int)view < 0 || view >= AO_MSSAO_LEVEL_VIEW_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: view %d unknown", (int)view);
+    const ao_mssao_level *L = &lv->level[l];
+    if (!L->own.data || out->width != L->width || out->height != L->height)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: level_visibility: output must be %dx%d (level %d)",
+                         L->width, L->height, l);
+    for (int y = 0; y < L->height; y++) {
+        const int j = L->height - 1 - y;
+        float *o = obs_image_f32_row(out, y);
+        for (int i = 0; i < L->width; i++) {
+            float v;
+            if (!(at(&L->valid, i, j) > 0.0f))
+                v = 1.0f;
+            else if (view == AO_MSSAO_LEVEL_OWN)
+                v = 1.0f - at(&L->own, i, j);
+            else
+                v = (1.0f - at(&L->ao[0], i, j)) * (1.0f - at(&L->ao[1], i, j) / at(&L->ao[2], i, j));
+            o[i] = v < 0.0f ? 0.0f : v > 1.0f ? 1.0f : v;
+        }
+    }
+    return OBS_STATUS_OK;
+}
+
+/* ---- Level 0 G-buffer (GL rows): positions from depth, normals, validity ---- */
+
+typedef struct g0_job {
+    const ao_input *in;
+    const obs_image_f32 *nrm;   /* 3 planes, our row order, full buffer */
+    ao_mssao_level *L;
+} g0_job;
+
+static void g0_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const g0_job *J = (const g0_job *)user;
+    const ao_input *in = J->in;
+    const int j = (int)task, y = in->height - 1 - j; /* GL row j is our row H - 1 - j */
+    const float *drow = obs_image_f32_row(in->depth, y);
+    const float *nr[3] = {obs_image_f32_row(&J->nrm[0], y), obs_image_f32_row(&J->nrm[1], y),
+                          obs_image_f32_row(&J->nrm[2], y)};
+    float *P[3], *N[3];
+    for (int c = 0; c < 3; c++) {
+        P[c] = obs_image_f32_row(&J->L->pos[c], j);
+        N[c] = obs_image_f32_row(&J->L->normal[c], j);
+    }
+    float *V = obs_image_f32_row(&J->L->valid, j);
+    for (int x = 0; x < in->width; x++) {
+        const float d = drow[x];
+        if (!(isfinite(d) && d > 0.0f)) {
+            /* Background: Hoang's G-buffer is cleared to (0, 0, 0, 0) (glClearColor 0, 0, 0, 0) */
+            P[0][x] = P[1][x] = P[2][x] = N[0][x] = N[1][x] = N[2][x] = V[x] = 0.0f;
+            continue;
+        }
+        const obs_vec3 p = ao_position(in, x, y, d);
+        float n0 = nr[0][x], n1 = nr[1][x], n2 = nr[2][x];
+        if (!(isfinite(n0) && isfinite(n1) && isfinite(n2)))
+            n0 = n1 = n2 = 0.0f; /* a non-finite normal: zero (the pixel then occludes nothing itself) */
+        P[0][x] = p.x;
+        P[1][x] = p.y;
+        P[2][x] = p.z;
+        N[0][x] = n0;
+        N[1][x] = n1;
+        N[2][x] = n2;
+        V[x] = 1.0f; /* normTex.w: the geometry pass writes 1 where it draws */
+    }
+}
+
+/* ---- Downsampling (downsample.frag), level l from level l-1 ---- */
+
+typedef struct ds_job {
+    const ao_mssao_level *F;    /* finer */
+    ao_mssao_level *C;          /* coarser */
+    int rule;
+    float thr;
+} ds_job;
+
+static void ds_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const ds_job *J = (const ds_job *)user;
+    const ao_mssao_level *F = J->F;
+    ao_mssao_level *C = J->C;
+    const int j = (int)task;
+    /* downsample.frag: xy2 = 2 gl_FragCoord; children at xy2 + (-0.5, 0.5), (0.5, 0.5), (0.5, -0.5),
+     * (-0.5, -0.5), i.e. texels (2i, 2j+1), (2i+1, 2j+1), (2i+1, 2j), (2i, 2j), clamped. */
+    const int cy[4] = {clampi(2 * j + 1, 0, F->height - 1), clampi(2 * j + 1, 0, F->height - 1),
+                       clampi(2 * j, 0, F->height - 1), clampi(2 * j, 0, F->height - 1)};
+    for (int i = 0; i < C->width; i++) {
+        const int cx[4] = {clampi(2 * i, 0, F->width - 1), clampi(2 * i + 1, 0, F->width - 1),
+                           clampi(2 * i + 1, 0, F->width - 1), clampi(2 * i, 0, F->width - 1)};
+        float v[4][7]; /* pos xyz, normal xyz, w */
+        for (int k = 0; k < 4; k++) {
+            for (int c = 0; c < 3; c++) {
+                v[k][c] = at(&F->pos[c], cx[k], cy[k]);
+                v[k][3 + c] = at(&F->normal[c], cx[k], cy[k]);
+            }
+            v[k][6] = at(&F->valid, cx[k], cy[k]);
+        }
+        int a, b, avg;
+        if (J->rule == AO_MSSAO_DOWNSAMPLE_HOANG) {
+            /* downsample.frag: min and max z, the last index wins a tie */
+            const float maxZ = fmaxf(fmaxf(v[0][2], v[1][2]), fmaxf(v[2][2], v[3][2]));
+            const float minZ = fminf(fminf(v[0][2], v[1][2]), fminf(v[2][2], v[3][2]));
+            int minPos = 0, maxPos = 0;
+            for (int k = 0; k < 4; k++) {
+                if (v[k][2] == minZ)
+                    minPos = k;
+                if (v[k][2] == maxZ)
+                    maxPos = k;
+            }
+            /* d = distance(pos[minPos].xyz, pos[maxPos].xyz) */
+            const float dx = v[minPos][0] - v[maxPos][0], dy = v[minPos][1] - v[maxPos][1],
+                        dz = v[minPos][2] - v[maxPos][2];
+            const float d = sqrtf(dx * dx + dy * dy + dz * dz);
+            int med[2] = {0, 0}, idx = 0;
+            for (int k = 0; k < 4 && idx < 2; k++)
+                if (k != minPos && k != maxPos)
+                    med[idx++] = k;
+            a = med[0];
+            b = med[1];
+            avg = d < J->thr; /* "if (d < 1.0)" */
+        } else {
+            /* fabmax/kool: bubble sort by linear depth (-z), "if (dnArray[j].z lt dnArray[i].z) swap" */
+            int ord[4] = {0, 1, 2, 3};
+            for (int p = 0; p < 3; p++)
+                for (int q = p + 1; q < 4; q++)
+                    if (-v[ord[q]][2] < -v[ord[p]][2]) {
+                        const int t = ord[p];
+                        ord[p] = ord[q];
+                        ord[q] = t;
+                    }
+            const float dRange = (-v[ord[3]][2]) - (-v[ord[0]][2]);
+            a = ord[1];
+            b = ord[2];
+            avg = dRange < J->thr; /* "if (dRange lt medianThresh)" */
+        }
+        float o[7];
+        for (int c = 0; c < 7; c++)
+            o[c] = avg ? (v[a][c] + v[b][c]) / 2.0f : v[a][c]; /* "(pos[median.x] + pos[median.y]) / 2.0" */
+        for (int c = 0; c < 3; c++) {
+            obs_image_f32_row(&C->pos[c], j)[i] = o[c];
+            obs_image_f32_row(&C->normal[c], j)[i] = o[3 + c];
+        }
+        obs_image_f32_row(&C->valid, j)[i] = o[6];
+    }
+}
+
+/* ---- The per-sample term (ComputeOcclusion in ao*.frag) ---- */
+
+/* Each level's taps read one interleaved (x, y, z, w) texel (the posTex.xyz and normTex.w the
+ * shader fetches), packed from the planes once per level: one cache line per tap. */
+typedef struct packed_level {
+    const float *t;             /* width * height * 4 floats, GL rows */
+    int width, height;
+} packed_level;
+
+static inline void occlusion_tap(const packed_level *L, int tx, int ty, const float p[3], const float n[3],
+                                 float d_max2, float *occ, float *cnt)
+{
+    tx = clampi(tx, 0, L->width - 1);
+    ty = clampi(ty, 0, L->height - 1);
+    const float *q = L->t + 4 * ((size_t)ty * (size_t)L->width + (size_t)tx);
+    const float v0 = q[0] - p[0], v1 = q[1] - p[1], v2 = q[2] - p[2];
+    const float vv = v0 * v0 + v1 * v1 + v2 * v2;
+    const float d = sqrtf(vv);                           /* distance(p.xyz, samplePos.xyz) */
+    float t = fminf(1.0f, (d * d) / d_max2);              /* min(1.0, (d * d) / (dMax * dMax)) */
+    t = 1.0f - t;                                         /* rho = 1 - min(1, d^2 / dMax^2) */
+    float cosTheta = 0.0f;
+    if (vv > 0.0f) {
+        /* normalize(samplePos.xyz - p.xyz); a zero vector (the tap is the pixel itself) gives NaN
+         * on a GPU, which max(., 0.0) turns into 0 under IEEE maxNum: we take 0 explicitly */
+        const float inv = 1.0f / d;
+        const float c = n[0] * (v0 * inv) + n[1] * (v1 * inv) + n[2] * (v2 * inv);
+        cosTheta = fmaxf(c, 0.0f);
+    }
+    *occ += t * cosTheta * q[3]; /* occlusion += t * cosTheta * sampleNorm.w */
+    *cnt += 1.0f;
+}
+
+typedef struct pack_job {
+    const ao_mssao_level *L;
+    float *t;
+} pack_job;
+
+static void pack_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const pack_job *J = (const pack_job *)user;
+    const ao_mssao_level *L = J->L;
+    const int j = (int)task;
+    float *o = J->t + 4 * (size_t)j * (size_t)L->width;
+    const float *P0 = obs_image_f32_row(&L->pos[0], j), *P1 = obs_image_f32_row(&L->pos[1], j),
+                *P2 = obs_image_f32_row(&L->pos[2], j), *V = obs_image_f32_row(&L->valid, j);
+    for (int i = 0; i < L->width; i++) {
+        o[4 * i] = P0[i];
+        o[4 * i + 1] = P1[i];
+        o[4 * i + 2] = P2[i];
+        o[4 * i + 3] = V[i];
+    }
+}
+
+/* ---- Bilateral upsampling (Upsample() in ao.frag / aoLast.frag) ---- */
+
+/* The upsampled (maxAO, sumAO, count) of the coarser level C at fine texel (i, j) with position z
+ * pz and normal n. Returns 1 when the bilateral weights all underflowed and bilinear was used. */
+static inline int upsample(const ao_mssao_level *C, const obs_image_f32 *cao, int i, int j, float pz,
+                           const float n[3], float out[3])
+{
+    const float fcx = (float)i + 0.5f, fcy = (float)j + 0.5f;
+    static const float off[4][2] = {{-1.0f, 1.0f}, {1.0f, 1.0f}, {-1.0f, -1.0f}, {1.0f, -1.0f}};
+    float wsum = 0.0f, acc[3] = {0.0f, 0.0f, 0.0f}, bl[4], vals[4][3];
+    for (int k = 0; k < 4; k++) {
+        /* loResCoord = floor((gl_FragCoord.xy + off) / 2.0) + vec2(0.5, 0.5) */
+        const float lx = floorf((fcx + off[k][0]) / 2.0f) + 0.5f, ly = floorf((fcy + off[k][1]) / 2.0f) + 0.5f;
+        const int tx = clampi((int)floorf(lx), 0, C->width - 1), ty = clampi((int)floorf(ly), 0, C->height - 1);
+        const float ln0 = at(&C->normal[0], tx, ty), ln1 = at(&C->normal[1], tx, ty), ln2 = at(&C->normal[2], tx, ty);
+        const float lz = at(&C->pos[2], tx, ty);
+        for (int c = 0; c < 3; c++)
+            vals[k][c] = at(&cao[c], tx, ty);
+        const float nw = pow8((ln0 * n[0] + ln1 * n[1] + ln2 * n[2] + 1.1f) / 2.1f); /* ((n_lo.n + 1.1)/2.1)^8 */
+        const float dw8 = pow8(1.0f / (1.0f + fabsf(pz - lz) * 0.2f));
+        const float dw = dw8 * dw8;                                                /* (1/(1 + 0.2|dz|))^16 */
+        /* (9/16) / (|(x - 2 lx)(y - 2 ly)| * 4): 9/16, 3/16, 3/16, 1/16 */
+        bl[k] = (9.0f / 16.0f) / (fabsf((fcx - lx * 2.0f) * (fcy - ly * 2.0f)) * 4.0f);
+        const float w = nw * dw * (9.0f / 16.0f) / (fabsf((fcx - lx * 2.0f) * (fcy - ly * 2.0f)) * 4.0f);
+        wsum += w;
+        for (int c = 0; c < 3; c++)
+            acc[c] += vals[k][c] * w;
+    }
+    if (wsum > 0.0f) {
+        for (int c = 0; c < 3; c++)
+            out[c] = acc[c] / wsum; /* combinedAO /= totalWeight */
+        return 0;
+    }
+    /* All four weights underflowed (|dz| of thousands of metres): the shader divides 0 by 0. Our
+     * deviation: the plain bilinear weights (docs, "Differences from the reference"). */
+    wsum = 0.0f;
+    acc[0] = acc[1] = acc[2] = 0.0f;
+    for (int k = 0; k < 4; k++) {
+        wsum += bl[k];
+        for (int c = 0; c < 3; c++)
+            acc[c] += vals[k][c] * bl[k];
+    }
+    for (int c = 0; c < 3; c++)
+        out[c] = acc[c] / wsum;
+    return 1;
+}
+
+/* ---- Coarse and middle levels (aoFirst.frag, ao.frag) ---- */
+
+typedef struct ao_job {
+    const ao_mssao_constants *K;
+    int l;
+    ao_mssao_level *L;
+    const packed_level *T;            /* L's packed taps */
+    const ao_mssao_level *C;          /* coarser level, NULL for the coarsest */
+    const obs_image_f32 *cao;         /* its (blurred) AO planes */
+    int64_t *fallback;                /* per row */
+} ao_job;
+
+static void ao_coarse_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const ao_job *J = (const ao_job *)user;
+    const ao_mssao_constants *K = J->K;
+    ao_mssao_level *L = J->L;
+    const int j = (int)task;
+    const float r = K->r[J->l], rMax = K->r_max, d_max2 = K->d_max2;
+    int64_t fb = 0;
+    for (int i = 0; i < L->width; i++) {
+        const float p[3] = {at(&L->pos[0], i, j), at(&L->pos[1], i, j), at(&L->pos[2], i, j)};
+        const float n[3] = {at(&L->normal[0], i, j), at(&L->normal[1], i, j), at(&L->normal[2], i, j)};
+        /* rangeMax = min(r / abs(p.z), rMax); background p.z = 0 gives r / 0 = inf -> rMax */
+        const float rangeMax = K->orthographic ? fminf(r, rMax) : fminf(r / fabsf(p[2]), rMax);
+        float occ = 0.0f, cnt = 0.0001f; /* aoFirst.frag / ao.frag: "float sampleCount = 0.0001" */
+        for (float x = 1.0f; x <= rangeMax; x += 2.0f)
+            for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
+                const int ix = (int)x, iy = (int)y;
+                occlusion_tap(J->T, i + ix, j + iy, p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, i - ix, j + iy, p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, i - ix, j - iy, p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, i + ix, j - iy, p, n, d_max2, &occ, &cnt);
+            }
+        const float own = occ / cnt;
+        float o[3];
+        if (!J->C) {
+            /* aoFirst.frag: AO = vec4(occlusion / sampleCount, occlusion, sampleCount, 0) */
+            o[0] = own;
+            o[1] = occ;
+            o[2] = cnt;
+        } else {
+            /* ao.frag: (max(upsample.x, occlusion / sampleCount), upsample.y + occlusion, upsample.z + sampleCount) */
+            float up[3];
+            fb += upsample(J->C, J->cao, i, j, p[2], n, up);
+            o[0] = fmaxf(up[0], own);
+            o[1] = up[1] + occ;
+            o[2] = up[2] + cnt;
+        }
+        obs_image_f32_row(&L->own, j)[i] = own;
+        for (int c = 0; c < 3; c++)
+            obs_image_f32_row(&L->ao[c], j)[i] = o[c];
+    }
+    J->fallback[task] = fb;
+}
+
+/* ---- The per-level blur (blur.frag): 3x3 cross-bilateral ---- */
+
+typedef struct blur_job {
+    ao_mssao_level *L;
+} blur_job;
+
+static void blur_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    ao_mssao_level *L = ((const blur_job *)user)->L;
+    const int j = (int)task;
+    for (int i = 0; i < L->width; i++) {
+        const float n0 = at(&L->normal[0], i, j), n1 = at(&L->normal[1], i, j), n2 = at(&L->normal[2], i, j);
+        const float pz = at(&L->pos[2], i, j);
+        float ss[3] = {0.0f, 0.0f, 0.0f}, weight = 0.0f;
+        for (int di = -1; di <= 1; di++)      /* for (float i = -1.0; i <= 1.0; i += 1.0) */
+            for (int dj = -1; dj <= 1; dj++) { /*   for (float j = -1.0; j <= 1.0; j += 1.0) */
+                const int tx = clampi(i + di, 0, L->width - 1), ty = clampi(j + dj, 0, L->height - 1);
+                const float nw = pow8((at(&L->normal[0], tx, ty) * n0 + at(&L->normal[1], tx, ty) * n1 +
+                                       at(&L->normal[2], tx, ty) * n2 + 1.2f) / 2.2f); /* ((n.n' + 1.2)/2.2)^8 */
+                const float dw8 = pow8(1.0f / (1.0f + fabsf(pz - at(&L->pos[2], tx, ty)) * 0.2f));
+                const float dw = dw8 * dw8;
+                const float gw = 1.0f / (((float)abs(di) + 1.0f) * ((float)abs(dj) + 1.0f)); /* 1/((|i|+1)(|j|+1)) */
+                weight += nw * dw * gw;
+                for (int c = 0; c < 3; c++)
+                    ss[c] += at(&L->ao[c], tx, ty) * nw * dw * gw;
+            }
+        /* the centre tap has weight nw * 1 * 1 > 0, so weight > 0 */
+        for (int c = 0; c < 3; c++)
+            obs_image_f32_row(&L->ao_blur[c], j)[i] = ss[c] / weight;
+    }
+}
+
+/* ---- Level 0 (aoLast.frag) ---- */
+
+typedef struct last_job {
+    const ao_mssao_constants *K;
+    const ao_mssao_level *L;          /* level 0 G-buffer */
+    const packed_level *T;            /* its packed taps */
+    ao_mssao_level *Lout;             /* NULL, or level 0 with own/ao planes to fill (whole buffer) */
+    const ao_mssao_level *C;          /* level 1, or NULL with 1 level */
+    const obs_image_f32 *cao;
+    int rx0, ry0;                     /* region origin, OUR row order */
+    obs_image_f32 *vis;               /* region-sized, our row order */
+    obs_image_f32 *vis_gl;            /* NULL, or the full-buffer visibility in GL rows */
+    int64_t (*counts)[2];             /* per row: background, fallback */
+} last_job;
+
+static void last_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const last_job *J = (const last_job *)user;
+    const ao_mssao_constants *K = J->K;
+    const ao_mssao_level *L = J->L;
+    const int y = J->ry0 + (int)task, j = K->full_height - 1 - y;
+    float *vrow = obs_image_f32_row(J->vis, (int)task);
+    const float r = K->r[0], rMax = K->r_max, d_max2 = K->d_max2;
+    int64_t bg = 0, fb = 0;
+    for (int xr = 0; xr < J->vis->width; xr++) {
+        const int i = J->rx0 + xr;
+        const float w = at(&L->valid, i, j);
+        float vis = 1.0f, o[3] = {0.0f, 0.0f, 0.0f}, own = 0.0f;
+        if (w > 0.0f) {
+            const float p[3] = {at(&L->pos[0], i, j), at(&L->pos[1], i, j), at(&L->pos[2], i, j)};
+            const float n[3] = {at(&L->normal[0], i, j), at(&L->normal[1], i, j), at(&L->normal[2], i, j)};
+            const float rangeMax = K->orthographic ? fminf(r, rMax) : fminf(r / fabsf(p[2]), rMax);
+            const float fcx = (float)i + 0.5f, fcy = (float)j + 0.5f;
+            float occ = 0.0f, cnt = 0.0f; /* aoLast.frag: "float sampleCount = 0.0" */
+            for (int k = 0; k < K->samples; k++) {
+                /* gl_FragCoord.xy + vec2(poissonDisk[i], poissonDisk[i + 1]) * rangeMax, NEAREST */
+                const float sx = fcx + K->taps[2 * k] * rangeMax, sy = fcy + K->taps[2 * k + 1] * rangeMax;
+                occlusion_tap(J->T, (int)floorf(sx), (int)floorf(sy), p, n, d_max2, &occ, &cnt);
+            }
+            own = occ / cnt;
+            float aoMax, aoAverage;
+            if (J->C) {
+                float up[3];
+                fb += upsample(J->C, J->cao, i, j, p[2], n, up);
+                aoMax = fmaxf(up[0], own);                    /* max(upsample.x, occlusion / sampleCount) */
+                aoAverage = (up[1] + occ) / (up[2] + cnt);    /* (upsample.y + occlusion) / (upsample.z + sampleCount) */
+                o[0] = aoMax;
+                o[1] = up[1] + occ;
+                o[2] = up[2] + cnt;
+            } else {
+                aoMax = aoAverage = own; /* one level: nothing to upsample (main.cpp's LEVEL_COUNT 1 reads a missing level) */
+                o[0] = own;
+                o[1] = occ;
+                o[2] = cnt;
+            }
+            vis = (1.0f - aoMax) * (1.0f - aoAverage); /* currentFrameAO = (1 - aoMax) * (1 - aoAverage) */
+            /* in [0, 1] up to the rounding of normals of length 1 + ulps; clamp that away */
+            vis = vis < 0.0f ? 0.0f : vis > 1.0f ? 1.0f : vis;
+        } else {
+            bg++; /* background (w = 0): visibility 1, as every obscura kernel (ao.h) */
+        }
+        vrow[xr] = vis;
+        if (J->Lout) {
+            obs_image_f32_row(&J->Lout->own, j)[i] = own;
+            for (int c = 0; c < 3; c++)
+                obs_image_f32_row(&J->Lout->ao[c], j)[i] = o[c];
+        }
+        if (J->vis_gl)
+            obs_image_f32_row(J->vis_gl, j)[i] = vis;
+    }
+    J->counts[task][0] = bg;
+    J->counts[task][1] = fb;
+}
+
+/* ================================================================================================
+ * The pipeline
+ * ============================================================================================== */
+
+static int64_t sum_rows(const int64_t *a, int n)
+{
+    int64_t s = 0;
+    for (int i = 0; i < n; i++)
+        s += a[i];
+    return s;
+}
+
+/* Run MSSAO. Level 0 over the region [rx0, rx0+rw) x [ry0, ry0+rh) (our row order) into vis
+ * (rw x rh). keep: keep every level's planes (and fill level 0's AO planes and vis_gl). */
+static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *P,
+                            const ao_mssao_constants *K, int rx0, int ry0, obs_image_f32 *vis, ao_mssao_levels *lv,
+                            ao_mssao_stats *stats)
+{
+    const int W = in->width, H = in->height, NL = K->levels;
+    obs_status st = OBS_STATUS_OK;
+    obs_image_f32 nrm[3] = {{0}};
+    int own_nrm = 0;
+    int64_t *rows = NULL;
+    int64_t(*counts)[2] = NULL;
+    int64_t fallback = 0;
+    float *pk[AO_MSSAO_MAX_LEVELS] = {NULL};
+    packed_level T[AO_MSSAO_MAX_LEVELS];
+    memset(T, 0, sizeof T);
+
+    /* ---- 1. Normals: the G-buffer's, else reconstructed from depth ---- */
+    double t0 = obs_time_now();
+    if (in->normal[0] && P->normals == AO_MSSAO_NORMALS_AUTO) {
+        for (int c = 0; c < 3; c++)
+            nrm[c] = *in->normal[c];
+    } else {
+        own_nrm = 1;
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++)
+            st = obs_image_f32_alloc(ctx, W, H, &nrm[c]);
+        if (st == OBS_STATUS_OK)
+            st = ao_normals_from_depth(ctx, pool, in, nrm);
+    }
+    const int maxh = H > 0 ? H : 1;
+    if (st == OBS_STATUS_OK) {
+        rows = (int64_t *)calloc((size_t)maxh, sizeof *rows);
+        counts = (int64_t(*)[2])calloc((size_t)vis->height, sizeof *counts);
+        if (!rows || !counts)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
+    }
+
+    /* ---- 2. Level 0 G-buffer and the downsampled pyramid ---- */
+    for (int l = 0; l < NL && st == OBS_STATUS_OK; l++) {
+        double ta = obs_time_now();
+        ao_mssao_level *L = &lv->level[l];
+        st = level_alloc(ctx, L, K->level_width[l], K->level_height[l], l > 0 || lv->count < 0, l > 0 && K->level_blur);
+        if (st != OBS_STATUS_OK)
+            break;
+        if (l == 0) {
+            g0_job J = {in, nrm, L};
+            obs_pool_run(pool, H, g0_row, &J);
+        } else {
+            ds_job J = {&lv->level[l - 1], L, K->downsample, K->d_threshold};
+            obs_pool_run(pool, L->height, ds_row, &J);
+        }
+        pk[l] = (float *)obs_aligned_alloc(sizeof(float) * 4 * (size_t)L->width * (size_t)L->height);
+        if (!pk[l]) {
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
+            break;
+        }
+        pack_job PJ = {L, pk[l]};
+        obs_pool_run(pool, L->height, pack_row, &PJ);
+        T[l].t = pk[l];
+        T[l].width = L->width;
+        T[l].height = L->height;
+        if (stats)
+            stats->seconds_level[l] += obs_time_now() - ta;
+    }
+    double t1 = obs_time_now();
+
+    /* ---- 3. AO coarse to fine, blurring each coarse level (main.cpp Display / RenderAO) ---- */
+    for (int l = NL - 1; l >= 1 && st == OBS_STATUS_OK; l--) {
+        double ta = obs_time_now();
+        ao_mssao_level *L = &lv->level[l];
+        const ao_mssao_level *C = l + 1 < NL ? &lv->level[l + 1] : NULL;
+        ao_job J = {K, l, L, &T[l], C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL, rows};
+        obs_pool_run(pool, L->height, ao_coarse_row, &J);
+        fallback += sum_rows(rows, L->height);
+        if (K->level_blur) {
+            blur_job B = {L};
+            obs_pool_run(pool, L->height, blur_row, &B);
+        }
+        if (stats)
+            stats->seconds_level[l] += obs_time_now() - ta;
+    }
+    if (st == OBS_STATUS_OK) {
+        double ta = obs_time_now();
+        const ao_mssao_level *C = NL > 1 ? &lv->level[1] : NULL;
+        last_job J = {K,
+                      &lv->level[0],
+                      &T[0],
+                      lv->count < 0 ? &lv->level[0] : NULL,
+                      C,
+                      C ? (K->level_blur ? C->ao_blur : C->ao) : NULL,
+                      rx0,
+                      ry0,
+                      vis,
+                      lv->count < 0 ? &lv->visibility : NULL,
+                      counts};
+        obs_pool_run(pool, vis->height, last_row, &J);
+        int64_t bg = 0;
+        for (int r = 0; r < vis->height; r++) {
+            bg += counts[r][0];
+            fallback += counts[r][1];
+        }
+        if (stats) {
+            stats->seconds_level[0] += obs_time_now() - ta;
+            stats->pixels_computed = (int64_t)vis->width * vis->height;
+            stats->pixels_background = bg;
+            stats->pixels_upsample_fallback = fallback;
+            stats->levels = NL;
+        }
+    }
+    double t2 = obs_time_now();
+    if (stats) {
+        stats->seconds_prepare = t1 - t0;
+        stats->seconds_kernel = t2 - t1;
+    }
+    free(rows);
+    free(counts);
+    for (int l = 0; l < AO_MSSAO_MAX_LEVELS; l++)
+        obs_aligned_free(pk[l]);
+    if (own_nrm)
+        for (int c = 0; c < 3; c++)
+            obs_image_f32_free(&nrm[c]);
+    return st;
+}
+
+static obs_status check_call(obs_context *ctx, const ao_input *in, const ao_mssao_params *params)
+{
+    obs_status st = ao_input_validate(ctx, in);
+    if (st != OBS_STATUS_OK)
+        return st;
+    return ao_mssao_params_validate(ctx, params);
+}
+
+obs_status ao_mssao_compute_levels(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *params,
+                                   ao_mssao_levels *out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: levels output is NULL");
+    memset(out, 0, sizeof *out);
+    obs_status st = check_call(ctx, in, params);
+    if (st != OBS_STATUS_OK)
+        return st;
+    const ao_mssao_constants K = ao_mssao_constants_from_params(params, in);
+    obs_image_f32 vis = {0};
+    st = obs_image_f32_alloc(ctx, in->width, in->height, &vis);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, in->width, in->height, &out->visibility);
+    if (st == OBS_STATUS_OK) {
+        out->count = -1; /* marker for mssao_run: keep everything */
+        st = mssao_run(ctx, pool, in, params, &K, 0, 0, &vis, out, NULL);
+        out->count = K.levels;
+    }
+    obs_image_f32_free(&vis);
+    if (st != OBS_STATUS_OK)
+        ao_mssao_levels_free(out);
+    return st;
+}
+
+obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *params,
+                            obs_image_f32 *out, obs_image_f32 *out_raw, ao_mssao_stats *stats)
+{
+    obs_status st = check_call(ctx, in, params);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (!out || !out->data || out->width != in->w || out->height != in->h ||
+        (out_raw && (!out_raw->data || out_raw->width != in->w || out_raw->height != in->h)))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "mssao: output planes must be %dx%d (the window)", in->w,
+                         in->h);
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    const ao_mssao_constants K = ao_mssao_constants_from_params(params, in);
+
+    /* Level 0 over the window plus the final blur's reach (ao_blur_reach), in our row order */
+    int rect[4] = {in->x0, in->y0, in->w, in->h};
+    if (K.blur)
+        ao_blur_reach(in, AO_GAUSS21_RADIUS, rect);
+    obs_image_f32 raw = {0}, blurred = {0};
+    ao_mssao_levels *lv = (ao_mssao_levels *)calloc(1, sizeof *lv);
+    if (!lv)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
+    st = obs_image_f32_alloc(ctx, rect[2], rect[3], &raw);
+    if (st == OBS_STATUS_OK)
+        st = mssao_run(ctx, pool, in, params, &K, rect[0], rect[1], &raw, lv, stats);
+    ao_mssao_levels_free(lv);
+    free(lv);
+
+    /* ---- 4. The optional final blur (the seed's 21-tap Gaussian), then the window ---- */
+    const obs_image_f32 *final = &raw;
+    double t0 = obs_time_now();
+    if (st == OBS_STATUS_OK && K.blur) {
+        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &blurred);
+        if (st == OBS_STATUS_OK)
+            st = ao_blur_gaussian21(ctx, pool, &raw, &blurred);
+        final = &blurred;
+    }
+    if (stats)
+        stats->seconds_blur = obs_time_now() - t0;
+    if (st == OBS_STATUS_OK) {
+        const int ox = in->x0 - rect[0], oy = in->y0 - rect[1];
+        for (int y = 0; y < in->h; y++) {
+            memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, y + oy) + ox, sizeof(float) * (size_t)in->w);
+            if (out_raw)
+                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, y + oy) + ox,
+                       sizeof(float) * (size_t)in->w);
+        }
+    }
+    obs_image_f32_free(&blurred);
+    obs_image_f32_free(&raw);
+    return st;
+}
+
+/* ================================================================================================
+ * The registry descriptor (ao.h, "The method registry")
+ * ============================================================================================== */
+
+_Static_assert(sizeof(ao_mssao_downsample) == sizeof(int) && sizeof(ao_mssao_normals) == sizeof(int),
+               "ENUM params are int-sized");
+_Static_assert(sizeof(ao_mssao_params) <= AO_PARAMS_MAX_SIZE, "AO_PARAMS_MAX_SIZE");
+
+#define MS_F(field) offsetof(ao_mssao_params, field)
+static const ao_param_desc mssao_param_descs[] = {
+    {"radius", AO_PARAM_FLOAT, MS_F(d_max), 1e-6, 1e6, NULL, "dMax: world-space radius of influence (m)"},
+    {"r-max", AO_PARAM_FLOAT, MS_F(r_max), 1e-6, 64, NULL, "rMax: largest sampling radius (pixels of each level)"},
+    {"levels", AO_PARAM_INT, MS_F(levels), 1, AO_MSSAO_MAX_LEVELS, NULL, "resolution levels (LEVEL_COUNT)"},
+    {"d-threshold", AO_PARAM_FLOAT, MS_F(d_threshold), 0, 1e30, NULL, "median-rule threshold of the downsampling (m)"},
+    {"samples", AO_PARAM_INT, MS_F(samples), 1, AO_MSSAO_MAX_SAMPLES, NULL,
+     "level-0 Poisson taps (16 = Hoang's disk; 17..32 add the disk rotated by 90 degrees)"},
+    {"downsample", AO_PARAM_ENUM, MS_F(downsample), 0, 0, downsample_names,
+     "hoang (downsample.frag) or sorted (the slides / kool) median rule"},
+    {"normals", AO_PARAM_ENUM, MS_F(normals), 0, 0, normals_names,
+     "auto: the G-buffer's when present, else from depth; depth: always from depth"},
+    {"level-blur", AO_PARAM_BOOL, MS_F(level_blur), 0, 1, NULL, "blur.frag on each coarse level (Hoang: on)"},
+    {"blur", AO_PARAM_BOOL, MS_F(blur), 0, 1, NULL, "final post-blur: the seed's 21-tap Gaussian (Hoang: off)"},
+};
+#undef MS_F
+
+static void m_default(void *p) { *(ao_mssao_params *)p = ao_mssao_params_default(); }
+static int m_preset(const char *name, void *p) { return ao_mssao_params_preset(name, (ao_mssao_params *)p); }
+static obs_status m_validate(obs_context *ctx, const void *p)
+{
+    return ao_mssao_params_validate(ctx, (const ao_mssao_params *)p);
+}
+static int m_to_string(const void *p, char *buf, size_t size)
+{
+    return ao_mssao_params_to_string((const ao_mssao_params *)p, buf, size);
+}
+/* The study's sample axis: the level-0 Poisson taps (docs/ao/mssao.md, "Samples"). */
+static void m_set_samples(void *p, int n)
+{
+    ((ao_mssao_params *)p)->samples = n < 1 ? 1 : n > AO_MSSAO_MAX_SAMPLES ? AO_MSSAO_MAX_SAMPLES : n;
+}
+static void m_set_radius(void *p, float r) { ((ao_mssao_params *)p)->d_max = r; }
+static void m_set_blur(void *p, int on) { ((ao_mssao_params *)p)->blur = on != 0; }
+static float m_get_radius(const void *p) { return ((const ao_mssao_params *)p)->d_max; }
+static const char *m_truth(const void *p)
+{
+    (void)p;
+    return "obs-mssao"; /* cosine-weighted obscurance, rho = 1 - d^2/dMax^2, r = dMax */
+}
+static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t size)
+{
+    const ao_mssao_constants K = ao_mssao_constants_from_params((const ao_mssao_params *)p, in);
+    size_t n = 0;
+    int len = 0;
+#define APPEND(...)                                                                                     \
+    do {                                                                                                \
+        int k_ = snprintf(buf ? buf + n : NULL, buf && n < size ? size - n : 0, __VA_ARGS__);           \
+        if (k_ < 0)                                                                                     \
+            return k_;                                                                                  \
+        len += k_;                                                                                      \
+        n = (size_t)len < size ? (size_t)len : size;                                                    \
+    } while (0)
+    APPEND("{\"LEVEL_COUNT\": %d, \"dMax\": %.9g, \"dMax2\": %.9g, \"rMax\": %.9g, \"d_threshold\": %.9g, "
+           "\"downsample\": \"%s\", \"level_blur\": %d, \"final_blur\": \"%s\", \"orthographic\": %d, "
+           "\"samples\": %d, \"level_size\": [",
+           K.levels, (double)K.d_max, (double)K.d_max2, (double)K.r_max, (double)K.d_threshold,
+           downsample_names[K.downsample], K.level_blur, K.blur ? "gaussian21" : "none", K.orthographic, K.samples);
+    for (int l = 0; l < K.levels; l++)
+        APPEND("%s[%d, %d]", l ? ", " : "", K.level_width[l], K.level_height[l]);
+    APPEND("], \"r\": [");
+    for (int l = 0; l < K.levels; l++)
+        APPEND("%s%.9g", l ? ", " : "", (double)K.r[l]);
+    APPEND("], \"poissonDisk\": [");
+    for (int k = 0; k < 2 * K.samples; k++)
+        APPEND("%s%.9g", k ? ", " : "", (double)K.taps[k]);
+    APPEND("]}");
+#undef APPEND
+    return len;
+}
+static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const void *p, obs_image_f32 *out,
+                            obs_image_f32 *out_raw, ao_stats *stats)
+{
+    ao_mssao_stats s;
+    memset(&s, 0, sizeof s);
+    obs_status st = ao_mssao_compute(ctx, pool, in, (const ao_mssao_params *)p, out, out_raw, &s);
+    if (stats) {
+        memset(stats, 0, sizeof *stats);
+        stats->pixels_computed = s.pixels_computed;
+        stats->pixels_background = s.pixels_background;
+        stats->seconds_prepare = s.seconds_prepare;
+        stats->seconds_kernel = s.seconds_kernel;
+        stats->seconds_blur = s.seconds_blur;
+    }
+    return st;
+}
+
+const ao_method ao_i_method_mssao = {
+    .name = "mssao",
+    .title = "Multi-resolution screen-space AO [Hoang12]: Hoang's original shaders, 5 levels",
+    .doc = "docs/ao/mssao.md",
+    .params_size = sizeof(ao_mssao_params),
+    .params_default = m_default,
+    .params_preset = m_preset,
+    .preset_names = preset_names,
+    .params = mssao_param_descs,
+    .param_count = (int)(sizeof mssao_param_descs / sizeof mssao_param_descs[0]),
+    .params_adjust = NULL,
+    .params_validate = m_validate,
+    .params_to_string = m_to_string,
+    .set_samples = m_set_samples,
+    .set_radius = m_set_radius,
+    .set_blur = m_set_blur,
+    .get_radius = m_get_radius,
+    .truth_estimator = m_truth,
+    /* on a plane every tap direction lies in the plane: n.normalize(q - p) is 0 up to rounding;
+     * measured worst 1 - V = 2.6e-6 (test_ao_mssao.c, planes facing and tilted 50 degrees) */
+    .flat_value = 1.0f,
+    .flat_tolerance = 1e-4f,
+    .constants_to_json = m_constants_json,
+    .compute = m_compute,
+};
