@@ -229,7 +229,11 @@ static inline float hfrac(float v) { return v - floorf(v); }
 static inline float hcos(float a) { float c, s; ao_i_cos_sin(a, &c, &s); return c; }
 static inline float hsin(float a) { float c, s; ao_i_cos_sin(a, &c, &s); return s; }
 /* pow, log2: double evaluation rounded to float. DIFF: GPUs use exp2(y * log2(x)) in float. */
-static inline float hpow(float x, float y) { return (float)pow((double)x, (double)y); }
+static inline float hpow(float x, float y)
+{
+    /* y = 2 (the default distribution power): x * x in float is the same correctly rounded value */
+    return (y == 2.0f && x >= 0.0f) ? x * x : (float)pow((double)x, (double)y); /* x < 0: NaN, as HLSL */
+}
 static inline float hlog2(float x) { return (float)log2((double)x); }
 /* length / normalize: sqrt of the left-to-right dot. DIFF: GPUs use rsqrt approximations. */
 static inline float dot3(const float a[3], const float b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -353,9 +357,9 @@ void ao_gtao_unpack_edges(unsigned p, float out[4])
  * same. Our background (+inf, NaN, <= 0) becomes 65504, what an infinite-far reversed-Z buffer gives. */
 static inline float clamp_depth(float d)
 {
-    if (!(d > 0.0f) || !(d <= AO_GTAO_DEPTH_CLAMP))
-        return d > 0.0f ? AO_GTAO_DEPTH_CLAMP : (d <= 0.0f ? 0.0f : AO_GTAO_DEPTH_CLAMP);
-    return d;
+    if (!(d > 0.0f) || !isfinite(d))
+        return AO_GTAO_DEPTH_CLAMP; /* our background */
+    return d < AO_GTAO_DEPTH_CLAMP ? d : AO_GTAO_DEPTH_CLAMP;
 }
 static inline int is_background(float d) { return !(d > 0.0f) || !isfinite(d); }
 
