@@ -117,8 +117,8 @@ obs_status ao_gtao_params_validate(obs_context *ctx, const ao_gtao_params *p)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: steps %d must be in [1, %d]", p->steps,
                          AO_GTAO_MAX_STEPS);
     /* radius * multiplier * 0.75 and its falloff must stay finite, non-zero floats */
-    if (!(p->radius > 1e-6f && p->radius <= 1e6f))
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: radius %g must be in (1e-6, 1e6] m",
+    if (!(p->radius >= 1e-6f && p->radius <= 1e6f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: radius %g must be in [1e-6, 1e6] m",
                          (double)p->radius);
     CHECK_RANGE(radius_multiplier, 0.3f, 3.0f, "radius multiplier")      /* GTAOImGuiSettings clamp */
     /* XeGTAO's UI allows 0, which makes falloffMul = -1/0 and the tap weights NaN: we need > 0 */
