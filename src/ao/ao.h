@@ -516,6 +516,10 @@ typedef struct ao_gtao_params {
     int denoise_passes;             /* DenoisePasses: 0 = XeGTAO's "disabled" (one last pass with beta 1e4),
                                        1 sharp, 2 medium, 3 soft; used when blur = 1 */
     int frame_index;                /* frameCounter: NoiseIndex = frame % 64 when denoising, else 0 (TAA) */
+    int gpu_packing;                /* 0 (default, the FP32 reference): float32 throughout. 1: emulate
+                                       XeGTAO's storage: the AO terms in 8 bits (working term
+                                       saturate(v / 1.5), denoise outputs, the final R8 value) and the
+                                       normals through R11G11B10_UNORM. Depth stays FP32 */
 } ao_gtao_params;
 
 /* XeGTAO's GTAOSettings defaults (QualityLevel High, DenoisePasses 1, Radius 0.5), blur on. */
@@ -568,6 +572,7 @@ typedef struct ao_gtao_constants {
     int denoise_passes;             /* passes run: 0 (blur off), else max(1, DenoisePasses) */
     int normals_from_gbuffer;       /* 1: LoadNormal; 0: XeGTAO_ComputeViewspaceNormal */
     int orthographic;               /* 0 = XeGTAO; 1 = our orthographic extension (docs/ao/gtao.md) */
+    int gpu_packing;                /* params.gpu_packing */
 } ao_gtao_constants;
 
 /* The pure params -> constants step (mirrors GTAOUpdateConstants). in gives the buffer size, the

@@ -45,6 +45,7 @@ ao_gtao_params ao_gtao_params_default(void)
     p.blur = 1;                     /* vaGTAO.cpp always runs at least the last denoise pass */
     p.denoise_passes = AO_GTAO_DEFAULT_DENOISE_PASSES;
     p.frame_index = 0;              /* no TAA: NoiseIndex 0 */
+    p.gpu_packing = 0;              /* the FP32 reference */
     return p;
 }
 
@@ -136,6 +137,8 @@ obs_status ao_gtao_params_validate(obs_context *ctx, const ao_gtao_params *p)
     if (p->denoise_passes < 0 || p->denoise_passes > 3)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: denoise passes %d must be in [0, 3]",
                          p->denoise_passes);
+    if (p->gpu_packing != 0 && p->gpu_packing != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: gpu packing %d must be 0 or 1", p->gpu_packing);
     if (p->frame_index < 0)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: frame index %d must be >= 0", p->frame_index);
     return OBS_STATUS_OK;
@@ -149,12 +152,12 @@ int ao_gtao_params_to_string(const ao_gtao_params *p, char *buf, size_t size)
     return snprintf(buf, size,
                     "slices=%d steps=%d radius=%.9g radius_multiplier=%.9g falloff_range=%.9g "
                     "sample_distribution_power=%.9g thin_occluder_compensation=%.9g final_value_power=%.9g "
-                    "depth_mip_sampling_offset=%.9g normals=%s blur=%d denoise_passes=%d frame_index=%d",
+                    "depth_mip_sampling_offset=%.9g normals=%s blur=%d denoise_passes=%d frame_index=%d gpu_packing=%d",
                     p->slices, p->steps, (double)p->radius, (double)p->radius_multiplier, (double)p->falloff_range,
                     (double)p->sample_distribution_power, (double)p->thin_occluder_compensation,
                     (double)p->final_value_power, (double)p->depth_mip_sampling_offset,
                     (unsigned)p->normals < AO_GTAO_NORMALS_COUNT ? normals_names[p->normals] : "?", p->blur,
-                    p->denoise_passes, p->frame_index);
+                    p->denoise_passes, p->frame_index, p->gpu_packing);
 }
 
 /* ================================================================================================
@@ -208,6 +211,7 @@ ao_gtao_constants ao_gtao_constants_from_params(const ao_gtao_params *p, const a
     k.slice_count = p->slices;
     k.steps_per_slice = p->steps;
     k.denoise_passes = p->blur ? (p->denoise_passes > 1 ? p->denoise_passes : 1) : 0;
+    k.gpu_packing = p->gpu_packing;
     k.normals_from_gbuffer =
         p->normals == AO_GTAO_NORMALS_GBUFFER || (p->normals == AO_GTAO_NORMALS_AUTO && in->normal[0] != NULL);
     return k;
@@ -248,6 +252,28 @@ static inline void cross3(const float a[3], const float b[3], float o[3])
     o[0] = a[1] * b[2] - a[2] * b[1];
     o[1] = a[2] * b[0] - a[0] * b[2];
     o[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+/* XeGTAO_FLOAT3_to_R11G11B10_UNORM(saturate(n * 0.5 + 0.5)) then the decode of vaGTAO.hlsl
+ * LoadNormal: x/2047, y/2047, z/1023, * 2 - 1, normalize (gpu_packing only). */
+static inline void normal_r11g11b10(float n[3])
+{
+    const float sc[3] = {2047.0f, 2047.0f, 1023.0f};
+    for (int i = 0; i < 3; i++) {
+        float e = n[i] * 0.5f + 0.5f;
+        e = e > 0.0f ? (e < 1.0f ? e : 1.0f) : 0.0f;
+        const unsigned q = (unsigned)(e * sc[i] + 0.5f);
+        n[i] = ((float)q / sc[i]) * 2.0f - 1.0f;
+    }
+    const float l = sqrtf(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    n[0] = n[0] / l, n[1] = n[1] / l, n[2] = n[2] / l;
+}
+
+/* uint(v * 255 + 0.5) / 255 of a value in [0, 1] (the 8-bit AO stores, gpu_packing only) */
+static inline float unorm8(float v)
+{
+    v = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;
+    return (float)(unsigned)(v * 255.0f + 0.5f) / 255.0f;
 }
 
 static inline uint32_t f2u(float f) { uint32_t u; memcpy(&u, &f, 4); return u; }
@@ -568,7 +594,7 @@ static int main_pixel(const ao_gtao_constants *k, const main_consts *mc, const o
 
     /* DIFF: background (our depth not finite or <= 0) is visibility 1; XeGTAO shades the far plane */
     if (is_background(obs_image_f32_row(in->depth, y)[x])) {
-        *vis_out = 1.0f;
+        *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
         return 0;
     }
 
@@ -581,14 +607,16 @@ static int main_pixel(const ao_gtao_constants *k, const main_consts *mc, const o
         n[2] = -obs_image_f32_row(in->normal[2], y)[x];
         const float l2 = dot3(n, n);
         if (!(l2 > 0.0f) || !isfinite(l2)) {
-            *vis_out = 1.0f;
+            *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
             return 2;
         }
         normalize3(n);
     } else if (!normal_from_depth(k, z0, x, y, n)) {
-        *vis_out = 1.0f;
+        *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
         return 2;
     }
+    if (k->gpu_packing)
+        normal_r11g11b10(n); /* the normal map's R11G11B10_UNORM (generated or the engine's) */
 
     /* Move the centre toward the camera (FP32: 0.99999) */
     viewspace_z = viewspace_z * AO_GTAO_CENTER_Z_PULL;
@@ -706,9 +734,13 @@ static int main_pixel(const ao_gtao_constants *k, const main_consts *mc, const o
     visibility = visibility / slice_count;
     visibility = hpow(visibility, k->final_value_power);
     visibility = hmax(0.03f, visibility); /* "disallow total occlusion" */
-    /* XeGTAO_OutputWorkingTerm: saturate(visibility / 1.5) into UNORM8. DIFF: FP32, no 8-bit
-     * quantisation: the working term is min(visibility, 1.5). */
-    *vis_out = visibility < AO_GTAO_OCCLUSION_TERM_SCALE ? visibility : AO_GTAO_OCCLUSION_TERM_SCALE;
+    /* XeGTAO_OutputWorkingTerm: saturate(visibility / 1.5) into UNORM8. DIFF (FP32 default): no 8-bit
+     * quantisation; the working term is min(visibility, 1.5) (the denoiser is linear in it). With
+     * gpu_packing, the working term is the decoded 8-bit value in XeGTAO's scaled units. */
+    if (k->gpu_packing)
+        *vis_out = unorm8(sat(visibility / AO_GTAO_OCCLUSION_TERM_SCALE));
+    else
+        *vis_out = visibility < AO_GTAO_OCCLUSION_TERM_SCALE ? visibility : AO_GTAO_OCCLUSION_TERM_SCALE;
     return 1;
 }
 
@@ -753,6 +785,7 @@ typedef struct denoise_job {
     int dx0, dy0;
     int W, H;                       /* the full buffer (CLAMP addressing) */
     float blur_amount;              /* beta (last pass) or beta / 5 */
+    int pack;                       /* gpu_packing: 1 intermediate (8-bit store), 2 last (* 1.5, 8-bit) */
 } denoise_job;
 
 static void denoise_row(void *user, int64_t task, int thread)
@@ -802,7 +835,10 @@ static void denoise_row(void *user, int64_t task, int thread)
             sum = sum + ws[q] * vals[q];
             sum_w = sum_w + ws[q];
         }
-        o[i] = sum / sum_w;
+        const float v = sum / sum_w;
+        /* XeGTAO_Output: intermediate passes store uint(v * 255 + 0.5); the last multiplies by 1.5
+         * first (R8_UINT; we saturate the stored byte at 255) */
+        o[i] = J->pack == 1 ? unorm8(v) : J->pack == 2 ? unorm8(v * AO_GTAO_OCCLUSION_TERM_SCALE) : v;
     }
 }
 
@@ -919,6 +955,7 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             D.W = W;
             D.H = H;
             D.blur_amount = last ? k.denoise_blur_beta : k.denoise_blur_beta / 5.0f;
+            D.pack = k.gpu_packing ? (last ? 2 : 1) : 0;
             D.edges = edges;
             D.ex0 = rx0;
             D.ey0 = ry0;
@@ -943,9 +980,10 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             float *orw = out_raw ? obs_image_f32_row(out_raw, y) : NULL;
             for (int x = 0; x < in->w; x++) {
                 const int bg = is_background(d[x]);
-                o[x] = bg ? 1.0f : clamp01(f[x]);
+                /* without the denoiser, the packed working term is in XeGTAO's scaled units */
+                o[x] = bg ? 1.0f : clamp01((k.gpu_packing && m == 0) ? f[x] * AO_GTAO_OCCLUSION_TERM_SCALE : f[x]);
                 if (orw)
-                    orw[x] = bg ? 1.0f : clamp01(r[x]);
+                    orw[x] = bg ? 1.0f : clamp01(k.gpu_packing ? r[x] * AO_GTAO_OCCLUSION_TERM_SCALE : r[x]);
             }
         }
         if (stats) {
@@ -1000,6 +1038,8 @@ static const ao_param_desc gtao_param_descs[] = {
      "DenoisePasses: 0 (one pass, beta 1e4), 1 sharp, 2 medium, 3 soft"},
     {"frame-index", AO_PARAM_INT, GT_F(frame_index), 0, 1000000000, NULL,
      "frameCounter: noise index = frame % 64 when denoising (TAA); 0 without"},
+    {"gpu-packing", AO_PARAM_BOOL, GT_F(gpu_packing), 0, 1, NULL,
+     "emulate XeGTAO's 8-bit AO terms and R11G11B10 normals (default: FP32 reference)"},
 };
 #undef GT_F
 
@@ -1034,7 +1074,7 @@ static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t
                     "\"FinalValuePower\": %.9g, \"DenoiseBlurBeta\": %.9g, \"SampleDistributionPower\": %.9g, "
                     "\"ThinOccluderCompensation\": %.9g, \"DepthMIPSamplingOffset\": %.9g, \"NoiseIndex\": %d, "
                     "\"sliceCount\": %d, \"stepsPerSlice\": %d, \"denoisePassesRun\": %d, "
-                    "\"normalsFromGBuffer\": %d, \"orthographic\": %d, \"centerZPull\": %.9g, "
+                    "\"normalsFromGBuffer\": %d, \"orthographic\": %d, \"gpuPacking\": %d, \"centerZPull\": %.9g, "
                     "\"depthClamp\": %.9g, \"noise\": \"HilbertIndex(x, y) level 6 + 288 * NoiseIndex, R2\"}",
                     K.viewport_size[0], K.viewport_size[1], (double)K.viewport_pixel_size[0],
                     (double)K.viewport_pixel_size[1], (double)K.depth_unpack_consts[0],
@@ -1046,7 +1086,7 @@ static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t
                     (double)K.padding0, (double)K.final_value_power, (double)K.denoise_blur_beta,
                     (double)K.sample_distribution_power, (double)K.thin_occluder_compensation,
                     (double)K.depth_mip_sampling_offset, K.noise_index, K.slice_count, K.steps_per_slice,
-                    K.denoise_passes, K.normals_from_gbuffer, K.orthographic, (double)AO_GTAO_CENTER_Z_PULL,
+                    K.denoise_passes, K.normals_from_gbuffer, K.orthographic, K.gpu_packing, (double)AO_GTAO_CENTER_Z_PULL,
                     (double)AO_GTAO_DEPTH_CLAMP);
 }
 static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const void *p, obs_image_f32 *out,
