@@ -465,6 +465,186 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
  * GTAO as XeGTAO (src/ao/ao_gtao.c)
  * ============================================================================================== */
 
+/* GTAO [Jimenez16] exactly as Intel's XeGTAO computes it (GameTechDev/XeGTAO @ a5b1686, files
+ * Source/Rendering/Shaders/XeGTAO.h, XeGTAO.hlsli, vaGTAO.hlsl; Effects/vaGTAO.cpp), FP32 path
+ * (XE_GTAO_FP32_DEPTHS, XE_GTAO_USE_HALF_FLOAT_PRECISION 0). docs/ao/gtao.md.
+ *
+ * Pixel convention: XeGTAO is D3D (uv origin top-left, y down), so its pixCoord IS our (x, y) of
+ * the full buffer (row 0 at the top): unlike the GL techniques, no y flip. Its view space is
+ * left-handed (+Z forward, +Y up): P_xe = (x_ours, y_ours, -z_ours) = (.., .., depth). */
+#define AO_GTAO_DEFAULT_RADIUS 0.5f                   /* m, > 0; XeGTAO.h GTAOSettings::Radius */
+#define AO_GTAO_DEFAULT_RADIUS_MULTIPLIER 1.457f      /* [0.3, 3]; XE_GTAO_DEFAULT_RADIUS_MULTIPLIER (auto-tuned
+                                                         against the RT reference, lowest average MSE) */
+#define AO_GTAO_DEFAULT_FALLOFF_RANGE 0.615f          /* (0, 1]; XE_GTAO_DEFAULT_FALLOFF_RANGE (auto-tuned) */
+#define AO_GTAO_DEFAULT_SAMPLE_DISTRIBUTION_POWER 2.0f /* [1, 3]; XE_GTAO_DEFAULT_SAMPLE_DISTRIBUTION_POWER */
+#define AO_GTAO_DEFAULT_THIN_OCCLUDER_COMPENSATION 0.0f /* [0, 0.7]; XE_GTAO_DEFAULT_THIN_OCCLUDER_COMPENSATION */
+#define AO_GTAO_DEFAULT_FINAL_VALUE_POWER 2.2f        /* [0.5, 5]; XE_GTAO_DEFAULT_FINAL_VALUE_POWER */
+#define AO_GTAO_DEFAULT_DEPTH_MIP_SAMPLING_OFFSET 3.30f /* [0, 30]; XE_GTAO_DEFAULT_DEPTH_MIP_SAMPLING_OFFSET
+                                                         (the README says 3.15; the code 3.30) */
+#define AO_GTAO_DEFAULT_SLICES 3                      /* QualityLevel 2 (High): vaGTAO.hlsl CSGTAOHigh (3, 3) */
+#define AO_GTAO_DEFAULT_STEPS 3                       /* steps per side of a slice, CSGTAOHigh */
+#define AO_GTAO_DEFAULT_DENOISE_PASSES 1              /* [0, 3]; GTAOSettings::DenoisePasses (1 = sharp) */
+#define AO_GTAO_DEPTH_MIP_LEVELS 5                    /* XE_GTAO_DEPTH_MIP_LEVELS (hard-coded 5: MIP 0..4) */
+#define AO_GTAO_CENTER_Z_PULL 0.99999f                /* XeGTAO_MainPass, XE_GTAO_FP32_DEPTHS (FP16: 0.99920) */
+#define AO_GTAO_DEPTH_CLAMP 65504.0f                  /* XeGTAO_ClampDepth (see docs/ao/gtao.md: the #ifdef) */
+#define AO_GTAO_OCCLUSION_TERM_SCALE 1.5f             /* XE_GTAO_OCCLUSION_TERM_SCALE: the working term's range */
+#define AO_GTAO_DENOISE_BLUR_BETA 1.2f                /* GTAOUpdateConstants DenoiseBlurBeta (1e4 when passes = 0) */
+#define AO_GTAO_HILBERT_LEVEL 6                       /* XE_HILBERT_LEVEL: 64 x 64 tile */
+#define AO_GTAO_MAX_SLICES 64
+#define AO_GTAO_MAX_STEPS 64
+
+typedef enum ao_gtao_normals {
+    AO_GTAO_NORMALS_AUTO = 0,       /* default: the G-buffer's when the input has them, else from depth
+                                       (vaGTAO.cpp: m_generateNormals |= inputNormals == nullptr) */
+    AO_GTAO_NORMALS_DEPTH,          /* XeGTAO_ComputeViewspaceNormal (edge-weighted 4 cross products) */
+    AO_GTAO_NORMALS_GBUFFER,        /* the input's normals (LoadNormal: normalized) */
+    AO_GTAO_NORMALS_COUNT
+} ao_gtao_normals;
+
+typedef struct ao_gtao_params {
+    int slices;                     /* sliceCount (Low 1, Medium 2, High 3, Ultra 9) */
+    int steps;                      /* stepsPerSlice, per side (Low/Medium 2, High/Ultra 3) */
+    float radius;                   /* Radius: world-space radius of the RT reference (m) */
+    float radius_multiplier;        /* RadiusMultiplier: effectRadius = radius * this */
+    float falloff_range;            /* FalloffRange: fraction of effectRadius over which taps fade */
+    float sample_distribution_power;/* SampleDistributionPower */
+    float thin_occluder_compensation;/* ThinOccluderCompensation */
+    float final_value_power;        /* FinalValuePower */
+    float depth_mip_sampling_offset;/* DepthMIPSamplingOffset */
+    ao_gtao_normals normals;
+    int blur;                       /* 1: XeGTAO_Denoise passes after the main pass */
+    int denoise_passes;             /* DenoisePasses: 0 = XeGTAO's "disabled" (one last pass with beta 1e4),
+                                       1 sharp, 2 medium, 3 soft; used when blur = 1 */
+    int frame_index;                /* frameCounter: NoiseIndex = frame % 64 when denoising, else 0 (TAA) */
+    int gpu_packing;                /* 0 (default, the FP32 reference): float32 throughout. 1: emulate
+                                       XeGTAO's storage: the AO terms in 8 bits (working term
+                                       saturate(v / 1.5), denoise outputs, the final R8 value) and the
+                                       normals through R11G11B10_UNORM. Depth stays FP32 */
+} ao_gtao_params;
+
+/* XeGTAO's GTAOSettings defaults (QualityLevel High, DenoisePasses 1, Radius 0.5), blur on. */
+ao_gtao_params ao_gtao_params_default(void);
+
+/* Named presets. Returns 1 and fills *out, or 0 for an unknown name.
+ *   "default", "xegtao", "high": ao_gtao_params_default() (3 slices x 3 steps).
+ *   "low" (1 x 2), "medium" (2 x 2), "ultra" (9 x 3): vaGTAO.hlsl CSGTAOLow/Medium/Ultra.
+ *   "sharp", "soft": the default with DenoisePasses 1 / 3 ("medium-denoise": 2).
+ * The seed thesis' Table 3 has no GTAO row, so there is no "thesis" preset. */
+int ao_gtao_params_preset(const char *name, ao_gtao_params *out);
+const char *const *ao_gtao_preset_names(void);
+
+/* The study's sample axis: n samples per pixel = 2 * slices * steps. n = 4, 8, 18, 54 give XeGTAO's
+ * Low, Medium, High, Ultra; otherwise steps = the largest of 4, 3, 2, 1 dividing ceil(n/2) and
+ * slices = ceil(n/2) / steps (16 -> 2 x 4, 32 -> 4 x 4, 12 -> 2 x 3). Clamped to the MAX_ limits. */
+void ao_gtao_slices_steps_for_samples(int n, int *slices, int *steps);
+
+/* Returns OK or INVALID_ARGUMENT naming the field and its range. */
+obs_status ao_gtao_params_validate(obs_context *ctx, const ao_gtao_params *p);
+
+/* Resolved params as one line of text. snprintf semantics. */
+int ao_gtao_params_to_string(const ao_gtao_params *p, char *buf, size_t size);
+
+/* XeGTAO's GTAOConstants field for field (96 bytes, float32, same order and padding), followed by
+ * the shader's compile-time choices. Filled by ao_gtao_constants_from_params as GTAOUpdateConstants
+ * does for a projection with these intrinsics. */
+typedef struct ao_gtao_constants {
+    int viewport_size[2];           /* ViewportSize (the full buffer) */
+    float viewport_pixel_size[2];   /* ViewportPixelSize = 1 / size */
+    float depth_unpack_consts[2];   /* DepthUnpackConsts for a D3D [0,1] projection with in's znear/zfar
+                                       (znear*zfar/(zfar-znear), zfar/(zfar-znear); infinite: znear, 1);
+                                       0 when unknown. Informational: our input is linear depth */
+    float camera_tan_half_fov[2];   /* CameraTanHalfFOV = (W / (2 fx), H / (2 fy)) */
+    float ndc_to_view_mul[2];       /* NDCToViewMul = (W/fx, -H/fy) = (2 tanX, -2 tanY) centred */
+    float ndc_to_view_add[2];       /* NDCToViewAdd = (-cx/fx, cy/fy) = (-tanX, tanY) centred */
+    float ndc_to_view_mul_x_pixel_size[2]; /* NDCToViewMul * ViewportPixelSize */
+    float effect_radius;            /* EffectRadius = Radius */
+    float effect_falloff_range;     /* EffectFalloffRange */
+    float radius_multiplier;        /* RadiusMultiplier */
+    float padding0;                 /* Padding0 */
+    float final_value_power;        /* FinalValuePower */
+    float denoise_blur_beta;        /* DenoiseBlurBeta: 1.2, or 1e4 when DenoisePasses = 0 */
+    float sample_distribution_power;/* SampleDistributionPower */
+    float thin_occluder_compensation;/* ThinOccluderCompensation */
+    float depth_mip_sampling_offset;/* DepthMIPSamplingOffset */
+    int noise_index;                /* NoiseIndex = DenoisePasses > 0 ? frame % 64 : 0 */
+    /* ---- not in the cbuffer: the entry point's arguments and our extensions ---- */
+    int slice_count, steps_per_slice;
+    int denoise_passes;             /* passes run: 0 (blur off), else max(1, DenoisePasses) */
+    int normals_from_gbuffer;       /* 1: LoadNormal; 0: XeGTAO_ComputeViewspaceNormal */
+    int orthographic;               /* 0 = XeGTAO; 1 = our orthographic extension (docs/ao/gtao.md) */
+    int gpu_packing;                /* params.gpu_packing */
+} ao_gtao_constants;
+
+/* The pure params -> constants step (mirrors GTAOUpdateConstants). in gives the buffer size, the
+ * pixel model and whether normals are present. Params are assumed validated. */
+ao_gtao_constants ao_gtao_constants_from_params(const ao_gtao_params *p, const ao_input *in);
+
+/* ---- Building blocks, exposed for validation (coordinates are XeGTAO's pixCoord = our full-buffer
+ * (x, y), row 0 at the top) ---- */
+
+/* XeGTAO.h HilbertIndex(posX, posY) at level 6 (0 .. 4095; only the low 6 bits of x, y matter). */
+uint32_t ao_gtao_hilbert_index(uint32_t x, uint32_t y);
+
+/* vaGTAO.hlsl SpatioTemporalNoise: index = HilbertIndex(x, y) + 288 * (noise_index % 64), then
+ * the R2 sequence frac(0.5 + float(index) * (0.75487766624669276005, 0.5698402909980532659114)),
+ * float32. out[0] = localNoise.x (slice noise), out[1] = localNoise.y (step noise). A port may upload
+ * this as a 64 x 64 RG32F texture per noise index (ao_gtao_noise_texture). */
+void ao_gtao_noise(uint32_t x, uint32_t y, int noise_index, float out[2]);
+/* The 64 x 64 x 2 floats of that texture (row-major, y then x, RG interleaved). */
+void ao_gtao_noise_texture(int noise_index, float out[64 * 64 * 2]);
+
+/* XeGTAO_FastSqrt (asfloat(0x1fbd1df5 + (asint(x) >> 1))) and XeGTAO_FastACos (Lagarde's
+ * (-0.156583|x| + pi/2) sqrt(1 - |x|), mirrored for x < 0), bit-exact float32. Error bounds in
+ * docs/ao/gtao.md, checked by the tests. */
+float ao_gtao_fast_sqrt(float x);
+float ao_gtao_fast_acos(float x);
+
+/* XeGTAO_CalculateEdges(centerZ, leftZ, rightZ, topZ, bottomZ) -> edges LRTB in [0, 1], and
+ * XeGTAO_PackEdges as the 8-bit integer the R8_UNORM texture stores (2 bits per edge, L high). */
+void ao_gtao_calculate_edges(float center_z, float left_z, float right_z, float top_z, float bottom_z, float out[4]);
+unsigned ao_gtao_pack_edges(const float edges_lrtb[4]);
+/* XeGTAO_UnpackEdges of that integer. */
+void ao_gtao_unpack_edges(unsigned packed, float out[4]);
+
+/* XeGTAO_PrefilterDepths16x16: levels[0] = XeGTAO_ClampDepth(view-space depth) (background, NaN,
+ * <= 0 -> 65504) and levels 1..4 by XeGTAO_DepthMIPFilter (the falloff-weighted average of the 2x2
+ * children), level l of size max(1, size_{l-1} >> 1) (children clamped to the parent's edge).
+ * levels[0..4] are allocated here (free with ao_gtao_mips_free). k from ao_gtao_constants_from_params.
+ * Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY. */
+obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
+                                    obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS]);
+void ao_gtao_mips_free(obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS]);
+
+/* One tap of XeGTAO_MainPass at a pixel whose (pulled) view-space z is viewspace_z: the unrounded
+ * offset s * omega (pixels, y down), its length, the mipLevel value, the MIP level a point-MIP
+ * sampler reads (floor(mipLevel + 0.5), at most 4) and the rounded offset (round-to-nearest-even). */
+typedef struct ao_gtao_tap {
+    float offset[2];
+    float offset_length;
+    float mip_level;
+    int mip;
+    float rounded[2];
+} ao_gtao_tap;
+void ao_gtao_tap_at(const ao_gtao_constants *k, float viewspace_z, const float noise[2], int slice, int step,
+                    ao_gtao_tap *out);
+
+typedef struct ao_gtao_stats {
+    int64_t pixels_computed;        /* main-pass pixels (window plus the denoiser's reach) */
+    int64_t pixels_background;      /* of those: background (visibility 1) */
+    int64_t pixels_degenerate_normal; /* of those: zero or non-finite normal (visibility 1) */
+    double seconds_prefilter, seconds_main, seconds_denoise;
+} ao_gtao_stats;
+
+/* XeGTAO over the input's window: PrefilterDepths, MainPass (normals from depth or the G-buffer),
+ * then, with params->blur, the Denoise passes. out gets the final visibility, out_raw (may be NULL)
+ * the main pass's, both clamped to [0, 1] (the denoiser reads the unclamped working term in
+ * [0, 1.5]). The main pass runs over the window plus one pixel per denoise pass each side (inside
+ * the buffer), so the result equals a GPU run over the whole buffer, cropped. stats may be NULL.
+ * Returns: OK; INVALID_ARGUMENT (input, params, plane sizes, normals = GBUFFER without normals);
+ * OUT_OF_MEMORY. */
+obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
+                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats);
+
 /* (end of GTAO as XeGTAO) */
 
 

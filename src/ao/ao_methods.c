@@ -11,7 +11,7 @@ static const ao_method *const methods[] = {
     &ao_i_method_sao,
     /* hbao */
     /* ue4 */
-    /* gtao */
+    &ao_i_method_gtao,
     &ao_i_method_mssao,
     /* mssao-seed */
     NULL,
