@@ -402,3 +402,229 @@ TEST(ue4_matches_unif_ground_truth_within_measured_error)
     obs_scene_free(&scene);
     obs_context_destroy(ctx);
 }
+
+/* ---- threads, hard cases, bad params, CLI ---------------------------------------------------------- */
+
+TEST(ue4_output_identical_for_1_2_8_threads_in_every_mode)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene scene;
+    tu_ao_scene(&scene);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &scene, tu_ao_camera(), 75, 53, 7, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    obs_pool *pools[3] = {obs_pool_create(1), obs_pool_create(2), obs_pool_create(8)};
+    for (int c = 0; c < 6; c++) {
+        ao_ue4_params p = ao_ue4_params_default();
+        p.normals = (ao_ue4_normals)(c % 3);
+        p.variant = c >= 3 ? AO_UE4_VARIANT_O1 : AO_UE4_VARIANT_CLASSIC;
+        p.quad_blur = c % 4;
+        p.blur = c & 1;
+        p.sample_set = 3;
+        p.steps = 3;
+        obs_image_f32 o[3], r[3];
+        for (int t = 0; t < 3; t++)
+            CHECK_OK(run_ue4(ctx, pools[t], &in, &p, &o[t], &r[t]), ctx);
+        for (int t = 1; t < 3; t++)
+            CHECK_MSG(tu_same_plane(&o[0], &o[t]) && tu_same_plane(&r[0], &r[t]), "case %d: threads differ", c);
+        for (int t = 0; t < 3; t++) {
+            obs_image_f32_free(&o[t]);
+            obs_image_f32_free(&r[t]);
+        }
+    }
+    for (int t = 0; t < 3; t++)
+        obs_pool_destroy(pools[t]);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&scene);
+    obs_context_destroy(ctx);
+}
+
+/* The guard band: the window of a bigger buffer equals the same window of a GPU-style run over the
+ * whole buffer (the AO pass covers the Gaussian's reach and the quad blur's partners). */
+TEST(ue4_window_equals_the_crop_of_the_whole_buffer)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene scene;
+    tu_ao_scene(&scene);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &scene, tu_ao_camera(), 64, 48, 9, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    ao_input whole = in;
+    whole.x0 = whole.y0 = 0;
+    whole.w = in.width;
+    whole.h = in.height;
+    for (int c = 0; c < 4; c++) {
+        ao_ue4_params p = ao_ue4_params_default();
+        p.blur = c & 1;
+        p.quad_blur = c & 2 ? 3 : 2;
+        obs_image_f32 o, r, O, R;
+        CHECK_OK(run_ue4(ctx, NULL, &in, &p, &o, &r), ctx);
+        CHECK_OK(run_ue4(ctx, NULL, &whole, &p, &O, &R), ctx);
+        for (int y = 0; y < in.h; y++)
+            for (int x = 0; x < in.w; x++)
+                CHECK_MSG(obs_image_f32_row(&o, y)[x] == obs_image_f32_row(&O, y + in.y0)[x + in.x0] &&
+                              obs_image_f32_row(&r, y)[x] == obs_image_f32_row(&R, y + in.y0)[x + in.x0],
+                          "case %d: (%d,%d) differs from the crop", c, x, y);
+        obs_image_f32_free(&o);
+        obs_image_f32_free(&r);
+        obs_image_f32_free(&O);
+        obs_image_f32_free(&R);
+    }
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&scene);
+    obs_context_destroy(ctx);
+}
+
+static int all_unit(const obs_image_f32 *a)
+{
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            const float v = obs_image_f32_row(a, y)[x];
+            if (!(v >= 0.0f && v <= 1.0f))
+                return 0;
+        }
+    return 1;
+}
+
+TEST(ue4_hard_cases_stay_finite_in_every_mode)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene scene;
+    tu_ao_scene(&scene);
+    static const int sizes[][2] = {{1, 1}, {2, 1}, {1, 3}, {3, 5}, {7, 2}, {33, 17}, {80, 60}};
+    for (size_t si = 0; si < sizeof sizes / sizeof sizes[0]; si++) {
+        rast_gbuffer gb;
+        CHECK_OK(tu_render_depth_normal(ctx, &scene, tu_ao_camera(), sizes[si][0], sizes[si][1], si == 6 ? 5 : 0,
+                                        &gb),
+                 ctx);
+        ao_input in;
+        CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+        obs_image_f32 bad;
+        CHECK_OK(obs_image_f32_alloc(ctx, gb.width, gb.height, &bad), ctx);
+        for (int y = 0; y < gb.height; y++)
+            for (int x = 0; x < gb.width; x++) {
+                const int h = (x * 5 + y * 11) % 17;
+                const float d = obs_image_f32_row(&gb.depth, y)[x];
+                obs_image_f32_row(&bad, y)[x] = h == 0 ? NAN : h == 1 ? 1e30f : h == 2 ? 1e-30f : h == 3 ? 0.0f : d;
+            }
+        for (int c = 0; c < 24; c++) {
+            ao_ue4_params p = ao_ue4_params_default();
+            p.normals = (ao_ue4_normals)(c % 3);
+            p.variant = (ao_ue4_variant)((c / 3) % 2);
+            p.quad_blur = (c / 6) % 4;
+            p.blur = c & 1;
+            p.radius_in_ws = (c / 2) % 2;
+            p.radius = c % 5 == 0 ? 1e-6f : c % 5 == 1 ? 1e4f : 2.0f;
+            p.bias = c % 7 == 0 ? 0.0f : p.bias;
+            ao_input ci = in;
+            if (c % 4 == 3)
+                ci.depth = &bad;
+            obs_image_f32 o, r;
+            CHECK_OK(run_ue4(ctx, NULL, &ci, &p, &o, &r), ctx);
+            CHECK_MSG(all_unit(&o) && all_unit(&r), "size %dx%d case %d: a value outside [0, 1]", sizes[si][0],
+                      sizes[si][1], c);
+            obs_image_f32_free(&o);
+            obs_image_f32_free(&r);
+        }
+        obs_image_f32_free(&bad);
+        rast_gbuffer_free(&gb);
+    }
+    /* reversed-Z with an infinite far plane: linear depths out to 1e4 m on a grazing plane */
+    tu_synth sp;
+    CHECK_OK(tu_synth_plane(ctx, 40, 30, 30.0, obs_dv3(0, 0.99, 0.1410674), -0.05, OBS_PROJECTION_PERSPECTIVE, &sp), ctx);
+    for (int mode = 0; mode < 3; mode++) {
+        ao_ue4_params p = ao_ue4_params_default();
+        p.normals = (ao_ue4_normals)mode;
+        obs_image_f32 o, r;
+        CHECK_OK(run_ue4(ctx, NULL, &sp.in, &p, &o, &r), ctx);
+        CHECK(all_unit(&o) && all_unit(&r));
+        obs_image_f32_free(&o);
+        obs_image_f32_free(&r);
+    }
+    obs_image_f32_free(&sp.depth);
+    obs_scene_free(&scene);
+    obs_context_destroy(ctx);
+}
+
+TEST(ue4_bad_params_are_rejected_naming_the_field)
+{
+    obs_context *ctx = obs_context_create();
+    static const char *const field[] = {"variant",    "normals",     "radius",     "radius_in_ws", "power",
+                                        "intensity",  "bias",        "distance",   "fade_distance", "fade_radius",
+                                        "sample_set", "steps",       "quad_blur",  "blur"};
+    for (int i = 0; i < 14; i++) {
+        ao_ue4_params p = ao_ue4_params_default();
+        switch (i) {
+        case 0: p.variant = (ao_ue4_variant)7; break;
+        case 1: p.normals = (ao_ue4_normals)-1; break;
+        case 2: p.radius = NAN; break;
+        case 3: p.radius_in_ws = 2; break;
+        case 4: p.power = 0.0f; break;
+        case 5: p.intensity = 1.5f; break;
+        case 6: p.bias = -1.0f; break;
+        case 7: p.distance = 0.0f; break;
+        case 8: p.fade_distance = INFINITY; break;
+        case 9: p.fade_radius = -1.0f; break;
+        case 10: p.sample_set = 4; break;
+        case 11: p.steps = 0; break;
+        case 12: p.quad_blur = 4; break;
+        case 13: p.blur = 3; break;
+        }
+        obs_context *c2 = obs_context_create();
+        CHECK_EQ_INT(ao_ue4_params_validate(c2, &p), OBS_STATUS_INVALID_ARGUMENT);
+        const char *msg = obs_context_last_error(c2);
+        char name[32];
+        snprintf(name, sizeof name, "%s", field[i]);
+        CHECK_MSG(msg && strstr(msg, name), "field %s: message '%s'", field[i], msg ? msg : "");
+        obs_context_destroy(c2);
+    }
+    /* and compute refuses them before touching the planes */
+    tu_synth s;
+    CHECK_OK(tu_synth_plane(ctx, 8, 8, 10.0, obs_dv3(0, 0, 1), -3.0, OBS_PROJECTION_PERSPECTIVE, &s), ctx);
+    ao_ue4_params p = ao_ue4_params_default();
+    p.steps = 99;
+    obs_image_f32 o, r;
+    CHECK_EQ_INT(run_ue4(ctx, NULL, &s.in, &p, &o, &r), OBS_STATUS_INVALID_ARGUMENT);
+    obs_image_f32_free(&o);
+    obs_image_f32_free(&r);
+    obs_image_f32 small;
+    CHECK_OK(obs_image_f32_alloc(ctx, 4, 4, &small), ctx);
+    p = ao_ue4_params_default();
+    CHECK_EQ_INT(ao_ue4_compute(ctx, NULL, &s.in, &p, &small, NULL, NULL), OBS_STATUS_INVALID_ARGUMENT);
+    obs_image_f32_free(&small);
+    obs_image_f32_free(&s.depth);
+    obs_context_destroy(ctx);
+}
+
+TEST(ao_cli_ue4_options_write_outputs)
+{
+    const char *dir = test_tmpdir();
+    char scene[1024], prefix[1024], err[1024], path[1100];
+    snprintf(scene, sizeof scene, "%s/sphere_on_plane.glb", test_data_dir());
+    snprintf(prefix, sizeof prefix, "%s/ue4", dir);
+    snprintf(err, sizeof err, "%s/ue4.err", dir);
+    const char *a[] = {"ao", "--method", "ue4", "--preset", "thesis", "--variant", "o1", "--normals", "none",
+                       "--quad-blur", "3", "--sample-set", "3", "--steps", "3", "--radius-in-ws", "--scene", scene,
+                       "--size", "40x30", "-o", prefix, NULL};
+    int rc = test_spawn(OBS_CLI_PATH, a, NULL, err);
+    char *e = test_slurp(err, NULL);
+    CHECK_MSG(rc == 0, "exit %d: %s", rc, e ? e : "");
+    free(e);
+    snprintf(path, sizeof path, "%s.json", prefix);
+    char *j = test_slurp(path, NULL);
+    CHECK(j != NULL);
+    CHECK_MSG(strstr(j, "\"OPTIMIZATION_O1\": 1") && strstr(j, "\"SSAO_NORMAL_MODE\": 0") &&
+                  strstr(j, "\"SAMPLESET_ARRAY_SIZE\": 6") && strstr(j, "\"QUAD_MESSAGE_PASSING_BLUR\": 3") &&
+                  strstr(j, "\"gaussian21_blur\": 1"),
+              "sidecar constants: %s", j);
+    free(j);
+    snprintf(path, sizeof path, "%s.exr", prefix);
+    size_t len = 0;
+    char *x = test_slurp(path, &len);
+    CHECK(x && len > 0);
+    free(x);
+    const char *b[] = {"ao", "--method", "ue4", "--scene", scene, "--steps", "9", "-o", prefix, NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, err), 2);
+}
