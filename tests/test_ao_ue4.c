@@ -65,11 +65,19 @@ TEST(ue4_flat_open_plane_is_one_and_tilted_plane_is_bounded)
                           var, worst, bound[pl][mode][var]);
                 CHECK_MSG(worst_out <= bound[pl][mode][var] + 1e-6, "plane %d mode %d variant %d: output %.6g", pl,
                           mode, var, worst_out);
-                if (pl == 0) /* exactly 1 everywhere, borders and the quad blur included */
-                    for (int y = 0; y < H; y++)
-                        for (int x = 0; x < W; x++)
-                            CHECK_MSG(obs_image_f32_row(&out, y)[x] == 1.0f, "facing plane (%d,%d) = %.9g", x, y,
-                                      (double)obs_image_f32_row(&out, y)[x]);
+                if (pl == 0) /* exactly 1 everywhere, borders, the quad blur and 2 or 3 levels included */
+                    for (int lv = 1; lv <= 3; lv++) {
+                        if (lv > 1) {
+                            p.levels = lv;
+                            obs_image_f32_free(&out);
+                            obs_image_f32_free(&raw);
+                            CHECK_OK(run_ue4(ctx, NULL, &s.in, &p, &out, &raw), ctx);
+                        }
+                        for (int y = 0; y < H; y++)
+                            for (int x = 0; x < W; x++)
+                                CHECK_MSG(obs_image_f32_row(&out, y)[x] == 1.0f, "facing plane, %d levels (%d,%d) = %.9g",
+                                          lv, x, y, (double)obs_image_f32_row(&out, y)[x]);
+                    }
                 obs_image_f32_free(&out);
                 obs_image_f32_free(&raw);
                 obs_image_f32_free(&s.depth);
@@ -367,13 +375,16 @@ TEST(ue4_matches_unif_ground_truth_within_measured_error)
     /* measured (see docs/ao/ue4.md): bounds = measured + margin */
     /* [normals none / gbuffer / depth, then gbuffer with O1]: measured RMSE 0.0618, 0.0947, 0.0954,
      * O1 0.1321; bias +0.0200, -0.0131, -0.0071, -0.0993 */
-    static const double rmse_bound[4] = {0.07, 0.105, 0.105, 0.145}, bias_lo[4] = {0.01, -0.025, -0.02, -0.115},
-                        bias_hi[4] = {0.03, -0.003, 0.005, -0.085};
-    for (int mode = 0; mode < 4; mode++) {
+    /* case 4: G-buffer normals, classic, 2 levels (MipBlend 0.6): RMSE 0.1018, bias -0.0335 */
+    static const double rmse_bound[5] = {0.07, 0.105, 0.105, 0.145, 0.11},
+                        bias_lo[5] = {0.01, -0.025, -0.02, -0.115, -0.045},
+                        bias_hi[5] = {0.03, -0.003, 0.005, -0.085, -0.022};
+    for (int mode = 0; mode < 5; mode++) {
         ao_input in;
         CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
-        p.normals = (ao_ue4_normals)(mode == 3 ? 1 : mode);
+        p.normals = (ao_ue4_normals)(mode >= 3 ? 1 : mode);
         p.variant = mode == 3 ? AO_UE4_VARIANT_O1 : AO_UE4_VARIANT_CLASSIC;
+        p.levels = mode == 4 ? 2 : 1;
         obs_image_f32 out, raw;
         CHECK_OK(run_ue4(ctx, pool, &in, &p, &out, &raw), ctx);
         double se = 0, sb = 0;
@@ -423,6 +434,7 @@ TEST(ue4_output_identical_for_1_2_8_threads_in_every_mode)
         p.blur = c & 1;
         p.sample_set = 3;
         p.steps = 3;
+        p.levels = 1 + c % 3;
         obs_image_f32 o[3], r[3];
         for (int t = 0; t < 3; t++)
             CHECK_OK(run_ue4(ctx, pools[t], &in, &p, &o[t], &r[t]), ctx);
@@ -459,6 +471,7 @@ TEST(ue4_window_equals_the_crop_of_the_whole_buffer)
         ao_ue4_params p = ao_ue4_params_default();
         p.blur = c & 1;
         p.quad_blur = c & 2 ? 3 : 2;
+        p.levels = c == 3 ? 3 : 1;
         obs_image_f32 o, r, O, R;
         CHECK_OK(run_ue4(ctx, NULL, &in, &p, &o, &r), ctx);
         CHECK_OK(run_ue4(ctx, NULL, &whole, &p, &O, &R), ctx);
@@ -518,6 +531,7 @@ TEST(ue4_hard_cases_stay_finite_in_every_mode)
             p.radius_in_ws = (c / 2) % 2;
             p.radius = c % 5 == 0 ? 1e-6f : c % 5 == 1 ? 1e4f : 2.0f;
             p.bias = c % 7 == 0 ? 0.0f : p.bias;
+            p.levels = 1 + c % 3;
             ao_input ci = in;
             if (c % 4 == 3)
                 ci.depth = &bad;
@@ -553,8 +567,9 @@ TEST(ue4_bad_params_are_rejected_naming_the_field)
     obs_context *ctx = obs_context_create();
     static const char *const field[] = {"variant",    "normals",     "radius",     "radius_in_ws", "power",
                                         "intensity",  "bias",        "distance",   "fade_distance", "fade_radius",
-                                        "sample_set", "steps",       "quad_blur",  "blur"};
-    for (int i = 0; i < 14; i++) {
+                                        "sample_set", "steps",       "quad_blur",  "blur",        "levels",
+                                        "mip_blend",  "mip_scale"};
+    for (int i = 0; i < 17; i++) {
         ao_ue4_params p = ao_ue4_params_default();
         switch (i) {
         case 0: p.variant = (ao_ue4_variant)7; break;
@@ -571,6 +586,9 @@ TEST(ue4_bad_params_are_rejected_naming_the_field)
         case 11: p.steps = 0; break;
         case 12: p.quad_blur = 4; break;
         case 13: p.blur = 3; break;
+        case 14: p.levels = 4; break;
+        case 15: p.mip_blend = -0.1f; break;
+        case 16: p.mip_scale = 0.0f; break;
         }
         obs_context *c2 = obs_context_create();
         CHECK_EQ_INT(ao_ue4_params_validate(c2, &p), OBS_STATUS_INVALID_ARGUMENT);
@@ -627,4 +645,52 @@ TEST(ao_cli_ue4_options_write_outputs)
     free(x);
     const char *b[] = {"ao", "--method", "ue4", "--scene", scene, "--steps", "9", "-o", prefix, NULL};
     CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, err), 2);
+}
+
+/* The multi-resolution option: MipBlend 0 gives the one-level result bit for bit (lerp(ao, up, 0) =
+ * ao); MipBlend 0.6 changes the occluded pixels and keeps values in [0, 1]; more levels reach
+ * farther (the coarse radius is MipScale^l times larger), so the mean AO over the scene drops. */
+TEST(ue4_multiresolution_levels_blend_as_mipblend_says)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene scene;
+    tu_ao_scene(&scene);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &scene, tu_ao_camera(), 81, 61, 6, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    ao_ue4_params p = ao_ue4_params_default();
+    obs_image_f32 o1, r1, o2, r2;
+    CHECK_OK(run_ue4(ctx, NULL, &in, &p, &o1, &r1), ctx);
+    double mean[4] = {0, 0, 0, 0};
+    for (int lv = 1; lv <= 3; lv++) {
+        p.levels = lv;
+        p.mip_blend = 0.0f;
+        CHECK_OK(run_ue4(ctx, NULL, &in, &p, &o2, &r2), ctx);
+        CHECK_MSG(tu_same_plane(&o1, &o2), "%d levels with MipBlend 0 differ from one level", lv);
+        obs_image_f32_free(&o2);
+        obs_image_f32_free(&r2);
+        p.mip_blend = 0.6f;
+        CHECK_OK(run_ue4(ctx, NULL, &in, &p, &o2, &r2), ctx);
+        int changed = 0;
+        for (int y = 0; y < in.h; y++)
+            for (int x = 0; x < in.w; x++) {
+                const float v = obs_image_f32_row(&o2, y)[x];
+                CHECK(v >= 0.0f && v <= 1.0f);
+                changed += v != obs_image_f32_row(&o1, y)[x];
+                mean[lv] += v;
+            }
+        mean[lv] /= (double)in.w * in.h;
+        if (lv > 1)
+            CHECK_MSG(changed > in.w * in.h / 20, "%d levels: only %d pixels changed", lv, changed);
+        obs_image_f32_free(&o2);
+        obs_image_f32_free(&r2);
+    }
+    printf("  mean AO: 1 level %.4f, 2 levels %.4f, 3 levels %.4f\n", mean[1], mean[2], mean[3]);
+    CHECK(mean[2] < mean[1] && mean[3] < mean[2]);
+    obs_image_f32_free(&o1);
+    obs_image_f32_free(&r1);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&scene);
+    obs_context_destroy(ctx);
 }

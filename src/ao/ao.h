@@ -486,6 +486,8 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
 #define AO_UE4_FLAT_SURFACE_BIAS 5.0f       /* uu; WedgeNoNormal "FlatSurfaceBias = 5.0f" */
 #define AO_UE4_CONTRAST_TWEAK 0.9f          /* acosApproxNormAngle "ContrastTweak = 0.9f" */
 #define AO_UE4_MAX_STEPS 8
+#define AO_UE4_MAX_LEVELS 3                 /* r.AmbientOcclusionLevels range (min(., 3) in the C++) */
+#define AO_UE4_DEFAULT_MIP_BLEND 0.6f       /* AmbientOcclusionMipBlend 0.6 (multi-resolution option) */
 #define AO_UE4_MAX_DEPTH_M 1.0e5f           /* depths (and background taps) are clamped to 100 km */
 
 typedef enum ao_ue4_normals {
@@ -519,13 +521,19 @@ typedef struct ao_ue4_params {
     int steps;              /* SAMPLE_STEPS, [1, AO_UE4_MAX_STEPS] */
     int quad_blur;          /* QUAD_MESSAGE_PASSING_BLUR 0..3 (the 2x2 ddx/ddy blur) */
     int blur;               /* 1: the seed thesis' 21-tap Gaussian (ao_blur_gaussian21) afterwards */
+    int levels;             /* resolution levels, [1, AO_UE4_MAX_LEVELS]: 1 = the full-resolution pass
+                               alone (default); 2, 3 = UE's multi-resolution chain (AO setup levels at
+                               1/2, 1/4, each blended with the upsampled coarser one by MipBlend) */
+    float mip_blend;        /* AmbientOcclusionMipBlend, [0, 1] (levels > 1) */
+    float mip_scale;        /* AmbientOcclusionMipScale, radius factor per level, (0, 16] (levels > 1) */
 } ao_ue4_params;
 
 /* UE4's defaults (AO_UE4_DEFAULT_*): quality 50 (set 1, 2 steps, quad blur 2), classic variant,
  * G-buffer normals, Gaussian blur off. */
 ao_ue4_params ao_ue4_params_default(void);
 
-/* Presets: "default" and "ue4" (ao_ue4_params_default()); "ue4-o1" (the same with OPTIMIZATION_O1,
+/* Presets: "default" and "ue4" (ao_ue4_params_default()); "ue4-multires" (the same with 2 levels, what
+ * ComputeAmbientOcclusionPassCount gives for AmbientOcclusionQuality 50); "ue4-o1" (the same with OPTIMIZATION_O1,
  * as UE 4.9+ ships); "thesis" (ssao-thesis-2017 Table 3: r = 0.05, 8 samples; read as the shader
  * radius AORadiusInShader = 0.05 in view-space mode, i.e. radius 0.8 m; 8 samples -> set 1 x 2 steps,
  * Gaussian blur on: docs/ao/ue4.md); "quality-0" .. "quality-4" (SHADER_QUALITY 0..4). */
@@ -556,7 +564,7 @@ typedef struct ao_ue4_constants {
     int full_width, full_height;
     float power, bias_over_1000, inv_distance, intensity;      /* [0] .x .y .z .w */
     float viewport_uv_to_random_uv[2], ao_radius_in_shader, ratio; /* [1] */
-    float scale_factor, inv_threshold, scale_radius_in_ws, mip_blend; /* [2] (scale 1, threshold and blend unused) */
+    float scale_factor, inv_threshold, scale_radius_in_ws, mip_blend; /* [2] (full-resolution pass) */
     float temporal_offset[2], static_fraction, inv_tan_half_fov; /* [3] (temporal offset 0: no TAA) */
     float fade_mul, fade_add;                                    /* [4] .x .y */
     float fov_fix[2];               /* (P00, P11) = (2 fx / W, 2 fy / H) */
@@ -565,6 +573,8 @@ typedef struct ao_ue4_constants {
     float max_depth;                /* AO_UE4_MAX_DEPTH_M in uu */
     int orthographic;               /* our extension: CS position (ScreenPos * units_per_metre, z) */
     int variant, normal_mode, sample_set, sample_count, steps, quad_blur, blur;
+    int levels;
+    float mip_scale;                /* AmbientOcclusionMipScale (levels > 1) */
     float samples[12];              /* OcclusionSamplesOffsets */
 } ao_ue4_constants;
 
@@ -574,7 +584,8 @@ ao_ue4_constants ao_ue4_constants_from_params(const ao_ue4_params *p, const ao_i
 
 /* UE4 AO over the input's window. out (w x h) receives the AO after the quad blur and, when
  * params->blur, the Gaussian; out_raw (may be NULL) the AO before the Gaussian. The AO pass runs over
- * the window plus the Gaussian's reach (10 px), aligned to 2x2 quads when the quad blur is on.
+ * the window plus the Gaussian's reach (10 px), aligned to 2x2 quads when the quad blur is on; the
+ * coarse levels (levels > 1) over their whole planes.
  * stats may be NULL. Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
 obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats);

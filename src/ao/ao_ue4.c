@@ -18,7 +18,8 @@
  * Deviations from the shader (each also in docs/ao/ue4.md, "Differences from the reference"):
  *   - taps read the full-resolution depth at the nearest texel, not the HZB at MipLevel;
  *   - the classic path's InvHaloSize is 1 / (2 ActualAORadius) (view-space units, as |Delta|);
- *   - one resolution level (no MipBlend with the upsampled coarser levels);
+ *   - the multi-resolution option (levels > 1) keeps the setup in float32 (UE: FP16 setup, 8-bit
+ *     coarse AO) and builds each setup level from the previous one;
  *   - background, zero normals and depths beyond AO_UE4_MAX_DEPTH_M are handled explicitly;
  *   - the result is saturated (UE writes a UNORM target) but not quantised to 8 bits.
  */
@@ -52,11 +53,15 @@ ao_ue4_params ao_ue4_params_default(void)
     p.steps = AO_UE4_DEFAULT_STEPS;
     p.quad_blur = AO_UE4_DEFAULT_QUAD_BLUR;
     p.blur = 0;
+    p.levels = 1;
+    p.mip_blend = AO_UE4_DEFAULT_MIP_BLEND;
+    p.mip_scale = AO_UE4_DEFAULT_MIP_SCALE;
     return p;
 }
 
-static const char *const preset_names[] = {"default",   "ue4",       "ue4-o1",    "thesis",   "quality-0",
-                                           "quality-1", "quality-2", "quality-3", "quality-4", NULL};
+static const char *const preset_names[] = {"default",   "ue4",       "ue4-o1",    "ue4-multires", "thesis",
+                                           "quality-0", "quality-1", "quality-2", "quality-3",    "quality-4",
+                                           NULL};
 
 const char *const *ao_ue4_preset_names(void) { return preset_names; }
 
@@ -72,6 +77,9 @@ int ao_ue4_params_preset(const char *name, ao_ue4_params *out)
     ao_ue4_params p = ao_ue4_params_default();
     if (!strcmp(name, "default") || !strcmp(name, "ue4")) {
         /* FPostProcessSettings defaults */
+    } else if (!strcmp(name, "ue4-multires")) {
+        /* FSSAOHelper::ComputeAmbientOcclusionPassCount: 1 + (q > 70) + (q > 35) = 2 at q = 50 */
+        p.levels = 2;
     } else if (!strcmp(name, "ue4-o1")) {
         p.variant = AO_UE4_VARIANT_O1; /* "#define OPTIMIZATION_O1 1" in the 4.9+ shader */
     } else if (!strcmp(name, "thesis")) {
@@ -157,6 +165,13 @@ obs_status ao_ue4_params_validate(obs_context *ctx, const ao_ue4_params *p)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: quad_blur %d must be in [0, 3]", p->quad_blur);
     if (p->blur != 0 && p->blur != 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: blur %d must be 0 or 1", p->blur);
+    if (p->levels < 1 || p->levels > AO_UE4_MAX_LEVELS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: levels %d must be in [1, %d]", p->levels,
+                         AO_UE4_MAX_LEVELS);
+    if (!(p->mip_blend >= 0.0f && p->mip_blend <= 1.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: mip_blend %g must be in [0, 1]", (double)p->mip_blend);
+    if (!(p->mip_scale > 0.0f && p->mip_scale <= 16.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: mip_scale %g must be in (0, 16]", (double)p->mip_scale);
     return OBS_STATUS_OK;
 }
 
@@ -167,11 +182,13 @@ int ao_ue4_params_to_string(const ao_ue4_params *p, char *buf, size_t size)
 {
     return snprintf(buf, size,
                     "variant=%s normals=%s radius=%.9g radius_in_ws=%d power=%.9g intensity=%.9g bias=%.9g "
-                    "distance=%.9g fade_distance=%.9g fade_radius=%.9g sample_set=%d steps=%d quad_blur=%d blur=%d",
+                    "distance=%.9g fade_distance=%.9g fade_radius=%.9g sample_set=%d steps=%d quad_blur=%d blur=%d "
+                    "levels=%d mip_blend=%.9g mip_scale=%.9g",
                     (unsigned)p->variant < AO_UE4_VARIANT_COUNT ? variant_names[p->variant] : "?",
                     (unsigned)p->normals < AO_UE4_NORMALS_COUNT ? normals_names[p->normals] : "?", (double)p->radius,
                     p->radius_in_ws, (double)p->power, (double)p->intensity, (double)p->bias, (double)p->distance,
-                    (double)p->fade_distance, (double)p->fade_radius, p->sample_set, p->steps, p->quad_blur, p->blur);
+                    (double)p->fade_distance, (double)p->fade_radius, p->sample_set, p->steps, p->quad_blur, p->blur,
+                    p->levels, (double)p->mip_blend, (double)p->mip_scale);
 }
 
 int ao_ue4_sample_set(int s, float xy[12])
@@ -277,7 +294,7 @@ ao_ue4_constants ao_ue4_constants_from_params(const ao_ue4_params *p, const ao_i
     k.scale_factor = 1.0f;
     k.inv_threshold = 0.01f;  /* AmbientOcclusionMipThreshold / ScaleToFullRes (upsample only) */
     k.scale_radius_in_ws = ScaleRadiusInWorldSpace;
-    k.mip_blend = 0.6f;       /* AmbientOcclusionMipBlend (upsample only: not used, one level) */
+    k.mip_blend = p->mip_blend; /* AmbientOcclusionMipBlend (used with levels > 1) */
     k.temporal_offset[0] = k.temporal_offset[1] = 0.0f;
     k.static_fraction = 1.0f; /* AmbientOcclusionStaticFraction (base-pass AO, not used here) */
     k.inv_tan_half_fov = fov_x; /* ProjMatrix.M[0][0] */
@@ -295,6 +312,8 @@ ao_ue4_constants ao_ue4_constants_from_params(const ao_ue4_params *p, const ao_i
     k.steps = p->steps;
     k.quad_blur = p->quad_blur;
     k.blur = p->blur;
+    k.levels = p->levels;
+    k.mip_scale = p->mip_scale;
     return k;
 }
 
@@ -310,60 +329,107 @@ static inline float lerpf(float a, float b, float t) { return a + t * (b - a); }
 static inline float hmax(float a, float b) { return a > b ? a : (b == b ? b : a); }
 static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
 
+/* One resolution level: level 0 is the full buffer; level l (multi-resolution option) is the
+ * AO setup of MainSetupPS, DivideAndRoundUp(size, 2) of level l - 1. */
+typedef struct level {
+    int w, h;
+    float s;              /* ScaleToFullRes: 1, 2, 4 */
+    obs_image_f32 z;      /* depth in uu; background -> max_depth */
+    obs_image_f32 n[3];   /* normalised UE view-space normals (0 = unusable); modes 1, 2 */
+    obs_image_f32 e[3];   /* the setup's stored normal (n * 0.5 + 0.5, averaged); levels >= 1 */
+    unsigned char *bg;    /* 1: background */
+    obs_image_f32 ao;     /* levels >= 1: the level's AO (after its quad blur) */
+    float radius;         /* AORadiusInShader of the level */
+    float samples[12];
+    int sample_count;
+} level;
+
 typedef struct prep {
     const ao_ue4_constants *k;
     const ao_input *in;
-    obs_image_f32 z;      /* depth in uu, background -> max_depth, NaN flagged in bg */
-    obs_image_f32 n[3];   /* UE view-space unit normals (x, y, -z of ours); 0 when unusable */
-    unsigned char *bg;    /* 1: background (not finite, <= 0) */
+    level lv[AO_UE4_MAX_LEVELS];
+    int levels;
     float rand_vec[16][2];/* RandomVec / ActualAORadius = .rg * 2 - 1 */
-    float cx, cy, half_w, half_h;
+    float cx, cy, half_w, half_h; /* principal point and half size of the full buffer */
 } prep;
 
-static inline int texel_x(const prep *P, float sx)
+static inline int texel_x(const prep *P, const level *L, float sx)
 {
-    /* ScreenPosToHZBUV + point sampling, on the full-resolution depth: floor(sx * W/2 + cx) */
-    float u = sx * P->half_w + P->cx;
+    /* ScreenPosToHZBUV + point sampling, on the level's depth: floor((sx * W/2 + cx) / s) */
+    float u = (sx * P->half_w + P->cx) / L->s;
     if (!(u > -1e9f))
         u = -1e9f;
     if (u > 1e9f)
         u = 1e9f;
-    return clampi((int)floorf(u), 0, P->k->full_width - 1);
+    return clampi((int)floorf(u), 0, L->w - 1);
 }
-static inline int texel_y(const prep *P, float sy)
+static inline int texel_y(const prep *P, const level *L, float sy)
 {
-    float v = P->cy - sy * P->half_h; /* NDC y up -> our row (down) */
+    float v = (P->cy - sy * P->half_h) / L->s; /* NDC y up -> our row (down) */
     if (!(v > -1e9f))
         v = -1e9f;
     if (v > 1e9f)
         v = 1e9f;
-    return clampi((int)floorf(v), 0, P->k->full_height - 1);
+    return clampi((int)floorf(v), 0, L->h - 1);
 }
-static inline float depth_at(const prep *P, float sx, float sy)
+static inline float depth_at(const prep *P, const level *L, float sx, float sy)
 {
-    return obs_image_f32_row(&P->z, texel_y(P, sy))[texel_x(P, sx)];
+    return obs_image_f32_row(&L->z, texel_y(P, L, sy))[texel_x(P, L, sx)];
 }
 
-/* One pixel of MainPSandCS (x, y in the full buffer, possibly one past its edge: a quad's helper
- * lane). *ao gets OutColor.r after the fade and the user adjustment (before the quad blur), *depth
- * the SceneDepth (uu) and nxy normalize(ViewSpaceNormal).xy for the quad blur. Returns 1 for a
+/* ComputeUpsampleContribution (AO_UPSAMPLE_QUALITY 0: 4 taps at +-0.5 coarse texel at full
+ * resolution, 1: 9 taps at -1, 0, 1 at the coarse levels), point sampling, clamped. Weight
+ * saturate(1 - |dz| 0.003) * saturate(dot(n_tap, n_centre)), normals decoded as rgb * 2 - 1. */
+static float upsample(const prep *P, int l, int x, int y, float SceneDepth, const float cn[3])
+{
+    const level *F = &P->lv[l], *C = &P->lv[l + 1];
+    const float cu = ((float)x + 0.5f) / (float)F->w * (float)C->w, cv = ((float)y + 0.5f) / (float)F->h * (float)C->h;
+    static const float o4[4][2] = {{-0.5f, 0.5f}, {0.5f, 0.5f}, {-0.5f, -0.5f}, {0.5f, -0.5f}};
+    static const float o9[9][2] = {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {0, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}};
+    const int n = l == 0 ? 4 : 9;
+    const float SmallValue = 0.0001f;
+    float WeightSum = SmallValue, Ret = SmallValue;
+    for (int i = 0; i < n; i++) {
+        const float *o = l == 0 ? o4[i] : o9[i];
+        const int tx = clampi((int)floorf(cu + o[0]), 0, C->w - 1), ty = clampi((int)floorf(cv + o[1]), 0, C->h - 1);
+        const float SampleValue = obs_image_f32_row(&C->ao, ty)[tx];
+        const float SampleDepth = obs_image_f32_row(&C->z, ty)[tx];
+        float Weight = saturatef(1.0f - fabsf(SampleDepth - SceneDepth) * 0.003f); /* "crawling pattern at edges" */
+        if (P->k->normal_mode != AO_UE4_NORMALS_NONE) {
+            const float ln[3] = {obs_image_f32_row(&C->e[0], ty)[tx] * 2.0f - 1.0f,
+                                 obs_image_f32_row(&C->e[1], ty)[tx] * 2.0f - 1.0f,
+                                 obs_image_f32_row(&C->e[2], ty)[tx] * 2.0f - 1.0f};
+            Weight *= saturatef(ln[0] * cn[0] + ln[1] * cn[1] + ln[2] * cn[2]);
+        }
+        Ret += SampleValue * Weight;
+        WeightSum += Weight;
+    }
+    return Ret / WeightSum;
+}
+
+/* One pixel of MainPSandCS at level l (x, y in the level, possibly one past its edge: a quad's
+ * helper lane). *ao gets OutColor.r (level 0: after the fade and the user adjustment; coarser
+ * levels: the raw AO, as USE_AO_SETUP_AS_INPUT skips them), before the quad blur; *depth the
+ * SceneDepth (uu) and nxy normalize(ViewSpaceNormal).xy for the quad blur. Returns 1 for a
  * background pixel (ao = 1). */
-static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float nxy[2], int *bad_normal)
+static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth, float nxy[2], int *bad_normal)
 {
     const ao_ue4_constants *k = P->k;
+    const level *L = &P->lv[l];
     const int W = k->full_width, H = k->full_height;
-    const int tx = clampi(x, 0, W - 1), ty = clampi(y, 0, H - 1);
+    const int tx = clampi(x, 0, L->w - 1), ty = clampi(y, 0, L->h - 1);
     nxy[0] = nxy[1] = 0.0f;
     *bad_normal = 0;
-    const float SceneDepth = obs_image_f32_row(&P->z, ty)[tx];
+    const float SceneDepth = obs_image_f32_row(&L->z, ty)[tx];
     *depth = SceneDepth;
-    if (P->bg[(size_t)ty * W + tx]) {
+    if (L->bg[(size_t)ty * L->w + tx]) {
         *ao = 1.0f;
         return 1;
     }
     /* ScreenPos (NDC, y up) of the pixel centre, from the principal point (computed in double) */
-    const float sp_x = (float)(((double)x + 0.5 - P->in->cx) * 2.0 / W);
-    const float sp_y = (float)(-((double)y + 0.5 - P->in->cy) * 2.0 / H);
+    const double s = L->s;
+    const float sp_x = (float)((((double)x + 0.5) * s - P->in->cx) * 2.0 / W);
+    const float sp_y = (float)(-(((double)y + 0.5) * s - P->in->cy) * 2.0 / H);
     const float FovFix[3] = {k->fov_fix[0], k->fov_fix[1], 1.0f};
     const float InvFovFix[3] = {1.0f / FovFix[0], 1.0f / FovFix[1], 1.0f / FovFix[2]};
 
@@ -371,9 +437,9 @@ static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float
     float n[3] = {0.0f, 0.0f, 0.0f};
     const int use_n = k->normal_mode != AO_UE4_NORMALS_NONE;
     if (use_n) {
-        n[0] = obs_image_f32_row(&P->n[0], ty)[tx];
-        n[1] = obs_image_f32_row(&P->n[1], ty)[tx];
-        n[2] = obs_image_f32_row(&P->n[2], ty)[tx];
+        n[0] = obs_image_f32_row(&L->n[0], ty)[tx];
+        n[1] = obs_image_f32_row(&L->n[1], ty)[tx];
+        n[2] = obs_image_f32_row(&L->n[2], ty)[tx];
         if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
             *bad_normal = 1; /* UE would compute normalize(0) = NaN: we return visibility 1 */
             *ao = 1.0f;
@@ -389,10 +455,10 @@ static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float
     const float U = k->units_per_metre;
     float V[3] = {sp_x * (ortho ? U : SceneDepth), sp_y * (ortho ? U : SceneDepth), SceneDepth};
     /* ActualAORadius = AORadiusInShader * lerp(SceneDepth, 1, ScaleRadiusInWorldSpace) */
-    const float ActualAORadius = k->ao_radius_in_shader * lerpf(SceneDepth, 1.0f, k->scale_radius_in_ws);
+    const float ActualAORadius = L->radius * lerpf(SceneDepth, 1.0f, k->scale_radius_in_ws);
     /* "Add bias after fixup": ViewSpacePosition += Bias * SceneDepth * ScaleFactor * (n * FovFix) */
     if (use_n) {
-        const float b = k->bias_over_1000 * SceneDepth * k->scale_factor;
+        const float b = k->bias_over_1000 * SceneDepth * L->s;
         V[0] += b * (n[0] * FovFix[0]);
         V[1] += b * (n[1] * FovFix[1]);
         V[2] += b * (n[2] * FovFix[2]);
@@ -415,14 +481,14 @@ static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float
     const float InvHaloSize = 1.0f / (ActualAORadius * 2.0f);
     float Ns[3] = {n[0], n[1], n[2]}; /* ScaledViewSpaceNormal */
     if (k->variant == AO_UE4_VARIANT_O1) {
-        const float s = 0.08f * lerpf(SceneDepth, 1000.0f, k->scale_radius_in_ws);
-        Ns[0] *= s, Ns[1] *= s, Ns[2] *= s;
+        const float sc = 0.08f * lerpf(SceneDepth, 1000.0f, k->scale_radius_in_ws);
+        Ns[0] *= sc, Ns[1] *= sc, Ns[2] *= sc;
     }
     const float InvD = k->inv_distance;
     const float ViewDepthAdd = 1.0f - V[2] * InvD;
 
-    for (int i = 0; i < k->sample_count; i++) {
-        const float ux = k->samples[2 * i], uy = k->samples[2 * i + 1];
+    for (int i = 0; i < L->sample_count; i++) {
+        const float ux = L->samples[2 * i], uy = L->samples[2 * i + 1];
         /* 2x2 rotation: LocalRandom = u.x * RandomBase.xy + u.y * RandomBase.zw */
         const float LR[2] = {ux * RandomBase[0] + uy * RandomBase[2], ux * RandomBase[1] + uy * RandomBase[3]};
         float acc[3] = {0.0f, 0.0f, 0.0f};
@@ -432,7 +498,7 @@ static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float
             /* Wedge*: L = centre + lr, R = centre - lr; the tap's position uses the continuous
              * screen position and the depth of its texel */
             const float SL[2] = {SSP[0] + lr[0], SSP[1] + lr[1]}, SR[2] = {SSP[0] - lr[0], SSP[1] - lr[1]};
-            const float AbsL = depth_at(P, SL[0], SL[1]), AbsR = depth_at(P, SR[0], SR[1]);
+            const float AbsL = depth_at(P, L, SL[0], SL[1]), AbsR = depth_at(P, L, SR[0], SR[1]);
             const float cL = ortho ? U : AbsL, cR = ortho ? U : AbsR;
             const float PL[3] = {SL[0] * cL, SL[1] * cL, AbsL}, PR[3] = {SR[0] * cR, SR[1] * cR, AbsR};
             const float DL[3] = {(PL[0] - V[0]) * InvFovFix[0], (PL[1] - V[1]) * InvFovFix[1],
@@ -470,8 +536,8 @@ static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float
                 float Weight = 1.0f;
                 Weight *= saturatef(PL[2] * InvD + ViewDepthAdd);
                 Weight *= saturatef(PR[2] * InvD + ViewDepthAdd);
-                const float s = (1.0f - NormAngle) / (Weight + 0.001f);
-                acc[0] = lerpf(acc[0], hmax(acc[0], s), Weight);
+                const float sv = (1.0f - NormAngle) / (Weight + 0.001f);
+                acc[0] = lerpf(acc[0], hmax(acc[0], sv), Weight);
                 acc[2] = lerpf(acc[2], 1.0f, Weight);
             }
         }
@@ -487,7 +553,18 @@ static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float
         }
     }
     float r = WA[0] / WA[1];
-    /* (ComputeLerpFactor() = 0: USE_UPSAMPLE 0, one level) */
+    /* "recombined result from multiple resolutions": lerp(ao, upsampled, MipBlend) (USE_UPSAMPLE) */
+    if (l + 1 < P->levels) {
+        float cn[3] = {n[0], n[1], n[2]}; /* CenterWorldNormal: level 0 the G-buffer's, else the setup's */
+        if (l > 0 && use_n)
+            for (int c = 0; c < 3; c++)
+                cn[c] = obs_image_f32_row(&L->e[c], ty)[tx] * 2.0f - 1.0f;
+        r = lerpf(r, upsample(P, l, x, y, SceneDepth, cn), k->mip_blend);
+    }
+    if (l > 0) {
+        *ao = r;
+        return 0;
+    }
     /* "soft fade out AO in the distance" */
     r = lerpf(r, 1.0f, saturatef(SceneDepth * k->fade_mul + k->fade_add));
     /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity */
@@ -498,7 +575,8 @@ static int ue4_pixel(const prep *P, int x, int y, float *ao, float *depth, float
 
 typedef struct ao_job {
     const prep *P;
-    int qx0, qy0;          /* region origin (full-buffer coordinates, may be one past the edge) */
+    int l;
+    int qx0, qy0;          /* region origin (level coordinates, may be one past the edge) */
     obs_image_f32 *ao, *zq, *nx, *ny;
     int64_t (*counts)[2];  /* per row: background, zero normal */
 } ao_job;
@@ -514,7 +592,7 @@ static void ao_row(void *user, int64_t task, int thread)
     for (int i = 0; i < J->ao->width; i++) {
         float nxy[2];
         int bad;
-        nb += ue4_pixel(J->P, J->qx0 + i, y, &a[i], &z[i], nxy, &bad);
+        nb += ue4_pixel(J->P, J->l, J->qx0 + i, y, &a[i], &z[i], nxy, &bad);
         nn += bad;
         nx[i] = nxy[0];
         ny[i] = nxy[1];
@@ -524,14 +602,15 @@ static void ao_row(void *user, int64_t task, int thread)
 }
 
 /* QUAD_MESSAGE_PASSING_BLUR: a 2x2-quad blur with ddx_fine/ddy_fine. Quads are aligned to even
- * (x, y) of the full buffer (D3D SV_Position). For the output pixel, PixB is its horizontal quad
- * partner computed as Center - dX * (Mod.x * 2 - 1) (dX = right - left), PixC its vertical one. */
+ * (x, y) of the level (D3D SV_Position). For the output pixel, PixB is its horizontal quad partner
+ * computed as Center - dX * (Mod.x * 2 - 1) (dX = right - left), PixC its vertical one. */
 typedef struct quad_job {
     const ao_ue4_constants *k;
     const obs_image_f32 *ao, *zq, *nx, *ny;
-    int qx0, qy0;          /* origin of the quad region */
+    int qx0, qy0;          /* origin of the quad region (even) */
     int rx0, ry0;          /* origin of the output rect */
     const unsigned char *bg;
+    int bg_w;
     obs_image_f32 *out;
 } quad_job;
 
@@ -541,7 +620,7 @@ static void quad_row(void *user, int64_t task, int thread)
 {
     (void)thread;
     const quad_job *J = (const quad_job *)user;
-    const int y = J->ry0 + (int)task, W = J->k->full_width;
+    const int y = J->ry0 + (int)task;
     const int ly = y - J->qy0, lyp = ly ^ 1; /* quad partner row (region origin is even) */
     float *o = obs_image_f32_row(J->out, (int)task);
     for (int i = 0; i < J->out->width; i++) {
@@ -579,7 +658,7 @@ static void quad_row(void *user, int64_t task, int thread)
         const float inv = 1.0f / (wA + wB + wC);
         wA *= inv, wB *= inv, wC *= inv;
         float v = wA * A[0] + wB * B[0] + wC * C[0];
-        if (J->bg[(size_t)y * W + x])
+        if (J->bg[(size_t)y * J->bg_w + x])
             v = 1.0f; /* background stays 1 (the quad blur would mix in its neighbours) */
         o[i] = v;
     }
@@ -595,10 +674,11 @@ static void prep_row(void *user, int64_t task, int thread)
     (void)thread;
     const prep_job *J = (const prep_job *)user;
     prep *P = J->P;
-    const int y = (int)task, W = P->k->full_width;
+    level *L = &P->lv[0];
+    const int y = (int)task, W = L->w;
     const float *d = obs_image_f32_row(P->in->depth, y);
-    float *z = obs_image_f32_row(&P->z, y);
-    unsigned char *bg = P->bg + (size_t)y * W;
+    float *z = obs_image_f32_row(&L->z, y);
+    unsigned char *bg = L->bg + (size_t)y * W;
     const float U = P->k->units_per_metre, zmax = P->k->max_depth;
     for (int x = 0; x < W; x++) {
         const float dm = d[x];
@@ -609,7 +689,7 @@ static void prep_row(void *user, int64_t task, int thread)
     }
     if (!J->nsrc[0])
         return;
-    float *o[3] = {obs_image_f32_row(&P->n[0], y), obs_image_f32_row(&P->n[1], y), obs_image_f32_row(&P->n[2], y)};
+    float *o[3] = {obs_image_f32_row(&L->n[0], y), obs_image_f32_row(&L->n[1], y), obs_image_f32_row(&L->n[2], y)};
     const float *s[3] = {obs_image_f32_row(J->nsrc[0], y), obs_image_f32_row(J->nsrc[1], y),
                          obs_image_f32_row(J->nsrc[2], y)};
     for (int x = 0; x < W; x++) {
@@ -627,6 +707,120 @@ static void prep_row(void *user, int64_t task, int thread)
     }
 }
 
+/* MainSetupPS: level l from level l - 1. The four source texels (2x, 2y) .. (2x+1, 2y+1) (the
+ * bilinear taps at +-0.5 source texel land on texel centres; clamped): MaxZ = max of the depths;
+ * the normal = (0.0001 + sum (n * 0.5 + 0.5) w) / (0.0001 + sum w), w = saturate(1 - |z - MaxZ| *
+ * MipThreshold / ScaleToFullRes). Background where MaxZ is the sky. */
+typedef struct setup_job {
+    prep *P;
+    int l, use_n;
+} setup_job;
+
+static void setup_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const setup_job *J = (const setup_job *)user;
+    const level *S = &J->P->lv[J->l - 1];
+    level *D = &J->P->lv[J->l];
+    const int y = (int)task;
+    const float zmax = J->P->k->max_depth, InvThreshold = 0.01f / S->s; /* AmbientOcclusionMipThreshold */
+    for (int x = 0; x < D->w; x++) {
+        int sx[4], sy[4];
+        for (int i = 0; i < 4; i++) {
+            sx[i] = clampi(2 * x + (i & 1), 0, S->w - 1);
+            sy[i] = clampi(2 * y + (i >> 1), 0, S->h - 1);
+        }
+        float z[4], e[4][3];
+        for (int i = 0; i < 4; i++) {
+            z[i] = obs_image_f32_row(&S->z, sy[i])[sx[i]];
+            for (int c = 0; c < 3; c++) {
+                if (!J->use_n)
+                    e[i][c] = 0.5f;
+                else if (J->l == 1)
+                    e[i][c] = obs_image_f32_row(&S->n[c], sy[i])[sx[i]] * 0.5f + 0.5f;
+                else
+                    e[i][c] = obs_image_f32_row(&S->e[c], sy[i])[sx[i]];
+            }
+        }
+        const float MaxZ = fmaxf(fmaxf(z[0], z[1]), fmaxf(z[2], z[3]));
+        float acc[4] = {0.0001f, 0.0001f, 0.0001f, 0.0001f};
+        for (int i = 0; i < 4; i++) {
+            const float w = saturatef(1.0f - fabsf(z[i] - MaxZ) * InvThreshold); /* ComputeDepthSimilarity */
+            acc[0] += e[i][0] * w, acc[1] += e[i][1] * w, acc[2] += e[i][2] * w, acc[3] += w;
+        }
+        obs_image_f32_row(&D->z, y)[x] = MaxZ;
+        D->bg[(size_t)y * D->w + x] = (unsigned char)(MaxZ >= zmax);
+        float nv[3];
+        for (int c = 0; c < 3; c++) {
+            const float v = acc[c] / acc[3];
+            obs_image_f32_row(&D->e[c], y)[x] = v;
+            nv[c] = v * 2.0f - 1.0f; /* the coarse pass: normalize(rgb * 2 - 1) */
+        }
+        if (J->use_n) {
+            const float dd = nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2];
+            const float rs = dd > 0.0f ? 1.0f / sqrtf(dd) : 0.0f;
+            for (int c = 0; c < 3; c++)
+                obs_image_f32_row(&D->n[c], y)[x] = nv[c] * rs;
+        }
+    }
+}
+
+static void level_free(level *L)
+{
+    for (int c = 0; c < 3; c++) {
+        obs_image_f32_free(&L->n[c]);
+        obs_image_f32_free(&L->e[c]);
+    }
+    obs_image_f32_free(&L->z);
+    obs_image_f32_free(&L->ao);
+    free(L->bg);
+    memset(L, 0, sizeof *L);
+}
+
+/* The AO pass of level l over [qx0, qx1) x [qy0, qy1) (quad-aligned when the quad blur is on),
+ * then the quad blur (or a copy) into out over the rect (rx0, ry0, out->width, out->height). */
+static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int l, int qx0, int qy0, int qx1, int qy1,
+                            int rx0, int ry0, obs_image_f32 *out, int64_t *background)
+{
+    const ao_ue4_constants *K = P->k;
+    const int qw = qx1 - qx0, qh = qy1 - qy0;
+    obs_image_f32 A = {0}, Zq = {0}, NX = {0}, NY = {0};
+    int64_t(*counts)[2] = NULL;
+    obs_status st = obs_image_f32_alloc(ctx, qw, qh, &A);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, qw, qh, &Zq);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, qw, qh, &NX);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, qw, qh, &NY);
+    if (st == OBS_STATUS_OK) {
+        counts = (int64_t(*)[2])calloc((size_t)qh, sizeof *counts);
+        if (!counts)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+    }
+    if (st == OBS_STATUS_OK) {
+        ao_job J = {P, l, qx0, qy0, &A, &Zq, &NX, &NY, counts};
+        obs_pool_run(pool, qh, ao_row, &J);
+        if (K->quad_blur) {
+            quad_job QJ = {K, &A, &Zq, &NX, &NY, qx0, qy0, rx0, ry0, P->lv[l].bg, P->lv[l].w, out};
+            obs_pool_run(pool, out->height, quad_row, &QJ);
+        } else {
+            for (int y = 0; y < out->height; y++)
+                memcpy(obs_image_f32_row(out, y), obs_image_f32_row(&A, y + ry0 - qy0) + (rx0 - qx0),
+                       sizeof(float) * out->width);
+        }
+        if (background)
+            for (int r = 0; r < qh; r++)
+                *background += counts[r][0];
+    }
+    free(counts);
+    obs_image_f32_free(&NY);
+    obs_image_f32_free(&NX);
+    obs_image_f32_free(&Zq);
+    obs_image_f32_free(&A);
+    return st;
+}
+
 obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats)
 {
@@ -640,8 +834,6 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         (out_raw && (!out_raw->data || out_raw->width != in->w || out_raw->height != in->h)))
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: output planes must be %dx%d (the window)", in->w,
                          in->h);
-    if (params->normals == AO_UE4_NORMALS_GBUFFER && in->normal[0] && (!in->normal[1] || !in->normal[2]))
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: normals must be all three planes or none");
     if (stats)
         memset(stats, 0, sizeof *stats);
     const ao_ue4_constants K = ao_ue4_constants_from_params(params, in);
@@ -650,16 +842,19 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     memset(&P, 0, sizeof P);
     P.k = &K;
     P.in = in;
+    P.levels = K.levels;
     P.cx = (float)in->cx;
     P.cy = (float)in->cy;
     P.half_w = (float)(0.5 * W);
     P.half_h = (float)(0.5 * H);
     obs_image_f32 recon[3] = {{0}, {0}, {0}};
-    obs_image_f32 A = {0}, Zq = {0}, NX = {0}, NY = {0}, Q = {0}, G = {0};
-    int64_t(*counts)[2] = NULL;
+    obs_image_f32 Q = {0}, G = {0};
     const obs_image_f32 *nsrc[3] = {NULL, NULL, NULL};
+    const int use_n = K.normal_mode != AO_UE4_NORMALS_NONE;
+    int64_t background = 0, computed = 0;
 
-    /* ---- 1. prepare: depth in uu, background mask, UE view-space normals, the random vectors ---- */
+    /* ---- 1. prepare: depth in uu, background mask, UE view-space normals, the random vectors,
+     *         and the AO setup levels (multi-resolution option) ---- */
     const double t0 = obs_time_now();
     unsigned char tex[16][4];
     ao_ue4_random_texture(tex);
@@ -667,13 +862,31 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         P.rand_vec[i][0] = (float)tex[i][0] / 255.0f * 2.0f - 1.0f; /* UNORM8 -> float, * 2 - 1 */
         P.rand_vec[i][1] = (float)tex[i][1] / 255.0f * 2.0f - 1.0f;
     }
-    st = obs_image_f32_alloc(ctx, W, H, &P.z);
-    if (st == OBS_STATUS_OK) {
-        P.bg = (unsigned char *)malloc((size_t)W * H);
-        if (!P.bg)
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+    for (int l = 0; l < P.levels && st == OBS_STATUS_OK; l++) {
+        level *L = &P.lv[l];
+        L->w = l ? (P.lv[l - 1].w + 1) / 2 : W; /* DivideAndRoundUp(extent, 2) */
+        L->h = l ? (P.lv[l - 1].h + 1) / 2 : H;
+        L->s = (float)(1 << l);
+        /* AORadiusInShader *= pow(MipScale, log2(ScaleToFullRes)) (the /4 is in the constant) */
+        L->radius = K.ao_radius_in_shader * powf(K.mip_scale, (float)l);
+        /* the coarse levels run USE_SAMPLESET 3 (USE_AO_SETUP_AS_INPUT 1) */
+        L->sample_count = l ? ao_ue4_sample_set(3, L->samples) : K.sample_count;
+        if (!l)
+            memcpy(L->samples, K.samples, sizeof L->samples);
+        st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
+        if (st == OBS_STATUS_OK) {
+            L->bg = (unsigned char *)malloc((size_t)L->w * L->h);
+            if (!L->bg)
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+        }
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n; c++)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->n[c]);
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK && l; c++)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->e[c]);
+        if (st == OBS_STATUS_OK && l)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->ao);
     }
-    if (st == OBS_STATUS_OK && K.normal_mode != AO_UE4_NORMALS_NONE) {
+    if (st == OBS_STATUS_OK && use_n) {
         if (K.normal_mode == AO_UE4_NORMALS_GBUFFER) {
             nsrc[0] = in->normal[0], nsrc[1] = in->normal[1], nsrc[2] = in->normal[2];
         } else {
@@ -685,16 +898,27 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
                 st = ao_normals_from_depth(ctx, pool, in, recon);
             nsrc[0] = &recon[0], nsrc[1] = &recon[1], nsrc[2] = &recon[2];
         }
-        for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++)
-            st = obs_image_f32_alloc(ctx, W, H, &P.n[c]);
     }
     if (st == OBS_STATUS_OK) {
         prep_job PJ = {&P, {nsrc[0], nsrc[1], nsrc[2]}};
         obs_pool_run(pool, H, prep_row, &PJ);
+        for (int l = 1; l < P.levels; l++) {
+            setup_job SJ = {&P, l, use_n};
+            obs_pool_run(pool, P.lv[l].h, setup_row, &SJ);
+        }
     }
     const double t1 = obs_time_now();
 
-    /* ---- 2. the AO pass over the window plus the Gaussian's reach, aligned to 2x2 quads ---- */
+    /* ---- 2. the coarse levels, coarsest first, over their whole planes ---- */
+    for (int l = P.levels - 1; l >= 1 && st == OBS_STATUS_OK; l--) {
+        level *L = &P.lv[l];
+        const int qx1 = K.quad_blur ? L->w + (L->w & 1) : L->w, qy1 = K.quad_blur ? L->h + (L->h & 1) : L->h;
+        st = run_level(ctx, pool, &P, l, 0, 0, qx1, qy1, 0, 0, &L->ao, NULL);
+        computed += (int64_t)qx1 * qy1;
+    }
+
+    /* ---- 3. the full-resolution pass over the window plus the Gaussian's reach, aligned to 2x2
+     *         quads, then its quad blur ---- */
     int rect[4];
     ao_blur_reach(in, K.blur ? AO_GAUSS21_RADIUS : 0, rect);
     int qx0 = rect[0], qy0 = rect[1], qx1 = rect[0] + rect[2], qy1 = rect[1] + rect[3]; /* exclusive */
@@ -702,38 +926,14 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         qx0 &= ~1, qy0 &= ~1;
         qx1 += qx1 & 1, qy1 += qy1 & 1; /* may be one past the buffer: a helper lane */
     }
-    const int qw = qx1 - qx0, qh = qy1 - qy0;
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &A);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &Zq);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &NX);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &NY);
-    if (st == OBS_STATUS_OK) {
-        counts = (int64_t(*)[2])calloc((size_t)qh, sizeof *counts);
-        if (!counts)
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
-    }
-    if (st == OBS_STATUS_OK) {
-        ao_job J = {&P, qx0, qy0, &A, &Zq, &NX, &NY, counts};
-        obs_pool_run(pool, qh, ao_row, &J);
-    }
-
-    /* ---- 3. the quad blur over the rect (or a copy of it) ---- */
     if (st == OBS_STATUS_OK)
         st = obs_image_f32_alloc(ctx, rect[2], rect[3], &Q);
     if (st == OBS_STATUS_OK) {
-        if (K.quad_blur) {
-            quad_job QJ = {&K, &A, &Zq, &NX, &NY, qx0, qy0, rect[0], rect[1], P.bg, &Q};
-            obs_pool_run(pool, rect[3], quad_row, &QJ);
-        } else {
-            for (int y = 0; y < rect[3]; y++)
-                memcpy(obs_image_f32_row(&Q, y), obs_image_f32_row(&A, y + rect[1] - qy0) + (rect[0] - qx0),
-                       sizeof(float) * rect[2]);
-        }
-        /* the UNORM render target saturates (NaN -> 0 cannot occur: every path above is guarded) */
+        st = run_level(ctx, pool, &P, 0, qx0, qy0, qx1, qy1, rect[0], rect[1], &Q, &background);
+        computed += (int64_t)(qx1 - qx0) * (qy1 - qy0);
+    }
+    if (st == OBS_STATUS_OK) {
+        /* the UNORM render target saturates */
         for (int y = 0; y < rect[3]; y++) {
             float *q = obs_image_f32_row(&Q, y);
             for (int x = 0; x < rect[2]; x++)
@@ -762,27 +962,19 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
                        sizeof(float) * in->w);
         }
         if (stats) {
-            stats->pixels_computed = (int64_t)qw * qh;
-            for (int r = 0; r < qh; r++)
-                stats->pixels_background += counts[r][0];
+            stats->pixels_computed = computed;
+            stats->pixels_background = background;
             stats->seconds_prepare = t1 - t0;
             stats->seconds_kernel = t2 - t1;
             stats->seconds_blur = t3 - t2;
         }
     }
-    free(counts);
     obs_image_f32_free(&G);
     obs_image_f32_free(&Q);
-    obs_image_f32_free(&NY);
-    obs_image_f32_free(&NX);
-    obs_image_f32_free(&Zq);
-    obs_image_f32_free(&A);
-    for (int c = 0; c < 3; c++) {
-        obs_image_f32_free(&P.n[c]);
+    for (int c = 0; c < 3; c++)
         obs_image_f32_free(&recon[c]);
-    }
-    free(P.bg);
-    obs_image_f32_free(&P.z);
+    for (int l = 0; l < AO_UE4_MAX_LEVELS; l++)
+        level_free(&P.lv[l]);
     return st;
 }
 
@@ -814,6 +1006,10 @@ static const ao_param_desc ue4_param_descs[] = {
     {"steps", AO_PARAM_INT, UE4_F(steps), 1, AO_UE4_MAX_STEPS, NULL, "SAMPLE_STEPS per direction"},
     {"quad-blur", AO_PARAM_INT, UE4_F(quad_blur), 0, 3, NULL, "QUAD_MESSAGE_PASSING_BLUR (2x2 ddx/ddy blur)"},
     {"blur", AO_PARAM_BOOL, UE4_F(blur), 0, 1, NULL, "the seed thesis' 21-tap Gaussian afterwards"},
+    {"levels", AO_PARAM_INT, UE4_F(levels), 1, AO_UE4_MAX_LEVELS, NULL,
+     "resolution levels (r.AmbientOcclusionLevels): 1 = full resolution only"},
+    {"mip-blend", AO_PARAM_FLOAT, UE4_F(mip_blend), 0, 1, NULL, "AmbientOcclusionMipBlend (levels > 1)"},
+    {"mip-scale", AO_PARAM_FLOAT, UE4_F(mip_scale), 1e-6, 16, NULL, "AmbientOcclusionMipScale (levels > 1)"},
 };
 #undef UE4_F
 
@@ -867,14 +1063,15 @@ static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t
         "[%.9g, %.9g, %.9g, %.9g], [%.9g, %.9g, 0, 0]], \"FovFix\": [%.9g, %.9g, 1], \"units_per_metre\": %.9g, "
         "\"OPTIMIZATION_O1\": %d, \"SSAO_NORMAL_MODE\": %d, \"USE_SAMPLESET\": %d, \"SAMPLESET_ARRAY_SIZE\": %d, "
         "\"SAMPLE_STEPS\": %d, \"QUAD_MESSAGE_PASSING_BLUR\": %d, \"AO_SAMPLE_QUALITY\": 3, "
-        "\"OcclusionSamplesOffsets\": [%s], \"SSAORandomization_4x4_rgba8\": [%s], \"gaussian21_blur\": %d}",
+        "\"OcclusionSamplesOffsets\": [%s], \"SSAORandomization_4x4_rgba8\": [%s], \"gaussian21_blur\": %d, "
+        "\"levels\": %d, \"MipScale\": %.9g}",
         (double)K.power, (double)K.bias_over_1000, (double)K.inv_distance, (double)K.intensity,
         (double)K.viewport_uv_to_random_uv[0], (double)K.viewport_uv_to_random_uv[1], (double)K.ao_radius_in_shader,
         (double)K.ratio, (double)K.scale_factor, (double)K.inv_threshold, (double)K.scale_radius_in_ws,
         (double)K.mip_blend, (double)K.temporal_offset[0], (double)K.temporal_offset[1], (double)K.static_fraction,
         (double)K.inv_tan_half_fov, (double)K.fade_mul, (double)K.fade_add, (double)K.fov_fix[0],
         (double)K.fov_fix[1], (double)K.units_per_metre, K.variant == AO_UE4_VARIANT_O1, K.normal_mode, K.sample_set,
-        K.sample_count, K.steps, K.quad_blur, smp, tex, K.blur);
+        K.sample_count, K.steps, K.quad_blur, smp, tex, K.blur, K.levels, (double)K.mip_scale);
 }
 static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const void *p, obs_image_f32 *out,
                             obs_image_f32 *out_raw, ao_stats *stats)
