@@ -460,8 +460,9 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
  * Unreal Engine 4's screen-space AO [Mittring12] ("The Technology Behind the Elemental Demo",
  * SIGGRAPH 2012) as PostProcessAmbientOcclusion.usf computes it (UE 4.11/4.12 era, Copyright
  * 1998-2016; read in JimmieKJ/unrealTournament @ 89cfe56, with the constant setup of
- * PostProcessAmbientOcclusion.h/.cpp and the random texture of SystemTextures.cpp). Full-resolution
- * pass only (one level, USE_AO_SETUP_AS_INPUT 0, USE_UPSAMPLE 0). docs/ao/ue4.md has every detail.
+ * PostProcessAmbientOcclusion.h/.cpp and the random texture of SystemTextures.cpp): the
+ * full-resolution pass, and optionally UE's multi-resolution chain (levels 2, 3: AO setup levels and
+ * MipBlend with the upsampled coarser AO). docs/ao/ue4.md has every detail.
  *
  * The kernel runs in UE's scene units (1 unit = 1 cm): depths are multiplied by
  * AO_UE4_UNITS_PER_METRE, so the shader's unit-bearing constants (FlatSurfaceBias 5, the anti-halo

@@ -1,5 +1,6 @@
-/* ao_ue4.c: Unreal Engine 4's screen-space ambient occlusion [Mittring12], the full-resolution pass
- * of PostProcessAmbientOcclusion.usf (UE 4.11/4.12, Copyright 1998-2016; read in
+/* ao_ue4.c: Unreal Engine 4's screen-space ambient occlusion [Mittring12]: the passes of
+ * PostProcessAmbientOcclusion.usf (the full-resolution pass; optionally the AO setup levels and the
+ * coarse passes of the multi-resolution chain) (UE 4.11/4.12, Copyright 1998-2016; read in
  * JimmieKJ/unrealTournament @ 89cfe56 Engine/Shaders/PostProcessAmbientOcclusion.usf), with the
  * constant block of FScreenSpaceAOandSSRShaderParameters::Set (PostProcessAmbientOcclusion.h) and
  * the 4x4 SSAORandomization texture of FSystemTextures::InitializeTextures (SystemTextures.cpp).
@@ -1081,7 +1082,7 @@ static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
 
 const ao_method ao_i_method_ue4 = {
     .name = "ue4",
-    .title = "Unreal Engine 4 AO [Mittring12]: PostProcessAmbientOcclusion.usf (full-resolution pass)",
+    .title = "Unreal Engine 4 AO [Mittring12]: PostProcessAmbientOcclusion.usf (classic and O1 wedges, multi-res option)",
     .doc = "docs/ao/ue4.md",
     .params_size = sizeof(ao_ue4_params),
     .params_default = m_default,
