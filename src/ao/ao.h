@@ -456,7 +456,140 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
 
 /* ================================================================================================
  * UE4 AO (src/ao/ao_ue4.c)
+ *
+ * Unreal Engine 4's screen-space AO [Mittring12] ("The Technology Behind the Elemental Demo",
+ * SIGGRAPH 2012) as PostProcessAmbientOcclusion.usf computes it (UE 4.11/4.12 era, Copyright
+ * 1998-2016; read in JimmieKJ/unrealTournament @ 89cfe56, with the constant setup of
+ * PostProcessAmbientOcclusion.h/.cpp and the random texture of SystemTextures.cpp): the
+ * full-resolution pass, and optionally UE's multi-resolution chain (levels 2, 3: AO setup levels and
+ * MipBlend with the upsampled coarser AO). docs/ao/ue4.md has every detail.
+ *
+ * The kernel runs in UE's scene units (1 unit = 1 cm): depths are multiplied by
+ * AO_UE4_UNITS_PER_METRE, so the shader's unit-bearing constants (FlatSurfaceBias 5, the anti-halo
+ * distance 80, the O1 normal scale 0.08 * 1000) act as they do in a metre-scale UE scene. Params are
+ * in metres.
  * ============================================================================================== */
+
+#define AO_UE4_UNITS_PER_METRE 100.0f       /* UE scene units per metre (UE: 1 uu = 1 cm) */
+/* Defaults: FPostProcessSettings (Engine/Classes/Engine/Scene.h, UE4) converted cm -> m. */
+#define AO_UE4_DEFAULT_RADIUS 2.0f          /* m, > 0; AmbientOcclusionRadius 200 (uu) */
+#define AO_UE4_DEFAULT_RADIUS_IN_WS 0       /* AmbientOcclusionRadiusInWS false (view-space radius) */
+#define AO_UE4_DEFAULT_POWER 2.0f           /* > 0; AmbientOcclusionPower 2.0 */
+#define AO_UE4_DEFAULT_INTENSITY 0.5f       /* [0, 1]; AmbientOcclusionIntensity .5 */
+#define AO_UE4_DEFAULT_BIAS 3.0f            /* >= 0, per mille of depth; AmbientOcclusionBias 3.0 (/1000 in C++) */
+#define AO_UE4_DEFAULT_DISTANCE 0.8f        /* m, > 0; AmbientOcclusionDistance_DEPRECATED 80 (anti-halo, no-normal path) */
+#define AO_UE4_DEFAULT_FADE_DISTANCE 80.0f  /* m, >= 0; AmbientOcclusionFadeDistance 8000 */
+#define AO_UE4_DEFAULT_FADE_RADIUS 50.0f    /* m, >= 0.01 (C++ max(1 uu, .)); AmbientOcclusionFadeRadius 5000 */
+#define AO_UE4_DEFAULT_MIP_SCALE 1.7f       /* AmbientOcclusionMipScale 1.7 (radius factor per level; one level here) */
+#define AO_UE4_DEFAULT_SAMPLE_SET 1         /* USE_SAMPLESET at SHADER_QUALITY 2 (AmbientOcclusionQuality 50) */
+#define AO_UE4_DEFAULT_STEPS 2              /* SAMPLE_STEPS at SHADER_QUALITY 2 */
+#define AO_UE4_DEFAULT_QUAD_BLUR 2          /* QUAD_MESSAGE_PASSING_BLUR at SHADER_QUALITY 2 */
+#define AO_UE4_FLAT_SURFACE_BIAS 5.0f       /* uu; WedgeNoNormal "FlatSurfaceBias = 5.0f" */
+#define AO_UE4_CONTRAST_TWEAK 0.9f          /* acosApproxNormAngle "ContrastTweak = 0.9f" */
+#define AO_UE4_MAX_STEPS 8
+#define AO_UE4_MAX_LEVELS 3                 /* r.AmbientOcclusionLevels range (min(., 3) in the C++) */
+#define AO_UE4_DEFAULT_MIP_BLEND 0.6f       /* AmbientOcclusionMipBlend 0.6 (multi-resolution option) */
+#define AO_UE4_MAX_DEPTH_M 1.0e5f           /* depths (and background taps) are clamped to 100 km */
+
+typedef enum ao_ue4_normals {
+    AO_UE4_NORMALS_NONE = 0,        /* SSAO_NORMAL_MODE 0: WedgeNoNormal (angle between the pair) */
+    AO_UE4_NORMALS_GBUFFER,         /* 1: the G-buffer's normals (default); reconstructed from depth
+                                       (mode 2) when the input has none */
+    AO_UE4_NORMALS_DEPTH,           /* 2: reconstructed from depth (ao_normals_from_depth) */
+    AO_UE4_NORMALS_COUNT
+} ao_ue4_normals;
+
+typedef enum ao_ue4_variant {
+    AO_UE4_VARIANT_CLASSIC = 0,     /* OPTIMIZATION_O1 0: saturate(dot(D, n)/|D|), halo weights (default) */
+    AO_UE4_VARIANT_O1,              /* OPTIMIZATION_O1 1 (what UE 4.9+ compiles): saturate(dot(D, n *
+                                       0.08 * lerp(z, 1000, ws))/dot(D, D)), weight 1 */
+    AO_UE4_VARIANT_COUNT
+} ao_ue4_variant;
+
+typedef struct ao_ue4_params {
+    ao_ue4_variant variant;
+    ao_ue4_normals normals;
+    float radius;           /* AmbientOcclusionRadius in metres (UE value / 100) */
+    int radius_in_ws;       /* 0: AORadiusInShader = radius*100/400/4 scaled by depth (constant
+                               screen size); 1: world-space radius*100/4 uu (= radius/4 m) */
+    float power;            /* AmbientOcclusionPower */
+    float intensity;        /* AmbientOcclusionIntensity */
+    float bias;             /* AmbientOcclusionBias (per mille of depth, along the normal) */
+    float distance;         /* AmbientOcclusionDistance (m): the no-normal path's anti-halo depth */
+    float fade_distance;    /* AmbientOcclusionFadeDistance (m) */
+    float fade_radius;      /* AmbientOcclusionFadeRadius (m) */
+    int sample_set;         /* USE_SAMPLESET: 0 (1 point), 1 (3), 2 (5), 3 (6) */
+    int steps;              /* SAMPLE_STEPS, [1, AO_UE4_MAX_STEPS] */
+    int quad_blur;          /* QUAD_MESSAGE_PASSING_BLUR 0..3 (the 2x2 ddx/ddy blur) */
+    int blur;               /* 1: the seed thesis' 21-tap Gaussian (ao_blur_gaussian21) afterwards */
+    int levels;             /* resolution levels, [1, AO_UE4_MAX_LEVELS]: 1 = the full-resolution pass
+                               alone (default); 2, 3 = UE's multi-resolution chain (AO setup levels at
+                               1/2, 1/4, each blended with the upsampled coarser one by MipBlend) */
+    float mip_blend;        /* AmbientOcclusionMipBlend, [0, 1] (levels > 1) */
+    float mip_scale;        /* AmbientOcclusionMipScale, radius factor per level, (0, 16] (levels > 1) */
+} ao_ue4_params;
+
+/* UE4's defaults (AO_UE4_DEFAULT_*): quality 50 (set 1, 2 steps, quad blur 2), classic variant,
+ * G-buffer normals, Gaussian blur off. */
+ao_ue4_params ao_ue4_params_default(void);
+
+/* Presets: "default" and "ue4" (ao_ue4_params_default()); "ue4-multires" (the same with 2 levels, what
+ * ComputeAmbientOcclusionPassCount gives for AmbientOcclusionQuality 50); "ue4-o1" (the same with OPTIMIZATION_O1,
+ * as UE 4.9+ ships); "thesis" (ssao-thesis-2017 Table 3: r = 0.05, 8 samples; read as the shader
+ * radius AORadiusInShader = 0.05 in view-space mode, i.e. radius 0.8 m; 8 samples -> set 1 x 2 steps,
+ * Gaussian blur on: docs/ao/ue4.md); "quality-0" .. "quality-4" (SHADER_QUALITY 0..4). */
+int ao_ue4_params_preset(const char *name, ao_ue4_params *out);
+const char *const *ao_ue4_preset_names(void);
+
+/* The study's samples-per-pixel n -> (sample_set, steps): the lowest UE4 quality level whose taps
+ * (2 x points x steps) are >= n: n <= 6 -> (1, 1) [6 taps], <= 12 -> (1, 2), <= 18 -> (1, 3),
+ * <= 36 -> (3, 3); above, set 3 with ceil(n / 12) steps (at most AO_UE4_MAX_STEPS). */
+void ao_ue4_samples_to_set(int n, int *sample_set, int *steps);
+
+obs_status ao_ue4_params_validate(obs_context *ctx, const ao_ue4_params *p);
+int ao_ue4_params_to_string(const ao_ue4_params *p, char *buf, size_t size);
+
+/* The points of sample set s (OcclusionSamplesOffsets, float expressions as in the shader); returns
+ * the count (1, 3, 5, 6), 0 for an unknown set. xy must hold 2 x 6 floats. */
+int ao_ue4_sample_set(int s, float xy[12]);
+
+/* The 4x4 SSAORandomization texture (SystemTextures.cpp): texel (x % 4, y % 4), y counted from the
+ * TOP of the full buffer (D3D rows, our row order), is rgba[(x % 4) + 4 (y % 4)], B8G8R8A8 UNORM with
+ * R = Q(c), G = Q(s), B = Q(-s), A = Q(c), c/s = cos/sin(w/16 pi) * lenm(w), w = Reorder[index],
+ * Q(v) = (int)((v * 0.5 + 0.5) * 255.999). The shader reads RandomVec = .rg * 2 - 1. */
+void ao_ue4_random_texture(unsigned char rgba[16][4]);
+
+/* ScreenSpaceAOParams as the C++ sets it for the full-resolution pass (UE units), plus the
+ * projection terms the shader takes from the view, the sample set and the flags. */
+typedef struct ao_ue4_constants {
+    int full_width, full_height;
+    float power, bias_over_1000, inv_distance, intensity;      /* [0] .x .y .z .w */
+    float viewport_uv_to_random_uv[2], ao_radius_in_shader, ratio; /* [1] */
+    float scale_factor, inv_threshold, scale_radius_in_ws, mip_blend; /* [2] (full-resolution pass) */
+    float temporal_offset[2], static_fraction, inv_tan_half_fov; /* [3] (temporal offset 0: no TAA) */
+    float fade_mul, fade_add;                                    /* [4] .x .y */
+    float fov_fix[2];               /* (P00, P11) = (2 fx / W, 2 fy / H) */
+    float screen_scale[2];          /* NDC per pixel: (2 / W, -2 / H); NDC measured from (cx, cy) */
+    float units_per_metre;          /* AO_UE4_UNITS_PER_METRE */
+    float max_depth;                /* AO_UE4_MAX_DEPTH_M in uu */
+    int orthographic;               /* our extension: CS position (ScreenPos * units_per_metre, z) */
+    int variant, normal_mode, sample_set, sample_count, steps, quad_blur, blur;
+    int levels;
+    float mip_scale;                /* AmbientOcclusionMipScale (levels > 1) */
+    float samples[12];              /* OcclusionSamplesOffsets */
+} ao_ue4_constants;
+
+/* Pure params -> constants (mirrors FScreenSpaceAOandSSRShaderParameters::Set at ScaleToFullRes 1).
+ * normal_mode is the effective SSAO_NORMAL_MODE (GBUFFER without input normals -> 2). */
+ao_ue4_constants ao_ue4_constants_from_params(const ao_ue4_params *p, const ao_input *in);
+
+/* UE4 AO over the input's window. out (w x h) receives the AO after the quad blur and, when
+ * params->blur, the Gaussian; out_raw (may be NULL) the AO before the Gaussian. The AO pass runs over
+ * the window plus the Gaussian's reach (10 px), aligned to 2x2 quads when the quad blur is on; the
+ * coarse levels (levels > 1) over their whole planes.
+ * stats may be NULL. Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
+obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
+                          obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats);
 
 /* (end of UE4 AO) */
 

@@ -10,7 +10,7 @@ static const ao_method *const methods[] = {
     /* alchemy */
     &ao_i_method_sao,
     /* hbao */
-    /* ue4 */
+    &ao_i_method_ue4,
     &ao_i_method_gtao,
     &ao_i_method_mssao,
     /* mssao-seed */

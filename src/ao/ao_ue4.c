@@ -1,0 +1,1109 @@
+/* ao_ue4.c: Unreal Engine 4's screen-space ambient occlusion [Mittring12]: the passes of
+ * PostProcessAmbientOcclusion.usf (the full-resolution pass; optionally the AO setup levels and the
+ * coarse passes of the multi-resolution chain) (UE 4.11/4.12, Copyright 1998-2016; read in
+ * JimmieKJ/unrealTournament @ 89cfe56 Engine/Shaders/PostProcessAmbientOcclusion.usf), with the
+ * constant block of FScreenSpaceAOandSSRShaderParameters::Set (PostProcessAmbientOcclusion.h) and
+ * the 4x4 SSAORandomization texture of FSystemTextures::InitializeTextures (SystemTextures.cpp).
+ *
+ * Pixel convention: UE4 is D3D. SV_Position has y DOWN from the top of the render target, which is
+ * our row order, so the 4x4 noise texel and the 2x2 quads of the quad blur use (x, y) of the full
+ * buffer as they are (a GL port uses (x, H - 1 - y_gl)). UE's ScreenPos is NDC with y UP:
+ * sp = ((x + 0.5 - cx) 2/W, -(y + 0.5 - cy) 2/H) (UE assumes cx = W/2, cy = H/2).
+ *
+ * Units: UE scene units (uu = cm). Depths are multiplied by AO_UE4_UNITS_PER_METRE once, so the
+ * shader's constants with a unit (FlatSurfaceBias 5, 1/AmbientOcclusionDistance, the O1 normal scale)
+ * act as in a metre-scale UE scene.
+ *
+ * Arithmetic is float32 in the shader's operation order (built with -ffp-contract=off); HLSL
+ * lerp(a, b, t) is a + t * (b - a), rsqrt is 1/sqrtf, pow is powf, saturate maps NaN to 0 (D3D).
+ * Deviations from the shader (each also in docs/ao/ue4.md, "Differences from the reference"):
+ *   - taps read the full-resolution depth at the nearest texel, not the HZB at MipLevel;
+ *   - the classic path's InvHaloSize is 1 / (2 ActualAORadius) (view-space units, as |Delta|);
+ *   - the multi-resolution option (levels > 1) keeps the setup in float32 (UE: FP16 setup, 8-bit
+ *     coarse AO) and builds each setup level from the previous one;
+ *   - background, zero normals and depths beyond AO_UE4_MAX_DEPTH_M are handled explicitly;
+ *   - the result is saturated (UE writes a UNORM target) but not quantised to 8 bits.
+ */
+#include "ao.h"
+#include "ao_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ================================================================================================
+ * Parameters, presets, constants
+ * ============================================================================================== */
+
+ao_ue4_params ao_ue4_params_default(void)
+{
+    ao_ue4_params p;
+    memset(&p, 0, sizeof p);
+    p.variant = AO_UE4_VARIANT_CLASSIC;   /* issue 4 asks for the classic (weighted) path */
+    p.normals = AO_UE4_NORMALS_GBUFFER;   /* SSAO_NORMAL_MODE 1 (pixel shader default) */
+    p.radius = AO_UE4_DEFAULT_RADIUS;
+    p.radius_in_ws = AO_UE4_DEFAULT_RADIUS_IN_WS;
+    p.power = AO_UE4_DEFAULT_POWER;
+    p.intensity = AO_UE4_DEFAULT_INTENSITY;
+    p.bias = AO_UE4_DEFAULT_BIAS;
+    p.distance = AO_UE4_DEFAULT_DISTANCE;
+    p.fade_distance = AO_UE4_DEFAULT_FADE_DISTANCE;
+    p.fade_radius = AO_UE4_DEFAULT_FADE_RADIUS;
+    p.sample_set = AO_UE4_DEFAULT_SAMPLE_SET;
+    p.steps = AO_UE4_DEFAULT_STEPS;
+    p.quad_blur = AO_UE4_DEFAULT_QUAD_BLUR;
+    p.blur = 0;
+    p.levels = 1;
+    p.mip_blend = AO_UE4_DEFAULT_MIP_BLEND;
+    p.mip_scale = AO_UE4_DEFAULT_MIP_SCALE;
+    return p;
+}
+
+static const char *const preset_names[] = {"default",   "ue4",       "ue4-o1",    "ue4-multires", "thesis",
+                                           "quality-0", "quality-1", "quality-2", "quality-3",    "quality-4",
+                                           NULL};
+
+const char *const *ao_ue4_preset_names(void) { return preset_names; }
+
+/* PostProcessAmbientOcclusion.usf: SHADER_QUALITY -> USE_SAMPLESET, SAMPLE_STEPS,
+ * QUAD_MESSAGE_PASSING_BLUR; the C++ maps AmbientOcclusionQuality q to
+ * (q > 75) + (q > 55) + (q > 25) + (q > 5) (FSSAOHelper::GetAmbientOcclusionShaderLevel). */
+static const int quality_table[5][3] = {{1, 1, 0}, {1, 1, 2}, {1, 2, 2}, {1, 3, 0}, {3, 3, 0}};
+
+int ao_ue4_params_preset(const char *name, ao_ue4_params *out)
+{
+    if (!name || !out)
+        return 0;
+    ao_ue4_params p = ao_ue4_params_default();
+    if (!strcmp(name, "default") || !strcmp(name, "ue4")) {
+        /* FPostProcessSettings defaults */
+    } else if (!strcmp(name, "ue4-multires")) {
+        /* FSSAOHelper::ComputeAmbientOcclusionPassCount: 1 + (q > 70) + (q > 35) = 2 at q = 50 */
+        p.levels = 2;
+    } else if (!strcmp(name, "ue4-o1")) {
+        p.variant = AO_UE4_VARIANT_O1; /* "#define OPTIMIZATION_O1 1" in the 4.9+ shader */
+    } else if (!strcmp(name, "thesis")) {
+        /* ssao-thesis-2017, Tabla 3: "Unreal Engine AO  Radio(m) 0,05  Muestras 8". The thesis has no
+         * UE4 code; it says UE4 "provee mayor oclusión conforme más lejos se encuentra de la cámara",
+         * which is the view-space (screen-constant) radius. We read 0.05 as AORadiusInShader: radius =
+         * 0.05 * 400 * 4 / 100 m = 0.8 m in view-space mode (docs/ao/ue4.md). */
+        p.radius = 0.8f;
+        p.radius_in_ws = 0;
+        ao_ue4_samples_to_set(8, &p.sample_set, &p.steps);
+        p.blur = 1; /* the thesis blurs every technique with its 21-tap Gaussian */
+    } else if (!strncmp(name, "quality-", 8) && name[8] >= '0' && name[8] <= '4' && !name[9]) {
+        const int q = name[8] - '0';
+        p.sample_set = quality_table[q][0];
+        p.steps = quality_table[q][1];
+        p.quad_blur = quality_table[q][2];
+    } else {
+        return 0;
+    }
+    *out = p;
+    return 1;
+}
+
+void ao_ue4_samples_to_set(int n, int *sample_set, int *steps)
+{
+    int s = 1, k = 1;
+    if (n <= 6) {
+        s = 1, k = 1;
+    } else if (n <= 12) {
+        s = 1, k = 2;
+    } else if (n <= 18) {
+        s = 1, k = 3;
+    } else if (n <= 36) {
+        s = 3, k = 3;
+    } else {
+        s = 3;
+        k = n / 12 + (n % 12 != 0);
+        if (k > AO_UE4_MAX_STEPS)
+            k = AO_UE4_MAX_STEPS;
+    }
+    if (sample_set)
+        *sample_set = s;
+    if (steps)
+        *steps = k;
+}
+
+obs_status ao_ue4_params_validate(obs_context *ctx, const ao_ue4_params *p)
+{
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: NULL params");
+    if ((unsigned)p->variant >= AO_UE4_VARIANT_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: unknown variant %d", (int)p->variant);
+    if ((unsigned)p->normals >= AO_UE4_NORMALS_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: unknown normals mode %d", (int)p->normals);
+    if (!(p->radius >= 1e-6f && p->radius <= 1e4f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: radius %g must be in [1e-6, 1e4] m",
+                         (double)p->radius);
+    if (p->radius_in_ws != 0 && p->radius_in_ws != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: radius_in_ws %d must be 0 or 1", p->radius_in_ws);
+    if (!(p->power > 0.0f && p->power <= 1e3f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: power %g must be in (0, 1000]", (double)p->power);
+    if (!(p->intensity >= 0.0f && p->intensity <= 1.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: intensity %g must be in [0, 1]",
+                         (double)p->intensity);
+    if (!(p->bias >= 0.0f && p->bias <= 1000.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: bias %g must be in [0, 1000] (per mille of depth)",
+                         (double)p->bias);
+    if (!(p->distance >= 1e-4f && p->distance <= 1e6f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: distance %g must be in [1e-4, 1e6] m",
+                         (double)p->distance);
+    if (!(p->fade_distance >= 0.0f && p->fade_distance <= 1e6f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: fade_distance %g must be in [0, 1e6] m",
+                         (double)p->fade_distance);
+    if (!(p->fade_radius >= 0.0f && p->fade_radius <= 1e6f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: fade_radius %g must be in [0, 1e6] m",
+                         (double)p->fade_radius);
+    if (p->sample_set < 0 || p->sample_set > 3)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: sample_set %d must be in [0, 3]", p->sample_set);
+    if (p->steps < 1 || p->steps > AO_UE4_MAX_STEPS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: steps %d must be in [1, %d]", p->steps,
+                         AO_UE4_MAX_STEPS);
+    if (p->quad_blur < 0 || p->quad_blur > 3)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: quad_blur %d must be in [0, 3]", p->quad_blur);
+    if (p->blur != 0 && p->blur != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: blur %d must be 0 or 1", p->blur);
+    if (p->levels < 1 || p->levels > AO_UE4_MAX_LEVELS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: levels %d must be in [1, %d]", p->levels,
+                         AO_UE4_MAX_LEVELS);
+    if (!(p->mip_blend >= 0.0f && p->mip_blend <= 1.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: mip_blend %g must be in [0, 1]", (double)p->mip_blend);
+    if (!(p->mip_scale > 0.0f && p->mip_scale <= 16.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: mip_scale %g must be in (0, 16]", (double)p->mip_scale);
+    return OBS_STATUS_OK;
+}
+
+static const char *const variant_names[] = {"classic", "o1", NULL};
+static const char *const normals_names[] = {"none", "gbuffer", "depth", NULL};
+
+int ao_ue4_params_to_string(const ao_ue4_params *p, char *buf, size_t size)
+{
+    return snprintf(buf, size,
+                    "variant=%s normals=%s radius=%.9g radius_in_ws=%d power=%.9g intensity=%.9g bias=%.9g "
+                    "distance=%.9g fade_distance=%.9g fade_radius=%.9g sample_set=%d steps=%d quad_blur=%d blur=%d "
+                    "levels=%d mip_blend=%.9g mip_scale=%.9g",
+                    (unsigned)p->variant < AO_UE4_VARIANT_COUNT ? variant_names[p->variant] : "?",
+                    (unsigned)p->normals < AO_UE4_NORMALS_COUNT ? normals_names[p->normals] : "?", (double)p->radius,
+                    p->radius_in_ws, (double)p->power, (double)p->intensity, (double)p->bias, (double)p->distance,
+                    (double)p->fade_distance, (double)p->fade_radius, p->sample_set, p->steps, p->quad_blur, p->blur,
+                    p->levels, (double)p->mip_blend, (double)p->mip_scale);
+}
+
+int ao_ue4_sample_set(int s, float xy[12])
+{
+    /* PostProcessAmbientOcclusion.usf OcclusionSamplesOffsets (float literals and products, folded in
+     * float as the HLSL compiler does) */
+    memset(xy, 0, sizeof(float) * 12);
+    switch (s) {
+    case 0: /* "one sample, for testing" */
+        xy[0] = 0.500f, xy[1] = 0.500f;
+        return 1;
+    case 1: /* "3 points distributed on the unit disc, spiral order and distance" */
+        xy[0] = 0.0f * 0.43f, xy[1] = -1.0f * 0.43f;
+        xy[2] = 0.58f * 0.7f, xy[3] = 0.814f * 0.7f;
+        xy[4] = -0.58f, xy[5] = 0.814f;
+        return 3;
+    case 2: /* "5 points distributed on a ring" */
+        xy[0] = 0.156434f, xy[1] = 0.987688f;
+        xy[2] = 0.987688f * 0.9f, xy[3] = 0.156434f * 0.9f;
+        xy[4] = 0.453990f * 0.8f, xy[5] = -0.891007f * 0.8f;
+        xy[6] = -0.707107f * 0.7f, xy[7] = -0.707107f * 0.7f;
+        xy[8] = -0.891006f * 0.65f, xy[9] = 0.453991f * 0.65f;
+        return 5;
+    case 3: /* "6 points distributed on the unit disc, spiral order and distance" */
+        xy[0] = 0.000f, xy[1] = 0.200f;
+        xy[2] = 0.325f, xy[3] = 0.101f;
+        xy[4] = 0.272f, xy[5] = -0.396f;
+        xy[6] = -0.385f, xy[7] = -0.488f;
+        xy[8] = -0.711f, xy[9] = 0.274f;
+        xy[10] = 0.060f, xy[11] = 0.900f;
+        return 6;
+    default:
+        return 0;
+    }
+}
+
+static unsigned char quantize8_signed(float x)
+{
+    /* FMath::Quantize8SignedByte: y = x * 0.5f + 0.5f; (int32)(y * 255.999f) */
+    const float y = x * 0.5f + 0.5f;
+    int r = (int)(y * 255.999f);
+    return (unsigned char)(r < 0 ? 0 : r > 255 ? 255 : r);
+}
+
+void ao_ue4_random_texture(unsigned char rgba[16][4])
+{
+    /* SystemTextures.cpp, "Create the SSAO randomization texture". FMath::Sin/Cos of a float are
+     * evaluated correctly rounded (ao_i_cos_sin); PI is UE's float PI. */
+    static const int reorder[16] = {0, 11, 7, 3, 10, 4, 15, 12, 6, 8, 1, 14, 13, 2, 9, 5};
+    const float g_AngleOff2 = 198, g_AngleOff3 = 23, PI_F = 3.1415926535897932f;
+    for (int pos = 0; pos < 16; pos++) {
+        const int w = reorder[pos];
+        const float ww = (float)w / 16.0f * PI_F;              /* "ordered sampling of the rotation basis" */
+        float c1, s1, c, s;
+        ao_i_cos_sin(g_AngleOff2 * (float)w * 0.01f, &c1, &s1);
+        const float lenm = 1.0f - (s1 * 0.5f + 0.5f) * g_AngleOff3 * 0.01f; /* "randomize base scale" */
+        ao_i_cos_sin(ww, &c, &s);
+        s = s * lenm;
+        c = c * lenm;
+        rgba[pos][0] = quantize8_signed(c);
+        rgba[pos][1] = quantize8_signed(s);
+        rgba[pos][2] = quantize8_signed(-s);
+        rgba[pos][3] = quantize8_signed(c);
+    }
+}
+
+static int effective_normal_mode(const ao_ue4_params *p, const ao_input *in)
+{
+    if (p->normals == AO_UE4_NORMALS_GBUFFER && !(in && in->normal[0]))
+        return AO_UE4_NORMALS_DEPTH; /* no G-buffer normals: UE's own fallback, SSAO_NORMAL_MODE 2 */
+    return (int)p->normals;
+}
+
+ao_ue4_constants ao_ue4_constants_from_params(const ao_ue4_params *p, const ao_input *in)
+{
+    ao_ue4_constants k;
+    memset(&k, 0, sizeof k);
+    const float U = AO_UE4_UNITS_PER_METRE;
+    k.full_width = in->width;
+    k.full_height = in->height;
+    k.units_per_metre = U;
+    k.max_depth = AO_UE4_MAX_DEPTH_M * U;
+    /* FScreenSpaceAOandSSRShaderParameters::Set (PostProcessAmbientOcclusion.h) at ScaleToFullRes 1 */
+    float AORadiusInShader = p->radius * U, ScaleRadiusInWorldSpace = 1.0f;
+    if (!p->radius_in_ws) {
+        AORadiusInShader /= 400.0f; /* "radius is defined in view space in 400 units" */
+        ScaleRadiusInWorldSpace = 0.0f;
+    }
+    /* "/4 is an adjustment for usage with multiple mips": pow(MipScale, log2(1)) = 1 */
+    AORadiusInShader *= powf(AO_UE4_DEFAULT_MIP_SCALE, 0.0f) / 4.0f;
+    const float fov_x = (float)(2.0 * in->fx / in->width), fov_y = (float)(2.0 * in->fy / in->height);
+    const float FadeRadius = fmaxf(1.0f, p->fade_radius * U); /* "clamp to prevent user error" */
+    const float InvFadeRadius = 1.0f / FadeRadius;
+    k.power = p->power;
+    k.bias_over_1000 = p->bias / 1000.0f;
+    k.inv_distance = 1.0f / (p->distance * U);
+    k.intensity = p->intensity;
+    /* ViewportUVToRandomUV = InputTextureSize / 64 (SSAORandomization is 64x64 of the 4x4 tile) */
+    k.viewport_uv_to_random_uv[0] = (float)in->width / 64.0f;
+    k.viewport_uv_to_random_uv[1] = (float)in->height / 64.0f;
+    k.ao_radius_in_shader = AORadiusInShader;
+    k.ratio = fov_y / fov_x; /* UE: UnscaledViewRect W / H, i.e. P11 / P00 for square pixels */
+    k.scale_factor = 1.0f;
+    k.inv_threshold = 0.01f;  /* AmbientOcclusionMipThreshold / ScaleToFullRes (upsample only) */
+    k.scale_radius_in_ws = ScaleRadiusInWorldSpace;
+    k.mip_blend = p->mip_blend; /* AmbientOcclusionMipBlend (used with levels > 1) */
+    k.temporal_offset[0] = k.temporal_offset[1] = 0.0f;
+    k.static_fraction = 1.0f; /* AmbientOcclusionStaticFraction (base-pass AO, not used here) */
+    k.inv_tan_half_fov = fov_x; /* ProjMatrix.M[0][0] */
+    k.fade_mul = InvFadeRadius;
+    k.fade_add = -(p->fade_distance * U - FadeRadius) * InvFadeRadius;
+    k.fov_fix[0] = fov_x;
+    k.fov_fix[1] = k.ratio * fov_x; /* FovFix = (InvTanHalfFov, Ratio * InvTanHalfFov, 1) */
+    k.screen_scale[0] = (float)(2.0 / in->width);
+    k.screen_scale[1] = (float)(-2.0 / in->height);
+    k.orthographic = in->projection == OBS_PROJECTION_ORTHOGRAPHIC;
+    k.variant = (int)p->variant;
+    k.normal_mode = effective_normal_mode(p, in);
+    k.sample_set = p->sample_set;
+    k.sample_count = ao_ue4_sample_set(p->sample_set, k.samples);
+    k.steps = p->steps;
+    k.quad_blur = p->quad_blur;
+    k.blur = p->blur;
+    k.levels = p->levels;
+    k.mip_scale = p->mip_scale;
+    return k;
+}
+
+/* ================================================================================================
+ * The AO pass
+ * ============================================================================================== */
+
+/* HLSL saturate: NaN -> 0 (D3D10+ rules), clamp to [0, 1] */
+static inline float saturatef(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
+/* HLSL lerp(a, b, t) = a + t * (b - a) (mad without fusing) */
+static inline float lerpf(float a, float b, float t) { return a + t * (b - a); }
+/* HLSL max (non-NaN operand wins) */
+static inline float hmax(float a, float b) { return a > b ? a : (b == b ? b : a); }
+static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+/* One resolution level: level 0 is the full buffer; level l (multi-resolution option) is the
+ * AO setup of MainSetupPS, DivideAndRoundUp(size, 2) of level l - 1. */
+typedef struct level {
+    int w, h;
+    float s;              /* ScaleToFullRes: 1, 2, 4 */
+    obs_image_f32 z;      /* depth in uu; background -> max_depth */
+    obs_image_f32 n[3];   /* normalised UE view-space normals (0 = unusable); modes 1, 2 */
+    obs_image_f32 e[3];   /* the setup's stored normal (n * 0.5 + 0.5, averaged); levels >= 1 */
+    unsigned char *bg;    /* 1: background */
+    obs_image_f32 ao;     /* levels >= 1: the level's AO (after its quad blur) */
+    float radius;         /* AORadiusInShader of the level */
+    float samples[12];
+    int sample_count;
+} level;
+
+typedef struct prep {
+    const ao_ue4_constants *k;
+    const ao_input *in;
+    level lv[AO_UE4_MAX_LEVELS];
+    int levels;
+    float rand_vec[16][2];/* RandomVec / ActualAORadius = .rg * 2 - 1 */
+    float cx, cy, half_w, half_h; /* principal point and half size of the full buffer */
+} prep;
+
+static inline int texel_x(const prep *P, const level *L, float sx)
+{
+    /* ScreenPosToHZBUV + point sampling, on the level's depth: floor((sx * W/2 + cx) / s) */
+    float u = (sx * P->half_w + P->cx) / L->s;
+    if (!(u > -1e9f))
+        u = -1e9f;
+    if (u > 1e9f)
+        u = 1e9f;
+    return clampi((int)floorf(u), 0, L->w - 1);
+}
+static inline int texel_y(const prep *P, const level *L, float sy)
+{
+    float v = (P->cy - sy * P->half_h) / L->s; /* NDC y up -> our row (down) */
+    if (!(v > -1e9f))
+        v = -1e9f;
+    if (v > 1e9f)
+        v = 1e9f;
+    return clampi((int)floorf(v), 0, L->h - 1);
+}
+static inline float depth_at(const prep *P, const level *L, float sx, float sy)
+{
+    return obs_image_f32_row(&L->z, texel_y(P, L, sy))[texel_x(P, L, sx)];
+}
+
+/* ComputeUpsampleContribution (AO_UPSAMPLE_QUALITY 0: 4 taps at +-0.5 coarse texel at full
+ * resolution, 1: 9 taps at -1, 0, 1 at the coarse levels), point sampling, clamped. Weight
+ * saturate(1 - |dz| 0.003) * saturate(dot(n_tap, n_centre)), normals decoded as rgb * 2 - 1. */
+static float upsample(const prep *P, int l, int x, int y, float SceneDepth, const float cn[3])
+{
+    const level *F = &P->lv[l], *C = &P->lv[l + 1];
+    const float cu = ((float)x + 0.5f) / (float)F->w * (float)C->w, cv = ((float)y + 0.5f) / (float)F->h * (float)C->h;
+    static const float o4[4][2] = {{-0.5f, 0.5f}, {0.5f, 0.5f}, {-0.5f, -0.5f}, {0.5f, -0.5f}};
+    static const float o9[9][2] = {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {0, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}};
+    const int n = l == 0 ? 4 : 9;
+    const float SmallValue = 0.0001f;
+    float WeightSum = SmallValue, Ret = SmallValue;
+    for (int i = 0; i < n; i++) {
+        const float *o = l == 0 ? o4[i] : o9[i];
+        const int tx = clampi((int)floorf(cu + o[0]), 0, C->w - 1), ty = clampi((int)floorf(cv + o[1]), 0, C->h - 1);
+        const float SampleValue = obs_image_f32_row(&C->ao, ty)[tx];
+        const float SampleDepth = obs_image_f32_row(&C->z, ty)[tx];
+        float Weight = saturatef(1.0f - fabsf(SampleDepth - SceneDepth) * 0.003f); /* "crawling pattern at edges" */
+        if (P->k->normal_mode != AO_UE4_NORMALS_NONE) {
+            const float ln[3] = {obs_image_f32_row(&C->e[0], ty)[tx] * 2.0f - 1.0f,
+                                 obs_image_f32_row(&C->e[1], ty)[tx] * 2.0f - 1.0f,
+                                 obs_image_f32_row(&C->e[2], ty)[tx] * 2.0f - 1.0f};
+            Weight *= saturatef(ln[0] * cn[0] + ln[1] * cn[1] + ln[2] * cn[2]);
+        }
+        Ret += SampleValue * Weight;
+        WeightSum += Weight;
+    }
+    return Ret / WeightSum;
+}
+
+/* One pixel of MainPSandCS at level l (x, y in the level, possibly one past its edge: a quad's
+ * helper lane). *ao gets OutColor.r (level 0: after the fade and the user adjustment; coarser
+ * levels: the raw AO, as USE_AO_SETUP_AS_INPUT skips them), before the quad blur; *depth the
+ * SceneDepth (uu) and nxy normalize(ViewSpaceNormal).xy for the quad blur. Returns 1 for a
+ * background pixel (ao = 1). */
+static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth, float nxy[2], int *bad_normal)
+{
+    const ao_ue4_constants *k = P->k;
+    const level *L = &P->lv[l];
+    const int W = k->full_width, H = k->full_height;
+    const int tx = clampi(x, 0, L->w - 1), ty = clampi(y, 0, L->h - 1);
+    nxy[0] = nxy[1] = 0.0f;
+    *bad_normal = 0;
+    const float SceneDepth = obs_image_f32_row(&L->z, ty)[tx];
+    *depth = SceneDepth;
+    if (L->bg[(size_t)ty * L->w + tx]) {
+        *ao = 1.0f;
+        return 1;
+    }
+    /* ScreenPos (NDC, y up) of the pixel centre, from the principal point (computed in double) */
+    const double s = L->s;
+    const float sp_x = (float)((((double)x + 0.5) * s - P->in->cx) * 2.0 / W);
+    const float sp_y = (float)(-(((double)y + 0.5) * s - P->in->cy) * 2.0 / H);
+    const float FovFix[3] = {k->fov_fix[0], k->fov_fix[1], 1.0f};
+    const float InvFovFix[3] = {1.0f / FovFix[0], 1.0f / FovFix[1], 1.0f / FovFix[2]};
+
+    /* ViewSpaceNormal = normalize(mul(WorldNormal, TranslatedWorldToView)) (prepared per pixel) */
+    float n[3] = {0.0f, 0.0f, 0.0f};
+    const int use_n = k->normal_mode != AO_UE4_NORMALS_NONE;
+    if (use_n) {
+        n[0] = obs_image_f32_row(&L->n[0], ty)[tx];
+        n[1] = obs_image_f32_row(&L->n[1], ty)[tx];
+        n[2] = obs_image_f32_row(&L->n[2], ty)[tx];
+        if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
+            *bad_normal = 1; /* UE would compute normalize(0) = NaN: we return visibility 1 */
+            *ao = 1.0f;
+            return 0;
+        }
+        nxy[0] = n[0];
+        nxy[1] = n[1];
+    }
+
+    /* ReconstructCSPos(SceneDepth, ScreenPos) = (ScreenPos * SceneDepth, SceneDepth). Orthographic
+     * (our extension, docs/ao/ue4.md): (ScreenPos * units_per_metre, SceneDepth). */
+    const int ortho = k->orthographic;
+    const float U = k->units_per_metre;
+    float V[3] = {sp_x * (ortho ? U : SceneDepth), sp_y * (ortho ? U : SceneDepth), SceneDepth};
+    /* ActualAORadius = AORadiusInShader * lerp(SceneDepth, 1, ScaleRadiusInWorldSpace) */
+    const float ActualAORadius = L->radius * lerpf(SceneDepth, 1.0f, k->scale_radius_in_ws);
+    /* "Add bias after fixup": ViewSpacePosition += Bias * SceneDepth * ScaleFactor * (n * FovFix) */
+    if (use_n) {
+        const float b = k->bias_over_1000 * SceneDepth * L->s;
+        V[0] += b * (n[0] * FovFix[0]);
+        V[1] += b * (n[1] * FovFix[1]);
+        V[2] += b * (n[2] * FovFix[2]);
+    }
+    float WA[2] = {0.0001f, 0.0001f}; /* WeightAccumulator */
+
+    /* AO_SAMPLE_QUALITY 3: RandomVec = (tex.rg * 2 - 1) * ActualAORadius, tex at pixel % 4
+     * (UV * ViewportUVToRandomUV with a point-wrap sampler on the 64x64 texture; TemporalOffset 0) */
+    const int ri = (((x % 4) + 4) % 4) + 4 * (((y % 4) + 4) % 4);
+    const float RandomVec[2] = {P->rand_vec[ri][0] * ActualAORadius, P->rand_vec[ri][1] * ActualAORadius};
+    const float csV = ortho ? U : V[2];
+    const float invz = 1.0f / csV;
+    const float FovFixXY[2] = {FovFix[0] * invz, FovFix[1] * invz};
+    const float RandomBase[4] = {RandomVec[0] * FovFixXY[0], RandomVec[1] * FovFixXY[1],
+                                 -RandomVec[1] * FovFixXY[0], RandomVec[0] * FovFixXY[1]};
+    const float SSP[2] = {V[0] / csV, V[1] / csV}; /* ScreenSpacePos = ViewSpacePosition.xy / z */
+    /* Deviation: the 2016 shader's InvHaloSize = 1 / (ActualAORadius * FovFixXY.x * 2) is in NDC
+     * units while |Delta| is in uu, which zeroes every weight at UE's scale; we use the view-space
+     * radius, 1 / (2 ActualAORadius) (docs/ao/ue4.md). */
+    const float InvHaloSize = 1.0f / (ActualAORadius * 2.0f);
+    float Ns[3] = {n[0], n[1], n[2]}; /* ScaledViewSpaceNormal */
+    if (k->variant == AO_UE4_VARIANT_O1) {
+        const float sc = 0.08f * lerpf(SceneDepth, 1000.0f, k->scale_radius_in_ws);
+        Ns[0] *= sc, Ns[1] *= sc, Ns[2] *= sc;
+    }
+    const float InvD = k->inv_distance;
+    const float ViewDepthAdd = 1.0f - V[2] * InvD;
+
+    for (int i = 0; i < L->sample_count; i++) {
+        const float ux = L->samples[2 * i], uy = L->samples[2 * i + 1];
+        /* 2x2 rotation: LocalRandom = u.x * RandomBase.xy + u.y * RandomBase.zw */
+        const float LR[2] = {ux * RandomBase[0] + uy * RandomBase[2], ux * RandomBase[1] + uy * RandomBase[3]};
+        float acc[3] = {0.0f, 0.0f, 0.0f};
+        for (int step = 0; step < k->steps; step++) {
+            const float Scale = (float)(step + 1) / (float)k->steps;
+            const float lr[2] = {Scale * LR[0], Scale * LR[1]};
+            /* Wedge*: L = centre + lr, R = centre - lr; the tap's position uses the continuous
+             * screen position and the depth of its texel */
+            const float SL[2] = {SSP[0] + lr[0], SSP[1] + lr[1]}, SR[2] = {SSP[0] - lr[0], SSP[1] - lr[1]};
+            const float AbsL = depth_at(P, L, SL[0], SL[1]), AbsR = depth_at(P, L, SR[0], SR[1]);
+            const float cL = ortho ? U : AbsL, cR = ortho ? U : AbsR;
+            const float PL[3] = {SL[0] * cL, SL[1] * cL, AbsL}, PR[3] = {SR[0] * cR, SR[1] * cR, AbsR};
+            const float DL[3] = {(PL[0] - V[0]) * InvFovFix[0], (PL[1] - V[1]) * InvFovFix[1],
+                                 (PL[2] - V[2]) * InvFovFix[2]};
+            const float DR[3] = {(PR[0] - V[0]) * InvFovFix[0], (PR[1] - V[1]) * InvFovFix[1],
+                                 (PR[2] - V[2]) * InvFovFix[2]};
+            const float LL = DL[0] * DL[0] + DL[1] * DL[1] + DL[2] * DL[2];
+            const float RR = DR[0] * DR[0] + DR[1] * DR[1] + DR[2] * DR[2];
+            if (use_n) {
+                /* WedgeWithNormal */
+                const float dl = DL[0] * Ns[0] + DL[1] * Ns[1] + DL[2] * Ns[2];
+                const float dr = DR[0] * Ns[0] + DR[1] * Ns[1] + DR[2] * Ns[2];
+                float sL, sR, w;
+                if (k->variant == AO_UE4_VARIANT_O1) {
+                    sL = saturatef(dl / LL);
+                    sR = saturatef(dr / RR);
+                    w = 1.0f;
+                } else {
+                    sL = saturatef(dl * (1.0f / sqrtf(LL)));
+                    sR = saturatef(dr * (1.0f / sqrtf(RR)));
+                    w = saturatef(1.0f - sqrtf(LL) * InvHaloSize) * saturatef(1.0f - sqrtf(RR) * InvHaloSize);
+                }
+                /* "combine horizon samples": acc = lerp(acc, float3(max(acc.xy, s.xy), 1), w) */
+                acc[0] = lerpf(acc[0], hmax(acc[0], sL), w);
+                acc[1] = lerpf(acc[1], hmax(acc[1], sR), w);
+                acc[2] = lerpf(acc[2], 1.0f, w);
+            } else {
+                /* WedgeNoNormal, OptionA: NormAngle = acosApproxNormAngle(dot(DL, DR) / sqrt(|DL|^2 |DR|^2)) */
+                const float cosLR = (DL[0] * DR[0] + DL[1] * DR[1] + DL[2] * DR[2]) / sqrtf(LL * RR);
+                float NormAngle = saturatef((1.0f - cosLR) * 0.5f * AO_UE4_CONTRAST_TWEAK);
+                const float left = V[2] - AbsL, right = V[2] - AbsR;
+                if (left + right < AO_UE4_FLAT_SURFACE_BIAS)
+                    NormAngle = 1.0f; /* "fix concave case" */
+                /* "to avoid halos around objects" */
+                float Weight = 1.0f;
+                Weight *= saturatef(PL[2] * InvD + ViewDepthAdd);
+                Weight *= saturatef(PR[2] * InvD + ViewDepthAdd);
+                const float sv = (1.0f - NormAngle) / (Weight + 0.001f);
+                acc[0] = lerpf(acc[0], hmax(acc[0], sv), Weight);
+                acc[2] = lerpf(acc[2], 1.0f, Weight);
+            }
+        }
+        /* "Square(): the area scales quadratic with the angle" */
+        if (use_n) {
+            WA[0] += (1.0f - acc[0]) * (1.0f - acc[0]) * acc[2];
+            WA[1] += acc[2];
+            WA[0] += (1.0f - acc[1]) * (1.0f - acc[1]) * acc[2];
+            WA[1] += acc[2];
+        } else {
+            WA[0] += (1.0f - acc[0]) * (1.0f - acc[0]) * acc[2];
+            WA[1] += acc[2];
+        }
+    }
+    float r = WA[0] / WA[1];
+    /* "recombined result from multiple resolutions": lerp(ao, upsampled, MipBlend) (USE_UPSAMPLE) */
+    if (l + 1 < P->levels) {
+        float cn[3] = {n[0], n[1], n[2]}; /* CenterWorldNormal: level 0 the G-buffer's, else the setup's */
+        if (l > 0 && use_n)
+            for (int c = 0; c < 3; c++)
+                cn[c] = obs_image_f32_row(&L->e[c], ty)[tx] * 2.0f - 1.0f;
+        r = lerpf(r, upsample(P, l, x, y, SceneDepth, cn), k->mip_blend);
+    }
+    if (l > 0) {
+        *ao = r;
+        return 0;
+    }
+    /* "soft fade out AO in the distance" */
+    r = lerpf(r, 1.0f, saturatef(SceneDepth * k->fade_mul + k->fade_add));
+    /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity */
+    r = 1.0f - (1.0f - powf(fabsf(r), k->power)) * k->intensity;
+    *ao = r;
+    return 0;
+}
+
+typedef struct ao_job {
+    const prep *P;
+    int l;
+    int qx0, qy0;          /* region origin (level coordinates, may be one past the edge) */
+    obs_image_f32 *ao, *zq, *nx, *ny;
+    int64_t (*counts)[2];  /* per row: background, zero normal */
+} ao_job;
+
+static void ao_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const ao_job *J = (const ao_job *)user;
+    const int r = (int)task, y = J->qy0 + r;
+    float *a = obs_image_f32_row(J->ao, r), *z = obs_image_f32_row(J->zq, r);
+    float *nx = obs_image_f32_row(J->nx, r), *ny = obs_image_f32_row(J->ny, r);
+    int64_t nb = 0, nn = 0;
+    for (int i = 0; i < J->ao->width; i++) {
+        float nxy[2];
+        int bad;
+        nb += ue4_pixel(J->P, J->l, J->qx0 + i, y, &a[i], &z[i], nxy, &bad);
+        nn += bad;
+        nx[i] = nxy[0];
+        ny[i] = nxy[1];
+    }
+    J->counts[r][0] = nb;
+    J->counts[r][1] = nn;
+}
+
+/* QUAD_MESSAGE_PASSING_BLUR: a 2x2-quad blur with ddx_fine/ddy_fine. Quads are aligned to even
+ * (x, y) of the level (D3D SV_Position). For the output pixel, PixB is its horizontal quad partner
+ * computed as Center - dX * (Mod.x * 2 - 1) (dX = right - left), PixC its vertical one. */
+typedef struct quad_job {
+    const ao_ue4_constants *k;
+    const obs_image_f32 *ao, *zq, *nx, *ny;
+    int qx0, qy0;          /* origin of the quad region (even) */
+    int rx0, ry0;          /* origin of the output rect */
+    const unsigned char *bg;
+    int bg_w;
+    obs_image_f32 *out;
+} quad_job;
+
+static inline float recon_nz(float x, float y) { return sqrtf(1.0f - (x * x + y * y)); }
+
+static void quad_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const quad_job *J = (const quad_job *)user;
+    const int y = J->ry0 + (int)task;
+    const int ly = y - J->qy0, lyp = ly ^ 1; /* quad partner row (region origin is even) */
+    float *o = obs_image_f32_row(J->out, (int)task);
+    for (int i = 0; i < J->out->width; i++) {
+        const int x = J->rx0 + i, lx = x - J->qx0, lxp = lx ^ 1;
+        const int modx = x & 1, mody = y & 1;
+        /* CenterPixel = (ao, SceneDepth, nx, ny) */
+        const float A[4] = {obs_image_f32_row(J->ao, ly)[lx], obs_image_f32_row(J->zq, ly)[lx],
+                            obs_image_f32_row(J->nx, ly)[lx], obs_image_f32_row(J->ny, ly)[lx]};
+        const float Bp[4] = {obs_image_f32_row(J->ao, ly)[lxp], obs_image_f32_row(J->zq, ly)[lxp],
+                             obs_image_f32_row(J->nx, ly)[lxp], obs_image_f32_row(J->ny, ly)[lxp]};
+        const float Cp[4] = {obs_image_f32_row(J->ao, lyp)[lx], obs_image_f32_row(J->zq, lyp)[lx],
+                             obs_image_f32_row(J->nx, lyp)[lx], obs_image_f32_row(J->ny, lyp)[lx]};
+        float B[4], C[4];
+        for (int c = 0; c < 4; c++) {
+            const float dX = modx ? A[c] - Bp[c] : Bp[c] - A[c]; /* ddx_fine: right - left */
+            const float dY = mody ? A[c] - Cp[c] : Cp[c] - A[c]; /* ddy_fine: bottom - top */
+            B[c] = A[c] - dX * (float)(modx * 2 - 1);
+            C[c] = A[c] - dY * (float)(mody * 2 - 1);
+        }
+        float wA = 1.0f, wB = 1.0f, wC = 1.0f;
+        if (J->k->quad_blur >= 2) {
+            /* QUAD_MESSAGE_PASSING_NORMAL: NormalTweak 4 */
+            const float nA[3] = {A[2], A[3], recon_nz(A[2], A[3])};
+            const float nB[3] = {B[2], B[3], recon_nz(B[2], B[3])};
+            const float nC[3] = {C[2], C[3], recon_nz(C[2], C[3])};
+            wB *= saturatef(powf(saturatef(nA[0] * nB[0] + nA[1] * nB[1] + nA[2] * nB[2]), 4.0f));
+            wC *= saturatef(powf(saturatef(nA[0] * nC[0] + nA[1] * nC[1] + nA[2] * nC[2]), 4.0f));
+        }
+        if (J->k->quad_blur >= 3) {
+            /* QUAD_MESSAGE_PASSING_DEPTH: DepthTweak 1 */
+            const float InvDepth = 1.0f / A[1];
+            wB *= 1.0f - saturatef(fabsf(1.0f - B[1] * InvDepth) * 1.0f);
+            wC *= 1.0f - saturatef(fabsf(1.0f - C[1] * InvDepth) * 1.0f);
+        }
+        const float inv = 1.0f / (wA + wB + wC);
+        wA *= inv, wB *= inv, wC *= inv;
+        float v = wA * A[0] + wB * B[0] + wC * C[0];
+        if (J->bg[(size_t)y * J->bg_w + x])
+            v = 1.0f; /* background stays 1 (the quad blur would mix in its neighbours) */
+        o[i] = v;
+    }
+}
+
+typedef struct prep_job {
+    prep *P;
+    const obs_image_f32 *nsrc[3];
+} prep_job;
+
+static void prep_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const prep_job *J = (const prep_job *)user;
+    prep *P = J->P;
+    level *L = &P->lv[0];
+    const int y = (int)task, W = L->w;
+    const float *d = obs_image_f32_row(P->in->depth, y);
+    float *z = obs_image_f32_row(&L->z, y);
+    unsigned char *bg = L->bg + (size_t)y * W;
+    const float U = P->k->units_per_metre, zmax = P->k->max_depth;
+    for (int x = 0; x < W; x++) {
+        const float dm = d[x];
+        const int b = !(isfinite(dm) && dm > 0.0f);
+        bg[x] = (unsigned char)b;
+        float v = b ? zmax : dm * U;
+        z[x] = v < zmax ? v : zmax; /* sky and huge depths read as 100 km */
+    }
+    if (!J->nsrc[0])
+        return;
+    float *o[3] = {obs_image_f32_row(&L->n[0], y), obs_image_f32_row(&L->n[1], y), obs_image_f32_row(&L->n[2], y)};
+    const float *s[3] = {obs_image_f32_row(J->nsrc[0], y), obs_image_f32_row(J->nsrc[1], y),
+                         obs_image_f32_row(J->nsrc[2], y)};
+    for (int x = 0; x < W; x++) {
+        /* ours: right-handed, -Z forward; UE view space: left-handed, +Z forward: (x, y, -z) */
+        const float v[3] = {s[0][x], s[1][x], -s[2][x]};
+        const float dd = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+        if (!(dd > 0.0f) || !isfinite(dd)) {
+            o[0][x] = o[1][x] = o[2][x] = 0.0f;
+            continue;
+        }
+        const float rs = 1.0f / sqrtf(dd); /* normalize = v * rsqrt(dot(v, v)) */
+        o[0][x] = v[0] * rs;
+        o[1][x] = v[1] * rs;
+        o[2][x] = v[2] * rs;
+    }
+}
+
+/* MainSetupPS: level l from level l - 1. The four source texels (2x, 2y) .. (2x+1, 2y+1) (the
+ * bilinear taps at +-0.5 source texel land on texel centres; clamped): MaxZ = max of the depths;
+ * the normal = (0.0001 + sum (n * 0.5 + 0.5) w) / (0.0001 + sum w), w = saturate(1 - |z - MaxZ| *
+ * MipThreshold / ScaleToFullRes). Background where MaxZ is the sky. */
+typedef struct setup_job {
+    prep *P;
+    int l, use_n;
+} setup_job;
+
+static void setup_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const setup_job *J = (const setup_job *)user;
+    const level *S = &J->P->lv[J->l - 1];
+    level *D = &J->P->lv[J->l];
+    const int y = (int)task;
+    const float zmax = J->P->k->max_depth, InvThreshold = 0.01f / S->s; /* AmbientOcclusionMipThreshold */
+    for (int x = 0; x < D->w; x++) {
+        int sx[4], sy[4];
+        for (int i = 0; i < 4; i++) {
+            sx[i] = clampi(2 * x + (i & 1), 0, S->w - 1);
+            sy[i] = clampi(2 * y + (i >> 1), 0, S->h - 1);
+        }
+        float z[4], e[4][3];
+        for (int i = 0; i < 4; i++) {
+            z[i] = obs_image_f32_row(&S->z, sy[i])[sx[i]];
+            for (int c = 0; c < 3; c++) {
+                if (!J->use_n)
+                    e[i][c] = 0.5f;
+                else if (J->l == 1)
+                    e[i][c] = obs_image_f32_row(&S->n[c], sy[i])[sx[i]] * 0.5f + 0.5f;
+                else
+                    e[i][c] = obs_image_f32_row(&S->e[c], sy[i])[sx[i]];
+            }
+        }
+        const float MaxZ = fmaxf(fmaxf(z[0], z[1]), fmaxf(z[2], z[3]));
+        float acc[4] = {0.0001f, 0.0001f, 0.0001f, 0.0001f};
+        for (int i = 0; i < 4; i++) {
+            const float w = saturatef(1.0f - fabsf(z[i] - MaxZ) * InvThreshold); /* ComputeDepthSimilarity */
+            acc[0] += e[i][0] * w, acc[1] += e[i][1] * w, acc[2] += e[i][2] * w, acc[3] += w;
+        }
+        obs_image_f32_row(&D->z, y)[x] = MaxZ;
+        D->bg[(size_t)y * D->w + x] = (unsigned char)(MaxZ >= zmax);
+        float nv[3];
+        for (int c = 0; c < 3; c++) {
+            const float v = acc[c] / acc[3];
+            obs_image_f32_row(&D->e[c], y)[x] = v;
+            nv[c] = v * 2.0f - 1.0f; /* the coarse pass: normalize(rgb * 2 - 1) */
+        }
+        if (J->use_n) {
+            const float dd = nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2];
+            const float rs = dd > 0.0f ? 1.0f / sqrtf(dd) : 0.0f;
+            for (int c = 0; c < 3; c++)
+                obs_image_f32_row(&D->n[c], y)[x] = nv[c] * rs;
+        }
+    }
+}
+
+static void level_free(level *L)
+{
+    for (int c = 0; c < 3; c++) {
+        obs_image_f32_free(&L->n[c]);
+        obs_image_f32_free(&L->e[c]);
+    }
+    obs_image_f32_free(&L->z);
+    obs_image_f32_free(&L->ao);
+    free(L->bg);
+    memset(L, 0, sizeof *L);
+}
+
+/* The AO pass of level l over [qx0, qx1) x [qy0, qy1) (quad-aligned when the quad blur is on),
+ * then the quad blur (or a copy) into out over the rect (rx0, ry0, out->width, out->height). */
+static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int l, int qx0, int qy0, int qx1, int qy1,
+                            int rx0, int ry0, obs_image_f32 *out, int64_t *background)
+{
+    const ao_ue4_constants *K = P->k;
+    const int qw = qx1 - qx0, qh = qy1 - qy0;
+    obs_image_f32 A = {0}, Zq = {0}, NX = {0}, NY = {0};
+    int64_t(*counts)[2] = NULL;
+    obs_status st = obs_image_f32_alloc(ctx, qw, qh, &A);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, qw, qh, &Zq);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, qw, qh, &NX);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, qw, qh, &NY);
+    if (st == OBS_STATUS_OK) {
+        counts = (int64_t(*)[2])calloc((size_t)qh, sizeof *counts);
+        if (!counts)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+    }
+    if (st == OBS_STATUS_OK) {
+        ao_job J = {P, l, qx0, qy0, &A, &Zq, &NX, &NY, counts};
+        obs_pool_run(pool, qh, ao_row, &J);
+        if (K->quad_blur) {
+            quad_job QJ = {K, &A, &Zq, &NX, &NY, qx0, qy0, rx0, ry0, P->lv[l].bg, P->lv[l].w, out};
+            obs_pool_run(pool, out->height, quad_row, &QJ);
+        } else {
+            for (int y = 0; y < out->height; y++)
+                memcpy(obs_image_f32_row(out, y), obs_image_f32_row(&A, y + ry0 - qy0) + (rx0 - qx0),
+                       sizeof(float) * out->width);
+        }
+        if (background)
+            for (int r = 0; r < qh; r++)
+                *background += counts[r][0];
+    }
+    free(counts);
+    obs_image_f32_free(&NY);
+    obs_image_f32_free(&NX);
+    obs_image_f32_free(&Zq);
+    obs_image_f32_free(&A);
+    return st;
+}
+
+obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
+                          obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats)
+{
+    obs_status st = ao_input_validate(ctx, in);
+    if (st != OBS_STATUS_OK)
+        return st;
+    st = ao_ue4_params_validate(ctx, params);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (!out || !out->data || out->width != in->w || out->height != in->h ||
+        (out_raw && (!out_raw->data || out_raw->width != in->w || out_raw->height != in->h)))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ue4: output planes must be %dx%d (the window)", in->w,
+                         in->h);
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    const ao_ue4_constants K = ao_ue4_constants_from_params(params, in);
+    const int W = in->width, H = in->height;
+    prep P;
+    memset(&P, 0, sizeof P);
+    P.k = &K;
+    P.in = in;
+    P.levels = K.levels;
+    P.cx = (float)in->cx;
+    P.cy = (float)in->cy;
+    P.half_w = (float)(0.5 * W);
+    P.half_h = (float)(0.5 * H);
+    obs_image_f32 recon[3] = {{0}, {0}, {0}};
+    obs_image_f32 Q = {0}, G = {0};
+    const obs_image_f32 *nsrc[3] = {NULL, NULL, NULL};
+    const int use_n = K.normal_mode != AO_UE4_NORMALS_NONE;
+    int64_t background = 0, computed = 0;
+
+    /* ---- 1. prepare: depth in uu, background mask, UE view-space normals, the random vectors,
+     *         and the AO setup levels (multi-resolution option) ---- */
+    const double t0 = obs_time_now();
+    unsigned char tex[16][4];
+    ao_ue4_random_texture(tex);
+    for (int i = 0; i < 16; i++) {
+        P.rand_vec[i][0] = (float)tex[i][0] / 255.0f * 2.0f - 1.0f; /* UNORM8 -> float, * 2 - 1 */
+        P.rand_vec[i][1] = (float)tex[i][1] / 255.0f * 2.0f - 1.0f;
+    }
+    for (int l = 0; l < P.levels && st == OBS_STATUS_OK; l++) {
+        level *L = &P.lv[l];
+        L->w = l ? (P.lv[l - 1].w + 1) / 2 : W; /* DivideAndRoundUp(extent, 2) */
+        L->h = l ? (P.lv[l - 1].h + 1) / 2 : H;
+        L->s = (float)(1 << l);
+        /* AORadiusInShader *= pow(MipScale, log2(ScaleToFullRes)) (the /4 is in the constant) */
+        L->radius = K.ao_radius_in_shader * powf(K.mip_scale, (float)l);
+        /* the coarse levels run USE_SAMPLESET 3 (USE_AO_SETUP_AS_INPUT 1) */
+        L->sample_count = l ? ao_ue4_sample_set(3, L->samples) : K.sample_count;
+        if (!l)
+            memcpy(L->samples, K.samples, sizeof L->samples);
+        st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
+        if (st == OBS_STATUS_OK) {
+            L->bg = (unsigned char *)malloc((size_t)L->w * L->h);
+            if (!L->bg)
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+        }
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n; c++)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->n[c]);
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK && l; c++)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->e[c]);
+        if (st == OBS_STATUS_OK && l)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->ao);
+    }
+    if (st == OBS_STATUS_OK && use_n) {
+        if (K.normal_mode == AO_UE4_NORMALS_GBUFFER) {
+            nsrc[0] = in->normal[0], nsrc[1] = in->normal[1], nsrc[2] = in->normal[2];
+        } else {
+            /* SSAO_NORMAL_MODE 2 (ReconstructNormalFromDepthBuffer: the smaller one-sided delta, then a
+             * cross product); ours picks the smaller linear-depth delta (UE: device Z) */
+            for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++)
+                st = obs_image_f32_alloc(ctx, W, H, &recon[c]);
+            if (st == OBS_STATUS_OK)
+                st = ao_normals_from_depth(ctx, pool, in, recon);
+            nsrc[0] = &recon[0], nsrc[1] = &recon[1], nsrc[2] = &recon[2];
+        }
+    }
+    if (st == OBS_STATUS_OK) {
+        prep_job PJ = {&P, {nsrc[0], nsrc[1], nsrc[2]}};
+        obs_pool_run(pool, H, prep_row, &PJ);
+        for (int l = 1; l < P.levels; l++) {
+            setup_job SJ = {&P, l, use_n};
+            obs_pool_run(pool, P.lv[l].h, setup_row, &SJ);
+        }
+    }
+    const double t1 = obs_time_now();
+
+    /* ---- 2. the coarse levels, coarsest first, over their whole planes ---- */
+    for (int l = P.levels - 1; l >= 1 && st == OBS_STATUS_OK; l--) {
+        level *L = &P.lv[l];
+        const int qx1 = K.quad_blur ? L->w + (L->w & 1) : L->w, qy1 = K.quad_blur ? L->h + (L->h & 1) : L->h;
+        st = run_level(ctx, pool, &P, l, 0, 0, qx1, qy1, 0, 0, &L->ao, NULL);
+        computed += (int64_t)qx1 * qy1;
+    }
+
+    /* ---- 3. the full-resolution pass over the window plus the Gaussian's reach, aligned to 2x2
+     *         quads, then its quad blur ---- */
+    int rect[4];
+    ao_blur_reach(in, K.blur ? AO_GAUSS21_RADIUS : 0, rect);
+    int qx0 = rect[0], qy0 = rect[1], qx1 = rect[0] + rect[2], qy1 = rect[1] + rect[3]; /* exclusive */
+    if (K.quad_blur) {
+        qx0 &= ~1, qy0 &= ~1;
+        qx1 += qx1 & 1, qy1 += qy1 & 1; /* may be one past the buffer: a helper lane */
+    }
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &Q);
+    if (st == OBS_STATUS_OK) {
+        st = run_level(ctx, pool, &P, 0, qx0, qy0, qx1, qy1, rect[0], rect[1], &Q, &background);
+        computed += (int64_t)(qx1 - qx0) * (qy1 - qy0);
+    }
+    if (st == OBS_STATUS_OK) {
+        /* the UNORM render target saturates */
+        for (int y = 0; y < rect[3]; y++) {
+            float *q = obs_image_f32_row(&Q, y);
+            for (int x = 0; x < rect[2]; x++)
+                q[x] = saturatef(q[x]);
+        }
+    }
+    const double t2 = obs_time_now();
+
+    /* ---- 4. the seed thesis' Gaussian ---- */
+    const obs_image_f32 *final = &Q;
+    if (st == OBS_STATUS_OK && K.blur) {
+        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &G);
+        if (st == OBS_STATUS_OK)
+            st = ao_blur_gaussian21(ctx, pool, &Q, &G);
+        final = &G;
+    }
+    const double t3 = obs_time_now();
+
+    /* ---- 5. crop the window ---- */
+    if (st == OBS_STATUS_OK) {
+        for (int y = 0; y < in->h; y++) {
+            const int ry = in->y0 + y - rect[1];
+            memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, ry) + (in->x0 - rect[0]), sizeof(float) * in->w);
+            if (out_raw)
+                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&Q, ry) + (in->x0 - rect[0]),
+                       sizeof(float) * in->w);
+        }
+        if (stats) {
+            stats->pixels_computed = computed;
+            stats->pixels_background = background;
+            stats->seconds_prepare = t1 - t0;
+            stats->seconds_kernel = t2 - t1;
+            stats->seconds_blur = t3 - t2;
+        }
+    }
+    obs_image_f32_free(&G);
+    obs_image_f32_free(&Q);
+    for (int c = 0; c < 3; c++)
+        obs_image_f32_free(&recon[c]);
+    for (int l = 0; l < AO_UE4_MAX_LEVELS; l++)
+        level_free(&P.lv[l]);
+    return st;
+}
+
+/* ================================================================================================
+ * The registry descriptor (ao.h, "The method registry")
+ * ============================================================================================== */
+
+_Static_assert(sizeof(ao_ue4_variant) == sizeof(int) && sizeof(ao_ue4_normals) == sizeof(int),
+               "ENUM params are int-sized");
+_Static_assert(sizeof(ao_ue4_params) <= AO_PARAMS_MAX_SIZE, "AO_PARAMS_MAX_SIZE");
+
+#define UE4_F(field) offsetof(ao_ue4_params, field)
+static const ao_param_desc ue4_param_descs[] = {
+    {"variant", AO_PARAM_ENUM, UE4_F(variant), 0, 0, variant_names,
+     "classic (OPTIMIZATION_O1 0, weighted) or o1 (what UE 4.9+ compiles)"},
+    {"normals", AO_PARAM_ENUM, UE4_F(normals), 0, 0, normals_names,
+     "SSAO_NORMAL_MODE: none (WedgeNoNormal), gbuffer (from depth when absent), depth"},
+    {"radius", AO_PARAM_FLOAT, UE4_F(radius), 1e-6, 1e4, NULL,
+     "AmbientOcclusionRadius (m); view space: shader radius radius/16, world space: radius/4 m"},
+    {"radius-in-ws", AO_PARAM_BOOL, UE4_F(radius_in_ws), 0, 1, NULL, "AmbientOcclusionRadiusInWS"},
+    {"power", AO_PARAM_FLOAT, UE4_F(power), 1e-6, 1e3, NULL, "AmbientOcclusionPower"},
+    {"intensity", AO_PARAM_FLOAT, UE4_F(intensity), 0, 1, NULL, "AmbientOcclusionIntensity"},
+    {"bias", AO_PARAM_FLOAT, UE4_F(bias), 0, 1000, NULL, "AmbientOcclusionBias (per mille of depth)"},
+    {"distance", AO_PARAM_FLOAT, UE4_F(distance), 1e-4, 1e6, NULL,
+     "AmbientOcclusionDistance (m): anti-halo depth of the no-normal path"},
+    {"fade-distance", AO_PARAM_FLOAT, UE4_F(fade_distance), 0, 1e6, NULL, "AmbientOcclusionFadeDistance (m)"},
+    {"fade-radius", AO_PARAM_FLOAT, UE4_F(fade_radius), 0, 1e6, NULL, "AmbientOcclusionFadeRadius (m)"},
+    {"sample-set", AO_PARAM_INT, UE4_F(sample_set), 0, 3, NULL, "USE_SAMPLESET: 0 (1 point), 1 (3), 2 (5), 3 (6)"},
+    {"steps", AO_PARAM_INT, UE4_F(steps), 1, AO_UE4_MAX_STEPS, NULL, "SAMPLE_STEPS per direction"},
+    {"quad-blur", AO_PARAM_INT, UE4_F(quad_blur), 0, 3, NULL, "QUAD_MESSAGE_PASSING_BLUR (2x2 ddx/ddy blur)"},
+    {"blur", AO_PARAM_BOOL, UE4_F(blur), 0, 1, NULL, "the seed thesis' 21-tap Gaussian afterwards"},
+    {"levels", AO_PARAM_INT, UE4_F(levels), 1, AO_UE4_MAX_LEVELS, NULL,
+     "resolution levels (r.AmbientOcclusionLevels): 1 = full resolution only"},
+    {"mip-blend", AO_PARAM_FLOAT, UE4_F(mip_blend), 0, 1, NULL, "AmbientOcclusionMipBlend (levels > 1)"},
+    {"mip-scale", AO_PARAM_FLOAT, UE4_F(mip_scale), 1e-6, 16, NULL, "AmbientOcclusionMipScale (levels > 1)"},
+};
+#undef UE4_F
+
+static void m_default(void *p) { *(ao_ue4_params *)p = ao_ue4_params_default(); }
+static int m_preset(const char *name, void *p) { return ao_ue4_params_preset(name, (ao_ue4_params *)p); }
+static obs_status m_validate(obs_context *ctx, const void *p) { return ao_ue4_params_validate(ctx, (const ao_ue4_params *)p); }
+static int m_to_string(const void *p, char *buf, size_t size) { return ao_ue4_params_to_string((const ao_ue4_params *)p, buf, size); }
+static void m_set_samples(void *p, int n)
+{
+    ao_ue4_params *q = (ao_ue4_params *)p;
+    ao_ue4_samples_to_set(n, &q->sample_set, &q->steps);
+}
+/* The study's world-space radius r: world-space mode with AmbientOcclusionRadius 4r, so that
+ * ActualAORadius (the reach of the outermost tap, and the halo radius / 2) is r. */
+static void m_set_radius(void *p, float r)
+{
+    ((ao_ue4_params *)p)->radius = 4.0f * r;
+    ((ao_ue4_params *)p)->radius_in_ws = 1;
+}
+static void m_set_blur(void *p, int on) { ((ao_ue4_params *)p)->blur = on != 0; }
+/* World space: ActualAORadius in m (radius / 4). View space: the world radius at 1 m depth
+ * (radius / 16 m); it grows linearly with depth. */
+static float m_get_radius(const void *p)
+{
+    const ao_ue4_params *q = (const ao_ue4_params *)p;
+    return q->radius_in_ws ? q->radius / 4.0f : q->radius / 16.0f;
+}
+static const char *m_truth(const void *p)
+{
+    (void)p;
+    return "unif"; /* the unoccluded wedge angle per slice, uniform in angle (ao.md 2) */
+}
+static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t size)
+{
+    const ao_ue4_constants K = ao_ue4_constants_from_params((const ao_ue4_params *)p, in);
+    unsigned char t[16][4];
+    ao_ue4_random_texture(t);
+    char tex[16 * 20 + 4];
+    int n = 0;
+    for (int i = 0; i < 16; i++)
+        n += snprintf(tex + n, sizeof tex - (size_t)n, "%s[%d,%d,%d,%d]", i ? "," : "", t[i][0], t[i][1], t[i][2],
+                      t[i][3]);
+    char smp[256];
+    int m = 0;
+    for (int i = 0; i < K.sample_count; i++)
+        m += snprintf(smp + m, sizeof smp - (size_t)m, "%s[%.9g,%.9g]", i ? "," : "", (double)K.samples[2 * i],
+                      (double)K.samples[2 * i + 1]);
+    return snprintf(
+        buf, size,
+        "{\"ScreenSpaceAOParams\": [[%.9g, %.9g, %.9g, %.9g], [%.9g, %.9g, %.9g, %.9g], [%.9g, %.9g, %.9g, %.9g], "
+        "[%.9g, %.9g, %.9g, %.9g], [%.9g, %.9g, 0, 0]], \"FovFix\": [%.9g, %.9g, 1], \"units_per_metre\": %.9g, "
+        "\"OPTIMIZATION_O1\": %d, \"SSAO_NORMAL_MODE\": %d, \"USE_SAMPLESET\": %d, \"SAMPLESET_ARRAY_SIZE\": %d, "
+        "\"SAMPLE_STEPS\": %d, \"QUAD_MESSAGE_PASSING_BLUR\": %d, \"AO_SAMPLE_QUALITY\": 3, "
+        "\"OcclusionSamplesOffsets\": [%s], \"SSAORandomization_4x4_rgba8\": [%s], \"gaussian21_blur\": %d, "
+        "\"levels\": %d, \"MipScale\": %.9g}",
+        (double)K.power, (double)K.bias_over_1000, (double)K.inv_distance, (double)K.intensity,
+        (double)K.viewport_uv_to_random_uv[0], (double)K.viewport_uv_to_random_uv[1], (double)K.ao_radius_in_shader,
+        (double)K.ratio, (double)K.scale_factor, (double)K.inv_threshold, (double)K.scale_radius_in_ws,
+        (double)K.mip_blend, (double)K.temporal_offset[0], (double)K.temporal_offset[1], (double)K.static_fraction,
+        (double)K.inv_tan_half_fov, (double)K.fade_mul, (double)K.fade_add, (double)K.fov_fix[0],
+        (double)K.fov_fix[1], (double)K.units_per_metre, K.variant == AO_UE4_VARIANT_O1, K.normal_mode, K.sample_set,
+        K.sample_count, K.steps, K.quad_blur, smp, tex, K.blur, K.levels, (double)K.mip_scale);
+}
+static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const void *p, obs_image_f32 *out,
+                            obs_image_f32 *out_raw, ao_stats *stats)
+{
+    return ao_ue4_compute(ctx, pool, in, (const ao_ue4_params *)p, out, out_raw, stats);
+}
+
+const ao_method ao_i_method_ue4 = {
+    .name = "ue4",
+    .title = "Unreal Engine 4 AO [Mittring12]: PostProcessAmbientOcclusion.usf (classic and O1 wedges, multi-res option)",
+    .doc = "docs/ao/ue4.md",
+    .params_size = sizeof(ao_ue4_params),
+    .params_default = m_default,
+    .params_preset = m_preset,
+    .preset_names = preset_names,
+    .params = ue4_param_descs,
+    .param_count = (int)(sizeof ue4_param_descs / sizeof ue4_param_descs[0]),
+    .params_adjust = NULL,
+    .params_validate = m_validate,
+    .params_to_string = m_to_string,
+    .set_samples = m_set_samples,
+    .set_radius = m_set_radius,
+    .set_blur = m_set_blur,
+    .get_radius = m_get_radius,
+    .truth_estimator = m_truth,
+    .flat_value = 1.0f,
+    /* exactly 1 on a camera-facing plane (every mode); on a tilted plane the tap reads its texel's
+     * depth at its continuous screen position (point sampling, as UE's HZB fetch), which puts the
+     * tap off the plane by up to half a texel's depth step: measured 0.0434 on the registry's 50
+     * degree plane (96x64, f = 80 px, radius 0.5 m, border 4; classic variant, test_ao_ue4.c) */
+    .flat_tolerance = 0.05f,
+    .constants_to_json = m_constants_json,
+    .compute = m_compute,
+};
