@@ -2,6 +2,15 @@
  *
  *   obscura_bench gbuffer MESH.glb [--size WxH] [--threads N] [--reps R] [--warmup W]
  *                                  [--outputs peer|all] [--isa auto|scalar|avx2] [--tile 16..256]
+ *   obscura_bench methods          (the registered AO methods, one per line)
+ *   obscura_bench ao MESH.glb --method NAME [--preset P] [--samples N] [--radius R] [--blur on|off]
+ *                             [--set NAME=VALUE]... [--size WxH] [--threads N] [--reps R] [--warmup W]
+ *
+ * `ao` renders the G-buffer once (depth and shading normals, the peer's framing) and times the
+ * method's compute over the whole image: total, and the method's own split into prepare (depth
+ * conversion, MIPs, normals), kernel and blur (ao_stats). --set sets any registry parameter by
+ * name (numbers for FLOAT/INT, on/off for BOOL, a choice name for ENUM). Radii are in the scene's
+ * units: the mesh's bounding sphere has radius 10, as in the peer.
  *
  * The scene is framed exactly as the llvmpipe peer (../shared/tools/llvmpipe-peer) frames its
  * OFF mesh, so both render the same pixels: the mesh is centred on its bounding-box centre and
@@ -10,6 +19,7 @@
  * far = dist + 11. `--outputs peer` renders what the peer's gbuffer stage renders (depth and the
  * shading normal); `all` renders every plane. Prints one RESULT line with the median, min and max
  * of the timed repetitions in milliseconds, and the screen coverage. */
+#include "ao/ao.h"
 #include "core/obs.h"
 #include "io/io.h"
 #include "raster/raster.h"
@@ -23,6 +33,42 @@ static int cmp_double(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
     return x < y ? -1 : x > y;
+}
+
+/* Load MESH and frame it as the llvmpipe peer does (see the top comment). Returns 0, or 3 with
+ * the error printed. */
+static int load_framed(obs_context *ctx, const char *mesh, obs_scene *out_scene, obs_camera *out_cam)
+{
+    obs_scene s;
+    io_gltf_options opt = io_gltf_options_default();
+    if (io_gltf_load(ctx, mesh, &opt, &s) != OBS_STATUS_OK) {
+        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+        return 3;
+    }
+    /* Peer framing: bbox centre, farthest vertex at radius 10 (world space of the loaded scene). */
+    obs_scene_update_bounds(&s);
+    obs_vec3 c = obs_v3_scale(obs_v3_add(s.bounds.lo, s.bounds.hi), 0.5f);
+    double r2 = 0;
+    for (uint32_t i = 0; i < s.instance_count; i++) {
+        const obs_mesh *m = &s.meshes[s.instances[i].mesh];
+        for (uint32_t v = 0; v < m->vertex_count; v++) {
+            obs_vec3 w = obs_mat4_mul_point(s.instances[i].world, obs_v3(m->positions[3 * v], m->positions[3 * v + 1], m->positions[3 * v + 2]));
+            obs_vec3 d = obs_v3_sub(w, c);
+            double dd = (double)d.x * d.x + (double)d.y * d.y + (double)d.z * d.z;
+            r2 = dd > r2 ? dd : r2;
+        }
+    }
+    float scale = (float)(10.0 / sqrt(r2));
+    obs_mat4 fit = obs_mat4_mul(obs_mat4_scale(obs_v3(scale, scale, scale)), obs_mat4_translation(obs_v3_scale(c, -1.0f)));
+    for (uint32_t i = 0; i < s.instance_count; i++)
+        s.instances[i].world = obs_mat4_mul(fit, s.instances[i].world);
+    const float fovy = (float)(45.0 * OBS_PI / 180.0);
+    float dist = 10.0f / sinf(0.5f * fovy);
+    obs_camera cam = obs_camera_look_at(obs_v3(0, 0, dist), obs_v3(0, 0, 0), obs_v3(0, 1, 0), fovy,
+                                        fmaxf(dist - 11.0f, 0.5f), dist + 11.0f);
+    *out_scene = s;
+    *out_cam = cam;
+    return 0;
 }
 
 static int bench_gbuffer(int argc, char **argv)
@@ -51,32 +97,9 @@ static int bench_gbuffer(int argc, char **argv)
     p.height = H;
     obs_context *ctx = obs_context_create();
     obs_scene s;
-    io_gltf_options opt = io_gltf_options_default();
-    if (io_gltf_load(ctx, mesh, &opt, &s) != OBS_STATUS_OK) {
-        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+    obs_camera cam;
+    if (load_framed(ctx, mesh, &s, &cam) != 0)
         return 3;
-    }
-    /* Peer framing: bbox centre, farthest vertex at radius 10 (world space of the loaded scene). */
-    obs_scene_update_bounds(&s);
-    obs_vec3 c = obs_v3_scale(obs_v3_add(s.bounds.lo, s.bounds.hi), 0.5f);
-    double r2 = 0;
-    for (uint32_t i = 0; i < s.instance_count; i++) {
-        const obs_mesh *m = &s.meshes[s.instances[i].mesh];
-        for (uint32_t v = 0; v < m->vertex_count; v++) {
-            obs_vec3 w = obs_mat4_mul_point(s.instances[i].world, obs_v3(m->positions[3 * v], m->positions[3 * v + 1], m->positions[3 * v + 2]));
-            obs_vec3 d = obs_v3_sub(w, c);
-            double dd = (double)d.x * d.x + (double)d.y * d.y + (double)d.z * d.z;
-            r2 = dd > r2 ? dd : r2;
-        }
-    }
-    float scale = (float)(10.0 / sqrt(r2));
-    obs_mat4 fit = obs_mat4_mul(obs_mat4_scale(obs_v3(scale, scale, scale)), obs_mat4_translation(obs_v3_scale(c, -1.0f)));
-    for (uint32_t i = 0; i < s.instance_count; i++)
-        s.instances[i].world = obs_mat4_mul(fit, s.instances[i].world);
-    const float fovy = (float)(45.0 * OBS_PI / 180.0);
-    float dist = 10.0f / sinf(0.5f * fovy);
-    obs_camera cam = obs_camera_look_at(obs_v3(0, 0, dist), obs_v3(0, 0, 0), obs_v3(0, 1, 0), fovy,
-                                        fmaxf(dist - 11.0f, 0.5f), dist + 11.0f);
     obs_pool *pool = obs_pool_create(threads);
     rast_gbuffer gb;
     rast_workspace *ws = rast_workspace_create(); /* reused across frames, as a renderer would */
@@ -116,10 +139,167 @@ static int bench_gbuffer(int argc, char **argv)
     return 0;
 }
 
+static double median_sorted(double *t, int n)
+{
+    qsort(t, (size_t)n, sizeof(double), cmp_double);
+    return n % 2 ? t[n / 2] : 0.5 * (t[n / 2 - 1] + t[n / 2]);
+}
+
+/* NAME=VALUE through the method's parameter descriptor. Returns 0, or 2 on a bad setting. */
+static int set_param(const ao_method *m, void *params, const char *kv)
+{
+    char name[64];
+    const char *eq = strchr(kv, '=');
+    if (!eq || (size_t)(eq - kv) >= sizeof name)
+        return 2;
+    memcpy(name, kv, (size_t)(eq - kv));
+    name[eq - kv] = 0;
+    const char *v = eq + 1;
+    const ao_param_desc *d = ao_method_param(m, name);
+    if (!d)
+        return 2;
+    char *field = (char *)params + d->offset;
+    int iv = 0;
+    if (d->type == AO_PARAM_FLOAT) {
+        float f = strtof(v, NULL);
+        memcpy(field, &f, sizeof f);
+        return 0;
+    }
+    if (d->type == AO_PARAM_INT)
+        iv = atoi(v);
+    else if (d->type == AO_PARAM_BOOL)
+        iv = !strcmp(v, "on") || !strcmp(v, "1");
+    else {
+        while (d->choices[iv] && strcmp(d->choices[iv], v))
+            iv++;
+        if (!d->choices[iv])
+            return 2;
+    }
+    memcpy(field, &iv, sizeof iv);
+    return 0;
+}
+
+static int bench_ao(int argc, char **argv)
+{
+    const char *mesh = NULL, *method = NULL, *preset = NULL;
+    int W = 1920, H = 1080, threads = 0, reps = 10, warmup = 2, samples = 0, blur = -1;
+    float radius = 0.0f;
+    const char *sets[32];
+    int nsets = 0;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
+        if (!strcmp(a, "--size")) { if (sscanf(v, "%dx%d", &W, &H) != 2) return 2; i++; }
+        else if (!strcmp(a, "--threads")) { threads = atoi(v); i++; }
+        else if (!strcmp(a, "--reps")) { reps = atoi(v); i++; }
+        else if (!strcmp(a, "--warmup")) { warmup = atoi(v); i++; }
+        else if (!strcmp(a, "--method")) { method = v; i++; }
+        else if (!strcmp(a, "--preset")) { preset = v; i++; }
+        else if (!strcmp(a, "--samples")) { samples = atoi(v); i++; }
+        else if (!strcmp(a, "--radius")) { radius = strtof(v, NULL); i++; }
+        else if (!strcmp(a, "--blur")) { blur = !strcmp(v, "on"); i++; }
+        else if (!strcmp(a, "--set") && nsets < 32) { sets[nsets++] = v; i++; }
+        else if (a[0] != '-') mesh = a;
+        else { fprintf(stderr, "unknown option %s\n", a); return 2; }
+    }
+    const ao_method *m = method ? ao_method_find(method) : NULL;
+    if (!mesh || !m || reps < 1 || W < 1 || H < 1) {
+        fprintf(stderr, "usage: obscura_bench ao MESH.glb --method NAME [options] (unknown method?)\n");
+        return 2;
+    }
+    unsigned char params[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
+    m->params_default(params);
+    if (preset && !m->params_preset(preset, params)) {
+        fprintf(stderr, "bench: %s has no preset %s\n", m->name, preset);
+        return 2;
+    }
+    if (samples > 0)
+        m->set_samples(params, samples);
+    if (radius > 0.0f)
+        m->set_radius(params, radius);
+    if (blur >= 0)
+        m->set_blur(params, blur);
+    for (int k = 0; k < nsets; k++)
+        if (set_param(m, params, sets[k])) {
+            fprintf(stderr, "bench: bad --set %s for %s\n", sets[k], m->name);
+            return 2;
+        }
+    obs_context *ctx = obs_context_create();
+    if (m->params_validate(ctx, params) != OBS_STATUS_OK) {
+        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+        return 2;
+    }
+    obs_scene s;
+    obs_camera cam;
+    if (load_framed(ctx, mesh, &s, &cam) != 0)
+        return 3;
+    rast_params rp = rast_params_default();
+    rp.width = W;
+    rp.height = H;
+    rp.outputs = RAST_OUT_DEPTH | RAST_OUT_NORMAL;
+    obs_pool *pool = obs_pool_create(threads);
+    rast_gbuffer gb;
+    rast_view view = {cam};
+    rast_stats rs;
+    ao_input in;
+    obs_image_f32 out = {0}, raw = {0};
+    if (rast_gbuffer_alloc(ctx, &rp, &gb) != OBS_STATUS_OK ||
+        rast_render(ctx, pool, &s, &view, 1, &rp, &gb, &rs) != OBS_STATUS_OK ||
+        ao_input_from_gbuffer(ctx, &gb, 1, &in) != OBS_STATUS_OK || obs_image_f32_alloc(ctx, W, H, &out) != OBS_STATUS_OK ||
+        obs_image_f32_alloc(ctx, W, H, &raw) != OBS_STATUS_OK) {
+        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+        return 4;
+    }
+    double *t = calloc((size_t)reps * 4, sizeof(double));
+    double *tp = t + reps, *tk = t + 2 * reps, *tb = t + 3 * reps;
+    ao_stats st;
+    for (int k = 0; k < warmup + reps; k++) {
+        double t0 = obs_time_now();
+        if (m->compute(ctx, pool, &in, params, &out, &raw, &st) != OBS_STATUS_OK) {
+            fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+            return 5;
+        }
+        double t1 = obs_time_now();
+        if (k >= warmup) {
+            t[k - warmup] = 1e3 * (t1 - t0);
+            tp[k - warmup] = 1e3 * st.seconds_prepare;
+            tk[k - warmup] = 1e3 * st.seconds_kernel;
+            tb[k - warmup] = 1e3 * st.seconds_blur;
+        }
+    }
+    double mp = median_sorted(tp, reps), mk = median_sorted(tk, reps), mb = median_sorted(tb, reps);
+    double med = median_sorted(t, reps);
+    char desc[1024];
+    m->params_to_string(params, desc, sizeof desc);
+    for (char *c = desc; *c; c++)
+        if (*c == ' ')
+            *c = ',';
+    const double mpix = (double)W * H / 1e6;
+    printf("RESULT ao method=%s mesh=%s size=%dx%d threads=%d coverage=%.4f median_ms=%.3f min_ms=%.3f max_ms=%.3f "
+           "prepare_ms=%.3f kernel_ms=%.3f blur_ms=%.3f ns_per_pixel=%.2f pixels=%lld background=%lld reps=%d params=%s\n",
+           m->name, mesh, W, H, obs_pool_threads(pool), (double)rs.pixels_covered / ((double)W * H), med, t[0],
+           t[reps - 1], mp, mk, mb, med / mpix, (long long)st.pixels_computed, (long long)st.pixels_background,
+           reps, desc);
+    free(t);
+    obs_image_f32_free(&out);
+    obs_image_f32_free(&raw);
+    rast_gbuffer_free(&gb);
+    obs_pool_destroy(pool);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "gbuffer"))
         return bench_gbuffer(argc, argv);
-    fprintf(stderr, "usage: obscura_bench gbuffer MESH.glb [options]\n");
+    if (argc >= 2 && !strcmp(argv[1], "ao"))
+        return bench_ao(argc, argv);
+    if (argc >= 2 && !strcmp(argv[1], "methods")) { /* the registered AO methods, one per line */
+        for (const ao_method *const *m = ao_methods(); *m; m++)
+            printf("%s\n", (*m)->name);
+        return 0;
+    }
+    fprintf(stderr, "usage: obscura_bench gbuffer|ao MESH.glb [options]\n");
     return 2;
 }

@@ -651,6 +651,27 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
  * Shared post-process blurs (src/ao/ao_blur.c)
  * ============================================================================================== */
 
+/* The seed thesis' 21-tap separable Gaussian (ssao-thesis-2017 §4.2.3, Figura 31; the kernel of
+ * Movania's OpenGL Development Cookbook SSAO recipe): w_i = exp(-i^2/16) / sum_j exp(-j^2/16) for
+ * i = -10..10 (sigma = 2 sqrt 2 px, normalised over the 21 taps, printed with 9 decimals; the
+ * float sum of the 21 weights is 1 - 1.2e-7). docs/ao/blur.md. */
+#define AO_GAUSS21_RADIUS 10
+extern const float ao_gauss21_kernel[2 * AO_GAUSS21_RADIUS + 1]; /* the shader's kernel[0..20] */
+
+/* Blur a whole plane (our row order): a horizontal pass, then a vertical one, each
+ * c = sum_{i=-10..10} kernel[10 - i] * tap(i) accumulated in float from 0 in that order, the
+ * vertical taps at GL row y_gl + i (our row y - i), taps clamped to the plane's edge
+ * (GL_CLAMP_TO_EDGE). No depth awareness: background pixels are blurred like any other (the seed
+ * blurs the whole AO texture). in and out have the same size and may not alias.
+ * Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
+obs_status ao_blur_gaussian21(obs_context *ctx, obs_pool *pool, const obs_image_f32 *in, obs_image_f32 *out);
+
+/* The rectangle {x, y, w, h} of the full buffer that a kernel must compute so that a blur reaching
+ * `reach` pixels (per pass, each side) gives, over in's window, what a GPU running both passes on the
+ * whole buffer and cropping gives: the window grown by reach on each side, clipped to the buffer.
+ * (Clamp-to-edge at a clipped side is the buffer's own edge, so it matches too.) */
+void ao_blur_reach(const ao_input *in, int reach, int rect[4]);
+
 /* (end of Shared post-process blurs) */
 
 
