@@ -41,6 +41,7 @@ ao_alchemy_params ao_alchemy_params_default(void)
     p.samples = AO_ALCHEMY_DEFAULT_SAMPLES;
     p.spiral_turns = AO_ALCHEMY_DEFAULT_SPIRAL_TURNS;
     p.normals = AO_ALCHEMY_NORMALS_AUTO;
+    p.range_check = 1;
     p.blur = 1;
     return p;
 }
@@ -106,6 +107,8 @@ obs_status ao_alchemy_params_validate(obs_context *ctx, const ao_alchemy_params 
                          p->spiral_turns);
     if ((unsigned)p->normals >= AO_ALCHEMY_NORMALS_COUNT)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "alchemy: unknown normals mode %d", (int)p->normals);
+    if (p->range_check != 0 && p->range_check != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "alchemy: range check %d must be 0 or 1", p->range_check);
     if (p->blur != 0 && p->blur != 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "alchemy: blur %d must be 0 or 1", p->blur);
     return OBS_STATUS_OK;
@@ -117,10 +120,10 @@ int ao_alchemy_params_to_string(const ao_alchemy_params *p, char *buf, size_t si
 {
     return snprintf(buf, size,
                     "radius=%.9g bias=%.9g intensity=%.9g contrast=%.9g epsilon=%.9g samples=%d spiral_turns=%d "
-                    "normals=%s blur=%d",
+                    "normals=%s range_check=%d blur=%d",
                     (double)p->radius, (double)p->bias, (double)p->intensity, (double)p->contrast,
                     (double)p->epsilon, p->samples, p->spiral_turns,
-                    (unsigned)p->normals < AO_ALCHEMY_NORMALS_COUNT ? normals_names[p->normals] : "?", p->blur);
+                    (unsigned)p->normals < AO_ALCHEMY_NORMALS_COUNT ? normals_names[p->normals] : "?", p->range_check, p->blur);
 }
 
 ao_alchemy_constants ao_alchemy_constants_from_params(const ao_alchemy_params *p, const ao_input *in)
@@ -149,6 +152,8 @@ ao_alchemy_constants ao_alchemy_constants_from_params(const ao_alchemy_params *p
     /* "the height in pixels of a 1 m object viewed from 1 m": the disk radius is r fy / -z_C px */
     k.proj_scale = (float)in->fy;
     k.radius = p->radius;
+    k.radius2 = p->radius * p->radius;
+    k.range_check = p->range_check != 0;
     k.bias = p->bias;
     k.intensity = p->intensity;
     k.contrast = p->contrast;
@@ -278,18 +283,23 @@ static void alchemy_row(void *user, int64_t task, int thread)
             int ox, oy;
             tap(k, spin, disk, t, &ox, &oy);
             const int px = gx + ox, py = gy + oy;
-            /* depth at the tap, CLAMP_TO_EDGE; the position at the tap's own pixel centre (as
-             * SAO's getOffsetPosition reconstructs at ssP, not at the clamped texel) */
+            /* Q: the camera-space position buffer [McGuire11] (pipeline step 2) read at the tap
+             * with CLAMP_TO_EDGE, i.e. the clamped texel's own point (not SAO's reconstruction at
+             * the unclamped ssP, which puts edge depths at off-screen positions) */
             const int cx = px < 0 ? 0 : px > W - 1 ? W - 1 : px;
             const int cy = py < 0 ? 0 : py > H - 1 ? H - 1 : py;
             const float dq = obs_image_f32_row(D, H - 1 - cy)[cx];
             if (!is_surface(dq))
                 continue; /* background: a point at infinity, whose term tends to 0 (documented) */
             float Q[3];
-            cs_pos(k, px, py, -dq, Q);
+            cs_pos(k, cx, cy, -dq, Q);
             const float v0 = Q[0] - C[0], v1 = Q[1] - C[1], v2 = Q[2] - C[2];
             const float vv = v0 * v0 + v1 * v1 + v2 * v2;
             const float vn = v0 * n[0] + v1 * n[1] + v2 * n[2];
+            /* range check [vv < r^2]: SAO_AO.pix falloff A, "From the HPG12 [sic: HPG11 Alchemy]
+             * paper": float(vv < radius2) * max((vn - bias) / (epsilon + vv), 0) */
+            if (k->range_check && !(vv < k->radius2))
+                continue;
             sum += maxf(0.0f, vn + zb) / (vv + k->epsilon);
         }
         /* ---- A = max(0, 1 - (2 sigma / s) sum)^k ---- */
@@ -407,6 +417,13 @@ obs_status ao_alchemy_compute(obs_context *ctx, obs_pool *pool, const ao_input *
         const int ox = in->x0 - rect[0], oy = in->y0 - rect[1];
         for (int y = 0; y < in->h; y++) {
             memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, y + oy) + ox, sizeof(float) * (size_t)in->w);
+            /* background keeps visibility 1 exactly: the Gaussian (not depth-aware) would leave
+             * 1 - 2.4e-7 or blurred-in AO there; no shading uses it (documented deviation) */
+            const float *drow = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
+            float *orow = obs_image_f32_row(out, y);
+            for (int x = 0; x < in->w; x++)
+                if (!is_surface(drow[x]))
+                    orow[x] = 1.0f;
             if (out_raw)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, y + oy) + ox,
                        sizeof(float) * (size_t)in->w);
@@ -445,6 +462,8 @@ static const ao_param_desc alchemy_param_descs[] = {
     {"turns", AO_PARAM_INT, AL_F(spiral_turns), 1, 1000000, NULL, "spiral turns tau"},
     {"normals", AO_PARAM_ENUM, AL_F(normals), 0, 0, normals_names,
      "auto: the G-buffer's if present, else from depth; gbuffer; depth (ao_normals_from_depth)"},
+    {"range-check", AO_PARAM_BOOL, AL_F(range_check), 0, 1, NULL,
+     "count only taps with |v| < r (SAO's falloff A, the HPG11 shader); off: every tap in the disk"},
     {"blur", AO_PARAM_BOOL, AL_F(blur), 0, 1, NULL, "the seed's 21-tap separable Gaussian after the AO pass"},
 };
 #undef AL_F
@@ -475,13 +494,13 @@ int ao_alchemy_constants_to_json(const ao_alchemy_constants *K, char *buf, size_
 {
     return snprintf(buf, size,
                     "{\"full_size\": [%d, %d], \"orthographic\": %d, \"normals_from_gbuffer\": %d, "
-                    "\"projInfo\": [%.9g, %.9g, %.9g, %.9g], \"projScale\": %.9g, \"radius\": %.9g, "
+                    "\"projInfo\": [%.9g, %.9g, %.9g, %.9g], \"projScale\": %.9g, \"radius\": %.9g, \"radius2\": %.9g, \"range_check\": %d, "
                     "\"bias\": %.9g, \"intensity\": %.9g, \"contrast\": %.9g, \"epsilon\": %.9g, "
                     "\"NUM_SAMPLES\": %d, \"NUM_SPIRAL_TURNS\": %d, \"inv_num_samples\": %.9g, "
                     "\"turns_angle\": %.9g, \"intensity_scale\": %.9g, \"blur\": %d, \"blur_taps\": %d}",
                     K->full_width, K->full_height, K->orthographic, K->normals_from_gbuffer, (double)K->proj_info[0],
                     (double)K->proj_info[1], (double)K->proj_info[2], (double)K->proj_info[3], (double)K->proj_scale,
-                    (double)K->radius, (double)K->bias, (double)K->intensity, (double)K->contrast,
+                    (double)K->radius, (double)K->radius2, K->range_check, (double)K->bias, (double)K->intensity, (double)K->contrast,
                     (double)K->epsilon, K->num_samples, K->num_spiral_turns, (double)K->inv_num_samples,
                     (double)K->turns_angle, (double)K->intensity_scale, K->blur, 2 * AO_GAUSS21_RADIUS + 1);
 }
