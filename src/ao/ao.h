@@ -448,8 +448,8 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
  * placed on the Alchemy/SAO spiral with the per-pixel hash of the HPG11/HPG12 lineage
  * (ao_sao_spin, GL pixel coordinates), and
  *   A = max(0, 1 - (2 sigma / s) * sum_i max(0, v_i.n + z_C beta) / (v_i.v_i + epsilon))^k
- * with v_i = Q_i - C (camera space, z_C < 0), taps with v_i.v_i >= r^2 skipped (SAO_AO.pix falloff A,
- * "From the HPG paper"; optional), n the pixel's unit normal (the G-buffer's when the
+ * with v_i = Q_i - C (camera space, z_C < 0), taps with v_i.v_i >= r^2 skipped (as SAO_AO.pix's
+ * falloff A, "From the HPG12 paper"; optional), n the pixel's unit normal (the G-buffer's when the
  * input has normals, else ao_normals_from_depth). docs/ao/alchemy.md has every detail.
  * ============================================================================================== */
 
@@ -482,8 +482,8 @@ typedef struct ao_alchemy_params {
     int samples;            /* s */
     int spiral_turns;       /* tau */
     ao_alchemy_normals normals;
-    int range_check;        /* 1 (default): only taps with v.v < r^2 count (SAO_AO.pix falloff A, "From
-                               the HPG paper"); 0: every tap in the disk (the estimator as printed) */
+    int range_check;        /* 1 (default): only taps with v.v < r^2 count (as SAO_AO.pix falloff A,
+                               "From the HPG12 paper"); 0: every tap in the disk (as printed) */
     int blur;               /* 1: the seed's 21-tap Gaussian (ao_blur_gaussian21) after the AO pass */
 } ao_alchemy_params;
 

@@ -296,8 +296,9 @@ static void alchemy_row(void *user, int64_t task, int thread)
             const float v0 = Q[0] - C[0], v1 = Q[1] - C[1], v2 = Q[2] - C[2];
             const float vv = v0 * v0 + v1 * v1 + v2 * v2;
             const float vn = v0 * n[0] + v1 * n[1] + v2 * n[2];
-            /* range check [vv < r^2]: SAO_AO.pix falloff A, "From the HPG12 [sic: HPG11 Alchemy]
-             * paper": float(vv < radius2) * max((vn - bias) / (epsilon + vv), 0) */
+            /* range check [vv < r^2]: the Alchemy term with a step at r, as the authors' SAO_AO.pix
+             * keeps it (falloff A, "From the HPG12 paper": float(vv < radius2) *
+             * max((vn - bias) / (epsilon + vv), 0)); whether HPG11 itself has the step is [U] */
             if (k->range_check && !(vv < k->radius2))
                 continue;
             sum += maxf(0.0f, vn + zb) / (vv + k->epsilon);
@@ -463,7 +464,7 @@ static const ao_param_desc alchemy_param_descs[] = {
     {"normals", AO_PARAM_ENUM, AL_F(normals), 0, 0, normals_names,
      "auto: the G-buffer's if present, else from depth; gbuffer; depth (ao_normals_from_depth)"},
     {"range-check", AO_PARAM_BOOL, AL_F(range_check), 0, 1, NULL,
-     "count only taps with |v| < r (SAO's falloff A, the HPG11 shader); off: every tap in the disk"},
+     "count only taps with |v| < r (as SAO_AO.pix falloff A); off: every tap in the disk"},
     {"blur", AO_PARAM_BOOL, AL_F(blur), 0, 1, NULL, "the seed's 21-tap separable Gaussian after the AO pass"},
 };
 #undef AL_F
