@@ -442,7 +442,123 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
 
 /* ================================================================================================
  * Alchemy AO (src/ao/ao_alchemy.c)
+ *
+ * The Alchemy screen-space ambient obscurance algorithm [McGuire11] (McGuire, Osman, Bukowski,
+ * Hennessy, HPG 2011): per pixel, s taps on a screen-space disk of the projected world radius r,
+ * placed on the Alchemy/SAO spiral with the per-pixel hash of the HPG11/HPG12 lineage
+ * (ao_sao_spin, GL pixel coordinates), and
+ *   A = max(0, 1 - (2 sigma / s) * sum_i max(0, v_i.n + z_C beta) / (v_i.v_i + epsilon))^k
+ * with v_i = Q_i - C (camera space, z_C < 0), taps with v_i.v_i >= r^2 skipped (as SAO_AO.pix's
+ * falloff A, "From the HPG12 paper"; optional), n the pixel's unit normal (the G-buffer's when the
+ * input has normals, else ao_normals_from_depth). docs/ao/alchemy.md has every detail.
  * ============================================================================================== */
+
+/* Defaults: the paper's and its authors' HPG11 talk values ([McGuire11], talk "Equation" slide,
+ * ../shared/reference/verification.md section 1), the spiral of the SAO HPG12 shader. */
+#define AO_ALCHEMY_DEFAULT_RADIUS 0.5f      /* r, m, > 0; secondary design note "r = 0.5 m" [U] */
+#define AO_ALCHEMY_DEFAULT_BIAS 1e-4f       /* beta, >= 0 (scaled by z_C); talk: "e.g., 10^-4" */
+#define AO_ALCHEMY_DEFAULT_INTENSITY 1.0f   /* sigma, >= 0, artistic; talk: "e.g., 1.0" */
+#define AO_ALCHEMY_DEFAULT_CONTRAST 1.0f    /* k, > 0, artistic; talk: "e.g., 1.0" */
+#define AO_ALCHEMY_DEFAULT_EPSILON 1e-5f    /* epsilon, m^2, > 0; talk: "e.g., 10^-5" */
+#define AO_ALCHEMY_DEFAULT_SAMPLES 12       /* s in [1, AO_ALCHEMY_MAX_SAMPLES]; paper Fig. 1 "12 samples" */
+#define AO_ALCHEMY_DEFAULT_SPIRAL_TURNS 7   /* tau >= 1; HPG12 SAO_AO.pix NUM_SPIRAL_TURNS (the paper's
+                                               own value was not verified) */
+#define AO_ALCHEMY_MAX_SAMPLES 1024
+
+typedef enum ao_alchemy_normals {
+    AO_ALCHEMY_NORMALS_AUTO = 0,    /* default: the G-buffer's when the input has them (the paper reads
+                                       a normal buffer), else ao_normals_from_depth */
+    AO_ALCHEMY_NORMALS_GBUFFER,     /* the G-buffer's; INVALID_ARGUMENT when the input has none */
+    AO_ALCHEMY_NORMALS_DEPTH,       /* always ao_normals_from_depth */
+    AO_ALCHEMY_NORMALS_COUNT
+} ao_alchemy_normals;
+
+typedef struct ao_alchemy_params {
+    float radius;           /* r: world-space radius of the sample disk, metres */
+    float bias;             /* beta: the shadow bias, multiplied by the pixel's z_C (so in m/m) */
+    float intensity;        /* sigma */
+    float contrast;         /* k */
+    float epsilon;          /* m^2 */
+    int samples;            /* s */
+    int spiral_turns;       /* tau */
+    ao_alchemy_normals normals;
+    int range_check;        /* 1 (default): only taps with v.v < r^2 count (as SAO_AO.pix falloff A,
+                               "From the HPG12 paper"); 0: every tap in the disk (as printed) */
+    int blur;               /* 1: the seed's 21-tap Gaussian (ao_blur_gaussian21) after the AO pass */
+} ao_alchemy_params;
+
+/* The paper's defaults (AO_ALCHEMY_DEFAULT_*), blur on. */
+ao_alchemy_params ao_alchemy_params_default(void);
+
+/* Named presets. Returns 1 and fills *out, or 0 for an unknown name.
+ *   "default", "hpg11": ao_alchemy_params_default() (the paper's and talk's values).
+ *   "thesis": the seed thesis' Table 3 (ssao-thesis-2017): r = 1 m, 16 samples; the rest default.
+ *   "port": the third-party AlchemyHPG11 GLSL ports ("From paper AlchemyHPG11 and improvements
+ *           SAOHPG12"): sigma 1, k 1.5, beta 0.002, epsilon 1e-5, tau 7, 16 samples, r 1 m. */
+int ao_alchemy_params_preset(const char *name, ao_alchemy_params *out);
+/* The preset names, NULL-terminated. */
+const char *const *ao_alchemy_preset_names(void);
+
+/* Check params. Returns OK or INVALID_ARGUMENT naming the field and its range. */
+obs_status ao_alchemy_params_validate(obs_context *ctx, const ao_alchemy_params *p);
+
+/* Resolved params as one line of text. snprintf semantics. */
+int ao_alchemy_params_to_string(const ao_alchemy_params *p, char *buf, size_t size);
+
+/* The shader's constant block (uniforms), float32. */
+typedef struct ao_alchemy_constants {
+    int full_width, full_height;    /* the buffer the shader runs over (GL pixel grid) */
+    int orthographic;               /* 0: perspective; 1: orthographic */
+    int normals_from_gbuffer;       /* 1: the G-buffer's normals; 0: ao_normals_from_depth */
+    /* csPos(s, z) = vec3((vec2(s) + 0.5) * projInfo.xy + projInfo.zw, 1) * z (perspective; z < 0),
+     * s in GL pixel coordinates, as ao_sao_constants.proj_info (orthographic: xy not times z). */
+    float proj_info[4];
+    float proj_scale;               /* pixels per metre at 1 m: fy */
+    float radius, radius2, bias, intensity, contrast, epsilon;
+    int range_check;                /* 1: taps count only when v.v < radius2 */
+    int num_samples, num_spiral_turns;
+    float inv_num_samples;          /* 1.0 / float(s) */
+    float turns_angle;              /* float(tau) * 6.28 (the HPG12 spiral's constant) */
+    float intensity_scale;          /* (2.0 * sigma) / float(s) */
+    int blur;
+} ao_alchemy_constants;
+
+/* The pure params -> constants step. in gives the buffer size and the pixel model; normals_from_gbuffer
+ * resolves AUTO against in. Params are assumed validated. */
+ao_alchemy_constants ao_alchemy_constants_from_params(const ao_alchemy_params *p, const ao_input *in);
+
+typedef struct ao_alchemy_stats {
+    int64_t pixels_computed;        /* pixels the AO pass ran on (window plus blur reach) */
+    int64_t pixels_background;      /* of those: background (visibility 1) */
+    int64_t pixels_degenerate_normal; /* of those: zero or non-finite normal (visibility 1) */
+    double seconds_normals, seconds_ao, seconds_blur;
+} ao_alchemy_stats;
+
+/* Alchemy AO over the input's window. out (required) and out_raw (optional) are w x h planes. The
+ * AO pass runs over the window plus the blur's reach (AO_GAUSS21_RADIUS px each side, inside the
+ * buffer) when params->blur, so that the result equals a GPU running both passes over the whole
+ * buffer and cropping. stats may be NULL.
+ * Returns: OK; INVALID_ARGUMENT (input, params, planes, GBUFFER normals without normals);
+ * OUT_OF_MEMORY; LIMIT_EXCEEDED. */
+obs_status ao_alchemy_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_alchemy_params *params,
+                              obs_image_f32 *out, obs_image_f32 *out_raw, ao_alchemy_stats *stats);
+
+/* The building block (also the kernel of every mssao-seed level): the raw (unblurred) Alchemy AO over
+ * the rectangle rect = {x, y, w, h} of the full buffer (our row order) into out (w x h). normals: the
+ * unit view-space normal planes to use (full buffer size, our row order; the G-buffer's or
+ * ao_normals_from_depth's), required. counts (may be NULL) receives {background, degenerate normal}.
+ * Returns OK or INVALID_ARGUMENT. */
+obs_status ao_alchemy_raw(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_alchemy_constants *k,
+                          const obs_image_f32 *const normals[3], const int rect[4], obs_image_f32 *out,
+                          int64_t counts[2]);
+
+/* The constant block as one JSON object (the uniforms a shader port needs). snprintf semantics. */
+int ao_alchemy_constants_to_json(const ao_alchemy_constants *k, char *buf, size_t size);
+
+/* The tap of sample i of the pixel at GL coordinates (x_gl, y_gl) with screen-space disk radius
+ * disk_px: the integer offset (ivec2(ssR * (cos, sin))) added to the pixel, before the clamp to the
+ * buffer. Exposed for validation (the sample pattern). */
+void ao_alchemy_tap_offset(const ao_alchemy_constants *k, int x_gl, int y_gl, float disk_px, int i, int offset[2]);
 
 /* (end of Alchemy AO) */
 
@@ -942,7 +1058,60 @@ obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
 
 /* ================================================================================================
  * The seed's multi-resolution Alchemy AO (src/ao/ao_mssao_seed.c)
+ *
+ * ssao-thesis-2017 section 4.2.2.3 ("Multi-Scale Ambient Occlusion", Figuras 30 and 33, Tablas 3,
+ * 24, 25): Alchemy AO (ao_alchemy_raw) at 5 resolutions W >> l x H >> l, l = 0..4 (the G-buffer
+ * point-sampled at each level's pixel centres, the pixel model scaled as glViewport does), each
+ * level blurred by the seed's 21-tap Gaussian at its own resolution, upsampled bilinearly (GL_LINEAR,
+ * clamp to edge) and blended: V = max(0, 1 - sum_l I_l (1 - A_l)), I = (1.0, 0.5, 0.3, 0.3, 0.3)
+ * (Tabla 25). docs/ao/mssao-seed.md has every detail and every choice the thesis leaves open.
  * ============================================================================================== */
+
+#define AO_MSSAO_SEED_LEVELS 5              /* Figura 30: LEVEL_COUNT == 5 */
+#define AO_MSSAO_SEED_DEFAULT_RADIUS 2.0f   /* m; Tabla 3 "Multi Scale AO 2" */
+#define AO_MSSAO_SEED_DEFAULT_SAMPLES 16    /* Tabla 3 "Multi Scale AO ... 16" */
+
+typedef struct ao_mssao_seed_params {
+    ao_alchemy_params alchemy;      /* the kernel run at every level (same r, s, ... at each);
+                                       alchemy.blur = each level's Gaussian */
+    float level_intensity[AO_MSSAO_SEED_LEVELS]; /* I_l, >= 0; Tabla 25 */
+} ao_mssao_seed_params;
+
+/* The thesis' values: Alchemy defaults with r = 2 m, 16 samples (Tabla 3), blur on, intensities
+ * 1.0, 0.5, 0.3, 0.3, 0.3 (Tabla 25). */
+ao_mssao_seed_params ao_mssao_seed_params_default(void);
+
+/* "default", "thesis": the defaults. "full-intensity": every I_l = 1 (Figura 86, "máxima
+ * intensidad"). "level0" .. "level4": one level alone (I_l = 1, the others 0; Figura 85).
+ * Returns 1 and fills *out, or 0 for an unknown name. */
+int ao_mssao_seed_params_preset(const char *name, ao_mssao_seed_params *out);
+const char *const *ao_mssao_seed_preset_names(void);
+
+/* Returns OK or INVALID_ARGUMENT naming the field. */
+obs_status ao_mssao_seed_params_validate(obs_context *ctx, const ao_mssao_seed_params *p);
+int ao_mssao_seed_params_to_string(const ao_mssao_seed_params *p, char *buf, size_t size);
+
+/* Level l's size: max(1, W >> l) x max(1, H >> l) (Figura 30: RTT_WIDTH / pow(2, i)). */
+void ao_mssao_seed_level_size(int W, int H, int l, int *w, int *h);
+
+/* The full-buffer pixel (our row order) that level l's pixel (x, y) (its own row order) takes its
+ * G-buffer values from: in GL coordinates, the full pixel whose square contains the level pixel's
+ * centre, floor((i + 0.5) * W / w_l), floor((j + 0.5) * H / h_l). */
+void ao_mssao_seed_level_source(int W, int H, int l, int x, int y, int *sx, int *sy);
+
+typedef struct ao_mssao_seed_stats {
+    int64_t pixels_computed;        /* all levels */
+    int64_t pixels_background;
+    double seconds_prepare, seconds_ao, seconds_blur, seconds_blend;
+} ao_mssao_seed_stats;
+
+/* The multi-resolution AO over in's window. out (required) gets the blend of the blurred levels
+ * (of the raw levels when !params->alchemy.blur), out_raw (optional) the blend of the raw levels.
+ * Level 0 is computed over the window plus the blur's reach; levels 1-4 over their whole image.
+ * Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
+obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
+                                 const ao_mssao_seed_params *params, obs_image_f32 *out, obs_image_f32 *out_raw,
+                                 ao_mssao_seed_stats *stats);
 
 /* (end of The seed's multi-resolution Alchemy AO) */
 

@@ -7,13 +7,13 @@
 
 static const ao_method *const methods[] = {
     /* crytek */
-    /* alchemy */
+    &ao_i_method_alchemy,
     &ao_i_method_sao,
     /* hbao */
     &ao_i_method_ue4,
     &ao_i_method_gtao,
     &ao_i_method_mssao,
-    /* mssao-seed */
+    &ao_i_method_mssao_seed,
     NULL,
 };
 
