@@ -9,7 +9,7 @@ static const ao_method *const methods[] = {
     /* crytek */
     /* alchemy */
     &ao_i_method_sao,
-    /* hbao */
+    &ao_i_method_hbao,
     /* ue4 */
     /* gtao */
     /* mssao */
