@@ -595,7 +595,7 @@ typedef struct ao_hbao_stats {
     int64_t pixels_computed;        /* AO-pass pixels (window plus blur reach) */
     int64_t pixels_background;      /* of those: background (visibility 1) */
     int64_t pixels_small_radius;    /* CLASSIC: projected radius < 1 px ("numSteps < 1": visibility 1) */
-    int64_t pixels_degenerate_normal; /* PLUS: no usable normal (visibility 1) */
+    int64_t pixels_degenerate_normal; /* no usable normal: PLUS from depth, or a G-buffer's (visibility 1) */
     double seconds_prepare, seconds_ao, seconds_blur;
 } ao_hbao_stats;
 

@@ -481,7 +481,7 @@ static inline v3 tangent_eye_pos(const ao_hbao_constants *k, const obs_image_f32
     return V;
 }
 
-static float classic_pixel(const hbao_job *J, int x, int y, int64_t *n_small)
+static float classic_pixel(const hbao_job *J, int x, int y, int64_t *n_small, int64_t *n_degen)
 {
     const ao_hbao_constants *k = J->k;
     const obs_image_f32 *z = J->z;
@@ -514,8 +514,10 @@ static float classic_pixel(const hbao_job *J, int x, int y, int64_t *n_small)
                     *n2 = obs_image_f32_row(J->in->normal[2], y);
         v3 N = {n0[x], n1[x], -n2[x]};
         const float l2 = v3_dot(N, N);
-        if (!(l2 > 0.0f) || !(l2 < INFINITY))
-            return 1.0f; /* no usable normal */
+        if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
+            (*n_degen)++;
+            return 1.0f; /* no usable G-buffer normal */
+        }
         const float inv = 1.0f / sqrtf(l2);
         N = (v3){N.x * inv, N.y * inv, N.z * inv};
         const float w = v3_dot(P, N); /* tangentPlane = float4(N, dot(P, N)) */
@@ -642,7 +644,7 @@ static void hbao_row(void *user, int64_t task, int thread)
             n_bg++;
             continue;
         }
-        const float a = J->k->variant == AO_HBAO_VARIANT_CLASSIC ? classic_pixel(J, x, y, &n_small)
+        const float a = J->k->variant == AO_HBAO_VARIANT_CLASSIC ? classic_pixel(J, x, y, &n_small, &n_degen)
                                                                  : plus_pixel(J, x, y, &n_degen);
         out[i] = a == a ? a : 1.0f; /* cannot be NaN (every step is guarded); belt and braces */
     }
