@@ -598,6 +598,23 @@ static const char *const gl_fs_classic =
 "    ao += AccumulatedHorizonOcclusion(deltaUV, texUV, P, numSteps, rand_Dir.z, dPdu, dPdv); }\n"
 "  out_Color = vec4(clamp(1.0 - ao / g_NumDir * g_Contrast, 0.0, 1.0)); }\n";
 
+/* The blur: gl_ssao bilateralblur.frag.glsl, with HBAO+'s ProcessRadius1 depth slope under SLOPE 1
+ * (Blur_Common.hlsl, the non-adaptive path it uses for KERNEL_RADIUS 2) */
+static const char *const gl_fs_blur =
+"#version 450\n"
+"uniform float g_Sharpness; uniform vec2 g_InvResolutionDirection; uniform float BlurFalloff;\n"
+"layout(binding=0) uniform sampler2D texSource; layout(binding=1) uniform sampler2D texLinearDepth;\n"
+"in vec2 texCoord; layout(location=0) out vec4 out_Color;\n"
+"float BlurW(float r, float d, float slope, float center_d) { d -= slope * r; float ddiff = (d - center_d) * g_Sharpness;\n"
+"  return exp2(-r*r*BlurFalloff - ddiff*ddiff); }\n"
+"void main(){ float center_c = texture(texSource, texCoord).x; float center_d = texture(texLinearDepth, texCoord).x;\n"
+"  float c_total = center_c; float w_total = 1.0;\n"
+"  for (int side = 0; side < 2; side++) { vec2 dir = side == 0 ? g_InvResolutionDirection : -g_InvResolutionDirection;\n"
+"    float slope = SLOPE != 0 ? texture(texLinearDepth, texCoord + dir).x - center_d : 0.0;\n"
+"    for (float r = 1; r <= KERNEL_RADIUS; ++r) { vec2 uv = texCoord + dir * r; float c = texture(texSource, uv).x;\n"
+"      float d = texture(texLinearDepth, uv).x; float w = BlurW(r, d, slope, center_d); w_total += w; c_total += c*w; } }\n"
+"  out_Color = vec4(c_total/w_total); }\n";
+
 #define HB_GL_FUNCS(X)                                                                                   \
     X(PFNGLGETSTRINGPROC, glGetString) X(PFNGLCREATESHADERPROC, glCreateShader)                          \
     X(PFNGLSHADERSOURCEPROC, glShaderSource) X(PFNGLCOMPILESHADERPROC, glCompileShader)                  \
@@ -613,7 +630,7 @@ static const char *const gl_fs_classic =
     X(PFNGLGENFRAMEBUFFERSPROC, glGenFramebuffers) X(PFNGLBINDFRAMEBUFFERPROC, glBindFramebuffer)        \
     X(PFNGLFRAMEBUFFERTEXTUREPROC, glFramebufferTexture) X(PFNGLVIEWPORTPROC, glViewport)                \
     X(PFNGLACTIVETEXTUREPROC, glActiveTexture) X(PFNGLDRAWARRAYSPROC, glDrawArrays)                      \
-    X(PFNGLREADPIXELSPROC, glReadPixels) X(PFNGLFINISHPROC, glFinish)
+    X(PFNGLREADPIXELSPROC, glReadPixels) X(PFNGLFINISHPROC, glFinish) X(PFNGLUNIFORM2FPROC, glUniform2f)
 
 typedef struct hb_gl {
 #define HB_DECL(T, n) T n;
@@ -836,6 +853,71 @@ TEST(hbao_matches_reference_shaders_on_llvmpipe)
             CHECK_MSG(big <= n / 1000, "%s: %d pixels differ by more than 1e-3", var ? "plus" : "classic", big);
             obs_image_f32_free(&out);
             obs_image_f32_free(&raw);
+        }
+        /* the blur on the classic AO: gl_ssao's (radius 3, sigma 1.5, sharpness 40) and HBAO+'s
+         * radius 2 with the depth slope (sigma 1.5, sharpness 16) */
+        for (int bi = 0; bi < 2 && si == 0; bi++) {
+            const int R = bi ? 2 : 3, slope = bi;
+            const float sharp = bi ? 16.0f : 40.0f, sigma = 1.5f;
+            ao_hbao_params p = ao_hbao_params_default();
+            p.blur = 0;
+            p.radius = 0.5f;
+            obs_image_f32 a0, raw, bl;
+            CHECK_OK(hb_run(ctx, NULL, &in, &p, &a0, &raw, NULL), ctx);
+            CHECK_OK(obs_image_f32_alloc(ctx, W, H, &bl), ctx);
+            CHECK_OK(ao_hbao_blur(ctx, NULL, &a0, &d, 0, 0, R, sigma, sharp, slope, &bl), ctx);
+            char src[4096], defs[64];
+            snprintf(defs, sizeof defs, "#version 450\n#define KERNEL_RADIUS %d.0\n#define SLOPE %d\n", R, slope);
+            snprintf(src, sizeof src, "%s%s", defs, strchr(gl_fs_blur, '\n') + 1);
+            GLuint pr = hb_prog(&g, src);
+            CHECK(pr != 0);
+            GLuint ta, tdz, tt, ft;
+            g.glGenTextures(1, &ta);
+            g.glGenTextures(1, &tdz);
+            g.glGenTextures(1, &tt);
+            GLuint texs[3] = {ta, tdz, tt};
+            for (int ti = 0; ti < 3; ti++) {
+                if (ti < 2)
+                    for (int y = 0; y < H; y++)
+                        for (int x = 0; x < W; x++)
+                            up[y * W + x] = px(ti ? &d : &a0, x, H - 1 - y);
+                g.glBindTexture(GL_TEXTURE_2D, texs[ti]);
+                g.glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, W, H, 0, GL_RED, GL_FLOAT, ti < 2 ? up : NULL);
+                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+            }
+            g.glGenFramebuffers(1, &ft);
+            g.glBindFramebuffer(GL_FRAMEBUFFER, ft);
+            g.glFramebufferTexture(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, tt, 0);
+            g.glUseProgram(pr);
+            g.glUniform1f(g.glGetUniformLocation(pr, "g_Sharpness"), sharp);
+            g.glUniform1f(g.glGetUniformLocation(pr, "BlurFalloff"), 1.0f / (2.0f * sigma * sigma));
+            g.glUniform2f(g.glGetUniformLocation(pr, "g_InvResolutionDirection"), 1.0f / (float)W, 0.0f);
+            g.glActiveTexture(GL_TEXTURE0);
+            g.glBindTexture(GL_TEXTURE_2D, ta);
+            g.glActiveTexture(GL_TEXTURE1);
+            g.glBindTexture(GL_TEXTURE_2D, tdz);
+            g.glDrawArrays(GL_TRIANGLES, 0, 3);
+            g.glBindFramebuffer(GL_FRAMEBUFFER, fb);
+            g.glUniform2f(g.glGetUniformLocation(pr, "g_InvResolutionDirection"), 0.0f, 1.0f / (float)H);
+            g.glActiveTexture(GL_TEXTURE0);
+            g.glBindTexture(GL_TEXTURE_2D, tt);
+            g.glDrawArrays(GL_TRIANGLES, 0, 3);
+            g.glReadPixels(0, 0, W, H, GL_RED, GL_FLOAT, res);
+            g.glFinish();
+            double mx = 0.0;
+            for (int y = 0; y < H; y++)
+                for (int x = 0; x < W; x++) {
+                    const double e = fabs((double)res[(H - 1 - y) * W + x] - (double)px(&bl, x, y));
+                    mx = e > mx ? e : mx;
+                }
+            printf("  blur radius %d slope %d %dx%d: |ours - llvmpipe| max %.3g over all pixels\n", R, slope, W, H, mx);
+            CHECK_MSG(mx <= 1e-5, "blur %d: max %g", bi, mx);
+            obs_image_f32_free(&a0);
+            obs_image_f32_free(&raw);
+            obs_image_f32_free(&bl);
         }
         free(up);
         free(res);
