@@ -564,6 +564,8 @@ typedef struct ao_hbao_constants {
     float ao_multiplier;            /* AOMultiplier = 1 / (1 - NDotVBias) */
     float pow_exponent;             /* PowExponent */
     float alpha;                    /* Alpha = 2.0 * M_PI / NUM_DIRECTIONS (M_PI = 3.14159265f) */
+    float plus_dirs[AO_HBAO_MAX_DIRECTIONS][2]; /* (cos, sin)(Alpha * d), the loop-invariant values a
+                                       compiler folds when it unrolls the direction loop */
     /* the blur */
     int blur, blur_radius, blur_depth_slope;
     float blur_sharpness;           /* g_Sharpness */

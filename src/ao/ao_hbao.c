@@ -248,6 +248,8 @@ ao_hbao_constants ao_hbao_constants_from_params(const ao_hbao_params *p, const a
     k.ao_multiplier = 1.0f / (1.0f - p->ndotv_bias);
     k.pow_exponent = p->pow_exponent;
     k.alpha = 2.0f * HBAO_PI_F / (float)k.num_dirs; /* const float Alpha = 2.0 * M_PI / NUM_DIRECTIONS */
+    for (int d = 0; d < k.num_dirs; d++) /* Angle = Alpha * DirectionIndex; cos(Angle), sin(Angle) */
+        ao_i_cos_sin(k.alpha * (float)d, &k.plus_dirs[d][0], &k.plus_dirs[d][1]);
     /* Blur */
     k.blur = p->blur != 0;
     k.blur_radius = p->blur_radius;
@@ -599,9 +601,7 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
     const float stepSizePixels = radiusPixels / ((float)k->num_steps + 1.0f);
     float AO = 0.0f;
     for (int d = 0; d < k->num_dirs; d++) {
-        const float angle = k->alpha * (float)d;
-        float c, s;
-        ao_i_cos_sin(angle, &c, &s);
+        const float c = k->plus_dirs[d][0], s = k->plus_dirs[d][1]; /* (cos, sin)(Alpha * d) */
         /* Direction = RotateDirection(vec2(cos(Angle), sin(Angle)), Rand.xy) */
         const float dirx = c * rd[0] - s * rd[1], diry = c * rd[1] + s * rd[0];
         /* Jitter starting sample within the first step: RayPixels = Rand.z * StepSizePixels + 1.0 */
