@@ -512,6 +512,16 @@ TEST(hbao_window_with_guard_band_equals_full_buffer_cropped)
 #endif
 #endif
 
+/* Under AddressSanitizer the in-process Mesa (uninstrumented, with its LLVM JIT) may keep
+ * allocations past eglTerminate that LeakSanitizer would report against this test: skip there. */
+#if defined(__SANITIZE_ADDRESS__)
+#define HBAO_UNDER_ASAN 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define HBAO_UNDER_ASAN 1
+#endif
+#endif
+
 #ifdef HBAO_HAVE_GL_HEADERS
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
@@ -668,6 +678,10 @@ static int hb_cmpf(const void *a, const void *b)
 
 TEST(hbao_matches_reference_shaders_on_llvmpipe)
 {
+#ifdef HBAO_UNDER_ASAN
+    printf("  skipped: AddressSanitizer build (Mesa in-process)\n");
+    return;
+#endif
     setenv("LIBGL_ALWAYS_SOFTWARE", "1", 0);
     setenv("GALLIUM_DRIVER", "llvmpipe", 0);
     void *lib = dlopen("libEGL.so.1", RTLD_NOW | RTLD_LOCAL);
