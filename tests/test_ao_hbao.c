@@ -288,6 +288,12 @@ TEST(hbao_plus_single_tap_matches_hand_computation)
     const double A = fmin(fmax(1 - 2 * tap / 0.9, 0), 1);
     CHECK_NEAR(px(&out, x0, y0), A, 2e-6);
     CHECK(px(&out, x0, y0) < 1.0f);
+    /* HBAO+'s split (CoarseAO_PS): the single step is the first, weighing 2 * SmallScaleAO / (1 - bias) */
+    p.small_scale_ao = 1.0f;
+    obs_image_f32_free(&out);
+    obs_image_f32_free(&raw);
+    CHECK_OK(hb_run(ctx, NULL, &in, &p, &out, &raw, NULL), ctx);
+    CHECK_NEAR(px(&out, x0, y0), fmin(fmax(1 - 2 * (2 * tap / 0.9), 0), 1), 2e-6);
     (void)k;
     obs_image_f32_free(&out);
     obs_image_f32_free(&raw);
@@ -774,6 +780,7 @@ TEST(hbao_matches_reference_shaders_on_llvmpipe)
             p.blur = 0;
             p.radius = 0.5f;
             p.pow_exponent = 1.5f;
+            p.small_scale_ao = 0.0f; /* gl_ssao's form */
             const ao_hbao_constants k = ao_hbao_constants_from_params(&p, &in);
             obs_image_f32 out, raw;
             CHECK_OK(hb_run(ctx, NULL, &in, &p, &out, &raw, NULL), ctx);
@@ -1055,7 +1062,7 @@ TEST(hbao_hard_cases_stay_finite)
 TEST(hbao_bad_params_are_rejected_naming_the_field)
 {
     obs_context *ctx = obs_context_create();
-    for (int i = 0; i < 13; i++) {
+    for (int i = 0; i < 14; i++) {
         ao_hbao_params p = ao_hbao_params_default();
         const char *field = "";
         switch (i) {
@@ -1071,6 +1078,7 @@ TEST(hbao_bad_params_are_rejected_naming_the_field)
         case 9: p.blur_radius = 17; field = "blur radius"; break;
         case 10: p.blur_sharpness = NAN; field = "blur sharpness"; break;
         case 11: p.blur_sigma = -1.0f; field = "blur sigma"; break;
+        case 12: p.small_scale_ao = 3.0f; field = "small scale ao"; break;
         default: p.variant = (ao_hbao_variant)7; field = "variant"; break;
         }
         CHECK_EQ_INT(ao_hbao_params_validate(ctx, &p), OBS_STATUS_INVALID_ARGUMENT);

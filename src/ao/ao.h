@@ -510,6 +510,9 @@ typedef struct ao_hbao_params {
     float contrast;         /* CLASSIC: m_Contrast; AO = 1 - ao / N_d * contrast / (1 - sin(bias)) */
     float ndotv_bias;       /* PLUS: NDotVBias */
     float pow_exponent;     /* PLUS: PowExponent */
+    float small_scale_ao;   /* PLUS: 0 = gl_ssao's form (every step weighs 1, the default); > 0 = HBAO+
+                               CoarseAO_PS: the first step weighs 2 * small_scale_ao, the others 1
+                               (LargeScaleAO 1), and RadiusPixels < 1 gives 1 */
     ao_hbao_normals normals;
     int blur;               /* 1: ao_hbao_blur after the AO pass */
     int blur_radius;        /* KERNEL_RADIUS: taps 1..R each side, point-sampled */
@@ -524,7 +527,9 @@ ao_hbao_params ao_hbao_params_default(void);
 /* Named presets. Returns 1 and fills *out, or 0 for an unknown name.
  *   "default", "sdk": ao_hbao_params_default() (the DX10 SDK sample's constructor values).
  *   "plus": PLUS with HBAO+'s GFSDK_SSAO_Parameters defaults: R 1 m, bias 0.1, PowerExponent 2,
- *           8 directions x 4 steps, blur radius 4, sharpness 16, depth slope on.
+ *           8 directions x 4 steps, blur radius 4, sharpness 16, depth slope on, gl_ssao's
+ *           unsplit sum (small_scale_ao 0).
+ *   "hbaoplus": "plus" with HBAO+'s SmallScaleAO(1.f) split (small_scale_ao 1).
  *   "gl-ssao": PLUS with gl_ssao's Tweak defaults: R 2 m, bias 0.1, intensity (PowExponent) 1.5,
  *           bilateralblur.frag.glsl: radius 3, sigma 1.5, sharpness 40, no depth slope. */
 int ao_hbao_params_preset(const char *name, ao_hbao_params *out);
@@ -563,6 +568,8 @@ typedef struct ao_hbao_constants {
     float ndotv_bias;               /* NDotVBias */
     float ao_multiplier;            /* AOMultiplier = 1 / (1 - NDotVBias) */
     float pow_exponent;             /* PowExponent */
+    float small_scale_amount;       /* 0: gl_ssao form; else HBAO+ fSmallScaleAOAmount = Small * 2 / (1 - bias) */
+    float large_scale_amount;       /* HBAO+ fLargeScaleAOAmount = 1 / (1 - bias) (LargeScaleAO 1) */
     float alpha;                    /* Alpha = 2.0 * M_PI / NUM_DIRECTIONS (M_PI = 3.14159265f) */
     float plus_dirs[AO_HBAO_MAX_DIRECTIONS][2]; /* (cos, sin)(Alpha * d), the loop-invariant values a
                                        compiler folds when it unrolls the direction loop */

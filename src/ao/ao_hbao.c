@@ -46,6 +46,7 @@ ao_hbao_params ao_hbao_params_default(void)
     p.contrast = AO_HBAO_DEFAULT_CONTRAST;
     p.ndotv_bias = AO_HBAO_DEFAULT_NDOTV_BIAS;
     p.pow_exponent = AO_HBAO_DEFAULT_POW_EXPONENT;
+    p.small_scale_ao = 0.0f; /* gl_ssao hbao.frag.glsl: one sum over all steps */
     p.normals = AO_HBAO_NORMALS_DEPTH;
     p.blur = 1;
     p.blur_radius = AO_HBAO_DEFAULT_BLUR_RADIUS;
@@ -55,7 +56,7 @@ ao_hbao_params ao_hbao_params_default(void)
     return p;
 }
 
-static const char *const hbao_preset_names[] = {"default", "sdk", "plus", "gl-ssao", NULL};
+static const char *const hbao_preset_names[] = {"default", "sdk", "plus", "hbaoplus", "gl-ssao", NULL};
 
 const char *const *ao_hbao_preset_names(void) { return hbao_preset_names; }
 
@@ -66,7 +67,7 @@ int ao_hbao_params_preset(const char *name, ao_hbao_params *out)
     ao_hbao_params p = ao_hbao_params_default();
     if (!strcmp(name, "default") || !strcmp(name, "sdk")) {
         /* HorizonBasedAOEngine constructor (verification.md 2) */
-    } else if (!strcmp(name, "plus")) {
+    } else if (!strcmp(name, "plus") || !strcmp(name, "hbaoplus")) {
         /* GFSDK_SSAO.h GFSDK_SSAO_Parameters(): Radius(1.f), Bias(0.1f), PowerExponent(2.f),
          * StepCount 4; Blur: Radius 4, Sharpness(16.f); Blur_Common.hlsl USE_DEPTH_SLOPE 1 */
         p.variant = AO_HBAO_VARIANT_PLUS;
@@ -76,6 +77,8 @@ int ao_hbao_params_preset(const char *name, ao_hbao_params *out)
         p.blur_radius = 4;
         p.blur_sharpness = 16.0f;
         p.blur_depth_slope = 1;
+        /* GFSDK_SSAO_Parameters SmallScaleAO(1.f), LargeScaleAO(1.f) (CoarseAO_PS.hlsl split) */
+        p.small_scale_ao = !strcmp(name, "hbaoplus") ? 1.0f : 0.0f;
     } else if (!strcmp(name, "gl-ssao")) {
         /* gl_ssao ssao.cpp Tweak: intensity 1.5, bias 0.1, radius 2.0, blurSharpness 40;
          * bilateralblur.frag.glsl KERNEL_RADIUS 3, BlurSigma = KERNEL_RADIUS * 0.5, no slope */
@@ -140,6 +143,10 @@ obs_status ao_hbao_params_validate(obs_context *ctx, const ao_hbao_params *p)
     if (!(p->pow_exponent >= 0.0f) || !isfinite(p->pow_exponent))
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: pow exponent %g must be finite and >= 0",
                          (double)p->pow_exponent);
+    if (!(p->small_scale_ao >= 0.0f && p->small_scale_ao <= 2.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "hbao: small scale ao %g must be in [0, 2] (0 = gl_ssao's unsplit sum; HBAO+ clamps to [0, 2])",
+                         (double)p->small_scale_ao);
     if ((unsigned)p->normals >= AO_HBAO_NORMALS_COUNT)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: unknown normals mode %d", (int)p->normals);
     if (p->blur != 0 && p->blur != 1)
@@ -170,11 +177,11 @@ int ao_hbao_params_to_string(const ao_hbao_params *p, char *buf, size_t size)
 {
     return snprintf(buf, size,
                     "variant=%s radius=%.9g directions=%d steps=%d angle_bias_deg=%.9g attenuation=%.9g "
-                    "contrast=%.9g ndotv_bias=%.9g pow_exponent=%.9g normals=%s blur=%d blur_radius=%d "
+                    "contrast=%.9g ndotv_bias=%.9g pow_exponent=%.9g small_scale_ao=%.9g normals=%s blur=%d blur_radius=%d "
                     "blur_sharpness=%.9g blur_sigma=%.9g blur_depth_slope=%d",
                     p->variant == AO_HBAO_VARIANT_PLUS ? "plus" : "classic", (double)p->radius, resolved_dirs(p),
                     resolved_steps(p), (double)p->angle_bias_deg, (double)p->attenuation, (double)p->contrast,
-                    (double)p->ndotv_bias, (double)p->pow_exponent,
+                    (double)p->ndotv_bias, (double)p->pow_exponent, (double)p->small_scale_ao,
                     p->normals == AO_HBAO_NORMALS_GBUFFER ? "gbuffer" : "depth", p->blur, p->blur_radius,
                     (double)p->blur_sharpness, (double)resolved_sigma(p), p->blur_depth_slope);
 }
@@ -247,6 +254,10 @@ ao_hbao_constants ao_hbao_constants_from_params(const ao_hbao_params *p, const a
     k.ndotv_bias = p->ndotv_bias;
     k.ao_multiplier = 1.0f / (1.0f - p->ndotv_bias);
     k.pow_exponent = p->pow_exponent;
+    /* HBAO+ SetAOParameters: fSmallScaleAOAmount = Small * AOAmountScaleFactor * 2.f,
+     * fLargeScaleAOAmount = Large * AOAmountScaleFactor, AOAmountScaleFactor = 1 / (1 - bias) */
+    k.small_scale_amount = p->small_scale_ao > 0.0f ? p->small_scale_ao * k.ao_multiplier * 2.0f : 0.0f;
+    k.large_scale_amount = p->small_scale_ao > 0.0f ? 1.0f * k.ao_multiplier : 0.0f;
     k.alpha = 2.0f * HBAO_PI_F / (float)k.num_dirs; /* const float Alpha = 2.0 * M_PI / NUM_DIRECTIONS */
     for (int d = 0; d < k.num_dirs; d++) /* Angle = Alpha * DirectionIndex; cos(Angle), sin(Angle) */
         ao_i_cos_sin(k.alpha * (float)d, &k.plus_dirs[d][0], &k.plus_dirs[d][1]);
@@ -595,11 +606,15 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
     /* Compute projection of disk of radius control.R into screen space:
      * RadiusPixels = RadiusToScreen / (projOrtho != 0 ? 1.0 : ViewPosition.z) */
     const float radiusPixels = k->radius_to_screen / (k->orthographic ? 1.0f : P.z);
+    const int split = k->small_scale_amount > 0.0f;
+    /* HBAO+ CoarseAO_PS: early exit if the projected radius is smaller than 1 full-res pixel */
+    if (split && radiusPixels < 1.0f)
+        return 1.0f;
     /* Get jitter vector for the current full-res pixel: (cos(Alpha), sin(Alpha), rand1, rand2) */
     const float *rd = J->noise[ao_hbao_noise_index(k, x, y)];
     /* ComputeCoarseAO: Divide by NUM_STEPS+1 so that the farthest samples are not fully attenuated */
     const float stepSizePixels = radiusPixels / ((float)k->num_steps + 1.0f);
-    float AO = 0.0f;
+    float AO = 0.0f, smallAO = 0.0f; /* HBAO+: SmallScaleAO (first step), LargeScaleAO (in AO) */
     for (int d = 0; d < k->num_dirs; d++) {
         const float c = k->plus_dirs[d][0], s = k->plus_dirs[d][1]; /* (cos, sin)(Alpha * d) */
         /* Direction = RotateDirection(vec2(cos(Angle), sin(Angle)), Rand.xy) */
@@ -619,11 +634,22 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
             if (!(VdotV > 0.0f) || !(VdotV < INFINITY))
                 continue; /* Deviation: a background tap (+inf) adds 0, as a far one would */
             const float NdotV = v3_dot(N, V) * (1.0f / sqrtf(VdotV));
-            AO += clampf01(NdotV - k->ndotv_bias) * clampf01(VdotV * k->neg_inv_R2 + 1.0f);
+            const float t = clampf01(NdotV - k->ndotv_bias) * clampf01(VdotV * k->neg_inv_R2 + 1.0f);
+            if (split && st == 0)
+                smallAO += t;
+            else
+                AO += t;
         }
     }
-    /* AO *= control.AOMultiplier / (NUM_DIRECTIONS * NUM_STEPS); clamp(1.0 - AO * 2.0, 0, 1) */
-    AO *= k->ao_multiplier / (float)(k->num_dirs * k->num_steps);
+    if (!split) {
+        /* AO *= control.AOMultiplier / (NUM_DIRECTIONS * NUM_STEPS); clamp(1.0 - AO * 2.0, 0, 1) */
+        AO *= k->ao_multiplier / (float)(k->num_dirs * k->num_steps);
+    } else {
+        /* AO = (SmallScaleAO * g_fSmallScaleAOAmount) + (LargeScaleAO * g_fLargeScaleAOAmount);
+         * AO /= (NUM_DIRECTIONS * NUM_STEPS) */
+        AO = (smallAO * k->small_scale_amount) + (AO * k->large_scale_amount);
+        AO /= (float)(k->num_dirs * k->num_steps);
+    }
     const float A = clampf01(1.0f - AO * 2.0f);
     /* pow(AO, control.PowExponent) */
     return (float)pow((double)A, (double)k->pow_exponent);
@@ -918,6 +944,8 @@ static const ao_param_desc hbao_param_descs[] = {
     {"contrast", AO_PARAM_FLOAT, HB_F(contrast), 0, 1e30, NULL, "classic: contrast (divided by 1 - sin(bias))"},
     {"ndotv-bias", AO_PARAM_FLOAT, HB_F(ndotv_bias), 0, 0.999999, NULL, "plus: NDotVBias"},
     {"pow-exponent", AO_PARAM_FLOAT, HB_F(pow_exponent), 0, 1e30, NULL, "plus: PowExponent of the output"},
+    {"small-scale-ao", AO_PARAM_FLOAT, HB_F(small_scale_ao), 0, 2, NULL,
+     "plus: 0 = gl_ssao's sum; > 0 = HBAO+ SmallScaleAO (first step weighs 2x this)"},
     {"normals", AO_PARAM_ENUM, HB_F(normals), 0, 0, hbao_normals_names,
      "depth: the shader's reconstruction from depth (reference); gbuffer: the G-buffer's"},
     {"blur", AO_PARAM_BOOL, HB_F(blur), 0, 1, NULL, "the HBAO+ cross-bilateral blur (ao_hbao_blur)"},
@@ -989,9 +1017,11 @@ static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t
     } else {
         jcat(buf, size, &len,
              "\"RadiusToScreen\": %.9g, \"R2\": %.9g, \"NegInvR2\": %.9g, \"NDotVBias\": %.9g, "
-             "\"AOMultiplier\": %.9g, \"PowExponent\": %.9g, \"projOrtho\": %d, \"Alpha\": %.9g, ",
+             "\"AOMultiplier\": %.9g, \"PowExponent\": %.9g, \"projOrtho\": %d, \"Alpha\": %.9g, "
+             "\"g_fSmallScaleAOAmount\": %.9g, \"g_fLargeScaleAOAmount\": %.9g, ",
              (double)K.radius_to_screen, (double)K.R2, (double)K.neg_inv_R2, (double)K.ndotv_bias,
-             (double)K.ao_multiplier, (double)K.pow_exponent, K.orthographic, (double)K.alpha);
+             (double)K.ao_multiplier, (double)K.pow_exponent, K.orthographic, (double)K.alpha,
+             (double)K.small_scale_amount, (double)K.large_scale_amount);
     }
     int16_t sh[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4];
     ao_hbao_noise_texture(K.num_dirs, sh, NULL);
