@@ -565,7 +565,186 @@ void ao_alchemy_tap_offset(const ao_alchemy_constants *k, int x_gl, int y_gl, fl
 
 /* ================================================================================================
  * HBAO (src/ao/ao_hbao.c)
+ *
+ * Horizon-Based Ambient Occlusion [Bavoil08] (Bavoil, Sainz, Dimitrov, SIGGRAPH 2008 talk;
+ * ShaderX7), two variants, each exact to its reference shader (docs/ao/hbao.md):
+ *   - CLASSIC: the NVIDIA DX10 SDK sample HorizonBasedAOEngine.fx, HORIZON_BASED_AO_PS with
+ *     qualityMode 1 (AccumulatedHorizonOcclusion: horizon angle, angle bias, W(r) = 1 - att r^2);
+ *   - PLUS: HBAO+'s per-tap form as nvpro-samples/gl_ssao hbao.frag.glsl computes it on its
+ *     non-deinterleaved path (AO_DEINTERLEAVED 0): saturate(N.V/|V| - NDotVBias) *
+ *     saturate(1 - |V|^2/R^2), out = saturate(1 - 2 AO (1/(1-bias))/(dirs steps))^PowExponent.
+ * and the HBAO+-style separable cross-bilateral blur (HBAOPlus Blur_Common.hlsl, gl_ssao
+ * bilateralblur.frag.glsl), public so that other methods can use it.
  * ============================================================================================== */
+
+/* Defaults (CLASSIC: the DX10 SDK sample's HorizonBasedAOEngine constructor, verification.md 2;
+ * PLUS: HBAO+ GFSDK_SSAO.h / gl_ssao, ao.md 1.6). */
+#define AO_HBAO_DEFAULT_RADIUS 1.0f          /* R (m) > 0; SDK: m_RadiusMultiplier 1.0 x the app's
+                                                m_AORadius (scene-dependent, not in the sample);
+                                                HBAO+ GFSDK_SSAO_Parameters Radius(1.f) */
+#define AO_HBAO_DEFAULT_DIRECTIONS_CLASSIC 16 /* [1, 32]; SDK m_NumDirs 16 (UpdateDirs clamps to 32) */
+#define AO_HBAO_DEFAULT_STEPS_CLASSIC 8      /* [1, 32]; SDK m_NumSteps 8 */
+#define AO_HBAO_DEFAULT_DIRECTIONS_PLUS 8    /* [1, 32]; gl_ssao NUM_DIRECTIONS 8, HBAO+ SharedDefines.h */
+#define AO_HBAO_DEFAULT_STEPS_PLUS 4         /* [1, 32]; gl_ssao NUM_STEPS 4, HBAO+ STEP_COUNT_4 */
+#define AO_HBAO_DEFAULT_ANGLE_BIAS_DEG 30.0f /* [0, 89] degrees; SDK m_AngleBias 30 (slider 0..60) */
+#define AO_HBAO_DEFAULT_ATTENUATION 1.0f     /* >= 0; SDK m_Attenuation 1.0 (slider 0..1): W = 1 - att r^2 */
+#define AO_HBAO_DEFAULT_CONTRAST 1.4f        /* >= 0, artistic; SDK m_Contrast 1.4; the shader gets
+                                                g_Contrast = contrast / (1 - sin(angle bias)) */
+#define AO_HBAO_DEFAULT_NDOTV_BIAS 0.1f      /* [0, 1); gl_ssao Tweak bias 0.1, HBAO+ Bias(0.1f) */
+#define AO_HBAO_DEFAULT_POW_EXPONENT 2.0f    /* >= 0; HBAO+ PowerExponent(2.f) (gl_ssao intensity 1.5) */
+#define AO_HBAO_DEFAULT_BLUR_RADIUS 4        /* KERNEL_RADIUS [1, 16]; HBAO+ GFSDK_SSAO_BLUR_RADIUS_4
+                                                (gl_ssao 3) */
+#define AO_HBAO_DEFAULT_BLUR_SHARPNESS 16.0f /* >= 0, per metre; HBAO+ Blur.Sharpness(16.f) (gl_ssao 40) */
+#define AO_HBAO_MAX_DIRECTIONS 32
+#define AO_HBAO_MAX_STEPS 32
+#define AO_HBAO_MAX_BLUR_RADIUS 16
+#define AO_HBAO_NOISE_SIZE 4                 /* the random texture is 4 x 4 (gl_ssao AO_RANDOMTEX_SIZE;
+                                                ao.md 1.6); the DX10 sample's is 64 x 64 (hbao.md) */
+
+typedef enum ao_hbao_variant {
+    AO_HBAO_VARIANT_CLASSIC = 0,    /* default: DX10 SDK HorizonBasedAOEngine.fx, quality mode 1 */
+    AO_HBAO_VARIANT_PLUS,           /* HBAO+ per-tap form, gl_ssao hbao.frag.glsl (non-deinterleaved) */
+    AO_HBAO_VARIANT_COUNT
+} ao_hbao_variant;
+
+typedef enum ao_hbao_normals {
+    AO_HBAO_NORMALS_DEPTH = 0,      /* default: the reference's own reconstruction from depth (MinDiff
+                                       neighbours: CLASSIC's dPdu/dPdv tangent basis, PLUS's
+                                       ReconstructNormal) */
+    AO_HBAO_NORMALS_GBUFFER,        /* the input's normals: CLASSIC's useNormal path (neighbours
+                                       projected onto the tangent plane); PLUS: N = the G-buffer's */
+    AO_HBAO_NORMALS_COUNT
+} ao_hbao_normals;
+
+typedef struct ao_hbao_params {
+    ao_hbao_variant variant;
+    float radius;           /* R: world-space radius of influence, metres */
+    int directions;         /* N_d; 0 = the variant's default (16 CLASSIC, 8 PLUS) */
+    int steps;              /* N_s per direction; 0 = the variant's default (8 CLASSIC, 4 PLUS) */
+    float angle_bias_deg;   /* CLASSIC: angle bias (degrees) added to the tangent angle */
+    float attenuation;      /* CLASSIC: W(r) = 1 - attenuation r^2, r = |S - P| / R */
+    float contrast;         /* CLASSIC: m_Contrast; AO = 1 - ao / N_d * contrast / (1 - sin(bias)) */
+    float ndotv_bias;       /* PLUS: NDotVBias */
+    float pow_exponent;     /* PLUS: PowExponent */
+    float small_scale_ao;   /* PLUS: 0 = gl_ssao's form (every step weighs 1, the default); > 0 = HBAO+
+                               CoarseAO_PS: the first step weighs 2 * small_scale_ao, the others 1
+                               (LargeScaleAO 1), and RadiusPixels < 1 gives 1 */
+    ao_hbao_normals normals;
+    int blur;               /* 1: ao_hbao_blur after the AO pass */
+    int blur_radius;        /* KERNEL_RADIUS: taps 1..R each side, point-sampled */
+    float blur_sharpness;   /* per metre of linear depth */
+    float blur_sigma;       /* pixels; 0 = HBAO+'s (KERNEL_RADIUS + 1) / 2 (gl_ssao: KERNEL_RADIUS / 2) */
+    int blur_depth_slope;   /* 1: HBAO+ USE_DEPTH_SLOPE (offset the centre depth along the slope) */
+} ao_hbao_params;
+
+/* CLASSIC with the SDK defaults, blur on (radius 4, sharpness 16, depth slope on). */
+ao_hbao_params ao_hbao_params_default(void);
+
+/* Named presets. Returns 1 and fills *out, or 0 for an unknown name.
+ *   "default", "sdk": ao_hbao_params_default() (the DX10 SDK sample's constructor values).
+ *   "plus": PLUS with HBAO+'s GFSDK_SSAO_Parameters defaults: R 1 m, bias 0.1, PowerExponent 2,
+ *           8 directions x 4 steps, blur radius 4, sharpness 16, depth slope on, gl_ssao's
+ *           unsplit sum (small_scale_ao 0).
+ *   "hbaoplus": "plus" with HBAO+'s SmallScaleAO(1.f) split (small_scale_ao 1).
+ *   "gl-ssao": PLUS with gl_ssao's Tweak defaults: R 2 m, bias 0.1, intensity (PowExponent) 1.5,
+ *           bilateralblur.frag.glsl: radius 3, sigma 1.5, sharpness 40, no depth slope. */
+int ao_hbao_params_preset(const char *name, ao_hbao_params *out);
+const char *const *ao_hbao_preset_names(void);
+
+/* Check params. Returns OK or INVALID_ARGUMENT naming the field and its range. */
+obs_status ao_hbao_params_validate(obs_context *ctx, const ao_hbao_params *p);
+
+/* Resolved params as one line of text. snprintf semantics. */
+int ao_hbao_params_to_string(const ao_hbao_params *p, char *buf, size_t size);
+
+/* The shader's constant block (the DX10 sample's cb0/cb1, gl_ssao's HBAOData), float32.
+ * uv is the shader's texture coordinate of the full buffer: CLASSIC: D3D (x right, y DOWN,
+ * uv = ((x + 0.5)/W, (y + 0.5)/H) with our row y); PLUS: GL (y UP, uv.y = (y_gl + 0.5)/H).
+ * View position of uv at linear depth z (> 0, the reference's eye_z): perspective
+ * (uv * uv_to_view.xy + uv_to_view.zw) * z, orthographic the same without "* z" (PLUS's projOrtho;
+ * an extension for CLASSIC), with x right, y UP, z = depth INTO the screen (the references'
+ * eye space). */
+typedef struct ao_hbao_constants {
+    int full_width, full_height;
+    int variant, orthographic, normals_from_gbuffer;
+    int num_dirs, num_steps;        /* g_NumDir, g_NumSteps / NUM_DIRECTIONS, NUM_STEPS */
+    float uv_to_view[4];            /* CLASSIC (W/fx, -H/fy, -cx/fx, cy/fy); PLUS = gl_ssao projInfo
+                                       (W/fx, H/fy, -cx/fx, -(H - cy)/fy) */
+    float resolution[2], inv_resolution[2];   /* g_Resolution, g_InvResolution / InvFullResolution */
+    /* CLASSIC (cb1) */
+    float focal_len[2];             /* g_FocalLen = (2 fx / W, 2 fy / H) (1/tan(fov/2) when centred) */
+    float R, inv_R, sqr_R;          /* g_R, g_inv_R, g_sqr_R */
+    float angle_bias, tan_angle_bias; /* g_AngleBias (radians), g_TanAngleBias */
+    float attenuation;              /* g_Attenuation */
+    float contrast;                 /* g_Contrast = m_Contrast / (1 - sin(g_AngleBias)) */
+    float dirs[AO_HBAO_MAX_DIRECTIONS][2]; /* cb0 g_Dirs[d] = (cos, sin)(2 pi d / N_d) */
+    /* PLUS (HBAOData) */
+    float radius_to_screen;         /* RadiusToScreen = R * 0.5 / tan(fovy/2) * H = R fy (HBAO+) */
+    float R2, neg_inv_R2;           /* R2, NegInvR2 = -1 / R2 */
+    float ndotv_bias;               /* NDotVBias */
+    float ao_multiplier;            /* AOMultiplier = 1 / (1 - NDotVBias) */
+    float pow_exponent;             /* PowExponent */
+    float small_scale_amount;       /* 0: gl_ssao form; else HBAO+ fSmallScaleAOAmount = Small * 2 / (1 - bias) */
+    float large_scale_amount;       /* HBAO+ fLargeScaleAOAmount = 1 / (1 - bias) (LargeScaleAO 1) */
+    float alpha;                    /* Alpha = 2.0 * M_PI / NUM_DIRECTIONS (M_PI = 3.14159265f) */
+    float plus_dirs[AO_HBAO_MAX_DIRECTIONS][2]; /* (cos, sin)(Alpha * d), the loop-invariant values a
+                                       compiler folds when it unrolls the direction loop */
+    /* the blur */
+    int blur, blur_radius, blur_depth_slope;
+    float blur_sharpness;           /* g_Sharpness */
+    float blur_falloff;             /* BlurFalloff = 1 / (2 sigma^2) */
+} ao_hbao_constants;
+
+/* The pure params -> constants step. Params are assumed validated. */
+ao_hbao_constants ao_hbao_constants_from_params(const ao_hbao_params *p, const ao_input *in);
+
+/* The 4 x 4 random texture, (cos(alpha), sin(alpha), jitter, 0) per texel, for num_dirs
+ * directions. Generated exactly as gl_ssao's Sample::initMisc (which the DX10 sample's UpdateDirs
+ * also follows, at 64 x 64): MT19937 (Matsumoto-Nishimura, init_genrand(0)), per texel i = 0..15
+ * in order: r1 = float(genrand_int32() * 2^-32), r2 = the same; alpha = 2.f * pi_f * r1 / float(num_dirs)
+ * in float; (cosf, sinf)(alpha) correctly rounded; stored as RGBA16_SNORM: c = (short)(32768 * v)
+ * truncated (clamped to 32767), decoded v' = c / 32767 (GL's SNORM rule; the value we use).
+ * Texel i has texture coordinates (i % 4, i / 4) in upload order (GL: row i/4 from the BOTTOM;
+ * D3D: from the TOP). shorts (may be NULL) gets the 64 int16 to upload; texels the decoded
+ * floats. num_dirs in [1, 32]. */
+void ao_hbao_noise_texture(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4],
+                           float texels[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE][4]);
+
+/* The texel index a pixel reads, in the variant's own pixel coordinates: CLASSIC
+ * tRandom.Load(int3(SV_Position.x & 3, SV_Position.y & 3)) with D3D y (our row y); PLUS
+ * texture(texRandom, gl_FragCoord.xy / 4) (REPEAT, NEAREST) with GL y (y_gl = H - 1 - y).
+ * Returns (iy & 3) * 4 + (ix & 3). */
+int ao_hbao_noise_index(const ao_hbao_constants *k, int x, int y);
+
+typedef struct ao_hbao_stats {
+    int64_t pixels_computed;        /* AO-pass pixels (window plus blur reach) */
+    int64_t pixels_background;      /* of those: background (visibility 1) */
+    int64_t pixels_small_radius;    /* CLASSIC: projected radius < 1 px ("numSteps < 1": visibility 1) */
+    int64_t pixels_degenerate_normal; /* no usable normal: PLUS from depth, or a G-buffer's (visibility 1) */
+    double seconds_prepare, seconds_ao, seconds_blur;
+} ao_hbao_stats;
+
+/* HBAO over the input's window. out (required) and out_raw (optional) are w x h planes (our row
+ * order); out gets the blurred AO when params->blur, else the raw AO. The AO pass runs over the
+ * window plus the blur's reach (blur_radius pixels each side, inside the buffer), so that the
+ * result equals a GPU running both passes over the whole buffer and cropping. Values in [0, 1].
+ * Returns: OK; INVALID_ARGUMENT (input, params, plane sizes, normals = GBUFFER without normals);
+ * OUT_OF_MEMORY. */
+obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_hbao_params *params,
+                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_hbao_stats *stats);
+
+/* The HBAO+-style separable cross-bilateral blur, usable by any method. Planes in our row order:
+ * ao and depth (linear depth d > 0, background = not finite or <= 0) of the full buffer size; the
+ * result is written for the window [x0, x0 + out->width) x [y0, y0 + out->height), which reads ao
+ * and depth up to radius pixels outside it (clamped to the buffer, as CLAMP_TO_EDGE). Horizontal
+ * pass (+x taps first, then -x), then vertical (+y_gl = UP first, then down), per pass:
+ *   out = (ao_c + sum_r w_r ao_r) / (1 + sum_r w_r),  r = 1..radius each side,
+ *   w_r = exp2(-r^2 / (2 sigma^2) - ((z_r - slope * r - z_c) * sharpness)^2),
+ * slope = z_(+-1) - z_c per side when depth_slope (HBAO+ ProcessRadius1), else 0. sigma 0 means
+ * (radius + 1) / 2. Background centres pass their AO through; background taps get weight 0.
+ * Returns OK, INVALID_ARGUMENT (sizes, NULLs, aliasing, ranges), OUT_OF_MEMORY. */
+obs_status ao_hbao_blur(obs_context *ctx, obs_pool *pool, const obs_image_f32 *ao, const obs_image_f32 *depth,
+                        int x0, int y0, int radius, float sigma, float sharpness, int depth_slope, obs_image_f32 *out);
 
 /* (end of HBAO) */
 

@@ -9,7 +9,7 @@ static const ao_method *const methods[] = {
     /* crytek */
     &ao_i_method_alchemy,
     &ao_i_method_sao,
-    /* hbao */
+    &ao_i_method_hbao,
     &ao_i_method_ue4,
     &ao_i_method_gtao,
     &ao_i_method_mssao,

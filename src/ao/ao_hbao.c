@@ -1,0 +1,1081 @@
+/* ao_hbao.c: Horizon-Based Ambient Occlusion [Bavoil08] in two variants, each exact to its
+ * reference shader, and the HBAO+-style cross-bilateral blur (docs/ao/hbao.md has every detail).
+ *
+ *   CLASSIC  NVIDIA DX10 SDK sample, HorizonBasedAOEngine.fx (Bavoil & Sainz),
+ *            HORIZON_BASED_AO_PS(useNormal, qualityMode = 1) and AccumulatedHorizonOcclusion.
+ *   PLUS     HBAO+'s per-tap estimator as nvpro-samples/gl_ssao hbao.frag.glsl computes it with
+ *            AO_DEINTERLEAVED 0 (full resolution; ComputeCoarseAO, ComputeAO, ReconstructNormal).
+ *   Blur     HBAOPlus src/shaders/src/Blur_Common.hlsl (CrossBilateralWeight, ProcessRadius1,
+ *            USE_DEPTH_SLOPE) and gl_ssao bilateralblur.frag.glsl, separable, point taps.
+ *
+ * Pixel coordinates: each variant evaluates its per-pixel pattern (noise texel, texture
+ * coordinates of the taps, neighbour order) in its reference's own convention: CLASSIC is D3D
+ * (SV_Position and texUV with y DOWN: our row y), PLUS is GL (gl_FragCoord and texCoord with
+ * y UP: y_gl = H - 1 - y). Planes stay in our row order; fetches convert.
+ *
+ * Arithmetic is float32 in the shaders' operation order (-ffp-contract=off). Transcendentals are
+ * the ideal functions: cos/sin via ao_i_cos_sin, atan/tan/exp2/pow as the double libm result
+ * rounded to float, sqrt correctly rounded, inversesqrt as 1/sqrt; round() is round-half-even
+ * (D3D round_ne). Deviations from the references are marked "Deviation:" and listed in hbao.md.
+ */
+#include "ao.h"
+#include "ao_internal.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define HBAO_PI_F 3.14159265f /* HorizonBasedAOEngine.fx and hbao.frag.glsl: #define M_PI 3.14159265f */
+
+/* ================================================================================================
+ * Parameters, presets, constants
+ * ============================================================================================== */
+
+ao_hbao_params ao_hbao_params_default(void)
+{
+    ao_hbao_params p;
+    memset(&p, 0, sizeof p);
+    p.variant = AO_HBAO_VARIANT_CLASSIC;
+    p.radius = AO_HBAO_DEFAULT_RADIUS;
+    p.directions = 0; /* the variant's default: 16 (SDK m_NumDirs) / 8 (gl_ssao NUM_DIRECTIONS) */
+    p.steps = 0;      /* 8 (SDK m_NumSteps) / 4 (gl_ssao NUM_STEPS) */
+    p.angle_bias_deg = AO_HBAO_DEFAULT_ANGLE_BIAS_DEG;
+    p.attenuation = AO_HBAO_DEFAULT_ATTENUATION;
+    p.contrast = AO_HBAO_DEFAULT_CONTRAST;
+    p.ndotv_bias = AO_HBAO_DEFAULT_NDOTV_BIAS;
+    p.pow_exponent = AO_HBAO_DEFAULT_POW_EXPONENT;
+    p.small_scale_ao = 0.0f; /* gl_ssao hbao.frag.glsl: one sum over all steps */
+    p.normals = AO_HBAO_NORMALS_DEPTH;
+    p.blur = 1;
+    p.blur_radius = AO_HBAO_DEFAULT_BLUR_RADIUS;
+    p.blur_sharpness = AO_HBAO_DEFAULT_BLUR_SHARPNESS;
+    p.blur_sigma = 0.0f; /* (KERNEL_RADIUS + 1) / 2, Blur_Common.hlsl CrossBilateralWeight */
+    p.blur_depth_slope = 1; /* Blur_Common.hlsl #define USE_DEPTH_SLOPE 1 */
+    return p;
+}
+
+static const char *const hbao_preset_names[] = {"default", "sdk", "plus", "hbaoplus", "gl-ssao", NULL};
+
+const char *const *ao_hbao_preset_names(void) { return hbao_preset_names; }
+
+int ao_hbao_params_preset(const char *name, ao_hbao_params *out)
+{
+    if (!name || !out)
+        return 0;
+    ao_hbao_params p = ao_hbao_params_default();
+    if (!strcmp(name, "default") || !strcmp(name, "sdk")) {
+        /* HorizonBasedAOEngine constructor (verification.md 2) */
+    } else if (!strcmp(name, "plus") || !strcmp(name, "hbaoplus")) {
+        /* GFSDK_SSAO.h GFSDK_SSAO_Parameters(): Radius(1.f), Bias(0.1f), PowerExponent(2.f),
+         * StepCount 4; Blur: Radius 4, Sharpness(16.f); Blur_Common.hlsl USE_DEPTH_SLOPE 1 */
+        p.variant = AO_HBAO_VARIANT_PLUS;
+        p.radius = 1.0f;
+        p.ndotv_bias = 0.1f;
+        p.pow_exponent = 2.0f;
+        p.blur_radius = 4;
+        p.blur_sharpness = 16.0f;
+        p.blur_depth_slope = 1;
+        /* GFSDK_SSAO_Parameters SmallScaleAO(1.f), LargeScaleAO(1.f) (CoarseAO_PS.hlsl split) */
+        p.small_scale_ao = !strcmp(name, "hbaoplus") ? 1.0f : 0.0f;
+    } else if (!strcmp(name, "gl-ssao")) {
+        /* gl_ssao ssao.cpp Tweak: intensity 1.5, bias 0.1, radius 2.0, blurSharpness 40;
+         * bilateralblur.frag.glsl KERNEL_RADIUS 3, BlurSigma = KERNEL_RADIUS * 0.5, no slope */
+        p.variant = AO_HBAO_VARIANT_PLUS;
+        p.radius = 2.0f;
+        p.ndotv_bias = 0.1f;
+        p.pow_exponent = 1.5f;
+        p.blur_radius = 3;
+        p.blur_sigma = 1.5f;
+        p.blur_sharpness = 40.0f;
+        p.blur_depth_slope = 0;
+    } else {
+        return 0;
+    }
+    *out = p;
+    return 1;
+}
+
+static int resolved_dirs(const ao_hbao_params *p)
+{
+    if (p->directions > 0)
+        return p->directions;
+    return p->variant == AO_HBAO_VARIANT_PLUS ? AO_HBAO_DEFAULT_DIRECTIONS_PLUS : AO_HBAO_DEFAULT_DIRECTIONS_CLASSIC;
+}
+
+static int resolved_steps(const ao_hbao_params *p)
+{
+    if (p->steps > 0)
+        return p->steps;
+    return p->variant == AO_HBAO_VARIANT_PLUS ? AO_HBAO_DEFAULT_STEPS_PLUS : AO_HBAO_DEFAULT_STEPS_CLASSIC;
+}
+
+obs_status ao_hbao_params_validate(obs_context *ctx, const ao_hbao_params *p)
+{
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: NULL params");
+    if ((unsigned)p->variant >= AO_HBAO_VARIANT_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: unknown variant %d", (int)p->variant);
+    const float r2 = p->radius * p->radius;
+    if (!(p->radius > 0.0f) || !isfinite(p->radius) || !(r2 >= 1e-30f) || !isfinite(r2))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "hbao: radius %g must be > 0 with radius^2 a finite normal float (about 1e-15 .. 1e19)",
+                         (double)p->radius);
+    if (p->directions < 0 || p->directions > AO_HBAO_MAX_DIRECTIONS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: directions %d must be in [1, %d] (0 = the variant's)",
+                         p->directions, AO_HBAO_MAX_DIRECTIONS);
+    if (p->steps < 0 || p->steps > AO_HBAO_MAX_STEPS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: steps %d must be in [1, %d] (0 = the variant's)",
+                         p->steps, AO_HBAO_MAX_STEPS);
+    if (!(p->angle_bias_deg >= 0.0f && p->angle_bias_deg <= 89.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: angle bias %g must be in [0, 89] degrees",
+                         (double)p->angle_bias_deg);
+    if (!(p->attenuation >= 0.0f) || !isfinite(p->attenuation))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: attenuation %g must be finite and >= 0",
+                         (double)p->attenuation);
+    if (!(p->contrast >= 0.0f) || !isfinite(p->contrast))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: contrast %g must be finite and >= 0",
+                         (double)p->contrast);
+    if (!(p->ndotv_bias >= 0.0f && p->ndotv_bias < 1.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: ndotv bias %g must be in [0, 1)",
+                         (double)p->ndotv_bias);
+    if (!(p->pow_exponent >= 0.0f) || !isfinite(p->pow_exponent))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: pow exponent %g must be finite and >= 0",
+                         (double)p->pow_exponent);
+    if (!(p->small_scale_ao >= 0.0f && p->small_scale_ao <= 2.0f))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "hbao: small scale ao %g must be in [0, 2] (0 = gl_ssao's unsplit sum; HBAO+ clamps to [0, 2])",
+                         (double)p->small_scale_ao);
+    if ((unsigned)p->normals >= AO_HBAO_NORMALS_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: unknown normals mode %d", (int)p->normals);
+    if (p->blur != 0 && p->blur != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: blur %d must be 0 or 1", p->blur);
+    if (p->blur_radius < 1 || p->blur_radius > AO_HBAO_MAX_BLUR_RADIUS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: blur radius %d must be in [1, %d]", p->blur_radius,
+                         AO_HBAO_MAX_BLUR_RADIUS);
+    if (!(p->blur_sharpness >= 0.0f) || !isfinite(p->blur_sharpness))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: blur sharpness %g must be finite and >= 0",
+                         (double)p->blur_sharpness);
+    if (!(p->blur_sigma == 0.0f || (p->blur_sigma >= 0.01f && p->blur_sigma <= 1e4f)))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "hbao: blur sigma %g must be 0 (= (radius + 1) / 2) or in [0.01, 1e4] pixels",
+                         (double)p->blur_sigma);
+    if (p->blur_depth_slope != 0 && p->blur_depth_slope != 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: blur depth slope %d must be 0 or 1",
+                         p->blur_depth_slope);
+    return OBS_STATUS_OK;
+}
+
+static float resolved_sigma(const ao_hbao_params *p)
+{
+    /* Blur_Common.hlsl: const float BlurSigma = ((float)KERNEL_RADIUS+1.0) * 0.5 */
+    return p->blur_sigma > 0.0f ? p->blur_sigma : ((float)p->blur_radius + 1.0f) * 0.5f;
+}
+
+int ao_hbao_params_to_string(const ao_hbao_params *p, char *buf, size_t size)
+{
+    return snprintf(buf, size,
+                    "variant=%s radius=%.9g directions=%d steps=%d angle_bias_deg=%.9g attenuation=%.9g "
+                    "contrast=%.9g ndotv_bias=%.9g pow_exponent=%.9g small_scale_ao=%.9g normals=%s blur=%d blur_radius=%d "
+                    "blur_sharpness=%.9g blur_sigma=%.9g blur_depth_slope=%d",
+                    p->variant == AO_HBAO_VARIANT_PLUS ? "plus" : "classic", (double)p->radius, resolved_dirs(p),
+                    resolved_steps(p), (double)p->angle_bias_deg, (double)p->attenuation, (double)p->contrast,
+                    (double)p->ndotv_bias, (double)p->pow_exponent, (double)p->small_scale_ao,
+                    p->normals == AO_HBAO_NORMALS_GBUFFER ? "gbuffer" : "depth", p->blur, p->blur_radius,
+                    (double)p->blur_sharpness, (double)resolved_sigma(p), p->blur_depth_slope);
+}
+
+static inline float f_atan(float x) { return (float)atan((double)x); }
+static inline float f_tan(float x) { return (float)tan((double)x); }
+static inline float f_exp2(float x) { return (float)exp2((double)x); }
+static inline float f_sin(float x)
+{
+    float c, s;
+    ao_i_cos_sin(x, &c, &s);
+    return s;
+}
+
+ao_hbao_constants ao_hbao_constants_from_params(const ao_hbao_params *p, const ao_input *in)
+{
+    ao_hbao_constants k;
+    memset(&k, 0, sizeof k);
+    const double W = in->width, H = in->height;
+    k.full_width = in->width;
+    k.full_height = in->height;
+    k.variant = (int)p->variant;
+    k.orthographic = in->projection == OBS_PROJECTION_ORTHOGRAPHIC;
+    k.normals_from_gbuffer = p->normals == AO_HBAO_NORMALS_GBUFFER;
+    k.num_dirs = resolved_dirs(p);
+    k.num_steps = resolved_steps(p);
+    /* uv -> view. Our pixel model: x_view = (x + 0.5 - cx)/fx * d, y_view = -(y + 0.5 - cy)/fy * d.
+     * CLASSIC (D3D uv, y down): HBAO+ SetProjectionConstants' UVToViewA/B form, (2 tanX, -2 tanY,
+     * -tanX, tanY) for a centred frustum. PLUS (GL uv, y up): gl_ssao projInfo
+     * (2/P00, 2/P11, -(1 - P20)/P00, -(1 + P21)/P11). */
+    if (p->variant == AO_HBAO_VARIANT_CLASSIC) {
+        k.uv_to_view[0] = (float)(W / in->fx);
+        k.uv_to_view[1] = (float)(-H / in->fy);
+        k.uv_to_view[2] = (float)(-in->cx / in->fx);
+        k.uv_to_view[3] = (float)(in->cy / in->fy);
+    } else {
+        k.uv_to_view[0] = (float)(W / in->fx);
+        k.uv_to_view[1] = (float)(H / in->fy);
+        k.uv_to_view[2] = (float)(-in->cx / in->fx);
+        k.uv_to_view[3] = (float)(-(H - in->cy) / in->fy);
+    }
+    k.resolution[0] = (float)in->width;
+    k.resolution[1] = (float)in->height;
+    k.inv_resolution[0] = 1.0f / (float)in->width;
+    k.inv_resolution[1] = 1.0f / (float)in->height;
+    /* CLASSIC cb1 (HorizonBasedAOEngine.cpp Update*): g_FocalLen = 1/tan(fov/2) per axis, which is
+     * 2 f / size in our pixel model; g_R = R; g_inv_R = 1/R; g_sqr_R = R^2 */
+    k.focal_len[0] = (float)(2.0 * in->fx / W);
+    k.focal_len[1] = (float)(2.0 * in->fy / H);
+    k.R = p->radius;
+    k.inv_R = 1.0f / p->radius;
+    k.sqr_R = p->radius * p->radius;
+    k.angle_bias = (float)((double)p->angle_bias_deg * OBS_PI / 180.0);
+    k.tan_angle_bias = f_tan(k.angle_bias);
+    k.attenuation = p->attenuation;
+    /* UpdateContrast: g_Contrast = m_Contrast / (1.0f - sin(angleBias)) (verification.md 2) */
+    k.contrast = p->contrast / (1.0f - f_sin(k.angle_bias));
+    /* cb0 g_Dirs: N_d evenly spaced angles 2 pi d / N_d (UpdateDirs), rounded to float once */
+    for (int d = 0; d < k.num_dirs; d++) {
+        const double a = 2.0 * OBS_PI * (double)d / (double)k.num_dirs;
+        k.dirs[d][0] = (float)cos(a);
+        k.dirs[d][1] = (float)sin(a);
+    }
+    /* PLUS HBAOData (HBAO+ SetAORadiusConstants / SetAOParameters; gl_ssao prepareHbaoData):
+     * RadiusToScreen = R * 0.5f / TanHalfFovy * Height = R fy; R2; NegInvR2 = -1 / R2;
+     * AOMultiplier = 1 / (1 - NDotVBias). Orthographic: gl_ssao projScale = H / projInfo[1] = fy. */
+    k.radius_to_screen = p->radius * (float)in->fy;
+    k.R2 = p->radius * p->radius;
+    k.neg_inv_R2 = -1.0f / k.R2;
+    k.ndotv_bias = p->ndotv_bias;
+    k.ao_multiplier = 1.0f / (1.0f - p->ndotv_bias);
+    k.pow_exponent = p->pow_exponent;
+    /* HBAO+ SetAOParameters: fSmallScaleAOAmount = Small * AOAmountScaleFactor * 2.f,
+     * fLargeScaleAOAmount = Large * AOAmountScaleFactor, AOAmountScaleFactor = 1 / (1 - bias) */
+    k.small_scale_amount = p->small_scale_ao > 0.0f ? p->small_scale_ao * k.ao_multiplier * 2.0f : 0.0f;
+    k.large_scale_amount = p->small_scale_ao > 0.0f ? 1.0f * k.ao_multiplier : 0.0f;
+    k.alpha = 2.0f * HBAO_PI_F / (float)k.num_dirs; /* const float Alpha = 2.0 * M_PI / NUM_DIRECTIONS */
+    for (int d = 0; d < k.num_dirs; d++) /* Angle = Alpha * DirectionIndex; cos(Angle), sin(Angle) */
+        ao_i_cos_sin(k.alpha * (float)d, &k.plus_dirs[d][0], &k.plus_dirs[d][1]);
+    /* Blur */
+    k.blur = p->blur != 0;
+    k.blur_radius = p->blur_radius;
+    k.blur_depth_slope = p->blur_depth_slope != 0;
+    k.blur_sharpness = p->blur_sharpness;
+    const float sigma = resolved_sigma(p);
+    k.blur_falloff = 1.0f / (2.0f * sigma * sigma); /* BlurFalloff = 1.0 / (2.0*BlurSigma*BlurSigma) */
+    return k;
+}
+
+/* ================================================================================================
+ * The random texture
+ * ============================================================================================== */
+
+/* MT19937 [Matsumoto98], init_genrand / genrand_int32: the generator of Wagner's MTRand
+ * (MersenneTwister.h) that gl_ssao's noise/mersennetwister1.h provides; MTRand::seed(0). */
+typedef struct mt19937 {
+    uint32_t s[624];
+    int i;
+} mt19937;
+
+static void mt_seed(mt19937 *m, uint32_t seed)
+{
+    m->s[0] = seed;
+    for (int i = 1; i < 624; i++)
+        m->s[i] = 1812433253u * (m->s[i - 1] ^ (m->s[i - 1] >> 30)) + (uint32_t)i;
+    m->i = 624;
+}
+
+static uint32_t mt_next(mt19937 *m)
+{
+    if (m->i >= 624) {
+        for (int k = 0; k < 624; k++) {
+            uint32_t y = (m->s[k] & 0x80000000u) | (m->s[(k + 1) % 624] & 0x7fffffffu);
+            m->s[k] = m->s[(k + 397) % 624] ^ (y >> 1) ^ ((y & 1u) ? 0x9908b0dfu : 0u);
+        }
+        m->i = 0;
+    }
+    uint32_t y = m->s[m->i++];
+    y ^= y >> 11;
+    y ^= (y << 7) & 0x9d2c5680u;
+    y ^= (y << 15) & 0xefc60000u;
+    y ^= y >> 18;
+    return y;
+}
+
+/* GL_RGBA16_SNORM upload of gl_ssao initMisc: (signed short)(SCALE * v), SCALE = 1 << 15,
+ * truncation toward zero. 32768 * 1.0 does not fit a short (C++ leaves it undefined); we clamp
+ * to 32767 (not reached by the 16 texels of any direction count 1..32). */
+static int16_t snorm16_encode(float v)
+{
+    float s = 32768.0f * v;
+    if (s >= 32767.0f)
+        return 32767;
+    if (s <= -32768.0f)
+        return -32768;
+    return (int16_t)s;
+}
+
+/* GL 4.4 section 2.3.5.2: f = max(c / (2^15 - 1), -1.0) */
+static float snorm16_decode(int16_t c)
+{
+    float f = (float)((double)c / 32767.0);
+    return f < -1.0f ? -1.0f : f;
+}
+
+void ao_hbao_noise_texture(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4],
+                           float texels[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE][4])
+{
+    if (num_dirs < 1)
+        num_dirs = 1;
+    mt19937 m;
+    mt_seed(&m, 0u);
+    for (int i = 0; i < AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE; i++) {
+        /* float Rand1 = rng.randExc(); float Rand2 = rng.randExc();  (double(randInt()) * 2^-32) */
+        const float r1 = (float)((double)mt_next(&m) * (1.0 / 4294967296.0));
+        const float r2 = (float)((double)mt_next(&m) * (1.0 / 4294967296.0));
+        /* float Angle = 2.f * nv_pi * Rand1 / numDir; (cosf, sinf)(Angle) */
+        const float angle = 2.0f * HBAO_PI_F * r1 / (float)num_dirs;
+        float c, s;
+        ao_i_cos_sin(angle, &c, &s);
+        const int16_t q[4] = {snorm16_encode(c), snorm16_encode(s), snorm16_encode(r2), 0};
+        for (int ch = 0; ch < 4; ch++) {
+            if (shorts)
+                shorts[4 * i + ch] = q[ch];
+            if (texels)
+                texels[i][ch] = snorm16_decode(q[ch]);
+        }
+    }
+}
+
+int ao_hbao_noise_index(const ao_hbao_constants *k, int x, int y)
+{
+    /* CLASSIC: tRandom.Load(int3((int)IN.pos.x & 63, (int)IN.pos.y & 63, 0)) (4 x 4 here), D3D rows;
+     * PLUS: textureLod(texRandom, gl_FragCoord.xy / AO_RANDOMTEX_SIZE, 0), REPEAT + NEAREST, GL rows */
+    const int iy = k->variant == AO_HBAO_VARIANT_PLUS ? k->full_height - 1 - y : y;
+    return (iy & 3) * AO_HBAO_NOISE_SIZE + (x & 3);
+}
+
+/* ================================================================================================
+ * The AO pass
+ * ============================================================================================== */
+
+typedef struct hbao_job {
+    const ao_hbao_constants *k;
+    const ao_input *in;
+    const obs_image_f32 *z;        /* linear depth, background = +inf, full buffer, our rows */
+    float noise[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE][4];
+    int rx0, ry0;                  /* region origin (our coordinates) */
+    obs_image_f32 *ao;             /* region-sized, our rows */
+    int64_t (*counts)[3];          /* per row: background, small radius, degenerate normal */
+} hbao_job;
+
+typedef struct v3 {
+    float x, y, z;
+} v3;
+
+static inline v3 v3_sub(v3 a, v3 b) { return (v3){a.x - b.x, a.y - b.y, a.z - b.z}; }
+static inline float v3_dot(v3 a, v3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline float clampf01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; } /* NaN -> 0 */
+
+/* Point sampling with CLAMP addressing: texel floor(u * size), clamped (NaN -> 0). */
+static inline int texel_of(float u, float size, int n)
+{
+    const float t = u * size;
+    if (!(t >= 0.0f))
+        return 0;
+    if (t >= (float)n)
+        return n - 1;
+    return (int)t;
+}
+
+/* fetch_eye_pos / FetchViewPos: the texel's depth, the position at the UNCLAMPED uv. gl: the v
+ * coordinate is GL (row from the bottom). */
+static inline v3 fetch_pos(const ao_hbao_constants *k, const obs_image_f32 *z, float u, float v, int gl)
+{
+    const int W = k->full_width, H = k->full_height;
+    const int tx = texel_of(u, k->resolution[0], W);
+    int ty = texel_of(v, k->resolution[1], H);
+    if (gl)
+        ty = H - 1 - ty;
+    const float d = obs_image_f32_row(z, ty)[tx];
+    /* uv_to_eye / UVToView: vec3((uv * A + B) * eye_z, eye_z); orthographic: no "* eye_z" */
+    const float ax = u * k->uv_to_view[0] + k->uv_to_view[2], ay = v * k->uv_to_view[1] + k->uv_to_view[3];
+    if (!k->orthographic)
+        return (v3){ax * d, ay * d, d};
+    return (v3){ax, ay, d};
+}
+
+/* min_diff / MinDiff: the shorter of the one-sided differences. Deviation (background only):
+ * a NaN length (a background neighbour at +inf whose x or y is 0 * inf) loses, as a neighbour at
+ * a large finite far depth would on a GPU. */
+static inline v3 min_diff(v3 P, v3 Pr, v3 Pl)
+{
+    const v3 V1 = v3_sub(Pr, P), V2 = v3_sub(P, Pl);
+    const float l1 = v3_dot(V1, V1), l2 = v3_dot(V2, V2);
+    return (l1 < l2 || l2 != l2) ? V1 : V2;
+}
+
+/* snap_uv_offset: round(uv * g_Resolution) * g_InvResolution (HLSL round = round_ne) */
+static inline float snap(float u, float res, float inv) { return rintf(u * res) * inv; }
+
+static inline int finite3(v3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+
+/* ---- CLASSIC: HorizonBasedAOEngine.fx ---- */
+
+/* AccumulatedHorizonOcclusion (qualityMode 1) */
+static float classic_direction(const ao_hbao_constants *k, const obs_image_f32 *z, float du, float dv, float u0,
+                               float v0, v3 P, float numSteps, float randstep, v3 dPdu, v3 dPdv)
+{
+    /* Randomize starting point within the first sample distance: uv = uv0 + snap_uv_offset(randstep * deltaUV) */
+    float u = u0 + snap(randstep * du, k->resolution[0], k->inv_resolution[0]);
+    float v = v0 + snap(randstep * dv, k->resolution[1], k->inv_resolution[1]);
+    /* Snap increments to pixels: deltaUV = snap_uv_offset(deltaUV) */
+    du = snap(du, k->resolution[0], k->inv_resolution[0]);
+    dv = snap(dv, k->resolution[1], k->inv_resolution[1]);
+    /* Compute tangent vector using the tangent plane: T = deltaUV.x * dPdu + deltaUV.y * dPdv */
+    const v3 T = {du * dPdu.x + dv * dPdv.x, du * dPdu.y + dv * dPdv.y, du * dPdu.z + dv * dPdv.z};
+    /* biased_tangent: phi = atan(tangent(T)) + g_AngleBias; tan(min(phi, M_PI*0.5)),
+     * tangent(T) = -T.z / length(T.xy) */
+    const float tanT = -T.z / sqrtf(T.x * T.x + T.y * T.y);
+    if (!isfinite(tanT))
+        return 0.0f; /* Deviation: a degenerate tangent basis (background on both sides) adds 0 */
+    const float phi = f_atan(tanT) + k->angle_bias;
+    /* Deviation: tan(min(phi, M_PI*0.5)) with M_PI*0.5 = 1.57079637f, 4.4e-8 ABOVE pi/2: an exact
+     * tan gives -2.3e7 there (the horizon flips to straight down and every tap counts), a GPU's
+     * sin/cos approximation either sign. We take the intended limit: a vertical horizon, tanH =
+     * +inf, sinH = 1, so no tap counts (hbao.md, "Differences"). */
+    if (!(phi < HBAO_PI_F * 0.5f))
+        return 0.0f;
+    float tanH = f_tan(phi);
+    float sinH = tanH / sqrtf(1.0f + tanH * tanH);
+    float ao = 0.0f;
+    /* for (float j = 1; j <= numSteps; ++j): numSteps is not an integer in general */
+    for (float j = 1.0f; j <= numSteps; j += 1.0f) {
+        u += du;
+        v += dv;
+        const v3 S = fetch_pos(k, z, u, v, 0);
+        /* Ignore any samples outside the radius of influence */
+        const v3 D = v3_sub(S, P);
+        const float d2 = v3_dot(D, D);
+        if (d2 < k->sqr_R) {
+            /* tangent(P, S) = (P.z - S.z) / length(S.xy - P.xy) */
+            const float dx = S.x - P.x, dy = S.y - P.y;
+            const float tanS = (P.z - S.z) / sqrtf(dx * dx + dy * dy);
+            if (tanS > tanH && tanS < INFINITY) {
+                /* Accumulate AO between the horizon and the sample: ao += falloff(r) * (sinS - sinH),
+                 * sinS = tanS / sqrt(1 + tanS^2), r = sqrt(d2) * g_inv_R, falloff = 1 - att r r */
+                const float sinS = tanS / sqrtf(1.0f + tanS * tanS);
+                const float r = sqrtf(d2) * k->inv_R;
+                ao += (1.0f - k->attenuation * r * r) * (sinS - sinH);
+                /* Update the current horizon angle */
+                tanH = tanS;
+                sinH = sinS;
+            }
+        }
+    }
+    return ao;
+}
+
+/* tangent_eye_pos: intersect the view ray through uv with the tangent plane (N, w), except for
+ * silhouette edges (NdotV >= 0) */
+static inline v3 tangent_eye_pos(const ao_hbao_constants *k, const obs_image_f32 *z, float u, float v, v3 N, float w)
+{
+    v3 V = fetch_pos(k, z, u, v, 0);
+    const float NdotV = v3_dot(N, V);
+    if (NdotV < 0.0f) {
+        const float s = w / NdotV;
+        V = (v3){V.x * s, V.y * s, V.z * s};
+    }
+    return V;
+}
+
+static float classic_pixel(const hbao_job *J, int x, int y, int64_t *n_small, int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    const obs_image_f32 *z = J->z;
+    /* IN.texUV at the pixel centre (D3D: y down) */
+    const float u0 = ((float)x + 0.5f) / k->resolution[0], v0 = ((float)y + 0.5f) / k->resolution[1];
+    const v3 P = fetch_pos(k, z, u0, v0, 0);
+    /* Project the radius of influence g_R from eye space to texture space:
+     * step_size = 0.5 * g_R * g_FocalLen / P.z (orthographic extension: no "/ P.z") */
+    float sx = 0.5f * k->R * k->focal_len[0], sy = 0.5f * k->R * k->focal_len[1];
+    if (!k->orthographic) {
+        sx = sx / P.z;
+        sy = sy / P.z;
+    }
+    /* Early out if the projected radius is smaller than 1 pixel */
+    const float m = fminf(sx * k->resolution[0], sy * k->resolution[1]);
+    const float numSteps = fminf((float)k->num_steps, m);
+    if (!(numSteps >= 1.0f)) {
+        (*n_small)++;
+        return 1.0f;
+    }
+    sx = sx / (numSteps + 1.0f);
+    sy = sy / (numSteps + 1.0f);
+
+    /* Nearest neighbor pixels (on the tangent plane with normals) */
+    const float iu = k->inv_resolution[0], iv = k->inv_resolution[1];
+    v3 Pr, Pl, Pt, Pb;
+    if (k->normals_from_gbuffer) {
+        /* N = normalize(tNormal): our view-space normal in the sample's eye space (z into the screen) */
+        const float *n0 = obs_image_f32_row(J->in->normal[0], y), *n1 = obs_image_f32_row(J->in->normal[1], y),
+                    *n2 = obs_image_f32_row(J->in->normal[2], y);
+        v3 N = {n0[x], n1[x], -n2[x]};
+        const float l2 = v3_dot(N, N);
+        if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
+            (*n_degen)++;
+            return 1.0f; /* no usable G-buffer normal */
+        }
+        const float inv = 1.0f / sqrtf(l2);
+        N = (v3){N.x * inv, N.y * inv, N.z * inv};
+        const float w = v3_dot(P, N); /* tangentPlane = float4(N, dot(P, N)) */
+        Pr = tangent_eye_pos(k, z, u0 + iu, v0, N, w);
+        Pl = tangent_eye_pos(k, z, u0 + -iu, v0, N, w);
+        Pt = tangent_eye_pos(k, z, u0, v0 + iv, N, w);
+        Pb = tangent_eye_pos(k, z, u0, v0 + -iv, N, w);
+    } else {
+        Pr = fetch_pos(k, z, u0 + iu, v0, 0);
+        Pl = fetch_pos(k, z, u0 + -iu, v0, 0);
+        Pt = fetch_pos(k, z, u0, v0 + iv, 0);
+        Pb = fetch_pos(k, z, u0, v0 + -iv, 0);
+    }
+    /* Screen-aligned basis for the tangent plane: dPdu = min_diff(P, Pr, Pl),
+     * dPdv = min_diff(P, Pt, Pb) * (g_Resolution.y * g_InvResolution.x) */
+    const v3 dPdu = min_diff(P, Pr, Pl);
+    v3 dPdv = min_diff(P, Pt, Pb);
+    const float aspect = k->resolution[1] * k->inv_resolution[0];
+    dPdv = (v3){dPdv.x * aspect, dPdv.y * aspect, dPdv.z * aspect};
+
+    /* (cos(alpha), sin(alpha), jitter) */
+    const float *rd = J->noise[ao_hbao_noise_index(k, x, y)];
+    float ao = 0.0f;
+    for (int d = 0; d < k->num_dirs; d++) {
+        /* deltaUV = rotate(g_Dirs[d], rand_Dir.xy) * step_size.xy */
+        const float du = (k->dirs[d][0] * rd[0] - k->dirs[d][1] * rd[1]) * sx;
+        const float dv = (k->dirs[d][0] * rd[1] + k->dirs[d][1] * rd[0]) * sy;
+        ao += classic_direction(k, z, du, dv, u0, v0, P, numSteps, rd[2], dPdu, dPdv);
+    }
+    /* return 1.0 - ao / g_NumDir * g_Contrast.
+     * Deviation: saturated (the reference's value leaves [0, 1] when the horizon flips, hbao.md) */
+    return clampf01(1.0f - ao / (float)k->num_dirs * k->contrast);
+}
+
+/* ---- PLUS: gl_ssao hbao.frag.glsl, AO_DEINTERLEAVED 0 ---- */
+
+static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    const obs_image_f32 *z = J->z;
+    const int y_gl = k->full_height - 1 - y;
+    /* texCoord at the pixel centre (GL: y up) */
+    const float u0 = ((float)x + 0.5f) / k->resolution[0], v0 = ((float)y_gl + 0.5f) / k->resolution[1];
+    const v3 P = fetch_pos(k, z, u0, v0, 1);
+    v3 N;
+    if (!k->normals_from_gbuffer) {
+        /* ViewNormal = -ReconstructNormal(uv, P):
+         * normalize(cross(MinDiff(P, Pr, Pl), MinDiff(P, Pt, Pb))), neighbours at uv +- InvFullResolution */
+        const float iu = k->inv_resolution[0], iv = k->inv_resolution[1];
+        const v3 Pr = fetch_pos(k, z, u0 + iu, v0, 1), Pl = fetch_pos(k, z, u0 + -iu, v0, 1);
+        const v3 Pt = fetch_pos(k, z, u0, v0 + iv, 1), Pb = fetch_pos(k, z, u0, v0 + -iv, 1);
+        const v3 a = min_diff(P, Pr, Pl), b = min_diff(P, Pt, Pb);
+        const v3 c = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+        const float l2 = v3_dot(c, c);
+        if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
+            (*n_degen)++;
+            return 1.0f; /* Deviation: NaN normal on a GPU; visibility 1 here */
+        }
+        const float inv = 1.0f / sqrtf(l2); /* normalize(v) = v * inversesqrt(dot(v, v)) */
+        N = (v3){-(c.x * inv), -(c.y * inv), -(c.z * inv)};
+    } else {
+        /* the G-buffer's view-space normal in the shader's eye space (z into the screen) */
+        N = (v3){obs_image_f32_row(J->in->normal[0], y)[x], obs_image_f32_row(J->in->normal[1], y)[x],
+                 -obs_image_f32_row(J->in->normal[2], y)[x]};
+        const float l2 = v3_dot(N, N);
+        if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
+            (*n_degen)++;
+            return 1.0f;
+        }
+        const float inv = 1.0f / sqrtf(l2);
+        N = (v3){N.x * inv, N.y * inv, N.z * inv};
+    }
+    /* Compute projection of disk of radius control.R into screen space:
+     * RadiusPixels = RadiusToScreen / (projOrtho != 0 ? 1.0 : ViewPosition.z) */
+    const float radiusPixels = k->radius_to_screen / (k->orthographic ? 1.0f : P.z);
+    const int split = k->small_scale_amount > 0.0f;
+    /* HBAO+ CoarseAO_PS: early exit if the projected radius is smaller than 1 full-res pixel */
+    if (split && radiusPixels < 1.0f)
+        return 1.0f;
+    /* Get jitter vector for the current full-res pixel: (cos(Alpha), sin(Alpha), rand1, rand2) */
+    const float *rd = J->noise[ao_hbao_noise_index(k, x, y)];
+    /* ComputeCoarseAO: Divide by NUM_STEPS+1 so that the farthest samples are not fully attenuated */
+    const float stepSizePixels = radiusPixels / ((float)k->num_steps + 1.0f);
+    float AO = 0.0f, smallAO = 0.0f; /* HBAO+: SmallScaleAO (first step), LargeScaleAO (in AO) */
+    for (int d = 0; d < k->num_dirs; d++) {
+        const float c = k->plus_dirs[d][0], s = k->plus_dirs[d][1]; /* (cos, sin)(Alpha * d) */
+        /* Direction = RotateDirection(vec2(cos(Angle), sin(Angle)), Rand.xy) */
+        const float dirx = c * rd[0] - s * rd[1], diry = c * rd[1] + s * rd[0];
+        /* Jitter starting sample within the first step: RayPixels = Rand.z * StepSizePixels + 1.0 */
+        float rayPixels = rd[2] * stepSizePixels + 1.0f;
+        for (int st = 0; st < k->num_steps; st++) {
+            /* SnappedUV = round(RayPixels * Direction) * InvFullResolution + FullResUV */
+            const float su = rintf(rayPixels * dirx) * k->inv_resolution[0] + u0;
+            const float sv = rintf(rayPixels * diry) * k->inv_resolution[1] + v0;
+            const v3 S = fetch_pos(k, z, su, sv, 1);
+            rayPixels += stepSizePixels;
+            /* ComputeAO: V = S - P; NdotV = dot(N, V) * 1.0/sqrt(VdotV);
+             * clamp(NdotV - NDotVBias, 0, 1) * clamp(VdotV * NegInvR2 + 1.0, 0, 1) */
+            const v3 V = v3_sub(S, P);
+            const float VdotV = v3_dot(V, V);
+            if (!(VdotV > 0.0f) || !(VdotV < INFINITY))
+                continue; /* Deviation: a background tap (+inf) adds 0, as a far one would */
+            const float NdotV = v3_dot(N, V) * (1.0f / sqrtf(VdotV));
+            const float t = clampf01(NdotV - k->ndotv_bias) * clampf01(VdotV * k->neg_inv_R2 + 1.0f);
+            if (split && st == 0)
+                smallAO += t;
+            else
+                AO += t;
+        }
+    }
+    if (!split) {
+        /* AO *= control.AOMultiplier / (NUM_DIRECTIONS * NUM_STEPS); clamp(1.0 - AO * 2.0, 0, 1) */
+        AO *= k->ao_multiplier / (float)(k->num_dirs * k->num_steps);
+    } else {
+        /* AO = (SmallScaleAO * g_fSmallScaleAOAmount) + (LargeScaleAO * g_fLargeScaleAOAmount);
+         * AO /= (NUM_DIRECTIONS * NUM_STEPS) */
+        AO = (smallAO * k->small_scale_amount) + (AO * k->large_scale_amount);
+        AO /= (float)(k->num_dirs * k->num_steps);
+    }
+    const float A = clampf01(1.0f - AO * 2.0f);
+    /* pow(AO, control.PowExponent) */
+    return (float)pow((double)A, (double)k->pow_exponent);
+}
+
+static void hbao_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const hbao_job *J = (const hbao_job *)user;
+    const int y = J->ry0 + (int)task;
+    float *out = obs_image_f32_row(J->ao, (int)task);
+    const float *zr = obs_image_f32_row(J->z, y);
+    int64_t n_bg = 0, n_small = 0, n_degen = 0;
+    for (int i = 0; i < J->ao->width; i++) {
+        const int x = J->rx0 + i;
+        if (!(zr[x] < INFINITY)) { /* background (cleaned to +inf): visibility 1 */
+            out[i] = 1.0f;
+            n_bg++;
+            continue;
+        }
+        const float a = J->k->variant == AO_HBAO_VARIANT_CLASSIC ? classic_pixel(J, x, y, &n_small, &n_degen)
+                                                                 : plus_pixel(J, x, y, &n_degen);
+        out[i] = a == a ? a : 1.0f; /* cannot be NaN (every step is guarded); belt and braces */
+    }
+    J->counts[task][0] = n_bg;
+    J->counts[task][1] = n_small;
+    J->counts[task][2] = n_degen;
+}
+
+/* ================================================================================================
+ * The blur
+ * ============================================================================================== */
+
+typedef struct blur_job {
+    const obs_image_f32 *a;        /* source AO; its pixel (0,0) is buffer (ax0, ay0) */
+    int ax0, ay0;
+    const obs_image_f32 *z;        /* clean linear depth, full buffer */
+    obs_image_f32 *dst;            /* its pixel (0,0) is buffer (dx0, dy0) */
+    int dx0, dy0;
+    int axis;                      /* 0: x (+x first), 1: y (+y_gl = our -y first) */
+    int radius, slope;
+    float falloff, sharpness;
+} blur_job;
+
+static void blur_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const blur_job *J = (const blur_job *)user;
+    const int W = J->z->width, H = J->z->height, y = J->dy0 + (int)task;
+    float *o = obs_image_f32_row(J->dst, (int)task);
+    for (int i = 0; i < J->dst->width; i++) {
+        const int x = J->dx0 + i;
+        const float c = obs_image_f32_row(J->a, y - J->ay0)[x - J->ax0];
+        const float zc = obs_image_f32_row(J->z, y)[x];
+        if (!(zc < INFINITY)) { /* background centre: passes through */
+            o[i] = c;
+            continue;
+        }
+        /* ComputeBlur: TotalAO = AOZ.x; TotalW = 1.0; ProcessRadius1(+DeltaUV); ProcessRadius1(-DeltaUV) */
+        float total = c, wt = 1.0f;
+        for (int side = 0; side < 2; side++) {
+            /* +DeltaUV: +x, or +v in GL (up: our row - 1) */
+            const int step = J->axis == 0 ? (side == 0 ? 1 : -1) : (side == 0 ? -1 : 1);
+            float slope = 0.0f;
+            for (int r = 1; r <= J->radius; r++) {
+                int tx = x, ty = y;
+                if (J->axis == 0) {
+                    tx = x + step * r;
+                    tx = tx < 0 ? 0 : tx > W - 1 ? W - 1 : tx;
+                } else {
+                    ty = y + step * r;
+                    ty = ty < 0 ? 0 : ty > H - 1 ? H - 1 : ty;
+                }
+                const float zt = obs_image_f32_row(J->z, ty)[tx];
+                if (r == 1 && J->slope) /* ProcessRadius1: DepthSlope = AODepth.y - Center.Depth */
+                    slope = zt < INFINITY ? zt - zc : 0.0f; /* Deviation: no slope from background */
+                if (!(zt < INFINITY))
+                    continue; /* Deviation: background taps get weight 0 */
+                const float at = obs_image_f32_row(J->a, ty - J->ay0)[tx - J->ax0];
+                /* CrossBilateralWeight: SampleDepth -= DepthSlope * R;
+                 * DeltaZ = (SampleDepth - Center.Depth) * Sharpness; exp2(-R*R*BlurFalloff - DeltaZ*DeltaZ) */
+                const float fr = (float)r;
+                const float sd = zt - slope * fr;
+                const float dz = (sd - zc) * J->sharpness;
+                const float w = f_exp2(-fr * fr * J->falloff - dz * dz);
+                total += w * at;
+                wt += w;
+            }
+        }
+        o[i] = total / wt;
+    }
+}
+
+static void blur_run(obs_pool *pool, const obs_image_f32 *a, int ax0, int ay0, const obs_image_f32 *z,
+                     obs_image_f32 *dst, int dx0, int dy0, int axis, int radius, int slope, float falloff,
+                     float sharpness)
+{
+    blur_job J = {a, ax0, ay0, z, dst, dx0, dy0, axis, radius, slope, falloff, sharpness};
+    obs_pool_run(pool, dst->height, blur_row, &J);
+}
+
+typedef struct clean_job {
+    const obs_image_f32 *src;
+    obs_image_f32 *dst;
+} clean_job;
+
+static void clean_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const clean_job *J = (const clean_job *)user;
+    const float *s = obs_image_f32_row(J->src, (int)task);
+    float *d = obs_image_f32_row(J->dst, (int)task);
+    for (int x = 0; x < J->src->width; x++)
+        d[x] = (s[x] > 0.0f && s[x] < INFINITY) ? s[x] : INFINITY; /* background: +inf */
+}
+
+static obs_status clean_depth(obs_context *ctx, obs_pool *pool, const obs_image_f32 *src, obs_image_f32 *dst)
+{
+    obs_status st = obs_image_f32_alloc(ctx, src->width, src->height, dst);
+    if (st != OBS_STATUS_OK)
+        return st;
+    clean_job J = {src, dst};
+    obs_pool_run(pool, src->height, clean_row, &J);
+    return OBS_STATUS_OK;
+}
+
+obs_status ao_hbao_blur(obs_context *ctx, obs_pool *pool, const obs_image_f32 *ao, const obs_image_f32 *depth,
+                        int x0, int y0, int radius, float sigma, float sharpness, int depth_slope, obs_image_f32 *out)
+{
+    if (!ao || !depth || !out || !ao->data || !depth->data || !out->data || ao->data == out->data ||
+        depth->data == out->data)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ao_hbao_blur: NULL or aliased planes");
+    if (ao->width != depth->width || ao->height != depth->height || ao->width < 1 || ao->height < 1 ||
+        out->width < 1 || out->height < 1 || x0 < 0 || y0 < 0 || x0 + out->width > ao->width ||
+        y0 + out->height > ao->height)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "ao_hbao_blur: ao and depth must have the same size and the output window lie inside them");
+    if (radius < 1 || radius > AO_HBAO_MAX_BLUR_RADIUS || !(sigma == 0.0f || (sigma >= 0.01f && sigma <= 1e4f)) ||
+        !(sharpness >= 0.0f) || !isfinite(sharpness))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "ao_hbao_blur: radius %d in [1, %d], sigma %g 0 or in [0.01, 1e4], sharpness %g finite >= 0",
+                         radius, AO_HBAO_MAX_BLUR_RADIUS, (double)sigma, (double)sharpness);
+    const float s = sigma > 0.0f ? sigma : ((float)radius + 1.0f) * 0.5f;
+    const float falloff = 1.0f / (2.0f * s * s);
+    const int H = ao->height;
+    const int ry0 = y0 - radius < 0 ? 0 : y0 - radius;
+    const int ry1 = y0 + out->height - 1 + radius > H - 1 ? H - 1 : y0 + out->height - 1 + radius;
+    obs_image_f32 z = {0}, tmp = {0};
+    obs_status st = clean_depth(ctx, pool, depth, &z);
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, out->width, ry1 - ry0 + 1, &tmp);
+    if (st == OBS_STATUS_OK) {
+        blur_run(pool, ao, 0, 0, &z, &tmp, x0, ry0, 0, radius, depth_slope != 0, falloff, sharpness);
+        blur_run(pool, &tmp, x0, ry0, &z, out, x0, y0, 1, radius, depth_slope != 0, falloff, sharpness);
+    }
+    obs_image_f32_free(&tmp);
+    obs_image_f32_free(&z);
+    return st;
+}
+
+/* ================================================================================================
+ * The whole pass
+ * ============================================================================================== */
+
+obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_hbao_params *params,
+                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_hbao_stats *stats)
+{
+    obs_status st = ao_input_validate(ctx, in);
+    if (st != OBS_STATUS_OK)
+        return st;
+    st = ao_hbao_params_validate(ctx, params);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (!out || !out->data || out->width != in->w || out->height != in->h ||
+        (out_raw && (!out_raw->data || out_raw->width != in->w || out_raw->height != in->h)))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: output planes must be %dx%d (the window)", in->w,
+                         in->h);
+    if (params->normals == AO_HBAO_NORMALS_GBUFFER && !in->normal[0])
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "hbao: normals from the G-buffer were asked for, but the input has none");
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    const ao_hbao_constants k = ao_hbao_constants_from_params(params, in);
+    const int W = in->width, H = in->height;
+    hbao_job *J = (hbao_job *)calloc(1, sizeof *J);
+    obs_image_f32 z = {0}, raw = {0}, hpass = {0}, vpass = {0};
+    int64_t(*counts)[3] = NULL;
+    if (!J)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "hbao: out of memory");
+
+    /* ---- 1. Clean depth (background = +inf) and the random texture ---- */
+    double t0 = obs_time_now();
+    st = clean_depth(ctx, pool, in->depth, &z);
+    ao_hbao_noise_texture(k.num_dirs, NULL, J->noise);
+    double t1 = obs_time_now();
+
+    /* ---- 2. AO over the window plus the blur's reach ---- */
+    const int m = k.blur ? k.blur_radius : 0;
+    const int rx0 = in->x0 - m < 0 ? 0 : in->x0 - m, rx1 = in->x0 + in->w - 1 + m > W - 1 ? W - 1 : in->x0 + in->w - 1 + m;
+    const int ry0 = in->y0 - m < 0 ? 0 : in->y0 - m, ry1 = in->y0 + in->h - 1 + m > H - 1 ? H - 1 : in->y0 + in->h - 1 + m;
+    const int rw = rx1 - rx0 + 1, rh = ry1 - ry0 + 1;
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, rw, rh, &raw);
+    if (st == OBS_STATUS_OK) {
+        counts = (int64_t(*)[3])calloc((size_t)rh, sizeof *counts);
+        if (!counts)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "hbao: out of memory");
+    }
+    if (st == OBS_STATUS_OK) {
+        J->k = &k;
+        J->in = in;
+        J->z = &z;
+        J->rx0 = rx0;
+        J->ry0 = ry0;
+        J->ao = &raw;
+        J->counts = counts;
+        obs_pool_run(pool, rh, hbao_row, J);
+    }
+    double t2 = obs_time_now();
+
+    /* ---- 3. Blur: horizontal over (window columns x region rows), then vertical over the window ---- */
+    const obs_image_f32 *final = &raw;
+    int fx0 = rx0, fy0 = ry0;
+    if (st == OBS_STATUS_OK && k.blur) {
+        st = obs_image_f32_alloc(ctx, in->w, rh, &hpass);
+        if (st == OBS_STATUS_OK)
+            st = obs_image_f32_alloc(ctx, in->w, in->h, &vpass);
+        if (st == OBS_STATUS_OK) {
+            blur_run(pool, &raw, rx0, ry0, &z, &hpass, in->x0, ry0, 0, k.blur_radius, k.blur_depth_slope,
+                     k.blur_falloff, k.blur_sharpness);
+            blur_run(pool, &hpass, in->x0, ry0, &z, &vpass, in->x0, in->y0, 1, k.blur_radius, k.blur_depth_slope,
+                     k.blur_falloff, k.blur_sharpness);
+            final = &vpass;
+            fx0 = in->x0;
+            fy0 = in->y0;
+        }
+    }
+    double t3 = obs_time_now();
+
+    /* ---- 4. The window ---- */
+    if (st == OBS_STATUS_OK) {
+        for (int y = 0; y < in->h; y++) {
+            memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, in->y0 + y - fy0) + (in->x0 - fx0),
+                   sizeof(float) * (size_t)in->w);
+            if (out_raw)
+                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, in->y0 + y - ry0) + (in->x0 - rx0),
+                       sizeof(float) * (size_t)in->w);
+        }
+        if (stats) {
+            stats->pixels_computed = (int64_t)rw * rh;
+            for (int r = 0; r < rh; r++) {
+                stats->pixels_background += counts[r][0];
+                stats->pixels_small_radius += counts[r][1];
+                stats->pixels_degenerate_normal += counts[r][2];
+            }
+            stats->seconds_prepare = t1 - t0;
+            stats->seconds_ao = t2 - t1;
+            stats->seconds_blur = t3 - t2;
+        }
+    }
+    free(counts);
+    free(J);
+    obs_image_f32_free(&vpass);
+    obs_image_f32_free(&hpass);
+    obs_image_f32_free(&raw);
+    obs_image_f32_free(&z);
+    return st;
+}
+
+/* ================================================================================================
+ * The registry descriptor (ao.h, "The method registry")
+ * ============================================================================================== */
+
+_Static_assert(sizeof(ao_hbao_variant) == sizeof(int) && sizeof(ao_hbao_normals) == sizeof(int),
+               "ENUM params are int-sized");
+_Static_assert(sizeof(ao_hbao_params) <= AO_PARAMS_MAX_SIZE, "AO_PARAMS_MAX_SIZE");
+
+static const char *const hbao_variant_names[] = {"classic", "plus", NULL};
+static const char *const hbao_normals_names[] = {"depth", "gbuffer", NULL};
+
+#define HB_F(field) offsetof(ao_hbao_params, field)
+static const ao_param_desc hbao_param_descs[] = {
+    {"variant", AO_PARAM_ENUM, HB_F(variant), 0, 0, hbao_variant_names,
+     "classic (DX10 SDK horizon angles) or plus (HBAO+ per-tap form, gl_ssao hbao.frag.glsl)"},
+    {"radius", AO_PARAM_FLOAT, HB_F(radius), 1e-15, 1e19, NULL, "world-space radius of influence R (m)"},
+    {"directions", AO_PARAM_INT, HB_F(directions), 0, AO_HBAO_MAX_DIRECTIONS, NULL,
+     "directions N_d (0 = the variant's: classic 16, plus 8)"},
+    {"steps", AO_PARAM_INT, HB_F(steps), 0, AO_HBAO_MAX_STEPS, NULL,
+     "steps per direction (0 = the variant's: classic 8, plus 4)"},
+    {"angle-bias", AO_PARAM_FLOAT, HB_F(angle_bias_deg), 0, 89, NULL, "classic: angle bias (degrees)"},
+    {"attenuation", AO_PARAM_FLOAT, HB_F(attenuation), 0, 1e30, NULL, "classic: W(r) = 1 - attenuation r^2"},
+    {"contrast", AO_PARAM_FLOAT, HB_F(contrast), 0, 1e30, NULL, "classic: contrast (divided by 1 - sin(bias))"},
+    {"ndotv-bias", AO_PARAM_FLOAT, HB_F(ndotv_bias), 0, 0.999999, NULL, "plus: NDotVBias"},
+    {"pow-exponent", AO_PARAM_FLOAT, HB_F(pow_exponent), 0, 1e30, NULL, "plus: PowExponent of the output"},
+    {"small-scale-ao", AO_PARAM_FLOAT, HB_F(small_scale_ao), 0, 2, NULL,
+     "plus: 0 = gl_ssao's sum; > 0 = HBAO+ SmallScaleAO (first step weighs 2x this)"},
+    {"normals", AO_PARAM_ENUM, HB_F(normals), 0, 0, hbao_normals_names,
+     "depth: the shader's reconstruction from depth (reference); gbuffer: the G-buffer's"},
+    {"blur", AO_PARAM_BOOL, HB_F(blur), 0, 1, NULL, "the HBAO+ cross-bilateral blur (ao_hbao_blur)"},
+    {"blur-radius", AO_PARAM_INT, HB_F(blur_radius), 1, AO_HBAO_MAX_BLUR_RADIUS, NULL, "blur KERNEL_RADIUS (px)"},
+    {"blur-sharpness", AO_PARAM_FLOAT, HB_F(blur_sharpness), 0, 1e30, NULL, "blur depth sharpness (per m)"},
+    {"blur-sigma", AO_PARAM_FLOAT, HB_F(blur_sigma), 0, 1e4, NULL, "blur sigma (px); 0 = (radius + 1) / 2"},
+    {"blur-depth-slope", AO_PARAM_BOOL, HB_F(blur_depth_slope), 0, 1, NULL, "blur: HBAO+ depth-slope compensation"},
+};
+#undef HB_F
+
+static void m_default(void *p) { *(ao_hbao_params *)p = ao_hbao_params_default(); }
+static int m_preset(const char *name, void *p) { return ao_hbao_params_preset(name, (ao_hbao_params *)p); }
+static obs_status m_validate(obs_context *ctx, const void *p) { return ao_hbao_params_validate(ctx, (const ao_hbao_params *)p); }
+static int m_to_string(const void *p, char *buf, size_t size) { return ao_hbao_params_to_string((const ao_hbao_params *)p, buf, size); }
+static void m_set_samples(void *p, int n)
+{
+    /* n taps = directions x steps: 2 steps below 16 taps, else 4 (gl_ssao's NUM_STEPS) */
+    ao_hbao_params *q = (ao_hbao_params *)p;
+    int steps = n < 16 ? 2 : 4, dirs = n / steps;
+    dirs = dirs < 1 ? 1 : dirs > AO_HBAO_MAX_DIRECTIONS ? AO_HBAO_MAX_DIRECTIONS : dirs;
+    q->steps = steps;
+    q->directions = dirs;
+}
+static void m_set_radius(void *p, float r) { ((ao_hbao_params *)p)->radius = r; }
+static void m_set_blur(void *p, int on) { ((ao_hbao_params *)p)->blur = on != 0; }
+static float m_get_radius(const void *p) { return ((const ao_hbao_params *)p)->radius; }
+static const char *m_truth(const void *p)
+{
+    /* CLASSIC: uniform (solid-angle) weighting with W = 1 - d^2/R^2; PLUS: cosine with 1 - d^2/R^2 */
+    return ((const ao_hbao_params *)p)->variant == AO_HBAO_VARIANT_PLUS ? "obs-mssao" : "obs-hbao";
+}
+
+/* snprintf into (buf, size) at *len, tracking the length needed */
+static void jcat(char *buf, size_t size, size_t *len, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+static void jcat(char *buf, size_t size, size_t *len, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    char *dst = buf && *len < size ? buf + *len : NULL;
+    int n = vsnprintf(dst, dst ? size - *len : 0, fmt, ap);
+    va_end(ap);
+    if (n > 0)
+        *len += (size_t)n;
+}
+
+static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t size)
+{
+    const ao_hbao_constants K = ao_hbao_constants_from_params((const ao_hbao_params *)p, in);
+    size_t len = 0;
+    if (buf && size)
+        buf[0] = 0;
+    jcat(buf, size, &len,
+         "{\"variant\": \"%s\", \"pixel_convention\": \"%s\", \"uv_to_view\": [%.9g, %.9g, %.9g, %.9g], "
+         "\"resolution\": [%.9g, %.9g], \"inv_resolution\": [%.9g, %.9g], \"num_dirs\": %d, \"num_steps\": %d, ",
+         K.variant == AO_HBAO_VARIANT_PLUS ? "plus" : "classic",
+         K.variant == AO_HBAO_VARIANT_PLUS ? "GL (y up)" : "D3D (y down)", (double)K.uv_to_view[0],
+         (double)K.uv_to_view[1], (double)K.uv_to_view[2], (double)K.uv_to_view[3], (double)K.resolution[0],
+         (double)K.resolution[1], (double)K.inv_resolution[0], (double)K.inv_resolution[1], K.num_dirs, K.num_steps);
+    if (K.variant == AO_HBAO_VARIANT_CLASSIC) {
+        jcat(buf, size, &len,
+             "\"g_FocalLen\": [%.9g, %.9g], \"g_R\": %.9g, \"g_inv_R\": %.9g, \"g_sqr_R\": %.9g, "
+             "\"g_AngleBias\": %.9g, \"g_TanAngleBias\": %.9g, \"g_Attenuation\": %.9g, \"g_Contrast\": %.9g, "
+             "\"g_Dirs\": [",
+             (double)K.focal_len[0], (double)K.focal_len[1], (double)K.R, (double)K.inv_R, (double)K.sqr_R,
+             (double)K.angle_bias, (double)K.tan_angle_bias, (double)K.attenuation, (double)K.contrast);
+        for (int d = 0; d < K.num_dirs; d++)
+            jcat(buf, size, &len, "%s[%.9g, %.9g]", d ? ", " : "", (double)K.dirs[d][0], (double)K.dirs[d][1]);
+        jcat(buf, size, &len, "], ");
+    } else {
+        jcat(buf, size, &len,
+             "\"RadiusToScreen\": %.9g, \"R2\": %.9g, \"NegInvR2\": %.9g, \"NDotVBias\": %.9g, "
+             "\"AOMultiplier\": %.9g, \"PowExponent\": %.9g, \"projOrtho\": %d, \"Alpha\": %.9g, "
+             "\"g_fSmallScaleAOAmount\": %.9g, \"g_fLargeScaleAOAmount\": %.9g, ",
+             (double)K.radius_to_screen, (double)K.R2, (double)K.neg_inv_R2, (double)K.ndotv_bias,
+             (double)K.ao_multiplier, (double)K.pow_exponent, K.orthographic, (double)K.alpha,
+             (double)K.small_scale_amount, (double)K.large_scale_amount);
+    }
+    int16_t sh[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4];
+    ao_hbao_noise_texture(K.num_dirs, sh, NULL);
+    jcat(buf, size, &len, "\"random_texture_rgba16_snorm\": [");
+    for (int i = 0; i < AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4; i++)
+        jcat(buf, size, &len, "%s%d", i ? ", " : "", (int)sh[i]);
+    jcat(buf, size, &len,
+         "], \"blur\": %d, \"blur_KERNEL_RADIUS\": %d, \"blur_Sharpness\": %.9g, \"blur_BlurFalloff\": %.9g, "
+         "\"blur_USE_DEPTH_SLOPE\": %d}",
+         K.blur, K.blur_radius, (double)K.blur_sharpness, (double)K.blur_falloff, K.blur_depth_slope);
+    return (int)len;
+}
+
+static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const void *p, obs_image_f32 *out,
+                            obs_image_f32 *out_raw, ao_stats *stats)
+{
+    ao_hbao_stats s;
+    memset(&s, 0, sizeof s);
+    obs_status st = ao_hbao_compute(ctx, pool, in, (const ao_hbao_params *)p, out, out_raw, &s);
+    if (stats) {
+        memset(stats, 0, sizeof *stats);
+        stats->pixels_computed = s.pixels_computed;
+        stats->pixels_background = s.pixels_background;
+        stats->seconds_prepare = s.seconds_prepare;
+        stats->seconds_kernel = s.seconds_ao;
+        stats->seconds_blur = s.seconds_blur;
+    }
+    return st;
+}
+
+const ao_method ao_i_method_hbao = {
+    .name = "hbao",
+    .title = "Horizon-Based Ambient Occlusion [Bavoil08]: the DX10 SDK shader, or HBAO+'s taps as gl_ssao",
+    .doc = "docs/ao/hbao.md",
+    .params_size = sizeof(ao_hbao_params),
+    .params_default = m_default,
+    .params_preset = m_preset,
+    .preset_names = hbao_preset_names,
+    .params = hbao_param_descs,
+    .param_count = (int)(sizeof hbao_param_descs / sizeof hbao_param_descs[0]),
+    .params_adjust = NULL,
+    .params_validate = m_validate,
+    .params_to_string = m_to_string,
+    .set_samples = m_set_samples,
+    .set_radius = m_set_radius,
+    .set_blur = m_set_blur,
+    .get_radius = m_get_radius,
+    .truth_estimator = m_truth,
+    /* the angle bias starts the horizon above the tangent plane: no tap counts on a plane, the raw
+     * AO is exactly 1 except in the first and last row and column, where CLAMP_TO_EDGE fetches put
+     * a texel's depth at an unclamped uv (the reference's border artifact); the blur spreads that
+     * up to blur_radius pixels inward: 2.6e-4 at 4 px from the border (measured, tilted plane) */
+    .flat_value = 1.0f,
+    .flat_tolerance = 1e-3f,
+    .constants_to_json = m_constants_json,
+    .compute = m_compute,
+};
