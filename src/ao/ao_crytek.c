@@ -277,9 +277,12 @@ static inline float fetch(const obs_image_f32 *D, int W, int H, float sx, float 
         if (fx == fx && fy == fy) {
             fx = fx < -1.0f ? -1.0f : fx > (float)W ? (float)W : fx;
             fy = fy < -1.0f ? -1.0f : fy > (float)H ? (float)H : fy;
-            const float flx = floorf(fx), fly = floorf(fy);
-            const float a = fx - flx, b = fy - fly;
-            int i0 = (int)flx, j0 = (int)fly, i1 = i0 + 1, j1 = j0 + 1;
+            /* floor without a libm call: truncate, then step down where that rounded up (exact) */
+            int i0 = (int)fx, j0 = (int)fy;
+            i0 -= (float)i0 > fx;
+            j0 -= (float)j0 > fy;
+            const float a = fx - (float)i0, b = fy - (float)j0;
+            int i1 = i0 + 1, j1 = j0 + 1;
             i0 = i0 < 0 ? 0 : i0 > W - 1 ? W - 1 : i0;
             j0 = j0 < 0 ? 0 : j0 > H - 1 ? H - 1 : j0;
             i1 = i1 < 0 ? 0 : i1 > W - 1 ? W - 1 : i1;
