@@ -19,6 +19,7 @@
 #include "ao_internal.h"
 
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -558,6 +559,16 @@ static const char *m_truth(const void *p)
     (void)p;
     return "vol";
 }
+/* snprintf at buf + *n (when it still fits), adding the length needed to *n */
+static void appendf(char *buf, size_t size, size_t *n, const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+static void appendf(char *buf, size_t size, size_t *n, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int r = buf && *n < size ? vsnprintf(buf + *n, size - *n, fmt, ap) : vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    *n += r > 0 ? (size_t)r : 0;
+}
 static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t size)
 {
     ao_crytek_constants *K = (ao_crytek_constants *)malloc(sizeof *K);
@@ -565,12 +576,7 @@ static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t
         return snprintf(buf, size, "{}");
     ao_crytek_constants_from_params((const ao_crytek_params *)p, in, K);
     size_t n = 0;
-    int r;
-#define CK_PUT(...)                                                                                \
-    do {                                                                                           \
-        r = snprintf(buf ? buf + (n < size ? n : size) : NULL, n < size ? size - n : 0, __VA_ARGS__); \
-        n += r > 0 ? (size_t)r : 0;                                                                \
-    } while (0)
+#define CK_PUT(...) appendf(buf, size, &n, __VA_ARGS__)
     CK_PUT("{\"size\": [%d, %d], \"orthographic\": %d, \"space\": \"%s\", \"sky\": \"%s\", \"filter\": \"%s\", \"output\": \"%s\", "
            "\"blur\": %d, \"nSamples\": %d, \"invSize\": [%.9g, %.9g], \"offsetScale\": %.9g, "
            "\"offsetScaleStep\": %.9g, \"invCorner\": %.9g, \"kxy\": [%.9g, %.9g], \"kz\": %.9g, \"kzTimesDepth\": %d, "
