@@ -242,6 +242,8 @@ void ao_crytek_constants_from_params(const ao_crytek_params *p, const ao_input *
 
 typedef struct crytek_job {
     const ao_crytek_constants *k;
+    const float *rtab;             /* [16][N][3]: the rotated taps R = o_t * M per texel */
+    const obs_image_f32 *dgl;      /* the depth in GL row order, every non-surface value +inf */
     const ao_input *in;
     int rx0, ry0;                  /* region origin, our row order */
     obs_image_f32 *ao;             /* region-sized, our row order */
@@ -269,36 +271,53 @@ static inline int texel(float v, int n)
  * background (+inf here, a finite far value on a GPU), the nearest texel is returned instead
  * (a port gets this with a second, point-sampled fetch). GPUs quantise a and b (8 fractional bits
  * on most hardware), so a port matches the linear filter to about 1/256 of a texel's depth step. */
-static inline float fetch(const obs_image_f32 *D, int W, int H, float sx, float sy, int linear)
+static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float sy, int linear)
 {
     if (linear) {
-        /* limit to [-1, size] first (keeps the int conversion defined; beyond it both texels clamp
-         * to the edge texel anyway); NaN goes to the nearest-texel path */
-        float fx = sx - 0.5f, fy = sy - 0.5f;
-        if (fx == fx && fy == fy) {
-            fx = fx < -1.0f ? -1.0f : fx > (float)W ? (float)W : fx;
-            fy = fy < -1.0f ? -1.0f : fy > (float)H ? (float)H : fy;
-            /* floor without a libm call: truncate, then step down where that rounded up (exact) */
-            int i0 = (int)fx, j0 = (int)fy;
-            i0 -= (float)i0 > fx;
-            j0 -= (float)j0 > fy;
-            const float a = fx - (float)i0, b = fy - (float)j0;
+        const float fx = sx - 0.5f, fy = sy - 0.5f;
+        float t00, t10, t01, t11, a, b;
+        if (fx >= 0.0f && fy >= 0.0f && fx < (float)(W - 1) && fy < (float)(H - 1)) {
+            /* interior footprint (the common case): no clamps, floor = truncation */
+            const int i0 = (int)fx, j0 = (int)fy;
+            a = fx - (float)i0;
+            b = fy - (float)j0;
+            const float *r0 = obs_image_f32_row(G, j0) + i0, *r1 = obs_image_f32_row(G, j0 + 1) + i0;
+            t00 = r0[0];
+            t10 = r0[1];
+            t01 = r1[0];
+            t11 = r1[1];
+        } else if (fx == fx && fy == fy) {
+            /* at the edges: limit to [-1, size] (keeps the int conversion defined; beyond it both
+             * texels clamp to the edge texel anyway), floor, clamp each texel to the edge */
+            const float cx = fx < -1.0f ? -1.0f : fx > (float)W ? (float)W : fx;
+            const float cy = fy < -1.0f ? -1.0f : fy > (float)H ? (float)H : fy;
+            int i0 = (int)cx, j0 = (int)cy;
+            i0 -= (float)i0 > cx; /* floor without a libm call: exact */
+            j0 -= (float)j0 > cy;
+            a = cx - (float)i0;
+            b = cy - (float)j0;
             int i1 = i0 + 1, j1 = j0 + 1;
             i0 = i0 < 0 ? 0 : i0 > W - 1 ? W - 1 : i0;
             j0 = j0 < 0 ? 0 : j0 > H - 1 ? H - 1 : j0;
             i1 = i1 < 0 ? 0 : i1 > W - 1 ? W - 1 : i1;
             j1 = j1 < 0 ? 0 : j1 > H - 1 ? H - 1 : j1;
-            const float *r0 = obs_image_f32_row(D, H - 1 - j0), *r1 = obs_image_f32_row(D, H - 1 - j1);
-            const float t00 = r0[i0], t10 = r0[i1], t01 = r1[i0], t11 = r1[i1];
-            if (is_surface(t00) && is_surface(t10) && is_surface(t01) && is_surface(t11))
-            {
-                const float r0v = t00 + a * (t10 - t00), r1v = t01 + a * (t11 - t01);
-                return r0v + b * (r1v - r0v);
-            }
+            const float *r0 = obs_image_f32_row(G, j0), *r1 = obs_image_f32_row(G, j1);
+            t00 = r0[i0];
+            t10 = r0[i1];
+            t01 = r1[i0];
+            t11 = r1[i1];
+        } else {
+            return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)]; /* NaN: the nearest path */
         }
-        /* NaN or touching background: the nearest texel */
+        /* every non-surface depth is +inf in G: one test for the four */
+        const float m = fmaxf(fmaxf(t00, t10), fmaxf(t01, t11));
+        if (m < INFINITY) {
+            const float r0v = t00 + a * (t10 - t00), r1v = t01 + a * (t11 - t01);
+            return r0v + b * (r1v - r0v);
+        }
+        /* touching background: the nearest texel */
     }
-    return obs_image_f32_row(D, H - 1 - texel(sy, H))[texel(sx, W)];
+    return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)];
 }
 
 static void crytek_row(void *user, int64_t task, int thread)
@@ -330,7 +349,7 @@ static void crytek_row(void *user, int64_t task, int thread)
         const float u = ((float)x + 0.5f) * k->inv_size[0];
         /* ---- Per-pixel rotation: rotationTC = screenTC * screenSize / 4 on a 4x4 texture = texel
          * (p & 3); the matrix depends on the texel only, so it is precomputed (same floats) ---- */
-        const float *M = k->rot_mat[4 * (y_gl & 3) + (x & 3)];
+        const float *Rt = J->rtab + (size_t)(4 * (y_gl & 3) + (x & 3)) * 3 * (size_t)N;
         /* ---- Screen mapping of this pixel ---- */
         const float kx = k->kxy[0], ky = k->kxy[1];
         float kz = k->kz;
@@ -341,11 +360,9 @@ static void crytek_row(void *user, int64_t task, int thread)
         /* ---- Taps ---- */
         float acc = 0.0f;
         for (int t = 0; t < N; t++) {
-            const float *o = k->offsets[t];
             /* vRotatedOffset = mul(vOffset, rotMat): R_j = o.x M0j + o.y M1j + o.z M2j */
-            const float R0 = o[0] * M[0] + o[1] * M[3] + o[2] * M[6];
-            const float R1 = o[0] * M[1] + o[1] * M[4] + o[2] * M[7];
-            const float R2 = o[0] * M[2] + o[1] * M[5] + o[2] * M[8];
+            /* (precomputed per texel by rotate_taps, the same floats) */
+            const float R0 = Rt[3 * t], R1 = Rt[3 * t + 1], R2 = Rt[3 * t + 2];
             /* vSamplePos = float3(screenTC, dP) + float3(R.xy, R.z * dP * 2) */
             const float Sz = dP + R2 * kz;
             float Sx, Sy;
@@ -364,7 +381,7 @@ static void crytek_row(void *user, int64_t task, int thread)
                 Sy = v + ky * (R1 - ay * R2) / Sz;
             }
             /* fSceneDepthS = tex2D(depth, S.xy), clamp to edge (GL rows up) */
-            const float dS = fetch(in->depth, W, H, Sx * k->size[0], Sy * k->size[1], linear);
+            const float dS = fetch(J->dgl, W, H, Sx * k->size[0], Sy * k->size[1], linear);
             if (!is_surface(dS)) {
                 /* Deviation from the listing (which has no sky test): sky taps are visible (1) or
                  * skipped (0), ao.h ao_crytek_sky */
@@ -390,6 +407,40 @@ static void crytek_row(void *user, int64_t task, int thread)
 /* ================================================================================================
  * The whole pass
  * ============================================================================================== */
+
+/* The rotated taps of every texel: R = mul(vOffset, rotMat), R_j = o.x M0j + o.y M1j + o.z M2j in
+ * that order (the listing computes them per pixel; they depend on the texel only). */
+static void rotate_taps(const ao_crytek_constants *k, float *rtab)
+{
+    const int N = k->num_samples;
+    for (int e = 0; e < AO_CRYTEK_ROT_TILE * AO_CRYTEK_ROT_TILE; e++) {
+        const float *M = k->rot_mat[e];
+        for (int t = 0; t < N; t++) {
+            const float *o = k->offsets[t];
+            float *R = rtab + ((size_t)e * N + t) * 3;
+            R[0] = o[0] * M[0] + o[1] * M[3] + o[2] * M[6];
+            R[1] = o[0] * M[1] + o[1] * M[4] + o[2] * M[7];
+            R[2] = o[0] * M[2] + o[1] * M[5] + o[2] * M[8];
+        }
+    }
+}
+
+/* The depth texture as the shader sees it: GL row order, background (+inf, NaN, <= 0) as +inf. */
+typedef struct dgl_job {
+    const ao_input *in;
+    obs_image_f32 *out;
+} dgl_job;
+
+static void dgl_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const dgl_job *J = (const dgl_job *)user;
+    const int H = J->in->height, W = J->in->width, r = (int)task;
+    const float *d = obs_image_f32_row(J->in->depth, H - 1 - r);
+    float *o = obs_image_f32_row(J->out, r);
+    for (int x = 0; x < W; x++)
+        o[x] = is_surface(d[x]) ? d[x] : INFINITY;
+}
 
 static obs_status check_constants(obs_context *ctx, const ao_input *in, const ao_crytek_constants *k)
 {
@@ -429,18 +480,24 @@ obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const a
     int rect[4];
     ao_blur_reach(in, k->blur ? AO_GAUSS21_RADIUS : 0, rect);
     const int rx0 = rect[0], ry0 = rect[1], rw = rect[2], rh = rect[3];
-    obs_image_f32 raw = {0}, blurred = {0};
+    obs_image_f32 raw = {0}, blurred = {0}, dgl = {0};
     int64_t *bg = NULL;
     double t0 = obs_time_now();
-    st = obs_image_f32_alloc(ctx, rw, rh, &raw);
+    float *rtab = (float *)malloc(sizeof(float) * 3 * AO_CRYTEK_ROT_TILE * AO_CRYTEK_ROT_TILE * (size_t)k->num_samples);
+    st = rtab ? obs_image_f32_alloc(ctx, rw, rh, &raw) : obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, in->width, in->height, &dgl);
     if (st == OBS_STATUS_OK) {
+        dgl_job D = {in, &dgl};
+        obs_pool_run(pool, in->height, dgl_row, &D);
+        rotate_taps(k, rtab);
         bg = (int64_t *)calloc((size_t)rh, sizeof *bg);
         if (!bg)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
     }
     /* ---- 2. The AO pass over the region ---- */
     if (st == OBS_STATUS_OK) {
-        crytek_job J = {k, in, rx0, ry0, &raw, bg};
+        crytek_job J = {k, rtab, &dgl, in, rx0, ry0, &raw, bg};
         obs_pool_run(pool, rh, crytek_row, &J);
     }
     double t1 = obs_time_now();
@@ -481,6 +538,8 @@ obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const a
         }
     }
     free(bg);
+    free(rtab);
+    obs_image_f32_free(&dgl);
     obs_image_f32_free(&blurred);
     obs_image_f32_free(&raw);
     return st;
