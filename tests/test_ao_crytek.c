@@ -225,9 +225,33 @@ TEST(crytek_rotation_texture_is_the_documented_generator)
 
 /* ---- an independent evaluation ----------------------------------------------------------------- */
 
-/* The listing for one pixel, written out again in double from the formulas (nearest filter, sky
- * visible): taps, rotation, projection, range check, remap. */
-static double crytek_ref_pixel(const ao_input *in, int space, double radius, double offset_scale, int N, int x, int y)
+/* The depth at GL texture position (sx, sy) in texels: nearest, or GL_LINEAR (spec form) with clamp
+ * to edge (no background in these buffers). */
+static double ref_fetch(const ao_input *in, double sx, double sy, int linear)
+{
+    const int W = in->width, H = in->height;
+    if (!linear) {
+        int tx = (int)floor(sx), ty = (int)floor(sy);
+        tx = tx < 0 ? 0 : tx > W - 1 ? W - 1 : tx;
+        ty = ty < 0 ? 0 : ty > H - 1 ? H - 1 : ty;
+        return at(in->depth, tx, H - 1 - ty);
+    }
+    const double fx = sx - 0.5, fy = sy - 0.5, i0 = floor(fx), j0 = floor(fy), a = fx - i0, b = fy - j0;
+    double T[2][2];
+    for (int dj = 0; dj < 2; dj++)
+        for (int di = 0; di < 2; di++) {
+            int i = (int)i0 + di, j = (int)j0 + dj;
+            i = i < 0 ? 0 : i > W - 1 ? W - 1 : i;
+            j = j < 0 ? 0 : j > H - 1 ? H - 1 : j;
+            T[dj][di] = at(in->depth, i, H - 1 - j);
+        }
+    return (1 - a) * (1 - b) * T[0][0] + a * (1 - b) * T[0][1] + (1 - a) * b * T[1][0] + a * b * T[1][1];
+}
+
+/* The listing for one pixel, written out again in double from the formulas (sky visible): taps,
+ * rotation, projection, fetch, range check, remap. */
+static double crytek_ref_pixel(const ao_input *in, int space, int linear, double radius, double offset_scale, int N,
+                               int x, int y)
 {
     const int W = in->width, H = in->height, y_gl = H - 1 - y;
     const double dP = at(in->depth, x, y);
@@ -262,10 +286,7 @@ static double crytek_ref_pixel(const ao_input *in, int space, double radius, dou
                         Sx = (Q[0] / Q[2] * in->fx + in->cx) / W;
                         Sy = (Q[1] / Q[2] * in->fy + (H - in->cy)) / H;
                     }
-                    int tx = (int)floor(Sx * W), ty = (int)floor(Sy * H);
-                    tx = tx < 0 ? 0 : tx > W - 1 ? W - 1 : tx;
-                    ty = ty < 0 ? 0 : ty > H - 1 ? H - 1 : ty;
-                    const double dS = at(in->depth, tx, H - 1 - ty);
+                    const double dS = ref_fetch(in, Sx * W, Sy * H, linear);
                     double r = (dP - dS) / dS;
                     r = r < 0 ? 0 : r > 1 ? 1 : r;
                     const double a = dS > Sz ? 1.0 : 0.0;
@@ -278,7 +299,7 @@ static double crytek_ref_pixel(const ao_input *in, int space, double radius, dou
 TEST(crytek_pixels_match_an_independent_double_evaluation)
 {
     /* A bumpy depth field with steps (so that taps read different depths and the range check is
-     * neither 0 nor 1): pixels (3, 5) and others, both spaces, N = 8 and 16. A tap decision that
+     * neither 0 nor 1): pixels (3, 5) and others, both spaces, both filters, N = 8 and 16. A tap decision that
      * rounds differently in float and double would change a value by >= 1/(2N) in A; the bound
      * 1e-5 allows only rounding of the range-check terms. */
     obs_context *ctx = obs_context_create();
@@ -293,20 +314,30 @@ TEST(crytek_pixels_match_an_independent_double_evaluation)
     input_over(&in, &d, 40.0);
     static const int px[][2] = {{3, 5}, {20, 20}, {21, 26}, {30, 12}, {10, 33}, {44, 2}};
     for (int space = 0; space < 2; space++)
-        for (int N = 8; N <= 16; N += 8) {
+        for (int N = 8; N <= 16; N += 8)
+        for (int linear = 0; linear < 2; linear++) {
             ao_crytek_params p = ao_crytek_params_default();
             p.space = (ao_crytek_space)space;
-            p.filter = AO_CRYTEK_FILTER_NEAREST;
+            p.filter = linear ? AO_CRYTEK_FILTER_LINEAR : AO_CRYTEK_FILTER_NEAREST;
             p.samples = N;
             p.blur = 0;
             p.radius = 0.6f;
             p.offset_scale = 0.02f;
             obs_image_f32 out;
             CHECK_OK(run_crytek(ctx, NULL, &in, &p, &out, NULL), ctx);
+            int distinct = 0; /* the case is not trivial: the pixels differ from each other and from 0.75 */
             for (size_t i = 0; i < sizeof px / sizeof px[0]; i++) {
-                const double want = crytek_ref_pixel(&in, space, 0.6, 0.02, N, px[i][0], px[i][1]);
-                CHECK_MSG(fabs(at(&out, px[i][0], px[i][1]) - want) <= 1e-5, "space %d N %d pixel (%d,%d): %.7f, want %.7f",
-                          space, N, px[i][0], px[i][1], (double)at(&out, px[i][0], px[i][1]), want);
+                int seen = at(&out, px[i][0], px[i][1]) == 0.75f;
+                for (size_t j = 0; j < i; j++)
+                    seen |= at(&out, px[i][0], px[i][1]) == at(&out, px[j][0], px[j][1]);
+                distinct += !seen;
+            }
+            CHECK_MSG(distinct >= 3, "space %d N %d linear %d: only %d distinct values", space, N, linear, distinct);
+            for (size_t i = 0; i < sizeof px / sizeof px[0]; i++) {
+                const double want = crytek_ref_pixel(&in, space, linear, 0.6, 0.02, N, px[i][0], px[i][1]);
+                CHECK_MSG(fabs(at(&out, px[i][0], px[i][1]) - want) <= 1e-5,
+                          "space %d N %d linear %d pixel (%d,%d): %.7f, want %.7f", space, N, linear, px[i][0], px[i][1],
+                          (double)at(&out, px[i][0], px[i][1]), want);
             }
             obs_image_f32_free(&out);
         }
