@@ -309,9 +309,8 @@ static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float 
         } else {
             return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)]; /* NaN: the nearest path */
         }
-        /* every non-surface depth is +inf in G: one test for the four */
-        const float m = fmaxf(fmaxf(t00, t10), fmaxf(t01, t11));
-        if (m < INFINITY) {
+        /* every non-surface depth is +inf in G (never NaN): a branch-free test of the four */
+        if ((t00 < INFINITY) & (t10 < INFINITY) & (t01 < INFINITY) & (t11 < INFINITY)) {
             const float r0v = t00 + a * (t10 - t00), r1v = t01 + a * (t11 - t01);
             return r0v + b * (r1v - r0v);
         }
