@@ -213,9 +213,10 @@ void ao_crytek_constants_from_params(const ao_crytek_params *p, const ao_input *
 
     /* ---- The mapping to the screen ----
      * screen (the listing): S = (uv, dP) + (R.xy, R.z * dP * 2): k_xy = 1, k_z = 2 (times dP).
-     * world (ours): the tap offsets o_t / s_N * r are view-space metres; their screen shift is
-     * R.xy (r / s_N) (fx / W, fy / H) / dP in UV (perspective; orthographic without / dP), their
-     * depth shift R.z r / s_N. Computed in double, rounded once. */
+     * world (ours): the tap offsets R r / s_N are view-space metres: depth shift R.z kz with
+     * kz = r / s_N, screen shift kxy (R.xy - a R.z) / S.z with kxy = (r / s_N)(fx / W, fy / H) and
+     * a the pixel's ray slopes (perspective, the exact projection of P + R r / s_N); orthographic
+     * R.xy kxy. Computed in double, rounded once. */
     if (p->space == AO_CRYTEK_SPACE_SCREEN) {
         k->kxy[0] = 1.0f;
         k->kxy[1] = 1.0f;
@@ -638,12 +639,13 @@ static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t
     CK_PUT("{\"size\": [%d, %d], \"orthographic\": %d, \"space\": \"%s\", \"sky\": \"%s\", \"filter\": \"%s\", \"output\": \"%s\", "
            "\"blur\": %d, \"nSamples\": %d, \"invSize\": [%.9g, %.9g], \"offsetScale\": %.9g, "
            "\"offsetScaleStep\": %.9g, \"invCorner\": %.9g, \"kxy\": [%.9g, %.9g], \"kz\": %.9g, \"kzTimesDepth\": %d, "
-           "\"kxyOverDepth\": %d, \"offsets\": [",
+           "\"projected\": %d, \"ray\": [%.9g, %.9g, %.9g, %.9g], \"offsets\": [",
            K->full_width, K->full_height, K->orthographic, space_names[K->space], sky_names[K->sky], filter_names[K->filter],
            output_names[K->output], K->blur, K->num_samples, (double)K->inv_size[0], (double)K->inv_size[1],
            (double)K->offset_scale, (double)K->offset_scale_step, (double)K->inv_corner, (double)K->kxy[0],
            (double)K->kxy[1], (double)K->kz, K->space == AO_CRYTEK_SPACE_SCREEN,
-           K->space == AO_CRYTEK_SPACE_WORLD && !K->orthographic);
+           K->space == AO_CRYTEK_SPACE_WORLD && !K->orthographic, (double)K->ray[0], (double)K->ray[1],
+           (double)K->ray[2], (double)K->ray[3]);
     for (int t = 0; t < K->num_samples; t++)
         CK_PUT("%s[%.9g, %.9g, %.9g]", t ? ", " : "", (double)K->offsets[t][0], (double)K->offsets[t][1],
                (double)K->offsets[t][2]);
