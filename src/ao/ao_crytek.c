@@ -253,7 +253,9 @@ typedef struct crytek_job {
 
 static inline int is_surface(float d) { return d > 0.0f && d < INFINITY; } /* NaN -> 0 */
 
-/* The tap texel along one axis: clamp(floor(v), 0, n - 1), NaN -> 0 (CLAMP_TO_EDGE, GL_NEAREST). */
+/* The tap texel along one axis: clamp(floor(v), 0, n - 1), NaN -> 0 (CLAMP_TO_EDGE, GL_NEAREST).
+ * Deviation from the compute port, which truncates `(int2)(S.xy * size)` and does not clamp (an
+ * out-of-range SRV load returns 0 in D3D): the brief's GL clamp-to-edge rule. */
 static inline int texel(float v, int n)
 {
     if (!(v >= 0.0f))
