@@ -437,6 +437,143 @@ extern const float ao_sao_blur_gaussian[AO_SAO_BLUR_RADIUS + 1];
  * Crytek SSAO (src/ao/ao_crytek.c)
  * ============================================================================================== */
 
+/* Crytek SSAO [Kajalin09] (Vladimir Kajalin, "Screen-Space Ambient Occlusion", ShaderX7 §6.1,
+ * CryEngine 2): 8 cube-corner offsets per round, each scaled by a growing offsetScale, rotated per
+ * pixel by a matrix built from a 4x4 tiled rotation texture, a depth-buffer visibility test with
+ * the "range check" lerp(dS > S.z ? 1 : 0, 0.5, saturate((dP - dS)/dS)), A = acc / N, output
+ * saturate(A^2 + A). A flat open plane gives A = 1/2, i.e. 0.75. docs/ao/crytek.md. */
+
+#define AO_CRYTEK_DEFAULT_RADIUS 0.5f       /* m, > 0: the world-space ball radius (space "world"); our
+                                               choice (the original is screen-space and has none):
+                                               XeGTAO's default Radius, the truth module's default */
+#define AO_CRYTEK_DEFAULT_SAMPLES 16        /* N in {4, 8, 16, ..., 256}; ShaderX7 "nSamplesNum = 16" */
+#define AO_CRYTEK_DEFAULT_OFFSET_SCALE 0.01f /* > 0, UV units; ShaderX7 "float offsetScale = 0.01"
+                                               (the compute port 11093304203 uses 0.001) */
+#define AO_CRYTEK_DEFAULT_DEPTH_SCALE 2.0f  /* ShaderX7 "vRotatedOffset.z * fSceneDepthP * 2" (space
+                                               "screen" only; fixed, not a parameter) */
+#define AO_CRYTEK_MAX_SAMPLES 256
+#define AO_CRYTEK_ROT_TILE 4                /* the rotation texture is 4x4, tiled over the screen */
+
+typedef enum ao_crytek_space {
+    AO_CRYTEK_SPACE_WORLD = 0,      /* default: the taps fill a world-space ball of radius r (metres)
+                                       at every pixel (our mapping, docs/ao/crytek.md) */
+    AO_CRYTEK_SPACE_SCREEN,         /* the original: offsets in UV units scaled by offset_scale,
+                                       depth offset o.z * dP * 2 (radius grows with depth) */
+    AO_CRYTEK_SPACE_COUNT
+} ao_crytek_space;
+
+typedef enum ao_crytek_sky {
+    AO_CRYTEK_SKY_VISIBLE = 0,      /* default: a tap on background adds 1 (the ReShade copies'
+                                       fSSAODepthClip branch; what the original gives when the sky
+                                       is cleared to the far plane) */
+    AO_CRYTEK_SKY_SKIP,             /* the compute port (11093304203): the tap adds nothing, but A is
+                                       still acc / N (so sky darkens) */
+    AO_CRYTEK_SKY_COUNT
+} ao_crytek_sky;
+
+typedef enum ao_crytek_filter {
+    AO_CRYTEK_FILTER_LINEAR = 0,    /* default: bilinear depth fetch (the HLSL effect copy 18810930753:
+                                       g_SceneDepthSampler MinFilter = MagFilter = Linear); a footprint
+                                       touching background falls back to the nearest texel */
+    AO_CRYTEK_FILTER_NEAREST,       /* the texel containing S.xy (the compute port's integer fetch) */
+    AO_CRYTEK_FILTER_COUNT
+} ao_crytek_filter;
+
+typedef enum ao_crytek_output {
+    AO_CRYTEK_OUTPUT_REMAP = 0,     /* default: saturate(A^2 + A), the original's output */
+    AO_CRYTEK_OUTPUT_ACCESSIBILITY, /* A = acc / N itself (the quantity the "vol" truth estimates) */
+    AO_CRYTEK_OUTPUT_COUNT
+} ao_crytek_output;
+
+typedef struct ao_crytek_params {
+    ao_crytek_space space;
+    float radius;           /* world: ball radius, metres */
+    float offset_scale;     /* the initial offsetScale (UV units in space "screen"; in "world" only
+                               the ratios of the tap radii matter, which do not depend on it) */
+    int samples;            /* N: 4, or a multiple of 8 up to AO_CRYTEK_MAX_SAMPLES (N/8 rounds of the
+                               8 corners; 4 = the two antipodal pairs of corners with y = z) */
+    ao_crytek_sky sky;
+    ao_crytek_filter filter;
+    ao_crytek_output output;
+    int blur;               /* 1: the seed thesis' 21-tap separable Gaussian (ao_blur_gaussian21) */
+} ao_crytek_params;
+
+/* Defaults (AO_CRYTEK_DEFAULT_*): space world, r = 0.5 m, N = 16, sky visible, remapped output,
+ * blur on (the seed thesis blurs every technique's AO). */
+ao_crytek_params ao_crytek_params_default(void);
+
+/* Named presets. Returns 1 and fills *out, or 0 for an unknown name.
+ *   "default": ao_crytek_params_default().
+ *   "kajalin": the ShaderX7 listing exactly: space screen, offsetScale 0.01, N = 16, no blur (the
+ *              listing is the AO pass alone). Every depth quantity of the original is a ratio, so
+ *              the result does not depend on the far plane the copies normalise depth by.
+ *   "compute-port": the DirectCompute copy (11093304203): as "kajalin" with offsetScale 0.001 and
+ *              sky taps skipped. */
+int ao_crytek_params_preset(const char *name, ao_crytek_params *out);
+const char *const *ao_crytek_preset_names(void);   /* NULL-terminated */
+
+/* Returns OK or INVALID_ARGUMENT naming the field and its range. */
+obs_status ao_crytek_params_validate(obs_context *ctx, const ao_crytek_params *p);
+
+/* Resolved params as one line ("space=world radius=0.5 ..."); snprintf semantics. */
+int ao_crytek_params_to_string(const ao_crytek_params *p, char *buf, size_t size);
+
+/* The rotation texture: 16 unit vectors vRotation, texel (i, j) at index 4 j + i, where i = x_gl % 4
+ * and j = y_gl % 4 (GL pixel coordinates; row j = 0 is the bottom row of a GL texture upload, so a
+ * port uploads this array as a 4x4 RGB32F texture with GL_REPEAT / GL_NEAREST and fetches texel
+ * ivec2(gl_FragCoord.xy) & 3). Generator (docs/ao/crytek.md): texel (i, j) holds vector
+ * k = bayer4[j][i] (the 4x4 Bayer matrix {0 8 2 10 / 12 4 14 6 / 3 11 1 9 / 15 7 13 5}) of the
+ * golden-angle spiral over the upper hemisphere, z_k = 1 - (k + 1/2)/16, phi_k = k pi (3 - sqrt 5),
+ * r_k = (sqrt(1 - z_k^2) cos phi_k, sqrt(1 - z_k^2) sin phi_k, z_k), evaluated in double and rounded
+ * to float. z > 0 keeps h = 1/(1 + z) <= 1, far from the matrix's singularity at z = -1. */
+extern const float ao_crytek_rotation[AO_CRYTEK_ROT_TILE * AO_CRYTEK_ROT_TILE][3];
+
+/* The rotation matrix of ao.md 1.1 / ShaderX7 for vector r, h = 1/(1 + r.z), float, row-major
+ * m[3 i + j] = rotMat._m(i)(j):
+ *   [h ry^2 + rz, -h ry rx, -rx;  -h ry rx, h rx^2 + rz, -ry;  rx, ry, rz]
+ * (for a unit r: the smallest rotation taking +z to r, applied as the row vector v * M). */
+void ao_crytek_rotation_matrix(const float r[3], float m[9]);
+
+/* The constant block a shader port needs, field for field (float32). */
+typedef struct ao_crytek_constants {
+    int full_width, full_height;    /* the GL pixel grid the pattern lives on */
+    int orthographic;               /* the input's projection (world space only) */
+    int space, sky, filter, output, blur; /* the enums above; blur 0/1 */
+    int num_samples;                /* N */
+    float inv_size[2];              /* 1/W, 1/H: uv = (vec2(p) + 0.5) * inv_size */
+    float size[2];                  /* W, H: nearest texel clamp(floor(S.xy * size), 0, size - 1);
+                                       linear: GL_LINEAR at S.xy * size - 0.5, CLAMP_TO_EDGE */
+    float offset_scale;             /* the initial offsetScale */
+    float offset_scale_step;        /* 1.0f + 2.4f / float(N) */
+    float inv_corner;               /* normalize(+-1, +-1, +-1) = +-1/sqrt(3), correctly rounded */
+    float kxy[2];                   /* S.xy = uv + R.xy * kxy (screen: 1; world, perspective: divided
+                                       by dP per pixel; world: (r / s_N) (fx/W, fy/H)) */
+    float kz;                       /* S.z = dP + R.z * kz (screen: 2, times dP per pixel; world: r / s_N m) */
+    float ray[4];                   /* world, perspective: pixel ray slopes a = ray.xy + p * ray.zw
+                                       (p in GL pixels): uv' = uv + kxy (R.xy - a R.z) / S.z */
+    float num_samples_f;            /* float(N): A = acc / float(N) */
+    float offsets[AO_CRYTEK_MAX_SAMPLES][3];  /* vOffset_t = normalize(corner_t) * (offsetScale *= step) */
+    float rot_mat[AO_CRYTEK_ROT_TILE * AO_CRYTEK_ROT_TILE][9]; /* ao_crytek_rotation_matrix per texel */
+} ao_crytek_constants;
+
+/* The pure params -> constants step (in gives the buffer size and the pixel model). Params are
+ * assumed validated. */
+void ao_crytek_constants_from_params(const ao_crytek_params *p, const ao_input *in, ao_crytek_constants *k);
+
+/* Crytek SSAO over the input's window. out (required) and out_raw (optional) are w x h planes in
+ * our row order: out gets the blurred AO when params->blur, else the raw AO; out_raw the AO before
+ * the blur. With the blur, the AO pass runs over the window plus the blur's 10 px reach (inside the
+ * buffer), so the result equals a GPU running both passes over the whole buffer and cropping.
+ * stats may be NULL. Returns OK, INVALID_ARGUMENT (input, params, plane sizes), OUT_OF_MEMORY,
+ * LIMIT_EXCEEDED. */
+obs_status ao_crytek_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_crytek_params *params,
+                             obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats);
+
+/* As ao_crytek_compute with an explicit constant block (k->full_width/height must match). */
+obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const ao_input *in,
+                                       const ao_crytek_constants *k, obs_image_f32 *out, obs_image_f32 *out_raw,
+                                       ao_stats *stats);
+
 /* (end of Crytek SSAO) */
 
 

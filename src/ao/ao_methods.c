@@ -6,7 +6,7 @@
 #include <string.h>
 
 static const ao_method *const methods[] = {
-    /* crytek */
+    &ao_i_method_crytek,
     &ao_i_method_alchemy,
     &ao_i_method_sao,
     &ao_i_method_hbao,
