@@ -380,8 +380,13 @@ TEST(ao_methods_halos_at_depth_discontinuities_are_bounded)
             m->set_blur(p.b, blur);
             obs_image_f32 out, raw;
             CHECK_OK(run(ctx, NULL, m, p.b, &in, &out, &raw), ctx);
-            /* the wall within 12 px of the square (outside it), and far from it */
-            double halo = 0.0;
+            /* the wall within 12 px of the square (outside it): its worst and its mean darkening.
+             * A halo is a systematic darkening: the mean must stay under 0.02 for every method;
+             * single pixels may deviate by the method's own documented flat-plane noise
+             * (flat_tolerance: Crytek's unblurred taps jump by whole samples) or 0.05, whichever
+             * is larger. */
+            double halo = 0.0, mean = 0.0;
+            int n = 0;
             for (int y = 16; y < 80; y++)
                 for (int x = 32; x < 96; x++) {
                     if (x >= 44 && x < 84 && y >= 28 && y < 68)
@@ -389,12 +394,17 @@ TEST(ao_methods_halos_at_depth_discontinuities_are_bounded)
                     double dark = m->flat_value - obs_image_f32_row(&out, y)[x];
                     if (dark > halo)
                         halo = dark;
+                    mean += dark;
+                    n++;
                 }
-            const double bound = 0.05;
+            mean /= n;
+            const double bound = m->flat_tolerance > 0.05f ? (double)m->flat_tolerance : 0.05;
             CHECK_MSG(halo <= bound, "%s, blur %d: the wall next to the square is darkened by %.4f (> %.2f)", m->name,
                       blur, halo, bound);
+            CHECK_MSG(mean <= 0.02, "%s, blur %d: the wall next to the square is darkened by %.4f on average (> 0.02)",
+                      m->name, blur, mean);
             if (!test_failed())
-                printf("  %s blur %d: halo %.5f\n", m->name, blur, halo);
+                printf("  %s blur %d: halo %.5f, mean %.5f\n", m->name, blur, halo, mean);
             obs_image_f32_free(&out);
             obs_image_f32_free(&raw);
         }
