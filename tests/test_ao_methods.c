@@ -346,6 +346,51 @@ TEST(ao_methods_hard_cases_stay_finite_and_in_unit_range)
     obs_context_destroy(ctx);
 }
 
+/* Background (no surface) is visibility 1 exactly, also next to geometry and after every blur
+ * (ao.h: "Background ... gets visibility 1"), with a guard band and without G-buffer normals. */
+TEST(ao_methods_background_pixels_are_exactly_one_with_and_without_blur)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 96, 64, 4, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    int n_bg = 0;
+    for (int y = 0; y < in.h; y++)
+        for (int x = 0; x < in.w; x++)
+            n_bg += !(obs_image_f32_row(in.depth, in.y0 + y)[in.x0 + x] < INFINITY);
+    CHECK_MSG(n_bg > 100, "the scene shows sky (%d background pixels)", n_bg);
+    for (const ao_method *const *mp = ao_methods(); *mp; mp++) {
+        const ao_method *m = *mp;
+        for (int cfg = 0; cfg < 4; cfg++) {
+            params_buf p;
+            m->params_default(p.b);
+            m->set_blur(p.b, cfg & 1);
+            ao_input use = in;
+            if (cfg & 2)
+                use.normal[0] = use.normal[1] = use.normal[2] = NULL;
+            obs_image_f32 out, raw;
+            CHECK_OK(run(ctx, NULL, m, p.b, &use, &out, &raw), ctx);
+            for (int y = 0; y < in.h; y++)
+                for (int x = 0; x < in.w; x++) {
+                    if (obs_image_f32_row(in.depth, in.y0 + y)[in.x0 + x] < INFINITY)
+                        continue;
+                    CHECK_MSG(obs_image_f32_row(&out, y)[x] == 1.0f && obs_image_f32_row(&raw, y)[x] == 1.0f,
+                              "%s (blur %d, normals %d): background pixel (%d,%d) = %.9g (raw %.9g)", m->name, cfg & 1,
+                              !(cfg & 2), x, y, (double)obs_image_f32_row(&out, y)[x],
+                              (double)obs_image_f32_row(&raw, y)[x]);
+                }
+            obs_image_f32_free(&out);
+            obs_image_f32_free(&raw);
+        }
+    }
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
 /* Issue 4: "bounded halos" at depth discontinuities. A wall 10 m away with a square 2 m away in
  * front of it: the 8 m gap is 16 radii, so no technique's falloff should let the square darken the
  * wall around it much. The bound is per method (the measured darkening plus margin, recorded in

@@ -9,7 +9,9 @@
  *     kernel takes its per-pixel pattern (hash, noise, tap offsets, 2x2 derivative quads, MIP
  *     texel grids) in the shader's own pixel coordinates: x_gl = x, y_gl = H - 1 - y (H = the
  *     FULL buffer height, guard band included). That is what makes a GPU port given the same
- *     buffers produce the same numbers. Each technique's page says so.
+ *     buffers produce the same numbers. Where the reference is HLSL with D3D's convention (rows
+ *     from the top: XeGTAO, UE4, the classic HBAO SDK shader), its pixel (x, y) is our (x, y), no
+ *     flip. Each technique's page says which convention it uses.
  *   - View space: right-handed, -Z forward, +Y up, metres; linear depth d = -z_view > 0.
  *     Background: a depth that is not finite and > 0 (+inf, as our rasterizer writes, but also
  *     NaN, 0 or negative values from an external G-buffer) is background and gets visibility 1.

@@ -958,6 +958,13 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         for (int y = 0; y < in->h; y++) {
             const int ry = in->y0 + y - rect[1];
             memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, ry) + (in->x0 - rect[0]), sizeof(float) * in->w);
+            if (final != &Q) { /* the Gaussian mixes background with its neighbours: background stays 1 (blur.md) */
+                const float *d = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
+                float *o = obs_image_f32_row(out, y);
+                for (int x = 0; x < in->w; x++)
+                    if (!(d[x] > 0.0f && d[x] < INFINITY))
+                        o[x] = 1.0f;
+            }
             if (out_raw)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&Q, ry) + (in->x0 - rect[0]),
                        sizeof(float) * in->w);
