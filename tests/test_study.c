@@ -152,6 +152,9 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     char *md = test_slurp(test_path(rep, "README.md"), NULL);
     CHECK(md && strstr(md, "Best technique per frame budget") && strstr(md, "pareto_all.svg") &&
           strstr(md, "grid_bunny.png"));
+    /* the seed's Table 24: MSSAO's 5 levels, each with a time and an error */
+    const char *lv = md ? strstr(md, "MSSAO per level") : NULL;
+    CHECK(lv && strstr(lv, "| bunny | 0 | 192x108 |") && strstr(lv, "| bunny | 4 | 12x7 |"));
     free(md);
     char *svg = test_slurp(test_path(rep, "pareto_all.svg"), NULL);
     CHECK(svg && strstr(svg, "Pareto front"));
