@@ -1,0 +1,56 @@
+/* ao_sao_internal.h: what ao_sao.c shares with its AVX2 kernel (ao_sao_avx2.c) and the tests.
+ * Not installed, not part of the API. */
+#ifndef AO_SAO_INTERNAL_H
+#define AO_SAO_INTERNAL_H
+
+#include "ao.h"
+
+#include <stdint.h>
+
+/* The AO pass's instruction-set paths. AUTO: AVX2 when the build and the CPU have it, unless the
+ * environment sets OBS_ISA=scalar (as the rasterizer's RAST_ISA_AUTO). Both paths give the same
+ * bytes (tests/test_ao_sao.c, sao_avx2_and_scalar_paths_are_bit_identical). */
+typedef enum ao_i_sao_isa {
+    AO_I_SAO_ISA_AUTO = 0,
+    AO_I_SAO_ISA_SCALAR,
+    AO_I_SAO_ISA_AVX2,
+    AO_I_SAO_ISA_COUNT
+} ao_i_sao_isa;
+
+/* 1 when the path is compiled in and the CPU runs it (SCALAR and AUTO: always). */
+int ao_i_sao_isa_available(ao_i_sao_isa isa);
+
+/* One AO pass, shared by the scalar and AVX2 row kernels. All planes in GL row order.
+ * The depth pyramid lies in ONE block starting at levels[0].data: level l starts lvl_off[l]
+ * floats after it, so that a gather can address any level with 32-bit indices. */
+typedef struct ao_i_sao_job {
+    const ao_sao_constants *k;
+    const obs_image_f32 *levels;   /* [0..k->max_mip]; level 0 = CSZ */
+    int32_t lvl_off[AO_SAO_MAX_MIP + 1];    /* element offset of level l from levels[0].data */
+    int32_t lvl_stride[AO_SAO_MAX_MIP + 1]; /* row stride of level l (elements) */
+    int32_t lvl_wm1[AO_SAO_MAX_MIP + 1];    /* width - 1 of level l */
+    int32_t lvl_hm1[AO_SAO_MAX_MIP + 1];    /* height - 1 of level l */
+    const ao_input *in;            /* G-buffer normals (our row order) */
+    int rx0, ry0;                  /* region origin, GL coordinates */
+    obs_image_f32 *ao;             /* region-sized, GL order */
+    int64_t (*counts)[3];          /* per row: background, degenerate normal, below min radius */
+    /* Per-tap constants, hoisted out of the pixel loop (the same floats the shader computes):
+     * alpha[t] = (float(t) + 0.5) * (1.0 / float(N)), alpha_angle[t] = alpha[t] * (tau * 6.28). */
+    float alpha[AO_SAO_MAX_SAMPLES];
+    float alpha_angle[AO_SAO_MAX_SAMPLES];
+} ao_i_sao_job;
+
+/* One row (task = region row) of the AO pass. */
+void ao_i_sao_row_scalar(const ao_i_sao_job *J, int task);
+#if defined(OBS_HAVE_AVX2)
+void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task);
+#endif
+
+/* ao_sao_compute_constants with an explicit path (the tests run both in one binary). isa_used
+ * (may be NULL) receives the path taken. Returns as ao_sao_compute_constants, and
+ * UNSUPPORTED_ISA for a path this build or CPU lacks. */
+obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_sao_constants *k,
+                                obs_image_f32 *out, obs_image_f32 *out_raw, ao_sao_stats *stats, ao_i_sao_isa isa,
+                                ao_i_sao_isa *isa_used);
+
+#endif
