@@ -254,10 +254,12 @@ static inline int trunc_to_int(float v)
  *   r = x - k*P1 - k*P2 - k*P3 - k*P4 with pi/2 = P1 + P2 + P3 + P4 split into 22-bit pieces
  *       (exact products k*Pi for |k| < 2^31; the first two differences are exact by Sterbenz and
  *       alignment, the absolute error is ~2^-88, far below r for any float x);
- *   sin r, cos r by their Taylor series to r^19 and r^20 on |r| <= pi/4 + tiny (truncation
- *       < 1e-21), Horner in double; the quadrant k mod 4 picks the signs.
+ *   sin r, cos r by fdlibm's minimax kernels on |r| <= pi/4 (k_sin.c, k_cos.c: degree 13 and 14,
+ *       |error| < 2^-58; the same coefficients are in musl's __sin.c / __cos.c), Horner in double;
+ *       the quadrant k mod 4 picks the signs.
  * Agreement with (float)cos((double)a) and (float)sin((double)a) was checked for every float
- * angle in [0, 2^31) (docs/ao/sao.md). */
+ * angle in [0, 3e9) (docs/ao/sao.md, "Speed"); the result is odd/even in a exactly. The AVX2
+ * kernel (ao_sao_avx2.c, cos_sin_pd) runs the same operations in the same order. */
 void ao_i_cos_sin(float angle, float *c, float *s)
 {
     const double x = (double)angle;
@@ -274,14 +276,10 @@ void ao_i_cos_sin(float angle, float *c, float *s)
     r = r - kd * P3;
     r = r - kd * P4;
     const double z = r * r;
-    const double sn =
-        r + r * z * (-1.0 / 6.0 + z * (1.0 / 120.0 + z * (-1.0 / 5040.0 + z * (1.0 / 362880.0 +
-            z * (-1.0 / 39916800.0 + z * (1.0 / 6227020800.0 + z * (-1.0 / 1307674368000.0 +
-            z * (1.0 / 355687428096000.0 + z * (-1.0 / 121645100408832000.0)))))))));
-    const double cs =
-        1.0 - 0.5 * z + z * z * (1.0 / 24.0 + z * (-1.0 / 720.0 + z * (1.0 / 40320.0 + z * (-1.0 / 3628800.0 +
-            z * (1.0 / 479001600.0 + z * (-1.0 / 87178291200.0 + z * (1.0 / 20922789888000.0 +
-            z * (-1.0 / 6402373705728000.0 + z * (1.0 / 2432902008176640000.0)))))))));
+    const double sn = r + r * z * (AO_I_SIN_S1 + z * (AO_I_SIN_S2 + z * (AO_I_SIN_S3 + z * (AO_I_SIN_S4 +
+                                   z * (AO_I_SIN_S5 + z * AO_I_SIN_S6)))));
+    const double cs = 1.0 - 0.5 * z + z * z * (AO_I_COS_C1 + z * (AO_I_COS_C2 + z * (AO_I_COS_C3 + z * (AO_I_COS_C4 +
+                                               z * (AO_I_COS_C5 + z * AO_I_COS_C6)))));
     switch ((int)((int64_t)kd & 3)) {
     case 0: *c = (float)cs; *s = (float)sn; break;
     case 1: *c = (float)-sn; *s = (float)cs; break;

@@ -39,25 +39,18 @@ static inline void cos_sin_pd(__m256d x, __m128 *c, __m128 *s)
     const __m256d z = _mm256_mul_pd(r, r);
 #define C_(v) _mm256_set1_pd(v)
 #define MA_(a, b, c) _mm256_add_pd((a), _mm256_mul_pd((b), (c))) /* a + b * c, two roundings */
-    /* sn = r + r * z * (-1/3! + z * (1/5! + ... + z * (-1/19!))) */
-    __m256d ps = MA_(C_(1.0 / 355687428096000.0), z, C_(-1.0 / 121645100408832000.0));
-    ps = MA_(C_(-1.0 / 1307674368000.0), z, ps);
-    ps = MA_(C_(1.0 / 6227020800.0), z, ps);
-    ps = MA_(C_(-1.0 / 39916800.0), z, ps);
-    ps = MA_(C_(1.0 / 362880.0), z, ps);
-    ps = MA_(C_(-1.0 / 5040.0), z, ps);
-    ps = MA_(C_(1.0 / 120.0), z, ps);
-    ps = MA_(C_(-1.0 / 6.0), z, ps);
+    /* sn = r + r z (S1 + z (S2 + ... + z S6)); cs = 1 - 0.5 z + z z (C1 + z (C2 + ... + z C6)) */
+    __m256d ps = MA_(C_(AO_I_SIN_S5), z, C_(AO_I_SIN_S6));
+    ps = MA_(C_(AO_I_SIN_S4), z, ps);
+    ps = MA_(C_(AO_I_SIN_S3), z, ps);
+    ps = MA_(C_(AO_I_SIN_S2), z, ps);
+    ps = MA_(C_(AO_I_SIN_S1), z, ps);
     const __m256d sn = _mm256_add_pd(r, _mm256_mul_pd(_mm256_mul_pd(r, z), ps));
-    /* cs = 1 - 0.5 z + z * z * (1/4! + z * (-1/6! + ... + z * (1/20!))) */
-    __m256d pc = MA_(C_(-1.0 / 6402373705728000.0), z, C_(1.0 / 2432902008176640000.0));
-    pc = MA_(C_(1.0 / 20922789888000.0), z, pc);
-    pc = MA_(C_(-1.0 / 87178291200.0), z, pc);
-    pc = MA_(C_(1.0 / 479001600.0), z, pc);
-    pc = MA_(C_(-1.0 / 3628800.0), z, pc);
-    pc = MA_(C_(1.0 / 40320.0), z, pc);
-    pc = MA_(C_(-1.0 / 720.0), z, pc);
-    pc = MA_(C_(1.0 / 24.0), z, pc);
+    __m256d pc = MA_(C_(AO_I_COS_C5), z, C_(AO_I_COS_C6));
+    pc = MA_(C_(AO_I_COS_C4), z, pc);
+    pc = MA_(C_(AO_I_COS_C3), z, pc);
+    pc = MA_(C_(AO_I_COS_C2), z, pc);
+    pc = MA_(C_(AO_I_COS_C1), z, pc);
     const __m256d cs = _mm256_add_pd(_mm256_sub_pd(C_(1.0), _mm256_mul_pd(C_(0.5), z)),
                                      _mm256_mul_pd(_mm256_mul_pd(z, z), pc));
 #undef MA_
@@ -66,24 +59,29 @@ static inline void cos_sin_pd(__m256d x, __m128 *c, __m128 *s)
      * rounding is symmetric, so negating after it is the scalar (float)-v */
     const __m128 csf = _mm256_cvtpd_ps(cs), snf = _mm256_cvtpd_ps(sn);
     const __m128i q = _mm256_cvtpd_epi32(kd); /* exact: kd is an integer, |kd| < 2^31 */
-    const __m128 swap = _mm_castsi128_ps(_mm_cmpeq_epi32(_mm_and_si128(q, _mm_set1_epi32(1)), _mm_set1_epi32(1)));
+    /* swap for odd q: bit 0 of q moved to the sign bit, which is what blendv reads */
+    const __m128 swap = _mm_castsi128_ps(_mm_slli_epi32(q, 31));
     const __m128 c0 = _mm_blendv_ps(csf, snf, swap), s0 = _mm_blendv_ps(snf, csf, swap);
     const __m128i sgn = _mm_set1_epi32((int)0x80000000u);
-    /* cos negative for q = 1, 2: bit 1 of q + 1; sin negative for q = 2, 3: bit 1 of q */
-    const __m128i cneg = _mm_slli_epi32(_mm_and_si128(_mm_add_epi32(q, _mm_set1_epi32(1)), _mm_set1_epi32(2)), 30);
-    const __m128i sneg = _mm_slli_epi32(_mm_and_si128(q, _mm_set1_epi32(2)), 30);
-    *c = _mm_xor_ps(c0, _mm_castsi128_ps(_mm_and_si128(cneg, sgn)));
-    *s = _mm_xor_ps(s0, _mm_castsi128_ps(_mm_and_si128(sneg, sgn)));
+    /* cos negative for q = 1, 2: bit 1 of q + 1; sin negative for q = 2, 3: bit 1 of q; moved
+     * to the sign bit */
+    const __m128i cneg = _mm_and_si128(_mm_slli_epi32(_mm_add_epi32(q, _mm_set1_epi32(1)), 30), sgn);
+    const __m128i sneg = _mm_and_si128(_mm_slli_epi32(q, 30), sgn);
+    *c = _mm_xor_ps(c0, _mm_castsi128_ps(cneg));
+    *s = _mm_xor_ps(s0, _mm_castsi128_ps(sneg));
 }
 
-static inline void cos_sin_ps(__m256 angle, __m256 *c, __m256 *s)
+static inline void cos_sin_ps(__m256 angle, __m256 *c, __m256 *s, const int check_big)
 {
     __m128 c_lo, s_lo, c_hi, s_hi;
     cos_sin_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(angle)), &c_lo, &s_lo);
     cos_sin_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(angle, 1)), &c_hi, &s_hi);
     *c = _mm256_insertf128_ps(_mm256_castps128_ps256(c_lo), c_hi, 1);
     *s = _mm256_insertf128_ps(_mm256_castps128_ps256(s_lo), s_hi, 1);
-    /* ao_i_cos_sin sends !(|x| < 3e9) (large or NaN) to libm: redo those lanes with it */
+    /* ao_i_cos_sin sends !(|x| < 3e9) (large or NaN) to libm: redo those lanes with it (the
+     * row skips this test when no angle can get there) */
+    if (!check_big)
+        return;
     const __m256 absx = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), angle);
     const int big = _mm256_movemask_ps(_mm256_cmp_ps(absx, _mm256_set1_ps(3.0e9f), _CMP_NLT_UQ));
     if (big) {
@@ -188,6 +186,11 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
     }
     const __m256i max_mip = _mm256_set1_epi32(k->max_mip), lmo = _mm256_set1_epi32(k->log_max_offset + 127);
     const int deep = k->max_mip > 7;
+    /* |spin| <= 2^31, so |angle| <= 2^31 + max |alpha_angle| (+ one rounding): below 3e9, where
+     * ao_i_cos_sin would go to libm, when every |alpha_angle| < 8e8 (tau up to ~1.2e8) */
+    int check_big = 0;
+    for (int t = 0; t < N; t++)
+        check_big |= !(fabsf(J->alpha_angle[t]) < 8.0e8f);
     const __m256i wm1_0 = _mm256_set1_epi32(J->lvl_wm1[0]), hm1_0 = _mm256_set1_epi32(J->lvl_hm1[0]),
                   stride_0 = _mm256_set1_epi32(J->lvl_stride[0]);
 
@@ -290,7 +293,7 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
             if (hq)
                 ssR = _mm256_max_ps(_mm256_set1_ps(0.75f), ssR);
             __m256 cs, sn;
-            cos_sin_ps(angle, &cs, &sn);
+            cos_sin_ps(angle, &cs, &sn, check_big);
             const __m256i px = _mm256_add_epi32(trunc_to_int_v(_mm256_mul_ps(ssR, cs)), vgx);
             const __m256i py = _mm256_add_epi32(trunc_to_int_v(_mm256_mul_ps(ssR, sn)), vgy);
             __m256i idx;

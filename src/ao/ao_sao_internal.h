@@ -7,6 +7,22 @@
 
 #include <stdint.h>
 
+/* The minimax kernels of ao_i_cos_sin on |r| <= pi/4 (fdlibm k_sin.c, k_cos.c; musl __sin.c,
+ * __cos.c): sin r = r + r z (S1 + z (S2 + ... + z S6)), cos r = 1 - z/2 + z^2 (C1 + ... + z C6),
+ * z = r^2, |error| < 2^-58. Shared by the scalar and AVX2 evaluations. */
+#define AO_I_SIN_S1 -1.66666666666666324348e-01
+#define AO_I_SIN_S2 8.33333333332248946124e-03
+#define AO_I_SIN_S3 -1.98412698298579493134e-04
+#define AO_I_SIN_S4 2.75573137070700676789e-06
+#define AO_I_SIN_S5 -2.50507602534068634195e-08
+#define AO_I_SIN_S6 1.58969099521155010221e-10
+#define AO_I_COS_C1 4.16666666666666019037e-02
+#define AO_I_COS_C2 -1.38888888888741095749e-03
+#define AO_I_COS_C3 2.48015872894767294178e-05
+#define AO_I_COS_C4 -2.75573143513906633035e-07
+#define AO_I_COS_C5 2.08757232129817482790e-09
+#define AO_I_COS_C6 -1.13596475577881948265e-11
+
 /* The AO pass's instruction-set paths. AUTO: AVX2 when the build and the CPU have it, unless the
  * environment sets OBS_ISA=scalar (as the rasterizer's RAST_ISA_AUTO). Both paths give the same
  * bytes (tests/test_ao_sao.c, sao_avx2_and_scalar_paths_are_bit_identical). */
