@@ -260,7 +260,7 @@ static inline int trunc_to_int(float v)
  * Agreement with (float)cos((double)a) and (float)sin((double)a) was checked for every float
  * angle in [0, 3e9) (docs/ao/sao.md, "Speed"); the result is odd/even in a exactly. The AVX2
  * kernel (ao_sao_avx2.c, cos_sin_pd) runs the same operations in the same order. */
-void ao_i_cos_sin(float angle, float *c, float *s)
+static inline __attribute__((always_inline)) void cos_sin_inline(float angle, float *c, float *s)
 {
     const double x = (double)angle;
     if (!(fabs(x) < 3.0e9)) { /* not reached by SAO's angles; NaN and inf go through libm too */
@@ -287,6 +287,8 @@ void ao_i_cos_sin(float angle, float *c, float *s)
     default: *c = (float)sn; *s = (float)-cs; break;
     }
 }
+
+void ao_i_cos_sin(float angle, float *c, float *s) { cos_sin_inline(angle, c, s); }
 
 int ao_i_floor_log2f(float x)
 {
@@ -565,7 +567,7 @@ static inline __attribute__((always_inline)) void sao_row_impl(const ao_i_sao_jo
             if (hq)
                 ssR = maxf(0.75f, ssR); /* G3D: "Ensure that the taps are at least 1 pixel away" */
             float cs, sn;
-            ao_i_cos_sin(angle, &cs, &sn);
+            cos_sin_inline(angle, &cs, &sn); /* ao_i_cos_sin */
             /* ssP = ivec2(ssR * unitOffset) + ssC  (truncation toward zero) */
             const int px = trunc_to_int(ssR * cs) + gx, py = trunc_to_int(ssR * sn) + gy;
             /* mipLevel = clamp(int(floor(log2(ssR))) - LOG_MAX_OFFSET, 0, MAX_MIP_LEVEL) */
