@@ -670,22 +670,8 @@ static void sao_row_task(void *user, int64_t task, int thread)
  * The blur (GL coordinates)
  * ============================================================================================== */
 
-typedef struct blur_job {
-    const obs_image_f32 *a;        /* source AO; its pixel (0,0) is full-image (ax0, ay0) */
-    int ax0, ay0;
-    const obs_image_f32 *z;        /* key (CSZ), full image */
-    obs_image_f32 *dst;            /* destination; its pixel (0,0) is full-image (dx0, dy0) */
-    int dx0, dy0;
-    int W, H;                      /* full image, for the edge clamp */
-    int axis;                      /* 0: horizontal (axis (1,0)), 1: vertical (axis (0,1), GL up) */
-    int stride;
-    float edge_k;
-} blur_job;
-
-static void blur_row(void *user, int64_t task, int thread)
+void ao_i_sao_blur_row_scalar(const ao_i_sao_blur_job *J, int task)
 {
-    (void)thread;
-    const blur_job *J = (const blur_job *)user;
     const float *g = ao_sao_blur_gaussian;
     const int gy = J->dy0 + (int)task;
     float *o = obs_image_f32_row(J->dst, (int)task);
@@ -723,11 +709,38 @@ static void blur_row(void *user, int64_t task, int thread)
     }
 }
 
-static void blur_run(obs_pool *pool, const obs_image_f32 *a, int ax0, int ay0, const obs_image_f32 *z,
-                     obs_image_f32 *dst, int dx0, int dy0, int axis, int stride, float edge_k)
+typedef struct blur_pool_job {
+    const ao_i_sao_blur_job *J;
+    int avx2;
+} blur_pool_job;
+
+static void blur_row_task(void *user, int64_t task, int thread)
 {
-    blur_job J = {a, ax0, ay0, z, dst, dx0, dy0, z->width, z->height, axis, stride, edge_k};
-    obs_pool_run(pool, dst->height, blur_row, &J);
+    (void)thread;
+    const blur_pool_job *P = (const blur_pool_job *)user;
+#if defined(OBS_HAVE_AVX2)
+    if (P->avx2) {
+        ao_i_sao_blur_row_avx2(P->J, (int)task);
+        return;
+    }
+#endif
+    ao_i_sao_blur_row_scalar(P->J, (int)task);
+}
+
+static ao_i_sao_isa auto_isa(void)
+{
+    const char *env = getenv("OBS_ISA");
+    if (!(env && !strcmp(env, "scalar")) && ao_i_sao_isa_available(AO_I_SAO_ISA_AVX2))
+        return AO_I_SAO_ISA_AVX2;
+    return AO_I_SAO_ISA_SCALAR;
+}
+
+static void blur_run(obs_pool *pool, const obs_image_f32 *a, int ax0, int ay0, const obs_image_f32 *z,
+                     obs_image_f32 *dst, int dx0, int dy0, int axis, int stride, float edge_k, ao_i_sao_isa path)
+{
+    ao_i_sao_blur_job J = {a, ax0, ay0, z, dst, dx0, dy0, z->width, z->height, axis, stride, edge_k};
+    blur_pool_job P = {&J, path == AO_I_SAO_ISA_AVX2};
+    obs_pool_run(pool, dst->height, blur_row_task, &P);
 }
 
 obs_status ao_sao_blur_gl(obs_context *ctx, obs_pool *pool, const obs_image_f32 *ao, const obs_image_f32 *csz,
@@ -745,8 +758,9 @@ obs_status ao_sao_blur_gl(obs_context *ctx, obs_pool *pool, const obs_image_f32 
     obs_status st = obs_image_f32_alloc(ctx, ao->width, ao->height, &tmp);
     if (st != OBS_STATUS_OK)
         return st;
-    blur_run(pool, ao, 0, 0, csz, &tmp, 0, 0, 0, stride, edge_k);
-    blur_run(pool, &tmp, 0, 0, csz, out, 0, 0, 1, stride, edge_k);
+    const ao_i_sao_isa path = auto_isa();
+    blur_run(pool, ao, 0, 0, csz, &tmp, 0, 0, 0, stride, edge_k, path);
+    blur_run(pool, &tmp, 0, 0, csz, out, 0, 0, 1, stride, edge_k, path);
     obs_image_f32_free(&tmp);
     return OBS_STATUS_OK;
 }
@@ -796,12 +810,7 @@ obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input
     if (stats)
         memset(stats, 0, sizeof *stats);
     const int W = in->width, H = in->height;
-    ao_i_sao_isa path = isa == AO_I_SAO_ISA_AUTO ? AO_I_SAO_ISA_SCALAR : isa;
-    if (isa == AO_I_SAO_ISA_AUTO) {
-        const char *env = getenv("OBS_ISA");
-        if (!(env && !strcmp(env, "scalar")) && ao_i_sao_isa_available(AO_I_SAO_ISA_AVX2))
-            path = AO_I_SAO_ISA_AVX2;
-    }
+    const ao_i_sao_isa path = isa == AO_I_SAO_ISA_AUTO ? auto_isa() : isa;
     if ((unsigned)path >= AO_I_SAO_ISA_COUNT || !ao_i_sao_isa_available(path))
         return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "sao: the %s path is not available in this build or CPU",
                          path == AO_I_SAO_ISA_AVX2 ? "avx2" : "requested");
@@ -879,8 +888,8 @@ obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input
         if (st == OBS_STATUS_OK)
             st = obs_image_f32_alloc(ctx, in->w, in->h, &vpass);
         if (st == OBS_STATUS_OK) {
-            blur_run(pool, &raw, rx0, ry0, &csz, &hpass, wx0, ry0, 0, k->blur_stride, k->edge_k);
-            blur_run(pool, &hpass, wx0, ry0, &csz, &vpass, wx0, wy0, 1, k->blur_stride, k->edge_k);
+            blur_run(pool, &raw, rx0, ry0, &csz, &hpass, wx0, ry0, 0, k->blur_stride, k->edge_k, path);
+            blur_run(pool, &hpass, wx0, ry0, &csz, &vpass, wx0, wy0, 1, k->blur_stride, k->edge_k, path);
             final = &vpass;
             fx0 = wx0;
             fy0 = wy0;

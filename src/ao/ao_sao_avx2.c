@@ -406,6 +406,91 @@ void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task)
         sao_row_avx2_impl(J, task, 1, 0, 1);
 }
 
+/* ---- the blur: 8 destination pixels (gx .. gx+7) of one row per step ------------------------------ */
+
+/* SAO_blur.pix as ao_i_sao_blur_row_scalar, same operations in the same order per lane: taps are
+ * contiguous across lanes in both passes (horizontal: columns gx + r stride; vertical: one row per
+ * tap), so they are plain loads; a horizontal tap that the edge clamp reaches, and a short last
+ * step, gather with clamped indices instead. */
+void ao_i_sao_blur_row_avx2(const ao_i_sao_blur_job *J, int task)
+{
+    enum { R = AO_SAO_BLUR_RADIUS };
+    const float *g = ao_sao_blur_gaussian;
+    const int gy = J->dy0 + task, S = J->stride, W = J->W, H = J->H, ax0 = J->ax0;
+    float *o = obs_image_f32_row(J->dst, task);
+    const float *zrow = obs_image_f32_row(J->z, gy);
+    const float *arow = obs_image_f32_row(J->a, gy - J->ay0);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), g0 = _mm256_set1_ps(g[0]);
+    const __m256 edge_k = _mm256_set1_ps(J->edge_k), absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+    __m256 gw[2 * R + 1];
+    const float *ar[2 * R + 1], *zr[2 * R + 1];
+    for (int r = -R; r <= R; r++) {
+        gw[r + R] = _mm256_set1_ps(0.3f + g[r < 0 ? -r : r]); /* (0.3 + gaussian[|r|]) */
+        if (J->axis == 1) {
+            int ty = gy + r * S;
+            ty = ty < 0 ? 0 : ty > H - 1 ? H - 1 : ty;
+            ar[r + R] = obs_image_f32_row(J->a, ty - J->ay0) + (J->dx0 - ax0);
+            zr[r + R] = obs_image_f32_row(J->z, ty) + J->dx0;
+        }
+    }
+    const int width = J->dst->width;
+    for (int i = 0; i < width; i += 8) {
+        const int gx0 = J->dx0 + i, n = width - i < 8 ? width - i : 8;
+        const __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane));
+        __m256 ca, cz;
+        if (n == 8) {
+            ca = _mm256_loadu_ps(arow + (gx0 - ax0));
+            cz = _mm256_loadu_ps(zrow + gx0);
+        } else {
+            ca = _mm256_maskload_ps(arow + (gx0 - ax0), _mm256_castps_si256(valid));
+            cz = _mm256_maskload_ps(zrow + gx0, _mm256_castps_si256(valid));
+        }
+        /* key 0 (background): the centre passes through */
+        const __m256 bg = _mm256_cmp_ps(cz, zero, _CMP_EQ_OQ);
+        if ((_mm256_movemask_ps(bg) | (~_mm256_movemask_ps(valid) & 0xFF)) == 0xFF) {
+            _mm256_maskstore_ps(o + i, _mm256_castps_si256(valid), ca);
+            continue;
+        }
+        __m256 sum = _mm256_mul_ps(ca, g0), wsum = g0;
+        for (int r = -R; r <= R; r++) {
+            if (r == 0)
+                continue;
+            __m256 ta, tz;
+            if (J->axis == 0) {
+                const int t0 = gx0 + r * S;
+                if (n == 8 && t0 >= 0 && t0 + 7 <= W - 1) {
+                    ta = _mm256_loadu_ps(arow + (t0 - ax0));
+                    tz = _mm256_loadu_ps(zrow + t0);
+                } else { /* clamp(p + axis * r * SCALE, 0, size - 1) per lane */
+                    __m256i tx = _mm256_add_epi32(_mm256_set1_epi32(t0), lane);
+                    tx = _mm256_min_epi32(_mm256_max_epi32(tx, _mm256_setzero_si256()), _mm256_set1_epi32(W - 1));
+                    ta = _mm256_mask_i32gather_ps(zero, arow, _mm256_sub_epi32(tx, _mm256_set1_epi32(ax0)), valid, 4);
+                    tz = _mm256_mask_i32gather_ps(zero, zrow, tx, valid, 4);
+                }
+            } else if (n == 8) {
+                ta = _mm256_loadu_ps(ar[r + R] + i);
+                tz = _mm256_loadu_ps(zr[r + R] + i);
+            } else {
+                ta = _mm256_maskload_ps(ar[r + R] + i, _mm256_castps_si256(valid));
+                tz = _mm256_maskload_ps(zr[r + R] + i, _mm256_castps_si256(valid));
+            }
+            /* w = (0.3 + g[|r|]) * max(0, 1 - edgeK * |t.key - c.key|) */
+            const __m256 w = _mm256_mul_ps(
+                gw[r + R],
+                _mm256_max_ps(zero, _mm256_sub_ps(one, _mm256_mul_ps(edge_k, _mm256_and_ps(_mm256_sub_ps(tz, cz), absmask)))));
+            sum = _mm256_add_ps(sum, _mm256_mul_ps(ta, w));
+            wsum = _mm256_add_ps(wsum, w);
+        }
+        __m256 res = _mm256_div_ps(sum, _mm256_add_ps(wsum, _mm256_set1_ps(0.0001f)));
+        res = _mm256_blendv_ps(res, ca, bg);
+        if (n == 8)
+            _mm256_storeu_ps(o + i, res);
+        else
+            _mm256_maskstore_ps(o + i, _mm256_castps_si256(valid), res);
+    }
+}
+
 #else
 typedef int ao_sao_avx2_unused; /* ISO C: a translation unit is not empty */
 #endif

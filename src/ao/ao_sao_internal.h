@@ -62,6 +62,24 @@ void ao_i_sao_row_scalar(const ao_i_sao_job *J, int task);
 void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task);
 #endif
 
+/* One pass of the separable blur (SAO_blur.pix), GL coordinates; task = destination row. */
+typedef struct ao_i_sao_blur_job {
+    const obs_image_f32 *a;        /* source AO; its pixel (0,0) is full-image (ax0, ay0) */
+    int ax0, ay0;
+    const obs_image_f32 *z;        /* key (CSZ), full image */
+    obs_image_f32 *dst;            /* destination; its pixel (0,0) is full-image (dx0, dy0) */
+    int dx0, dy0;
+    int W, H;                      /* full image, for the edge clamp */
+    int axis;                      /* 0: horizontal (axis (1,0)), 1: vertical (axis (0,1), GL up) */
+    int stride;
+    float edge_k;
+} ao_i_sao_blur_job;
+
+void ao_i_sao_blur_row_scalar(const ao_i_sao_blur_job *J, int task);
+#if defined(OBS_HAVE_AVX2)
+void ao_i_sao_blur_row_avx2(const ao_i_sao_blur_job *J, int task);
+#endif
+
 /* ao_sao_compute_constants with an explicit path (the tests run both in one binary). isa_used
  * (may be NULL) receives the path taken. Returns as ao_sao_compute_constants, and
  * UNSUPPORTED_ISA for a path this build or CPU lacks. */
