@@ -739,8 +739,8 @@ TEST(ao_cli_sao_writes_outputs_and_rejects_bad_input)
 TEST(sao_trig_and_log2_match_correctly_rounded_libm)
 {
     /* ao_i_cos_sin must give (float)cos((double)a) and (float)sin((double)a) (docs/ao/sao.md has
-     * the exhaustive check over [0, 2^31)); here 2^20 random float angles of either sign, every
-     * magnitude up to 2^31, and a dense run of small ones. */
+     * the exhaustive check over [0, 3e9)); here 2^20 random float angles of either sign, every
+     * magnitude up to 3e9, and a dense run of small ones. */
     uint64_t st = 0x9E3779B97F4A7C15ull;
     int64_t bad = 0;
     for (int i = 0; i < (1 << 20) + 4096; i++) {
@@ -749,7 +749,7 @@ TEST(sao_trig_and_log2_match_correctly_rounded_libm)
             st ^= st << 13;
             st ^= st >> 7;
             st ^= st << 17;
-            uint32_t bits = (uint32_t)(st >> 11) % 0x4F000000u; /* |a| < 2^31 */
+            uint32_t bits = (uint32_t)(st >> 11) % 0x4F32D05Fu; /* |a| < 3e9 (the reduction's range) */
             memcpy(&a, &bits, sizeof a);
             if (st & 1)
                 a = -a;

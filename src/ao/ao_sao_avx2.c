@@ -142,6 +142,9 @@ static inline __m256 load_n(const float *p, int n, __m256i lane)
     return _mm256_maskload_ps(p, _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane));
 }
 
+/* Taps per block of the AO pass's tap loop (a few KB of stack; any value gives the same result) */
+#define TAP_BLOCK 12
+
 /* ---- the row -------------------------------------------------------------------------------------- */
 
 static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_sao_job *J, int task, const int hq,
@@ -285,80 +288,90 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
                                _mm256_mul_ps(_mm256_max_ps(zero, _mm256_mul_ps(_mm256_set1_ps(1.5f), nrm.z)),
                                              _mm256_set1_ps(0.35f)))
                : one;
-        /* ---- Taps ---- */
+        /* ---- Taps, in blocks of TAP_BLOCK: first the block's cos/sin (independent of each other,
+         * so they overlap in the pipeline instead of waiting on each tap's gather and division),
+         * then its fetches and falloff terms, summed in tap order as the scalar loop ---- */
         __m256 sum = zero;
-        for (int t = 0; t < N; t++) {
-            const __m256 angle = _mm256_add_ps(_mm256_set1_ps(J->alpha_angle[t]), spin);
-            __m256 ssR = _mm256_mul_ps(_mm256_set1_ps(J->alpha[t]), disk);
-            if (hq)
-                ssR = _mm256_max_ps(_mm256_set1_ps(0.75f), ssR);
-            __m256 cs, sn;
-            cos_sin_ps(angle, &cs, &sn, check_big);
-            const __m256i px = _mm256_add_epi32(trunc_to_int_v(_mm256_mul_ps(ssR, cs)), vgx);
-            const __m256i py = _mm256_add_epi32(trunc_to_int_v(_mm256_mul_ps(ssR, sn)), vgy);
-            __m256i idx;
-            if (!use_mip) {
-                const __m256i mx = _mm256_min_epi32(_mm256_max_epi32(px, _mm256_setzero_si256()), wm1_0);
-                const __m256i my = _mm256_min_epi32(_mm256_max_epi32(py, _mm256_setzero_si256()), hm1_0);
-                idx = _mm256_add_epi32(_mm256_mullo_epi32(my, stride_0), mx);
-            } else {
-                /* mip = clamp(floor(log2(ssR)) - LOG_MAX_OFFSET, 0, maxMip) for ssR >= 1, else 0;
-                 * floor(log2) is the exponent, except a few ulps below a power of two (scalar) */
-                const __m256i bits = _mm256_castps_si256(ssR);
-                const __m256 ge1 = _mm256_cmp_ps(ssR, one, _CMP_GE_OQ);
-                __m256i m = _mm256_sub_epi32(_mm256_srli_epi32(bits, 23), lmo);
-                m = _mm256_min_epi32(_mm256_max_epi32(m, _mm256_setzero_si256()), max_mip);
-                m = _mm256_and_si256(m, _mm256_castps_si256(ge1));
-                const __m256i near = _mm256_and_si256(
-                    _mm256_castps_si256(ge1),
-                    _mm256_cmpgt_epi32(_mm256_and_si256(bits, _mm256_set1_epi32(0x7FFFFF)),
-                                       _mm256_set1_epi32(0x7FFFFF - 64 - 1)));
-                if (!_mm256_testz_si256(near, near)) {
-                    float r[8];
-                    int32_t mm[8];
-                    _mm256_storeu_ps(r, ssR);
-                    _mm256_storeu_si256((__m256i *)mm, m);
-                    const int nm = _mm256_movemask_ps(_mm256_castsi256_ps(near));
-                    for (int l = 0; l < 8; l++)
-                        if (nm >> l & 1) {
-                            const int e = ao_i_floor_log2f(r[l]) - k->log_max_offset;
-                            mm[l] = e < 0 ? 0 : e > k->max_mip ? k->max_mip : e;
-                        }
-                    m = _mm256_loadu_si256((const __m256i *)mm);
-                }
-                __m256i off = _mm256_permutevar8x32_epi32(t_off[0], m);
-                __m256i str = _mm256_permutevar8x32_epi32(t_stride[0], m);
-                __m256i wm1 = _mm256_permutevar8x32_epi32(t_wm1[0], m);
-                __m256i hm1 = _mm256_permutevar8x32_epi32(t_hm1[0], m);
-                if (deep) {
-                    const __m256i hi = _mm256_cmpgt_epi32(m, _mm256_set1_epi32(7));
-                    off = _mm256_blendv_epi8(off, _mm256_permutevar8x32_epi32(t_off[1], m), hi);
-                    str = _mm256_blendv_epi8(str, _mm256_permutevar8x32_epi32(t_stride[1], m), hi);
-                    wm1 = _mm256_blendv_epi8(wm1, _mm256_permutevar8x32_epi32(t_wm1[1], m), hi);
-                    hm1 = _mm256_blendv_epi8(hm1, _mm256_permutevar8x32_epi32(t_hm1[1], m), hi);
-                }
-                /* px < 0 ? 0 : px >> mip (arithmetic shift of a negative stays negative) */
-                const __m256i mx = _mm256_min_epi32(_mm256_max_epi32(_mm256_srav_epi32(px, m), _mm256_setzero_si256()), wm1);
-                const __m256i my = _mm256_min_epi32(_mm256_max_epi32(_mm256_srav_epi32(py, m), _mm256_setzero_si256()), hm1);
-                idx = _mm256_add_epi32(_mm256_add_epi32(off, _mm256_mullo_epi32(my, str)), mx);
+        for (int t0 = 0; t0 < N; t0 += TAP_BLOCK) {
+            const int tn = N - t0 < TAP_BLOCK ? N - t0 : TAP_BLOCK;
+            __m256 b_ssR[TAP_BLOCK], b_cs[TAP_BLOCK], b_sn[TAP_BLOCK];
+            for (int u = 0; u < tn; u++) {
+                const int t = t0 + u;
+                const __m256 angle = _mm256_add_ps(_mm256_set1_ps(J->alpha_angle[t]), spin);
+                __m256 ssR = _mm256_mul_ps(_mm256_set1_ps(J->alpha[t]), disk);
+                if (hq)
+                    ssR = _mm256_max_ps(_mm256_set1_ps(0.75f), ssR);
+                b_ssR[u] = ssR;
+                cos_sin_ps(angle, &b_cs[u], &b_sn[u], check_big);
             }
-            const __m256 zq = _mm256_i32gather_ps(base, idx, 4);
-            const pos3 Q = cs_pos_v(coord_x(px, k), coord_y(py, k), zq, ortho);
-            const __m256 v0 = _mm256_sub_ps(Q.x, C.x), v1 = _mm256_sub_ps(Q.y, C.y), v2 = _mm256_sub_ps(Q.z, C.z);
-            const __m256 vv = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, v0), _mm256_mul_ps(v1, v1)),
-                                            _mm256_mul_ps(v2, v2));
-            const __m256 vn = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, nrm.x), _mm256_mul_ps(v1, nrm.y)),
-                                            _mm256_mul_ps(v2, nrm.z));
-            if (!hq) {
-                const __m256 f = _mm256_max_ps(_mm256_sub_ps(r2, vv), zero);
-                const __m256 w = _mm256_max_ps(_mm256_div_ps(_mm256_sub_ps(vn, bias), _mm256_add_ps(eps, vv)), zero);
-                sum = _mm256_add_ps(sum, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(f, f), f), w));
-            } else {
-                const __m256 f = _mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(vv, inv_r2)), zero);
-                const __m256 w = _mm256_max_ps(
-                    _mm256_mul_ps(_mm256_sub_ps(vn, bias), _mm256_div_ps(one, _mm256_sqrt_ps(_mm256_add_ps(eps, vv)))),
-                    zero);
-                sum = _mm256_add_ps(sum, _mm256_mul_ps(_mm256_mul_ps(f, w), angular));
+            for (int u = 0; u < tn; u++) {
+                const __m256 ssR = b_ssR[u], cs = b_cs[u], sn = b_sn[u];
+                const __m256i px = _mm256_add_epi32(trunc_to_int_v(_mm256_mul_ps(ssR, cs)), vgx);
+                const __m256i py = _mm256_add_epi32(trunc_to_int_v(_mm256_mul_ps(ssR, sn)), vgy);
+                __m256i idx;
+                if (!use_mip) {
+                    const __m256i mx = _mm256_min_epi32(_mm256_max_epi32(px, _mm256_setzero_si256()), wm1_0);
+                    const __m256i my = _mm256_min_epi32(_mm256_max_epi32(py, _mm256_setzero_si256()), hm1_0);
+                    idx = _mm256_add_epi32(_mm256_mullo_epi32(my, stride_0), mx);
+                } else {
+                    /* mip = clamp(floor(log2(ssR)) - LOG_MAX_OFFSET, 0, maxMip) for ssR >= 1, else 0;
+                     * floor(log2) is the exponent, except a few ulps below a power of two (scalar) */
+                    const __m256i bits = _mm256_castps_si256(ssR);
+                    const __m256 ge1 = _mm256_cmp_ps(ssR, one, _CMP_GE_OQ);
+                    __m256i m = _mm256_sub_epi32(_mm256_srli_epi32(bits, 23), lmo);
+                    m = _mm256_min_epi32(_mm256_max_epi32(m, _mm256_setzero_si256()), max_mip);
+                    m = _mm256_and_si256(m, _mm256_castps_si256(ge1));
+                    const __m256i near = _mm256_and_si256(
+                        _mm256_castps_si256(ge1),
+                        _mm256_cmpgt_epi32(_mm256_and_si256(bits, _mm256_set1_epi32(0x7FFFFF)),
+                                           _mm256_set1_epi32(0x7FFFFF - 64 - 1)));
+                    if (!_mm256_testz_si256(near, near)) {
+                        float r[8];
+                        int32_t mm[8];
+                        _mm256_storeu_ps(r, ssR);
+                        _mm256_storeu_si256((__m256i *)mm, m);
+                        const int nm = _mm256_movemask_ps(_mm256_castsi256_ps(near));
+                        for (int l = 0; l < 8; l++)
+                            if (nm >> l & 1) {
+                                const int e = ao_i_floor_log2f(r[l]) - k->log_max_offset;
+                                mm[l] = e < 0 ? 0 : e > k->max_mip ? k->max_mip : e;
+                            }
+                        m = _mm256_loadu_si256((const __m256i *)mm);
+                    }
+                    __m256i off = _mm256_permutevar8x32_epi32(t_off[0], m);
+                    __m256i str = _mm256_permutevar8x32_epi32(t_stride[0], m);
+                    __m256i wm1 = _mm256_permutevar8x32_epi32(t_wm1[0], m);
+                    __m256i hm1 = _mm256_permutevar8x32_epi32(t_hm1[0], m);
+                    if (deep) {
+                        const __m256i hi = _mm256_cmpgt_epi32(m, _mm256_set1_epi32(7));
+                        off = _mm256_blendv_epi8(off, _mm256_permutevar8x32_epi32(t_off[1], m), hi);
+                        str = _mm256_blendv_epi8(str, _mm256_permutevar8x32_epi32(t_stride[1], m), hi);
+                        wm1 = _mm256_blendv_epi8(wm1, _mm256_permutevar8x32_epi32(t_wm1[1], m), hi);
+                        hm1 = _mm256_blendv_epi8(hm1, _mm256_permutevar8x32_epi32(t_hm1[1], m), hi);
+                    }
+                    /* px < 0 ? 0 : px >> mip (arithmetic shift of a negative stays negative) */
+                    const __m256i mx = _mm256_min_epi32(_mm256_max_epi32(_mm256_srav_epi32(px, m), _mm256_setzero_si256()), wm1);
+                    const __m256i my = _mm256_min_epi32(_mm256_max_epi32(_mm256_srav_epi32(py, m), _mm256_setzero_si256()), hm1);
+                    idx = _mm256_add_epi32(_mm256_add_epi32(off, _mm256_mullo_epi32(my, str)), mx);
+                }
+                const __m256 zq = _mm256_i32gather_ps(base, idx, 4);
+                const pos3 Q = cs_pos_v(coord_x(px, k), coord_y(py, k), zq, ortho);
+                const __m256 v0 = _mm256_sub_ps(Q.x, C.x), v1 = _mm256_sub_ps(Q.y, C.y), v2 = _mm256_sub_ps(Q.z, C.z);
+                const __m256 vv = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, v0), _mm256_mul_ps(v1, v1)),
+                                                _mm256_mul_ps(v2, v2));
+                const __m256 vn = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, nrm.x), _mm256_mul_ps(v1, nrm.y)),
+                                                _mm256_mul_ps(v2, nrm.z));
+                if (!hq) {
+                    const __m256 f = _mm256_max_ps(_mm256_sub_ps(r2, vv), zero);
+                    const __m256 w = _mm256_max_ps(_mm256_div_ps(_mm256_sub_ps(vn, bias), _mm256_add_ps(eps, vv)), zero);
+                    sum = _mm256_add_ps(sum, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(f, f), f), w));
+                } else {
+                    const __m256 f = _mm256_max_ps(_mm256_sub_ps(one, _mm256_mul_ps(vv, inv_r2)), zero);
+                    const __m256 w = _mm256_max_ps(
+                        _mm256_mul_ps(_mm256_sub_ps(vn, bias), _mm256_div_ps(one, _mm256_sqrt_ps(_mm256_add_ps(eps, vv)))),
+                        zero);
+                    sum = _mm256_add_ps(sum, _mm256_mul_ps(_mm256_mul_ps(f, w), angular));
+                }
             }
         }
         __m256 A;
