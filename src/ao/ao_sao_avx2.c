@@ -294,7 +294,7 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
         __m256 sum = zero;
         for (int t0 = 0; t0 < N; t0 += TAP_BLOCK) {
             const int tn = N - t0 < TAP_BLOCK ? N - t0 : TAP_BLOCK;
-            __m256 b_ssR[TAP_BLOCK], b_cs[TAP_BLOCK], b_sn[TAP_BLOCK];
+            __m256 b_ssR[TAP_BLOCK], b_cs[TAP_BLOCK], b_sn[TAP_BLOCK], b_zq[TAP_BLOCK], b_ax[TAP_BLOCK], b_ay[TAP_BLOCK];
             for (int u = 0; u < tn; u++) {
                 const int t = t0 + u;
                 const __m256 angle = _mm256_add_ps(_mm256_set1_ps(J->alpha_angle[t]), spin);
@@ -354,8 +354,12 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
                     const __m256i my = _mm256_min_epi32(_mm256_max_epi32(_mm256_srav_epi32(py, m), _mm256_setzero_si256()), hm1);
                     idx = _mm256_add_epi32(_mm256_add_epi32(off, _mm256_mullo_epi32(my, str)), mx);
                 }
-                const __m256 zq = _mm256_i32gather_ps(base, idx, 4);
-                const pos3 Q = cs_pos_v(coord_x(px, k), coord_y(py, k), zq, ortho);
+                b_zq[u] = _mm256_i32gather_ps(base, idx, 4);
+                b_ax[u] = coord_x(px, k);
+                b_ay[u] = coord_y(py, k);
+            }
+            for (int u = 0; u < tn; u++) {
+                const pos3 Q = cs_pos_v(b_ax[u], b_ay[u], b_zq[u], ortho);
                 const __m256 v0 = _mm256_sub_ps(Q.x, C.x), v1 = _mm256_sub_ps(Q.y, C.y), v2 = _mm256_sub_ps(Q.z, C.z);
                 const __m256 vv = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, v0), _mm256_mul_ps(v1, v1)),
                                                 _mm256_mul_ps(v2, v2));
