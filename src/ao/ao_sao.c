@@ -425,6 +425,31 @@ static obs_status pyramid_alloc(obs_context *ctx, int W, int H, int max_mip, obs
     return OBS_STATUS_OK;
 }
 
+/* The pass's working planes (raw AO, and for the blur its two passes) in one allocation, not
+ * zeroed: every pixel of each is written before it is read. One block of 4 MiB or more gets huge
+ * pages (obs_aligned_alloc); at 720p each plane alone (3.7 MB) would not, and first-touching it
+ * in 4 KiB pages cost more than the blur's arithmetic. Free with obs_aligned_free(*block). */
+static obs_status work_planes_alloc(obs_context *ctx, int n, const int (*wh)[2], obs_image_f32 *planes, float **block)
+{
+    size_t off[4] = {0};
+    for (int i = 0; i < n; i++) {
+        planes[i].width = wh[i][0];
+        planes[i].height = wh[i][1];
+        planes[i].stride = ((ptrdiff_t)wh[i][0] + 15) & ~(ptrdiff_t)15;
+        off[i + 1] = off[i] + (size_t)planes[i].stride * (size_t)wh[i][1];
+    }
+    if ((int64_t)off[n] * 4 > obs_context_limits(ctx)->max_memory_bytes)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "sao: the working planes need %zu floats, over the limit",
+                         off[n]);
+    float *p = (float *)obs_aligned_alloc(off[n] * sizeof(float));
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sao: cannot allocate the working planes");
+    for (int i = 0; i < n; i++)
+        planes[i].data = p + off[i];
+    *block = p;
+    return OBS_STATUS_OK;
+}
+
 void ao_sao_mip_free(obs_image_f32 *levels, int max_level)
 {
     if (!levels)
@@ -819,7 +844,7 @@ obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input
     obs_image_f32 levels[AO_SAO_MAX_MIP + 1];
     memset(levels, 0, sizeof levels);
     obs_image_f32 raw = {0}, hpass = {0}, vpass = {0};
-    float *block = NULL;
+    float *block = NULL, *work = NULL;
     int64_t(*counts)[3] = NULL;
     ao_i_sao_job *job = NULL;
 
@@ -845,8 +870,15 @@ obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input
     const int rx0 = wx0 - m < 0 ? 0 : wx0 - m, rx1 = wx1 + m > W - 1 ? W - 1 : wx1 + m;
     const int ry0 = wy0 - m < 0 ? 0 : wy0 - m, ry1 = wy1 + m > H - 1 ? H - 1 : wy1 + m;
     const int rw = rx1 - rx0 + 1, rh = ry1 - ry0 + 1;
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, rw, rh, &raw);
+    if (st == OBS_STATUS_OK) {
+        const int wh[3][2] = {{rw, rh}, {in->w, rh}, {in->w, in->h}};
+        obs_image_f32 planes[3];
+        memset(planes, 0, sizeof planes);
+        st = work_planes_alloc(ctx, k->blur ? 3 : 1, wh, planes, &work);
+        raw = planes[0];
+        hpass = planes[1];
+        vpass = planes[2];
+    }
     if (st == OBS_STATUS_OK) {
         counts = (int64_t(*)[3])calloc((size_t)rh, sizeof *counts);
         if (!counts)
@@ -884,10 +916,7 @@ obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input
     const obs_image_f32 *final = NULL;
     int fx0 = rx0, fy0 = ry0;
     if (st == OBS_STATUS_OK && k->blur) {
-        st = obs_image_f32_alloc(ctx, in->w, rh, &hpass);
-        if (st == OBS_STATUS_OK)
-            st = obs_image_f32_alloc(ctx, in->w, in->h, &vpass);
-        if (st == OBS_STATUS_OK) {
+        {
             blur_run(pool, &raw, rx0, ry0, &csz, &hpass, wx0, ry0, 0, k->blur_stride, k->edge_k, path);
             blur_run(pool, &hpass, wx0, ry0, &csz, &vpass, wx0, wy0, 1, k->blur_stride, k->edge_k, path);
             final = &vpass;
@@ -923,9 +952,7 @@ obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input
     }
     free(job);
     free(counts);
-    obs_image_f32_free(&vpass);
-    obs_image_f32_free(&hpass);
-    obs_image_f32_free(&raw);
+    obs_aligned_free(work);
     obs_aligned_free(block);
     return st;
 }
