@@ -784,9 +784,8 @@ TEST(sao_trig_and_log2_match_correctly_rounded_libm)
 
 /* Run both paths on in with p (scalar on 1 thread, AVX2 on 3) and compare the raw and final
  * planes and the counts byte for byte; report the first differing pixel. */
-static void sao_paths_agree(obs_context *ctx, const ao_input *in, const ao_sao_params *p, const char *what)
+static void sao_paths_agree_k(obs_context *ctx, const ao_input *in, const ao_sao_constants k, const char *what)
 {
-    const ao_sao_constants k = ao_sao_constants_from_params(p, in);
     obs_image_f32 o[2] = {{0}}, r[2] = {{0}};
     ao_sao_stats st[2];
     for (int i = 0; i < 2; i++) {
@@ -824,6 +823,11 @@ static void sao_paths_agree(obs_context *ctx, const ao_input *in, const ao_sao_p
         obs_image_f32_free(&o[i]);
         obs_image_f32_free(&r[i]);
     }
+}
+
+static void sao_paths_agree(obs_context *ctx, const ao_input *in, const ao_sao_params *p, const char *what)
+{
+    sao_paths_agree_k(ctx, in, ao_sao_constants_from_params(p, in), what);
 }
 
 TEST(sao_avx2_and_scalar_paths_are_bit_identical)
@@ -881,7 +885,7 @@ TEST(sao_avx2_and_scalar_paths_are_bit_identical)
                     p.radius = j == 0 ? 0.8f : 1.5f;
                     if (mip == 2) {
                         p.samples = 23;
-                        p.spiral_turns = 1000; /* angles beyond 2^31 + alpha tau 6.28 */
+                        p.spiral_turns = 1000;
                         p.log_max_offset = 0;
                         p.intensity = 1.7f;
                     }
@@ -890,6 +894,37 @@ TEST(sao_avx2_and_scalar_paths_are_bit_identical)
                              variant ? "g3d-hq" : "hpg12", nm ? "gbuffer" : "depth", p.max_mip_level);
                     sao_paths_agree(ctx, inputs[j], &p, what);
                 }
+    /* 3. the lanes the AVX2 kernel hands back to the scalar helpers. (a) floor(log2(ssR)) just
+     * below a power of two, where the float log2 rounds up: a plane at depth 1 facing the camera,
+     * f = 16 - 2^-20 px and r = 1, one tap (alpha = 0.5): ssR = 8 - 2^-21 at every pixel of depth 1,
+     * whose float log2 is 3.0 (the exponent says 2); every third pixel nearer, so that the texel a
+     * tap reads depends on the level. */
+    synth sp;
+    const obs_dvec3 facing = {0, 0, 1};
+    CHECK_OK(tu_synth_plane(ctx, 96, 64, 16.0 - 0x1p-20, facing, -1.0, OBS_PROJECTION_PERSPECTIVE, &sp), ctx);
+    for (int y = 0; y < 64; y++)
+        for (int x = 0; x < 96; x++)
+            if ((x + 2 * y) % 3 == 0)
+                obs_image_f32_row(&sp.depth, y)[x] = 0.93f;
+    ao_sao_params pn = ao_sao_params_default();
+    pn.samples = 1;
+    pn.blur = 0;
+    pn.max_mip_level = 5;
+    pn.log_max_offset = 0;
+    pn.radius = 1.0f;
+    {
+        const ao_sao_constants kn = ao_sao_constants_from_params(&pn, &sp.in);
+        const float ssR = (0.5f * kn.inv_num_samples) * ((-kn.proj_scale * kn.radius) / -1.0f); /* alpha disk */
+        CHECK_MSG(ssR == 8.0f - 0x1p-21f, "ssR %a is not 8 - 2^-21", (double)ssR);
+        CHECK_EQ_INT(ao_i_floor_log2f(ssR), 3);
+        sao_paths_agree_k(ctx, &sp.in, kn, "log2 just below a power of two");
+        /* (b) angles past 3e9, which ao_i_cos_sin sends to libm: only reachable through an external
+         * constant block (turns_angle is not range-checked there) */
+        ao_sao_constants kb = ao_sao_constants_from_params(&pn, &sp.in);
+        kb.turns_angle = 7.5e9f;
+        sao_paths_agree_k(ctx, &sp.in, kb, "angles beyond the exact reduction");
+    }
+    obs_image_f32_free(&sp.depth);
     obs_image_f32_free(&sy.depth);
     obs_image_f32_free(&so.depth);
     rast_gbuffer_free(&gb);
