@@ -12,9 +12,11 @@
  *     and lanes whose floor(log2(ssR)) needs the double log2 (a few ulps below a power of two)
  *     are redone by the scalar helpers themselves;
  *   - G3D HQ's pow() is the scalar powf per lane.
- * Taps gather from the one-block pyramid (ao_i_sao_job.lvl_off) with 32-bit indices. Lanes that
- * are background, outside the row, or have no usable normal compute garbage that is masked out
- * at the end (every index is clamped into the level, so no lane reads out of bounds). */
+ * Taps gather from the one-block pyramid (ao_i_sao_job.lvl_off) with 32-bit indices, in blocks
+ * of TAP_BLOCK taps (all cos/sin of the block, then its fetches, then its falloff terms, summed in
+ * tap order). Lanes that are background, outside the row, or have no usable normal compute
+ * garbage that is masked out at the end (every index is clamped into the level, so no lane reads
+ * out of bounds). The blur (ao_i_sao_blur_row_avx2, at the end) has its own comment. */
 #include "ao_sao_internal.h"
 #include "ao_internal.h"
 
