@@ -739,8 +739,8 @@ TEST(ao_cli_sao_writes_outputs_and_rejects_bad_input)
 TEST(sao_trig_and_log2_match_correctly_rounded_libm)
 {
     /* ao_i_cos_sin must give (float)cos((double)a) and (float)sin((double)a) (docs/ao/sao.md has
-     * the exhaustive check over [0, 2^31)); here 2^20 random float angles of either sign, every
-     * magnitude up to 2^31, and a dense run of small ones. */
+     * the exhaustive check over [0, 3e9)); here 2^20 random float angles of either sign, every
+     * magnitude up to 3e9, and a dense run of small ones. */
     uint64_t st = 0x9E3779B97F4A7C15ull;
     int64_t bad = 0;
     for (int i = 0; i < (1 << 20) + 4096; i++) {
@@ -749,7 +749,7 @@ TEST(sao_trig_and_log2_match_correctly_rounded_libm)
             st ^= st << 13;
             st ^= st >> 7;
             st ^= st << 17;
-            uint32_t bits = (uint32_t)(st >> 11) % 0x4F000000u; /* |a| < 2^31 */
+            uint32_t bits = (uint32_t)(st >> 11) % 0x4F32D05Fu; /* |a| < 3e9 (the reduction's range) */
             memcpy(&a, &bits, sizeof a);
             if (st & 1)
                 a = -a;
@@ -776,4 +776,158 @@ TEST(sao_trig_and_log2_match_correctly_rounded_libm)
     CHECK(ao_i_floor_log2f(0.0f) == INT32_MIN && ao_i_floor_log2f(-1.0f) == INT32_MIN);
     CHECK(ao_i_floor_log2f(NAN) == INT32_MIN && ao_i_floor_log2f(INFINITY) == INT32_MAX);
     CHECK_EQ_INT(ao_i_floor_log2f(0x1p-140f), -140); /* denormal */
+}
+
+/* ---- the AVX2 path against the scalar one ------------------------------------------------------- */
+
+#include "ao/ao_sao_internal.h"
+
+/* Run both paths on in with p (scalar on 1 thread, AVX2 on 3) and compare the raw and final
+ * planes and the counts byte for byte; report the first differing pixel. */
+static void sao_paths_agree_k(obs_context *ctx, const ao_input *in, const ao_sao_constants k, const char *what)
+{
+    obs_image_f32 o[2] = {{0}}, r[2] = {{0}};
+    ao_sao_stats st[2];
+    for (int i = 0; i < 2; i++) {
+        CHECK_OK(obs_image_f32_alloc(ctx, in->w, in->h, &o[i]), ctx);
+        CHECK_OK(obs_image_f32_alloc(ctx, in->w, in->h, &r[i]), ctx);
+    }
+    ao_i_sao_isa used = AO_I_SAO_ISA_AUTO;
+    CHECK_OK(ao_i_sao_compute_isa(ctx, NULL, in, &k, &o[0], &r[0], &st[0], AO_I_SAO_ISA_SCALAR, &used), ctx);
+    CHECK(used == AO_I_SAO_ISA_SCALAR);
+    obs_pool *pool = obs_pool_create(3);
+    CHECK_OK(ao_i_sao_compute_isa(ctx, pool, in, &k, &o[1], &r[1], &st[1], AO_I_SAO_ISA_AVX2, &used), ctx);
+    obs_pool_destroy(pool);
+    CHECK(used == AO_I_SAO_ISA_AVX2);
+    int64_t bad = 0;
+    for (int y = 0; y < in->h; y++)
+        for (int x = 0; x < in->w; x++) {
+            const float a = obs_image_f32_row(&r[0], y)[x], b = obs_image_f32_row(&r[1], y)[x];
+            const float fa = obs_image_f32_row(&o[0], y)[x], fb = obs_image_f32_row(&o[1], y)[x];
+            if (memcmp(&a, &b, 4) || memcmp(&fa, &fb, 4)) {
+                if (!bad)
+                    fprintf(stderr, "%s: first difference at (%d,%d): raw scalar %.9g avx2 %.9g, final %.9g %.9g\n",
+                            what, x, y, (double)a, (double)b, (double)fa, (double)fb);
+                bad++;
+            }
+        }
+    CHECK_MSG(bad == 0, "%s: %lld pixels differ between the scalar and AVX2 paths", what, (long long)bad);
+    CHECK_MSG(st[0].pixels_background == st[1].pixels_background &&
+                  st[0].pixels_degenerate_normal == st[1].pixels_degenerate_normal &&
+                  st[0].pixels_below_min_radius == st[1].pixels_below_min_radius,
+              "%s: counts differ: background %lld/%lld, degenerate %lld/%lld, min radius %lld/%lld", what,
+              (long long)st[0].pixels_background, (long long)st[1].pixels_background,
+              (long long)st[0].pixels_degenerate_normal, (long long)st[1].pixels_degenerate_normal,
+              (long long)st[0].pixels_below_min_radius, (long long)st[1].pixels_below_min_radius);
+    for (int i = 0; i < 2; i++) {
+        obs_image_f32_free(&o[i]);
+        obs_image_f32_free(&r[i]);
+    }
+}
+
+static void sao_paths_agree(obs_context *ctx, const ao_input *in, const ao_sao_params *p, const char *what)
+{
+    sao_paths_agree_k(ctx, in, ao_sao_constants_from_params(p, in), what);
+}
+
+TEST(sao_avx2_and_scalar_paths_are_bit_identical)
+{
+    if (!ao_i_sao_isa_available(AO_I_SAO_ISA_AVX2)) {
+        printf("AVX2 path not compiled or not supported here: nothing to compare\n");
+        return;
+    }
+    obs_context *ctx = obs_context_create();
+    /* 1. the sphere over the ground (odd sizes, a guard band: the region starts at odd columns) */
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 203, 117, 5, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    /* 2. a synthetic buffer: a tilted plane with background, NaN, -inf, 0 and negative depths,
+     * 1080p-like focal length so that G3D HQ keeps its depth normals */
+    synth sy;
+    const obs_dvec3 nrm = {0.3, 0.766044443, 0.56};
+    CHECK_OK(tu_synth_plane(ctx, 157, 93, 900.0, nrm, -4.0, OBS_PROJECTION_PERSPECTIVE, &sy), ctx);
+    for (int y = 0; y < 93; y++)
+        for (int x = 0; x < 157; x++) {
+            float *d = &obs_image_f32_row(&sy.depth, y)[x];
+            const int h = (x * 7 + y * 13) % 23;
+            if (h == 0)
+                *d = NAN;
+            else if (h == 1)
+                *d = INFINITY;
+            else if (h == 2 && x > 60)
+                *d = -1.0f;
+            else if (h == 3 && y < 30)
+                *d = 0.0f;
+            else if (h == 4)
+                *d = -INFINITY;
+            else if (x > 100 && y > 50)
+                *d = INFINITY; /* a block of sky */
+            else if ((x / 9 + y / 7) % 3 == 0)
+                *d *= 0.8f; /* steps: occlusion */
+        }
+    synth so; /* orthographic */
+    CHECK_OK(tu_synth_plane(ctx, 64, 41, 30.0, nrm, -4.0, OBS_PROJECTION_ORTHOGRAPHIC, &so), ctx);
+    const ao_input *inputs[3] = {&in, &sy.in, &so.in};
+    const char *names[3] = {"sphere over ground", "synthetic with NaN and background", "orthographic"};
+    for (int j = 0; j < 3; j++)
+        for (int variant = 0; variant < AO_SAO_VARIANT_COUNT; variant++)
+            for (int nm = 0; nm < AO_SAO_NORMALS_COUNT; nm++)
+                for (int mip = 0; mip < 3; mip++) {
+                    if (nm == AO_SAO_NORMALS_GBUFFER && !inputs[j]->normal[0])
+                        continue;
+                    ao_sao_params p;
+                    ao_sao_params_preset(variant == AO_SAO_VARIANT_G3D_HQ ? "g3d-hq" : "default", &p);
+                    p.normals = (ao_sao_normals)nm;
+                    p.max_mip_level = mip == 0 ? 0 : mip == 1 ? 5 : 15;
+                    p.radius = j == 0 ? 0.8f : 1.5f;
+                    if (mip == 2) {
+                        p.samples = 23;
+                        p.spiral_turns = 1000;
+                        p.log_max_offset = 0;
+                        p.intensity = 1.7f;
+                    }
+                    char what[160];
+                    snprintf(what, sizeof what, "%s, %s, %s normals, max mip %d", names[j],
+                             variant ? "g3d-hq" : "hpg12", nm ? "gbuffer" : "depth", p.max_mip_level);
+                    sao_paths_agree(ctx, inputs[j], &p, what);
+                }
+    /* 3. the lanes the AVX2 kernel hands back to the scalar helpers. (a) floor(log2(ssR)) just
+     * below a power of two, where the float log2 rounds up: a plane at depth 1 facing the camera,
+     * f = 16 - 2^-20 px and r = 1, one tap (alpha = 0.5): ssR = 8 - 2^-21 at every pixel of depth 1,
+     * whose float log2 is 3.0 (the exponent says 2); every third pixel nearer, so that the texel a
+     * tap reads depends on the level. */
+    synth sp;
+    const obs_dvec3 facing = {0, 0, 1};
+    CHECK_OK(tu_synth_plane(ctx, 96, 64, 16.0 - 0x1p-20, facing, -1.0, OBS_PROJECTION_PERSPECTIVE, &sp), ctx);
+    for (int y = 0; y < 64; y++)
+        for (int x = 0; x < 96; x++)
+            if ((x + 2 * y) % 3 == 0)
+                obs_image_f32_row(&sp.depth, y)[x] = 0.93f;
+    ao_sao_params pn = ao_sao_params_default();
+    pn.samples = 1;
+    pn.blur = 0;
+    pn.max_mip_level = 5;
+    pn.log_max_offset = 0;
+    pn.radius = 1.0f;
+    {
+        const ao_sao_constants kn = ao_sao_constants_from_params(&pn, &sp.in);
+        const float ssR = (0.5f * kn.inv_num_samples) * ((-kn.proj_scale * kn.radius) / -1.0f); /* alpha disk */
+        CHECK_MSG(ssR == 8.0f - 0x1p-21f, "ssR %a is not 8 - 2^-21", (double)ssR);
+        CHECK_EQ_INT(ao_i_floor_log2f(ssR), 3);
+        sao_paths_agree_k(ctx, &sp.in, kn, "log2 just below a power of two");
+        /* (b) angles past 3e9, which ao_i_cos_sin sends to libm: only reachable through an external
+         * constant block (turns_angle is not range-checked there) */
+        ao_sao_constants kb = ao_sao_constants_from_params(&pn, &sp.in);
+        kb.turns_angle = 7.5e9f;
+        sao_paths_agree_k(ctx, &sp.in, kb, "angles beyond the exact reduction");
+    }
+    obs_image_f32_free(&sp.depth);
+    obs_image_f32_free(&sy.depth);
+    obs_image_f32_free(&so.depth);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
 }

@@ -395,7 +395,9 @@ typedef struct ao_sao_stats {
  * planes (our row order). out receives the blurred AO when params->blur, else the raw AO; out_raw
  * the AO before the blur. The AO pass runs over the window plus the blur's reach (stride * R
  * pixels each side, inside the buffer), so that the result equals a GPU running both passes
- * over the whole buffer and cropping. stats may be NULL.
+ * over the whole buffer and cropping. stats may be NULL. The AO pass and the blur run on AVX2
+ * when the build and the CPU have it (the environment's OBS_ISA=scalar forces the scalar path);
+ * both paths give the same bytes (docs/ao/sao.md, "Speed").
  * Returns: OK; INVALID_ARGUMENT (input, params, plane sizes, or normals = GBUFFER without
  * normals); OUT_OF_MEMORY; LIMIT_EXCEEDED. */
 obs_status ao_sao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_sao_params *params,

@@ -14,6 +14,7 @@
  */
 #include "ao.h"
 #include "ao_internal.h"
+#include "ao_sao_internal.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -239,13 +240,10 @@ static inline float maxf(float a, float b) { return a > b ? a : b; } /* GLSL max
  * +-2^30 so that the tap coordinate (+ a coordinate < 2^15) cannot overflow; NaN -> 0. */
 static inline int trunc_to_int(float v)
 {
-    if (v != v)
-        return 0;
-    if (v >= 1073741824.0f)
-        return 1073741824;
-    if (v <= -1073741824.0f)
-        return -1073741824;
-    return (int)v;
+    v = v == v ? v : 0.0f;                         /* NaN -> 0 */
+    v = v < 1073741824.0f ? v : 1073741824.0f;     /* min(v, 2^30) */
+    v = v > -1073741824.0f ? v : -1073741824.0f;   /* max(v, -2^30) */
+    return (int)v;                                 /* exact for |v| <= 2^30 */
 }
 
 /* cos and sin of a float angle, as the ideal GLSL cos()/sin(): the float nearest to the exact
@@ -256,11 +254,13 @@ static inline int trunc_to_int(float v)
  *   r = x - k*P1 - k*P2 - k*P3 - k*P4 with pi/2 = P1 + P2 + P3 + P4 split into 22-bit pieces
  *       (exact products k*Pi for |k| < 2^31; the first two differences are exact by Sterbenz and
  *       alignment, the absolute error is ~2^-88, far below r for any float x);
- *   sin r, cos r by their Taylor series to r^19 and r^20 on |r| <= pi/4 + tiny (truncation
- *       < 1e-21), Horner in double; the quadrant k mod 4 picks the signs.
+ *   sin r, cos r by fdlibm's minimax kernels on |r| <= pi/4 (k_sin.c, k_cos.c: degree 13 and 14,
+ *       |error| < 2^-58; the same coefficients are in musl's __sin.c / __cos.c), Horner in double;
+ *       the quadrant k mod 4 picks the signs.
  * Agreement with (float)cos((double)a) and (float)sin((double)a) was checked for every float
- * angle in [0, 2^31) (docs/ao/sao.md). */
-void ao_i_cos_sin(float angle, float *c, float *s)
+ * angle in [0, 3e9) (docs/ao/sao.md, "Speed"); the result is odd/even in a exactly. The AVX2
+ * kernel (ao_sao_avx2.c, cos_sin_pd) runs the same operations in the same order. */
+static inline __attribute__((always_inline)) void cos_sin_inline(float angle, float *c, float *s)
 {
     const double x = (double)angle;
     if (!(fabs(x) < 3.0e9)) { /* not reached by SAO's angles; NaN and inf go through libm too */
@@ -276,14 +276,10 @@ void ao_i_cos_sin(float angle, float *c, float *s)
     r = r - kd * P3;
     r = r - kd * P4;
     const double z = r * r;
-    const double sn =
-        r + r * z * (-1.0 / 6.0 + z * (1.0 / 120.0 + z * (-1.0 / 5040.0 + z * (1.0 / 362880.0 +
-            z * (-1.0 / 39916800.0 + z * (1.0 / 6227020800.0 + z * (-1.0 / 1307674368000.0 +
-            z * (1.0 / 355687428096000.0 + z * (-1.0 / 121645100408832000.0)))))))));
-    const double cs =
-        1.0 - 0.5 * z + z * z * (1.0 / 24.0 + z * (-1.0 / 720.0 + z * (1.0 / 40320.0 + z * (-1.0 / 3628800.0 +
-            z * (1.0 / 479001600.0 + z * (-1.0 / 87178291200.0 + z * (1.0 / 20922789888000.0 +
-            z * (-1.0 / 6402373705728000.0 + z * (1.0 / 2432902008176640000.0)))))))));
+    const double sn = r + r * z * (AO_I_SIN_S1 + z * (AO_I_SIN_S2 + z * (AO_I_SIN_S3 + z * (AO_I_SIN_S4 +
+                                   z * (AO_I_SIN_S5 + z * AO_I_SIN_S6)))));
+    const double cs = 1.0 - 0.5 * z + z * z * (AO_I_COS_C1 + z * (AO_I_COS_C2 + z * (AO_I_COS_C3 + z * (AO_I_COS_C4 +
+                                               z * (AO_I_COS_C5 + z * AO_I_COS_C6)))));
     switch ((int)((int64_t)kd & 3)) {
     case 0: *c = (float)cs; *s = (float)sn; break;
     case 1: *c = (float)-sn; *s = (float)cs; break;
@@ -291,6 +287,8 @@ void ao_i_cos_sin(float angle, float *c, float *s)
     default: *c = (float)sn; *s = (float)-cs; break;
     }
 }
+
+void ao_i_cos_sin(float angle, float *c, float *s) { cos_sin_inline(angle, c, s); }
 
 int ao_i_floor_log2f(float x)
 {
@@ -396,6 +394,62 @@ obs_status ao_sao_mip_build(obs_context *ctx, obs_pool *pool, const obs_image_f3
     return OBS_STATUS_OK;
 }
 
+/* The pass's own pyramid: level 0 (CSZ) and levels 1..max_mip in ONE allocation, each level's
+ * rows 64-byte aligned, so that the AVX2 kernel gathers from any level with 32-bit indices
+ * relative to levels[0].data (ao_i_sao_job). Sizes as ao_sao_mip_build. The block holds at most
+ * (W + 15) H 4/3 + 16 (max_mip + 1) floats < 2^31 for any image within the pixel limit (2^28);
+ * larger blocks are refused. Free with obs_aligned_free(*block). */
+static obs_status pyramid_alloc(obs_context *ctx, int W, int H, int max_mip, obs_image_f32 *levels, float **block)
+{
+    size_t off[AO_SAO_MAX_MIP + 2];
+    off[0] = 0;
+    for (int l = 0; l <= max_mip; l++) {
+        int w = W >> l, h = H >> l;
+        w = w < 1 ? 1 : w;
+        h = h < 1 ? 1 : h;
+        levels[l].width = w;
+        levels[l].height = h;
+        levels[l].stride = ((ptrdiff_t)w + 15) & ~(ptrdiff_t)15;
+        off[l + 1] = off[l] + (size_t)levels[l].stride * (size_t)h;
+    }
+    const size_t total = off[max_mip + 1];
+    if (total > (size_t)INT32_MAX || (int64_t)total * 4 > obs_context_limits(ctx)->max_memory_bytes)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "sao: a %dx%d depth pyramid needs %zu floats, over the limit",
+                         W, H, total);
+    float *p = (float *)obs_aligned_alloc(total * sizeof(float));
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sao: cannot allocate the %dx%d depth pyramid", W, H);
+    for (int l = 0; l <= max_mip; l++)
+        levels[l].data = p + off[l];
+    *block = p;
+    return OBS_STATUS_OK;
+}
+
+/* The pass's working planes (raw AO, and for the blur its two passes) in one allocation, not
+ * zeroed: every pixel of each is written before it is read. One block of 4 MiB or more gets huge
+ * pages (obs_aligned_alloc); at 720p each plane alone (3.7 MB) would not, and first-touching it
+ * in 4 KiB pages cost more than the blur's arithmetic. Free with obs_aligned_free(*block). */
+static obs_status work_planes_alloc(obs_context *ctx, int n, const int (*wh)[2], obs_image_f32 *planes, float **block)
+{
+    size_t off[4] = {0};
+    for (int i = 0; i < n; i++) {
+        planes[i].width = wh[i][0];
+        planes[i].height = wh[i][1];
+        planes[i].stride = ((ptrdiff_t)wh[i][0] + 15) & ~(ptrdiff_t)15;
+        off[i + 1] = off[i] + (size_t)planes[i].stride * (size_t)wh[i][1];
+    }
+    if ((int64_t)off[n] * 4 > obs_context_limits(ctx)->max_memory_bytes)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "sao: the working planes need %zu floats, over the limit",
+                         off[n]);
+    float *p = (float *)obs_aligned_alloc(off[n] * sizeof(float));
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sao: cannot allocate the working planes");
+    for (int i = 0; i < n; i++)
+        planes[i].data = p + off[i];
+    *block = p;
+    return OBS_STATUS_OK;
+}
+
 void ao_sao_mip_free(obs_image_f32 *levels, int max_level)
 {
     if (!levels)
@@ -405,24 +459,15 @@ void ao_sao_mip_free(obs_image_f32 *levels, int max_level)
 }
 
 /* ================================================================================================
- * The AO pass
+ * The AO pass (scalar; the reference for the AVX2 kernel in ao_sao_avx2.c)
  * ============================================================================================== */
 
-typedef struct sao_job {
-    const ao_sao_constants *k;
-    const obs_image_f32 *levels;   /* [0..k->max_mip], GL order; level 0 = CSZ */
-    const ao_input *in;            /* G-buffer normals (our row order) */
-    int rx0, ry0;                  /* region origin, GL coordinates */
-    obs_image_f32 *ao;             /* region-sized, GL order */
-    int64_t (*counts)[3];          /* per row: background, degenerate normal, below min radius */
-} sao_job;
-
 /* csPos: [McGuire12] SAO_AO.pix reconstructCSPosition, GL pixel s, camera-space z. */
-static inline void cs_pos(const ao_sao_constants *k, int sx, int sy, float z, float P[3])
+static inline void cs_pos(const ao_sao_constants *k, const int ortho, int sx, int sy, float z, float P[3])
 {
     float ax = ((float)sx + 0.5f) * k->proj_info[0] + k->proj_info[2];
     float ay = ((float)sy + 0.5f) * k->proj_info[1] + k->proj_info[3];
-    if (!k->orthographic) {
+    if (!ortho) {
         P[0] = ax * z;
         P[1] = ay * z;
         P[2] = z;
@@ -443,29 +488,34 @@ static inline float csz_at(const obs_image_f32 *L0, int x, int y)
     return obs_image_f32_row(L0, y)[x];
 }
 
-static void sao_row(void *user, int64_t task, int thread)
+/* One row. hq, ortho and use_mip are compile-time constants at the specialised call sites below
+ * (the branches on them then vanish from the tap loop); the arithmetic is the same for all. */
+static inline __attribute__((always_inline)) void sao_row_impl(const ao_i_sao_job *J, int task, const int hq,
+                                                              const int ortho, const int use_mip)
 {
-    (void)thread;
-    const sao_job *J = (const sao_job *)user;
     const ao_sao_constants *k = J->k;
     const obs_image_f32 *L0 = &J->levels[0];
+    const float *base = L0->data;
     const int gy = J->ry0 + (int)task;
     float *out = obs_image_f32_row(J->ao, (int)task);
     int64_t n_bg = 0, n_degen = 0, n_minr = 0;
-    const int hq = k->variant == AO_SAO_VARIANT_G3D_HQ;
-    const float r2 = k->radius2;
+    const float r2 = k->radius2, bias = k->bias, eps = k->epsilon, inv_r2 = k->inv_radius2;
+    const int N = k->num_samples, lmo = k->log_max_offset, max_mip = k->max_mip;
+    const float *zrow = obs_image_f32_row(L0, gy);
+    /* ssDiskRadius = -projScale * radius / C.z (perspective); orthographic: projScale * radius */
+    const float disk_num = !ortho ? -k->proj_scale * k->radius : k->proj_scale * k->radius;
 
     for (int i = 0; i < J->ao->width; i++) {
         const int gx = J->rx0 + i;
         /* ---- Centre: ssC = ivec2(gl_FragCoord.xy); z = texelFetch(CSZ, ssC, 0); C = csPos(ssC, z) ---- */
-        const float z = obs_image_f32_row(L0, gy)[gx];
-        float C[3];
-        cs_pos(k, gx, gy, z, C);
+        const float z = zrow[gx];
         if (z == 0.0f) { /* background: if (z == 0.0) { result = vec2(1.0, 0.0); return; } */
             out[i] = 1.0f;
             n_bg++;
             continue;
         }
+        float C[3];
+        cs_pos(k, ortho, gx, gy, z, C);
         /* ---- Normal ---- */
         float n[3];
         if (!k->normals_from_gbuffer) {
@@ -474,13 +524,13 @@ static void sao_row(void *user, int64_t task, int thread)
              * its own lane from its own texel (background lanes: z = 0, so C = 0). */
             const int xa = gx & ~1, xb = gx | 1, ya = gy & ~1, yb = gy | 1;
             float Pa[3], Pb[3], dx[3], dy[3];
-            cs_pos(k, xa, gy, csz_at(L0, xa, gy), Pa);
-            cs_pos(k, xb, gy, csz_at(L0, xb, gy), Pb);
+            cs_pos(k, ortho, xa, gy, csz_at(L0, xa, gy), Pa);
+            cs_pos(k, ortho, xb, gy, csz_at(L0, xb, gy), Pb);
             dx[0] = Pb[0] - Pa[0];
             dx[1] = Pb[1] - Pa[1];
             dx[2] = Pb[2] - Pa[2];
-            cs_pos(k, gx, ya, csz_at(L0, gx, ya), Pa);
-            cs_pos(k, gx, yb, csz_at(L0, gx, yb), Pb);
+            cs_pos(k, ortho, gx, ya, csz_at(L0, gx, ya), Pa);
+            cs_pos(k, ortho, gx, yb, csz_at(L0, gx, yb), Pb);
             dy[0] = Pb[0] - Pa[0];
             dy[1] = Pb[1] - Pa[1];
             dy[2] = Pb[2] - Pa[2];
@@ -525,8 +575,7 @@ static void sao_row(void *user, int64_t task, int thread)
         }
         /* ---- Per-pixel spin and screen-space disk radius ---- */
         const float spin = ao_sao_spin(gx, gy);
-        /* ssDiskRadius = -projScale * radius / C.z (perspective); orthographic: projScale * radius */
-        const float disk = !k->orthographic ? (-k->proj_scale * k->radius) / C[2] : k->proj_scale * k->radius;
+        const float disk = !ortho ? disk_num / C[2] : disk_num;
         if (hq && disk <= 3.0f) { /* G3D: if (ssDiskRadius <= MIN_RADIUS) visibility = 1 */
             out[i] = 1.0f;
             n_minr++;
@@ -535,44 +584,43 @@ static void sao_row(void *user, int64_t task, int thread)
         const float angular = hq ? 1.0f * (1.0f - 0.35f) + maxf(0.0f, 1.5f * n[2]) * 0.35f : 1.0f;
         /* ---- Taps ---- */
         float sum = 0.0f;
-        for (int t = 0; t < k->num_samples; t++) {
-            /* tapLocation: alpha = (i + 0.5) / N; angle = alpha * (NUM_SPIRAL_TURNS * 6.28) + spin */
-            const float alpha = ((float)t + 0.5f) * k->inv_num_samples;
-            const float angle = alpha * k->turns_angle + spin;
-            float ssR = alpha * disk;
+        for (int t = 0; t < N; t++) {
+            /* tapLocation: alpha = (i + 0.5) / N; angle = alpha * (NUM_SPIRAL_TURNS * 6.28) + spin
+             * (alpha and alpha * (tau * 6.28) are the per-tap constants of J) */
+            const float angle = J->alpha_angle[t] + spin;
+            float ssR = J->alpha[t] * disk;
             if (hq)
                 ssR = maxf(0.75f, ssR); /* G3D: "Ensure that the taps are at least 1 pixel away" */
             float cs, sn;
-            ao_i_cos_sin(angle, &cs, &sn);
+            cos_sin_inline(angle, &cs, &sn); /* ao_i_cos_sin */
             /* ssP = ivec2(ssR * unitOffset) + ssC  (truncation toward zero) */
             const int px = trunc_to_int(ssR * cs) + gx, py = trunc_to_int(ssR * sn) + gy;
             /* mipLevel = clamp(int(floor(log2(ssR))) - LOG_MAX_OFFSET, 0, MAX_MIP_LEVEL) */
             int mip = 0;
-            if (k->max_mip > 0 && ssR >= 1.0f) { /* below 1 px, floor(log2) - 3 < 0 anyway */
-                const int m = ao_i_floor_log2f(ssR) - k->log_max_offset;
-                mip = m < 0 ? 0 : m > k->max_mip ? k->max_mip : m;
+            if (use_mip && ssR >= 1.0f) { /* below 1 px, floor(log2) - 3 < 0 anyway */
+                const int m = ao_i_floor_log2f(ssR) - lmo;
+                mip = m < 0 ? 0 : m > max_mip ? max_mip : m;
             }
             /* mipP = clamp(ssP >> mip, 0, max(size_0 >> mip, 1) - 1); P.z = texelFetch(CSZ, mipP, mip) */
-            const obs_image_f32 *L = &J->levels[mip];
             int mx = px < 0 ? 0 : px >> mip, my = py < 0 ? 0 : py >> mip;
-            mx = mx > L->width - 1 ? L->width - 1 : mx;
-            my = my > L->height - 1 ? L->height - 1 : my;
-            const float zq = obs_image_f32_row(L, my)[mx];
+            mx = mx > J->lvl_wm1[mip] ? J->lvl_wm1[mip] : mx;
+            my = my > J->lvl_hm1[mip] ? J->lvl_hm1[mip] : my;
+            const float zq = base[J->lvl_off[mip] + my * J->lvl_stride[mip] + mx];
             /* Q at the full-resolution tap pixel centre */
             float Q[3];
-            cs_pos(k, px, py, zq, Q);
+            cs_pos(k, ortho, px, py, zq, Q);
             const float v0 = Q[0] - C[0], v1 = Q[1] - C[1], v2 = Q[2] - C[2];
             const float vv = v0 * v0 + v1 * v1 + v2 * v2;
             const float vn = v0 * n[0] + v1 * n[1] + v2 * n[2];
             if (!hq) {
                 /* falloff B: f = max(r2 - vv, 0); f * f * f * max((vn - bias) / (epsilon + vv), 0) */
                 const float f = maxf(r2 - vv, 0.0f);
-                sum += f * f * f * maxf((vn - k->bias) / (k->epsilon + vv), 0.0f);
+                sum += f * f * f * maxf((vn - bias) / (eps + vv), 0.0f);
             } else {
                 /* HIGH_QUALITY: f = max(1 - vv * invRadius2, 0); f * max((vn - bias) * rsqrt(eps + vv), 0),
                  * times the angular adjustment lerp(1, max(0, 1.5 n_C.z), 0.35) */
-                const float f = maxf(1.0f - vv * k->inv_radius2, 0.0f);
-                sum += f * maxf((vn - k->bias) * (1.0f / sqrtf(k->epsilon + vv)), 0.0f) * angular;
+                const float f = maxf(1.0f - vv * inv_r2, 0.0f);
+                sum += f * maxf((vn - bias) * (1.0f / sqrtf(eps + vv)), 0.0f) * angular;
             }
         }
         float A;
@@ -594,26 +642,61 @@ static void sao_row(void *user, int64_t task, int thread)
     J->counts[task][2] = n_minr;
 }
 
+void ao_i_sao_row_scalar(const ao_i_sao_job *J, int task)
+{
+    const ao_sao_constants *k = J->k;
+    const int hq = k->variant == AO_SAO_VARIANT_G3D_HQ, mip = k->max_mip > 0;
+    if (k->orthographic)
+        sao_row_impl(J, task, hq, 1, mip);
+    else if (!hq && !mip)
+        sao_row_impl(J, task, 0, 0, 0);
+    else if (!hq)
+        sao_row_impl(J, task, 0, 0, 1);
+    else if (!mip)
+        sao_row_impl(J, task, 1, 0, 0);
+    else
+        sao_row_impl(J, task, 1, 0, 1);
+}
+
+int ao_i_sao_isa_available(ao_i_sao_isa isa)
+{
+    switch (isa) {
+    case AO_I_SAO_ISA_AUTO:
+    case AO_I_SAO_ISA_SCALAR: return 1;
+    case AO_I_SAO_ISA_AVX2:
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+        return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+        return 0;
+#endif
+    default: return 0;
+    }
+}
+
+typedef struct sao_pool_job {
+    const ao_i_sao_job *J;
+    int avx2;
+} sao_pool_job;
+
+static void sao_row_task(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const sao_pool_job *P = (const sao_pool_job *)user;
+#if defined(OBS_HAVE_AVX2)
+    if (P->avx2) {
+        ao_i_sao_row_avx2(P->J, (int)task);
+        return;
+    }
+#endif
+    ao_i_sao_row_scalar(P->J, (int)task);
+}
+
 /* ================================================================================================
  * The blur (GL coordinates)
  * ============================================================================================== */
 
-typedef struct blur_job {
-    const obs_image_f32 *a;        /* source AO; its pixel (0,0) is full-image (ax0, ay0) */
-    int ax0, ay0;
-    const obs_image_f32 *z;        /* key (CSZ), full image */
-    obs_image_f32 *dst;            /* destination; its pixel (0,0) is full-image (dx0, dy0) */
-    int dx0, dy0;
-    int W, H;                      /* full image, for the edge clamp */
-    int axis;                      /* 0: horizontal (axis (1,0)), 1: vertical (axis (0,1), GL up) */
-    int stride;
-    float edge_k;
-} blur_job;
-
-static void blur_row(void *user, int64_t task, int thread)
+void ao_i_sao_blur_row_scalar(const ao_i_sao_blur_job *J, int task)
 {
-    (void)thread;
-    const blur_job *J = (const blur_job *)user;
     const float *g = ao_sao_blur_gaussian;
     const int gy = J->dy0 + (int)task;
     float *o = obs_image_f32_row(J->dst, (int)task);
@@ -651,11 +734,38 @@ static void blur_row(void *user, int64_t task, int thread)
     }
 }
 
-static void blur_run(obs_pool *pool, const obs_image_f32 *a, int ax0, int ay0, const obs_image_f32 *z,
-                     obs_image_f32 *dst, int dx0, int dy0, int axis, int stride, float edge_k)
+typedef struct blur_pool_job {
+    const ao_i_sao_blur_job *J;
+    int avx2;
+} blur_pool_job;
+
+static void blur_row_task(void *user, int64_t task, int thread)
 {
-    blur_job J = {a, ax0, ay0, z, dst, dx0, dy0, z->width, z->height, axis, stride, edge_k};
-    obs_pool_run(pool, dst->height, blur_row, &J);
+    (void)thread;
+    const blur_pool_job *P = (const blur_pool_job *)user;
+#if defined(OBS_HAVE_AVX2)
+    if (P->avx2) {
+        ao_i_sao_blur_row_avx2(P->J, (int)task);
+        return;
+    }
+#endif
+    ao_i_sao_blur_row_scalar(P->J, (int)task);
+}
+
+static ao_i_sao_isa auto_isa(void)
+{
+    const char *env = getenv("OBS_ISA");
+    if (!(env && !strcmp(env, "scalar")) && ao_i_sao_isa_available(AO_I_SAO_ISA_AVX2))
+        return AO_I_SAO_ISA_AVX2;
+    return AO_I_SAO_ISA_SCALAR;
+}
+
+static void blur_run(obs_pool *pool, const obs_image_f32 *a, int ax0, int ay0, const obs_image_f32 *z,
+                     obs_image_f32 *dst, int dx0, int dy0, int axis, int stride, float edge_k, ao_i_sao_isa path)
+{
+    ao_i_sao_blur_job J = {a, ax0, ay0, z, dst, dx0, dy0, z->width, z->height, axis, stride, edge_k};
+    blur_pool_job P = {&J, path == AO_I_SAO_ISA_AVX2};
+    obs_pool_run(pool, dst->height, blur_row_task, &P);
 }
 
 obs_status ao_sao_blur_gl(obs_context *ctx, obs_pool *pool, const obs_image_f32 *ao, const obs_image_f32 *csz,
@@ -673,8 +783,9 @@ obs_status ao_sao_blur_gl(obs_context *ctx, obs_pool *pool, const obs_image_f32 
     obs_status st = obs_image_f32_alloc(ctx, ao->width, ao->height, &tmp);
     if (st != OBS_STATUS_OK)
         return st;
-    blur_run(pool, ao, 0, 0, csz, &tmp, 0, 0, 0, stride, edge_k);
-    blur_run(pool, &tmp, 0, 0, csz, out, 0, 0, 1, stride, edge_k);
+    const ao_i_sao_isa path = auto_isa();
+    blur_run(pool, ao, 0, 0, csz, &tmp, 0, 0, 0, stride, edge_k, path);
+    blur_run(pool, &tmp, 0, 0, csz, out, 0, 0, 1, stride, edge_k, path);
     obs_image_f32_free(&tmp);
     return OBS_STATUS_OK;
 }
@@ -707,8 +818,9 @@ static obs_status check_constants(obs_context *ctx, const ao_input *in, const ao
     return OBS_STATUS_OK;
 }
 
-obs_status ao_sao_compute_constants(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_sao_constants *k,
-                                    obs_image_f32 *out, obs_image_f32 *out_raw, ao_sao_stats *stats)
+obs_status ao_i_sao_compute_isa(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_sao_constants *k,
+                                obs_image_f32 *out, obs_image_f32 *out_raw, ao_sao_stats *stats, ao_i_sao_isa isa,
+                                ao_i_sao_isa *isa_used)
 {
     obs_status st = ao_input_validate(ctx, in);
     if (st != OBS_STATUS_OK)
@@ -723,23 +835,32 @@ obs_status ao_sao_compute_constants(obs_context *ctx, obs_pool *pool, const ao_i
     if (stats)
         memset(stats, 0, sizeof *stats);
     const int W = in->width, H = in->height;
+    const ao_i_sao_isa path = isa == AO_I_SAO_ISA_AUTO ? auto_isa() : isa;
+    if ((unsigned)path >= AO_I_SAO_ISA_COUNT || !ao_i_sao_isa_available(path))
+        return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "sao: the %s path is not available in this build or CPU",
+                         path == AO_I_SAO_ISA_AVX2 ? "avx2" : "requested");
+    if (isa_used)
+        *isa_used = path;
     obs_image_f32 levels[AO_SAO_MAX_MIP + 1];
     memset(levels, 0, sizeof levels);
-    obs_image_f32 csz = {0}, raw = {0}, hpass = {0}, vpass = {0};
+    obs_image_f32 raw = {0}, hpass = {0}, vpass = {0};
+    float *block = NULL, *work = NULL;
     int64_t(*counts)[3] = NULL;
-    int have_levels = 0;
+    ao_i_sao_job *job = NULL;
 
-    /* ---- 1. CSZ (GL row order) ---- */
+    /* ---- 1. CSZ (GL row order), level 0 of the pyramid's block ---- */
     double t0 = obs_time_now();
-    st = obs_image_f32_alloc(ctx, W, H, &csz);
+    st = pyramid_alloc(ctx, W, H, k->max_mip, levels, &block);
     if (st == OBS_STATUS_OK)
-        st = ao_sao_csz_from_input(ctx, pool, in, &csz);
+        st = ao_sao_csz_from_input(ctx, pool, in, &levels[0]);
+    const obs_image_f32 csz = levels[0];
     double t1 = obs_time_now();
-    /* ---- 2. MIP pyramid (levels the taps can select) ---- */
-    if (st == OBS_STATUS_OK) {
-        st = ao_sao_mip_build(ctx, pool, &csz, k->max_mip, levels);
-        have_levels = st == OBS_STATUS_OK;
-    }
+    /* ---- 2. MIP pyramid (levels the taps can select), each level from the previous one ---- */
+    if (st == OBS_STATUS_OK)
+        for (int l = 1; l <= k->max_mip; l++) {
+            mip_job M = {&levels[l - 1], &levels[l]};
+            obs_pool_run(pool, levels[l].height, mip_row, &M);
+        }
     double t2 = obs_time_now();
 
     /* ---- 3. AO over the window plus the blur's reach (GL coordinates) ---- */
@@ -749,16 +870,45 @@ obs_status ao_sao_compute_constants(obs_context *ctx, obs_pool *pool, const ao_i
     const int rx0 = wx0 - m < 0 ? 0 : wx0 - m, rx1 = wx1 + m > W - 1 ? W - 1 : wx1 + m;
     const int ry0 = wy0 - m < 0 ? 0 : wy0 - m, ry1 = wy1 + m > H - 1 ? H - 1 : wy1 + m;
     const int rw = rx1 - rx0 + 1, rh = ry1 - ry0 + 1;
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, rw, rh, &raw);
+    if (st == OBS_STATUS_OK) {
+        const int wh[3][2] = {{rw, rh}, {in->w, rh}, {in->w, in->h}};
+        obs_image_f32 planes[3];
+        memset(planes, 0, sizeof planes);
+        st = work_planes_alloc(ctx, k->blur ? 3 : 1, wh, planes, &work);
+        raw = planes[0];
+        hpass = planes[1];
+        vpass = planes[2];
+    }
     if (st == OBS_STATUS_OK) {
         counts = (int64_t(*)[3])calloc((size_t)rh, sizeof *counts);
         if (!counts)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sao: out of memory");
     }
     if (st == OBS_STATUS_OK) {
-        sao_job J = {k, levels, in, rx0, ry0, &raw, counts};
-        obs_pool_run(pool, rh, sao_row, &J);
+        job = (ao_i_sao_job *)calloc(1, sizeof *job);
+        if (!job)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sao: out of memory");
+    }
+    if (st == OBS_STATUS_OK) {
+        job->k = k;
+        job->levels = levels;
+        for (int l = 0; l <= k->max_mip; l++) {
+            job->lvl_off[l] = (int32_t)(levels[l].data - levels[0].data);
+            job->lvl_stride[l] = (int32_t)levels[l].stride;
+            job->lvl_wm1[l] = levels[l].width - 1;
+            job->lvl_hm1[l] = levels[l].height - 1;
+        }
+        job->in = in;
+        job->rx0 = rx0;
+        job->ry0 = ry0;
+        job->ao = &raw;
+        job->counts = counts;
+        for (int t = 0; t < k->num_samples; t++) {
+            job->alpha[t] = ((float)t + 0.5f) * k->inv_num_samples;
+            job->alpha_angle[t] = job->alpha[t] * k->turns_angle;
+        }
+        sao_pool_job P = {job, path == AO_I_SAO_ISA_AVX2};
+        obs_pool_run(pool, rh, sao_row_task, &P);
     }
     double t3 = obs_time_now();
 
@@ -766,12 +916,9 @@ obs_status ao_sao_compute_constants(obs_context *ctx, obs_pool *pool, const ao_i
     const obs_image_f32 *final = NULL;
     int fx0 = rx0, fy0 = ry0;
     if (st == OBS_STATUS_OK && k->blur) {
-        st = obs_image_f32_alloc(ctx, in->w, rh, &hpass);
-        if (st == OBS_STATUS_OK)
-            st = obs_image_f32_alloc(ctx, in->w, in->h, &vpass);
-        if (st == OBS_STATUS_OK) {
-            blur_run(pool, &raw, rx0, ry0, &csz, &hpass, wx0, ry0, 0, k->blur_stride, k->edge_k);
-            blur_run(pool, &hpass, wx0, ry0, &csz, &vpass, wx0, wy0, 1, k->blur_stride, k->edge_k);
+        {
+            blur_run(pool, &raw, rx0, ry0, &csz, &hpass, wx0, ry0, 0, k->blur_stride, k->edge_k, path);
+            blur_run(pool, &hpass, wx0, ry0, &csz, &vpass, wx0, wy0, 1, k->blur_stride, k->edge_k, path);
             final = &vpass;
             fx0 = wx0;
             fy0 = wy0;
@@ -803,14 +950,17 @@ obs_status ao_sao_compute_constants(obs_context *ctx, obs_pool *pool, const ao_i
             stats->seconds_blur = t4 - t3;
         }
     }
+    free(job);
     free(counts);
-    obs_image_f32_free(&vpass);
-    obs_image_f32_free(&hpass);
-    obs_image_f32_free(&raw);
-    if (have_levels)
-        ao_sao_mip_free(levels, k->max_mip);
-    obs_image_f32_free(&csz);
+    obs_aligned_free(work);
+    obs_aligned_free(block);
     return st;
+}
+
+obs_status ao_sao_compute_constants(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_sao_constants *k,
+                                    obs_image_f32 *out, obs_image_f32 *out_raw, ao_sao_stats *stats)
+{
+    return ao_i_sao_compute_isa(ctx, pool, in, k, out, out_raw, stats, AO_I_SAO_ISA_AUTO, NULL);
 }
 
 obs_status ao_sao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_sao_params *params,
