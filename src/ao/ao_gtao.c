@@ -298,6 +298,116 @@ float ao_gtao_fast_acos(float in_x)
 }
 
 /* ================================================================================================
+ * Speed: exact shortcuts used by the fast main pass (docs/ao/gtao.md, "Speed"). Each gives the
+ * same float bits as the expression it replaces; ao_gtao_compute_reference keeps the plain form and
+ * the tests compare the two byte for byte.
+ * ============================================================================================== */
+
+/* fmaxf as glibc's x86-64 s_fmaxf.S computes it for ordered operands (maxss: a > b ? a : b, so
+ * an equal pair, +-0 included, yields b); NaN operands go to the library call. */
+static inline float hmax_fast(float a, float b)
+{
+    if (a == a && b == b)
+        return a > b ? a : b;
+    return fmaxf(a, b);
+}
+
+/* The cos (or sin) half of ao_i_cos_sin (ao_sao.c), the same double operations: the identical
+ * reduction and the one Taylor polynomial the quadrant selects, so the same float. */
+static const double CS_P1 = 0x1.921fbp+0, CS_P2 = 0x1.5110bp-22, CS_P3 = 0x1.18469800p-44,
+                    CS_P4 = 0x1.3198a2e037073p-69;
+static const double CS_TWO_OVER_PI = 0x1.45f306dc9c883p-1, CS_ROUNDER = 0x1.8p52;
+static inline double cs_sin_poly(double r, double z)
+{
+    return r + r * z * (-1.0 / 6.0 + z * (1.0 / 120.0 + z * (-1.0 / 5040.0 + z * (1.0 / 362880.0 +
+           z * (-1.0 / 39916800.0 + z * (1.0 / 6227020800.0 + z * (-1.0 / 1307674368000.0 +
+           z * (1.0 / 355687428096000.0 + z * (-1.0 / 121645100408832000.0)))))))));
+}
+static inline double cs_cos_poly(double z)
+{
+    return 1.0 - 0.5 * z + z * z * (1.0 / 24.0 + z * (-1.0 / 720.0 + z * (1.0 / 40320.0 + z * (-1.0 / 3628800.0 +
+           z * (1.0 / 479001600.0 + z * (-1.0 / 87178291200.0 + z * (1.0 / 20922789888000.0 +
+           z * (-1.0 / 6402373705728000.0 + z * (1.0 / 2432902008176640000.0)))))))));
+}
+/* which = 0: cos, 1: sin */
+static inline float cos_or_sin(float angle, int which)
+{
+    const double x = (double)angle;
+    if (!(fabs(x) < 3.0e9)) {
+        float c, s;
+        ao_i_cos_sin(angle, &c, &s);
+        return which ? s : c;
+    }
+    const double kd = (x * CS_TWO_OVER_PI + CS_ROUNDER) - CS_ROUNDER;
+    double r = x - kd * CS_P1;
+    r = r - kd * CS_P2;
+    r = r - kd * CS_P3;
+    r = r - kd * CS_P4;
+    const double z = r * r;
+    /* ao_i_cos_sin: q 0: (cs, sn), 1: (-sn, cs), 2: (-cs, -sn), 3: (sn, -cs) */
+    const int q = (int)(((int64_t)kd + (which ? 3 : 0)) & 3); /* sin at k = cos at k + 3 */
+    switch (q) {
+    case 0: return (float)cs_cos_poly(z);
+    case 1: return (float)-cs_sin_poly(r, z);
+    case 2: return (float)-cs_cos_poly(z);
+    default: return (float)cs_sin_poly(r, z);
+    }
+}
+static inline float hcos_fast(float a) { return cos_or_sin(a, 0); }
+static inline float hsin_fast(float a) { return cos_or_sin(a, 1); }
+
+/* The per-tap MIP choice of XeGTAO_MainPass, as main_pixel computes it: mipLevel =
+ * clamp(log2(offsetLength) - DepthMIPSamplingOffset, 0, 5), then the point-MIP level
+ * min(floor(mipLevel + 0.5), 4). */
+static int mip_of_length(float off_len, float mip_offset)
+{
+    float mip = hlog2(off_len) - mip_offset;
+    mip = mip > 0.0f ? (mip < (float)AO_GTAO_DEPTH_MIP_LEVELS ? mip : (float)AO_GTAO_DEPTH_MIP_LEVELS) : 0.0f;
+    int li = (int)floorf(mip + 0.5f);
+    return li > AO_GTAO_DEPTH_MIP_LEVELS - 1 ? AO_GTAO_DEPTH_MIP_LEVELS - 1 : li;
+}
+
+/* That choice is a non-decreasing step function of the length (log2, the subtraction, the clamp
+ * and floor are monotonic; lengths are >= 0 or NaN), so it equals the count of thresholds t_j
+ * (j = 1..4, the least float with level >= j) the length reaches: NaN reaches none (level 0, as
+ * the clamp gives), +inf all (level 4). t_j by bisection over the bit patterns of [0, +inf], which
+ * order as the floats do. This replaces a double log2 per tap by four compares. */
+static void mip_thresholds(float mip_offset, float t[AO_GTAO_DEPTH_MIP_LEVELS - 1])
+{
+    for (int j = 1; j < AO_GTAO_DEPTH_MIP_LEVELS; j++) {
+        uint32_t lo = 0u, hi = 0x7f800000u; /* level(lo) < j <= level(hi) (level(+inf) = 4) */
+        if (mip_of_length(0.0f, mip_offset) >= j) {
+            t[j - 1] = 0.0f;
+            continue;
+        }
+        while (hi - lo > 1u) {
+            const uint32_t mid = lo + (hi - lo) / 2u;
+            if (mip_of_length(u2f(mid), mip_offset) >= j)
+                hi = mid;
+            else
+                lo = mid;
+        }
+        t[j - 1] = u2f(hi);
+    }
+}
+
+static inline int mip_from_thresholds(float off_len, const float t[AO_GTAO_DEPTH_MIP_LEVELS - 1])
+{
+    return (off_len >= t[0]) + (off_len >= t[1]) + (off_len >= t[2]) + (off_len >= t[3]);
+}
+
+/* Test hook (ao.h): the threshold form against the log2 form for one length. */
+int ao_gtao_mip_of_length(float off_len, float mip_offset, int fast)
+{
+    if (!fast)
+        return mip_of_length(off_len, mip_offset);
+    float t[AO_GTAO_DEPTH_MIP_LEVELS - 1];
+    mip_thresholds(mip_offset, t);
+    return mip_from_thresholds(off_len, t);
+}
+_Static_assert(AO_GTAO_DEPTH_MIP_LEVELS == 5, "mip_from_thresholds counts four thresholds");
+
+/* ================================================================================================
  * Noise (XeGTAO.h HilbertIndex, vaGTAO.hlsl SpatioTemporalNoise)
  * ============================================================================================== */
 
@@ -342,7 +452,7 @@ void ao_gtao_noise_texture(int noise_index, float out[64 * 64 * 2])
  * Edges (XeGTAO_CalculateEdges, XeGTAO_PackEdges, XeGTAO_UnpackEdges)
  * ============================================================================================== */
 
-void ao_gtao_calculate_edges(float c, float l, float r, float t, float b, float out[4])
+static inline void calculate_edges(float c, float l, float r, float t, float b, float out[4])
 {
     float e[4] = {l - c, r - c, t - c, b - c};
     const float slope_lr = (e[1] - e[0]) * 0.5f;
@@ -356,7 +466,7 @@ void ao_gtao_calculate_edges(float c, float l, float r, float t, float b, float 
     }
 }
 
-unsigned ao_gtao_pack_edges(const float e[4])
+static inline unsigned pack_edges(const float e[4])
 {
     /* round(saturate(e) * 2.9) per edge (round_ne), dot with (64, 16, 4, 1)/255, stored in R8_UNORM:
      * exactly the integer (L << 6) | (R << 4) | (T << 2) | B. */
@@ -365,6 +475,13 @@ unsigned ao_gtao_pack_edges(const float e[4])
         q[i] = (unsigned)rintf(sat(e[i]) * 2.9f);
     return (q[0] << 6) | (q[1] << 4) | (q[2] << 2) | q[3];
 }
+
+void ao_gtao_calculate_edges(float c, float l, float r, float t, float b, float out[4])
+{
+    calculate_edges(c, l, r, t, b, out);
+}
+
+unsigned ao_gtao_pack_edges(const float e[4]) { return pack_edges(e); }
 
 void ao_gtao_unpack_edges(unsigned p, float out[4])
 {
@@ -744,6 +861,199 @@ static int main_pixel(const ao_gtao_constants *k, const main_consts *mc, const o
     return 1;
 }
 
+/* ---- The fast main pass: per-call tables and the per-pixel loop ----------------------------------
+ * Everything that depends only on the pixel's noise cell (x mod 64, y mod 64), the slice and the
+ * step is computed once per call with main_pixel's own expressions: the noise pair, cos/sin of the
+ * slice angle phi, and the step's s^power before the per-pixel + minS. The MIP choice uses
+ * mip_thresholds. The remaining per-pixel and per-tap float operations are main_pixel's, in its
+ * order. */
+typedef struct main_tables {
+    float noise[64 * 64][2];        /* ao_gtao_noise of the cell */
+    float *cs;                      /* [cell][slice][2]: cos phi, sin phi */
+    float *spow;                    /* [cell][slice][step]: hpow((step + stepNoise) / steps, power) */
+    float mip_t[AO_GTAO_DEPTH_MIP_LEVELS - 1];
+} main_tables;
+
+static void main_tables_free(main_tables *T)
+{
+    if (!T)
+        return;
+    free(T->cs);
+    free(T->spow);
+    free(T);
+}
+
+static main_tables *main_tables_create(const ao_gtao_constants *k)
+{
+    main_tables *T = (main_tables *)calloc(1, sizeof *T);
+    if (!T)
+        return NULL;
+    const int ns = k->slice_count, nt = k->steps_per_slice;
+    T->cs = (float *)malloc(sizeof(float) * 4096u * (size_t)ns * 2u);
+    T->spow = (float *)malloc(sizeof(float) * 4096u * (size_t)ns * (size_t)nt);
+    if (!T->cs || !T->spow) {
+        main_tables_free(T);
+        return NULL;
+    }
+    const float slice_count = (float)ns, steps = (float)nt;
+    for (uint32_t c = 0; c < 4096u; c++) {
+        ao_gtao_noise(c & 63u, c >> 6, k->noise_index, T->noise[c]);
+        const float noise_slice = T->noise[c][0], noise_sample = T->noise[c][1];
+        for (int sl = 0; sl < ns; sl++) {
+            const float slice = (float)sl;
+            const float slice_k = (slice + noise_slice) / slice_count;
+            const float phi = slice_k * 3.14159265358979323846f;
+            float *cs = T->cs + ((size_t)c * (size_t)ns + (size_t)sl) * 2u;
+            ao_i_cos_sin(phi, &cs[0], &cs[1]);
+            float *sp = T->spow + ((size_t)c * (size_t)ns + (size_t)sl) * (size_t)nt;
+            for (int st = 0; st < nt; st++) {
+                const float step = (float)st;
+                const float step_base = (slice + step * steps) * 0.6180339887498948482f;
+                const float step_noise = hfrac(noise_sample + step_base);
+                const float s = (step + step_noise) / steps;
+                sp[st] = hpow(s, k->sample_distribution_power);
+            }
+        }
+    }
+    mip_thresholds(k->depth_mip_sampling_offset, T->mip_t);
+    return T;
+}
+
+/* main_pixel with the tables (same result bits). */
+static int main_pixel_fast(const ao_gtao_constants *k, const main_consts *mc, const main_tables *T,
+                           const obs_image_f32 *levels, const ao_input *in, int x, int y, float *vis_out,
+                           unsigned char *edges_out)
+{
+    const obs_image_f32 *z0 = &levels[0];
+    const int W = z0->width, H = z0->height;
+    const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
+    const int yt = y > 0 ? y - 1 : 0, yb = y < H - 1 ? y + 1 : H - 1;
+    const float *zrow = obs_image_f32_row(z0, y);
+    float viewspace_z = zrow[x];
+    float e[4];
+    calculate_edges(viewspace_z, zrow[xl], zrow[xr], obs_image_f32_row(z0, yt)[x], obs_image_f32_row(z0, yb)[x], e);
+    *edges_out = (unsigned char)pack_edges(e);
+
+    if (is_background(obs_image_f32_row(in->depth, y)[x])) {
+        *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
+        return 0;
+    }
+    float n[3];
+    if (k->normals_from_gbuffer) {
+        n[0] = obs_image_f32_row(in->normal[0], y)[x];
+        n[1] = obs_image_f32_row(in->normal[1], y)[x];
+        n[2] = -obs_image_f32_row(in->normal[2], y)[x];
+        const float l2 = dot3(n, n);
+        if (!(l2 > 0.0f) || !isfinite(l2)) {
+            *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
+            return 2;
+        }
+        normalize3(n);
+    } else if (!normal_from_depth(k, z0, x, y, n)) {
+        *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
+        return 2;
+    }
+    if (k->gpu_packing)
+        normal_r11g11b10(n);
+
+    viewspace_z = viewspace_z * AO_GTAO_CENTER_Z_PULL;
+    const float psx = k->viewport_pixel_size[0], psy = k->viewport_pixel_size[1];
+    const float u = ((float)x + 0.5f) * psx, v = ((float)y + 0.5f) * psy;
+    float C[3];
+    view_pos(k, u, v, viewspace_z, C);
+    float V[3] = {-C[0], -C[1], -C[2]};
+    if (k->orthographic)
+        V[0] = 0.0f, V[1] = 0.0f, V[2] = -1.0f;
+    else
+        normalize3(V);
+
+    const int cell = ((y & 63) << 6) | (x & 63);
+    const int ns = k->slice_count, nt = k->steps_per_slice;
+    const float *cs_cell = T->cs + (size_t)cell * (size_t)ns * 2u;
+    const float *sp_cell = T->spow + (size_t)cell * (size_t)ns * (size_t)nt;
+
+    const float pixel_size_x = k->orthographic ? k->ndc_to_view_mul_x_pixel_size[0]
+                                               : viewspace_z * k->ndc_to_view_mul_x_pixel_size[0];
+    const float ssr = mc->effect_radius / pixel_size_x;
+    float visibility = sat((10.0f - ssr) / 100.0f) * 0.5f;
+    const float min_s = mc->min_s_num / ssr;
+    const float slice_count = (float)ns;
+    const int thin = mc->thin_scale != 1.0f; /* z * 1 is exact: the falloff distance is the distance */
+    /* view_pos of a tap, split: a = mul * u + add, then * z (perspective) */
+    const float mx = k->ndc_to_view_mul[0], my = k->ndc_to_view_mul[1];
+    const float ax = k->ndc_to_view_add[0], ay = k->ndc_to_view_add[1];
+    const int ortho_proj = k->orthographic;
+
+    for (int sl = 0; sl < ns; sl++) {
+        const float cos_phi = cs_cell[2 * sl], sin_phi = cs_cell[2 * sl + 1];
+        const float omega[2] = {cos_phi * ssr, -sin_phi * ssr};
+        const float dir[3] = {cos_phi, sin_phi, 0.0f};
+        const float dv = dot3(dir, V);
+        const float ortho[3] = {dir[0] - dv * V[0], dir[1] - dv * V[1], dir[2] - dv * V[2]};
+        float axis[3];
+        cross3(ortho, V, axis);
+        normalize3(axis);
+        const float na = dot3(n, axis);
+        const float pn[3] = {n[0] - axis[0] * na, n[1] - axis[1] * na, n[2] - axis[2] * na};
+        const float sign_norm = hsign(dot3(ortho, pn));
+        float pn_len = len3(pn);
+        const float cos_norm = sat(dot3(pn, V) / pn_len);
+        const float nang = sign_norm * ao_gtao_fast_acos(cos_norm);
+        const float low0 = hcos_fast(nang + 1.57079632679489661923f);
+        const float low1 = hcos_fast(nang - 1.57079632679489661923f);
+        float hc0 = low0, hc1 = low1;
+        const float *sp = sp_cell + (size_t)sl * (size_t)nt;
+
+        for (int st = 0; st < nt; st++) {
+            const float s = sp[st] + min_s;
+            float off[2] = {s * omega[0], s * omega[1]};
+            const float off_len = sqrtf(off[0] * off[0] + off[1] * off[1]);
+            const int li = mip_from_thresholds(off_len, T->mip_t);
+            off[0] = rintf(off[0]) * psx;
+            off[1] = rintf(off[1]) * psy;
+            const obs_image_f32 *L = &levels[li];
+            const float u0 = u + off[0], v0 = v + off[1], u1 = u - off[0], v1 = v - off[1];
+            const float sz0 = obs_image_f32_row(L, texel(v0, L->height))[texel(u0, L->width)];
+            const float sz1 = obs_image_f32_row(L, texel(v1, L->height))[texel(u1, L->width)];
+            const float a0 = mx * u0 + ax, b0 = my * v0 + ay, a1 = mx * u1 + ax, b1 = my * v1 + ay;
+            const float d0[3] = {(ortho_proj ? a0 : a0 * sz0) - C[0], (ortho_proj ? b0 : b0 * sz0) - C[1], sz0 - C[2]};
+            const float d1[3] = {(ortho_proj ? a1 : a1 * sz1) - C[0], (ortho_proj ? b1 : b1 * sz1) - C[1], sz1 - C[2]};
+            const float dist0 = len3(d0), dist1 = len3(d1);
+            const float hv0[3] = {d0[0] / dist0, d0[1] / dist0, d0[2] / dist0};
+            const float hv1[3] = {d1[0] / dist1, d1[1] / dist1, d1[2] / dist1};
+            float fl0 = dist0, fl1 = dist1;
+            if (thin) {
+                const float fb0[3] = {d0[0], d0[1], d0[2] * mc->thin_scale};
+                const float fb1[3] = {d1[0], d1[1], d1[2] * mc->thin_scale};
+                fl0 = len3(fb0), fl1 = len3(fb1);
+            }
+            const float w0 = sat(fl0 * mc->falloff_mul + mc->falloff_add);
+            const float w1 = sat(fl1 * mc->falloff_mul + mc->falloff_add);
+            float shc0 = dot3(hv0, V), shc1 = dot3(hv1, V);
+            shc0 = hlerp(low0, shc0, w0);
+            shc1 = hlerp(low1, shc1, w1);
+            hc0 = hmax_fast(hc0, shc0);
+            hc1 = hmax_fast(hc1, shc1);
+        }
+
+        pn_len = hlerp(pn_len, 1.0f, 0.05f);
+        const float h0 = -ao_gtao_fast_acos(hc1);
+        const float h1 = ao_gtao_fast_acos(hc0);
+        const float sin_n = hsin_fast(nang);
+        const float iarc0 = (cos_norm + 2.0f * h0 * sin_n - hcos_fast(2.0f * h0 - nang)) / 4.0f;
+        const float iarc1 = (cos_norm + 2.0f * h1 * sin_n - hcos_fast(2.0f * h1 - nang)) / 4.0f;
+        visibility = visibility + pn_len * (iarc0 + iarc1);
+    }
+    visibility = visibility / slice_count;
+    visibility = hpow(visibility, k->final_value_power);
+    visibility = hmax_fast(0.03f, visibility);
+    if (k->gpu_packing)
+        *vis_out = unorm8(sat(visibility / AO_GTAO_OCCLUSION_TERM_SCALE));
+    else
+        *vis_out = visibility < AO_GTAO_OCCLUSION_TERM_SCALE ? visibility : AO_GTAO_OCCLUSION_TERM_SCALE;
+    return 1;
+}
+
 typedef struct main_job {
     const ao_gtao_constants *k;
     main_consts mc;
@@ -753,6 +1063,7 @@ typedef struct main_job {
     obs_image_f32 *vis;
     unsigned char *edges;   /* rw x rh */
     int64_t (*counts)[2];
+    const main_tables *tables;      /* NULL: the reference main_pixel */
 } main_job;
 
 static void main_row(void *user, int64_t task, int thread)
@@ -764,7 +1075,8 @@ static void main_row(void *user, int64_t task, int thread)
     unsigned char *e = J->edges + (size_t)r * (size_t)rw;
     int64_t bg = 0, deg = 0;
     for (int i = 0; i < rw; i++) {
-        const int c = main_pixel(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i]);
+        const int c = J->tables ? main_pixel_fast(J->k, &J->mc, J->tables, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i])
+                                : main_pixel(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i]);
         bg += c == 0;
         deg += c == 2;
     }
@@ -786,7 +1098,19 @@ typedef struct denoise_job {
     int W, H;                       /* the full buffer (CLAMP addressing) */
     float blur_amount;              /* beta (last pass) or beta / 5 */
     int pack;                       /* gpu_packing: 1 intermediate (8-bit store), 2 last (* 1.5, 8-bit) */
+    const obs_image_f32 *skip_bg;   /* last pass: the input depth; its background pixels are written 1
+                                       (ao_gtao_compute overwrites them with 1 anyway). NULL: all */
 } denoise_job;
+
+/* XeGTAO_UnpackEdges per 2-bit value: q / 3 (the same float division, folded) */
+static const float unpack_q3[4] = {0.0f / 3.0f, 1.0f / 3.0f, 2.0f / 3.0f, 3.0f / 3.0f};
+static inline void unpack_edges_lut(unsigned p, float out[4])
+{
+    out[0] = unpack_q3[(p >> 6) & 3u];
+    out[1] = unpack_q3[(p >> 4) & 3u];
+    out[2] = unpack_q3[(p >> 2) & 3u];
+    out[3] = unpack_q3[p & 3u];
+}
 
 static void denoise_row(void *user, int64_t task, int thread)
 {
@@ -801,16 +1125,21 @@ static void denoise_row(void *user, int64_t task, int thread)
     const int ex0 = J->ex0;
     float *o = obs_image_f32_row(J->dst, (int)task);
     const float diag = 0.85f * 0.5f;
+    const float *bgrow = J->skip_bg ? obs_image_f32_row(J->skip_bg, y) : NULL;
     for (int i = 0; i < J->dst->width; i++) {
         const int x = J->dx0 + i;
+        if (bgrow && is_background(bgrow[x])) {
+            o[i] = 1.0f;
+            continue;
+        }
         const int xl = x > 0 ? x - 1 : 0, xr = x < J->W - 1 ? x + 1 : J->W - 1;
         const int c = x - J->ax0, l = xl - J->ax0, r = xr - J->ax0;
         float eC[4], eL[4], eR[4], eT[4], eB[4];
-        ao_gtao_unpack_edges(ec[x - ex0], eC);
-        ao_gtao_unpack_edges(ec[xl - ex0], eL);
-        ao_gtao_unpack_edges(ec[xr - ex0], eR);
-        ao_gtao_unpack_edges(et[x - ex0], eT);
-        ao_gtao_unpack_edges(eb[x - ex0], eB);
+        unpack_edges_lut(ec[x - ex0], eC);
+        unpack_edges_lut(ec[xl - ex0], eL);
+        unpack_edges_lut(ec[xr - ex0], eR);
+        unpack_edges_lut(et[x - ex0], eT);
+        unpack_edges_lut(eb[x - ex0], eB);
         /* enforce symmetry with the neighbours' facing edges */
         eC[0] = eC[0] * eL[1];
         eC[1] = eC[1] * eR[0];
@@ -858,8 +1187,8 @@ static obs_status check_planes(obs_context *ctx, const ao_input *in, const obs_i
 
 static inline float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
-obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
-                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats)
+static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
+                               obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats, int reference)
 {
     obs_status st = ao_input_validate(ctx, in);
     if (st != OBS_STATUS_OK)
@@ -894,11 +1223,14 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     obs_image_f32 vis = {0}, ping = {0}, pong = {0};
     unsigned char *edges = NULL;
     int64_t(*counts)[2] = NULL;
+    main_tables *tables = NULL;
     st = obs_image_f32_alloc(ctx, rw, rh, &vis);
     if (st == OBS_STATUS_OK) {
         edges = (unsigned char *)malloc((size_t)rw * (size_t)rh);
         counts = (int64_t(*)[2])calloc((size_t)rh, sizeof *counts);
-        if (!edges || !counts)
+        if (!reference)
+            tables = main_tables_create(&k);
+        if (!edges || !counts || (!reference && !tables))
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "gtao: out of memory");
     }
     if (st == OBS_STATUS_OK) {
@@ -921,6 +1253,7 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
         J.vis = &vis;
         J.edges = edges;
         J.counts = counts;
+        J.tables = tables;
         obs_pool_run(pool, rh, main_row, &J);
     }
     double t2 = obs_time_now();
@@ -960,6 +1293,7 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             D.ex0 = rx0;
             D.ey0 = ry0;
             D.ew = rw;
+            D.skip_bg = last ? in->depth : NULL;
             obs_pool_run(pool, view.height, denoise_row, &D);
             src = dst;
             ax0 = dx0, ay0 = dy0;
@@ -997,6 +1331,7 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             stats->seconds_denoise = t3 - t2;
         }
     }
+    main_tables_free(tables);
     free(counts);
     free(edges);
     obs_image_f32_free(&pong);
@@ -1004,6 +1339,19 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     obs_image_f32_free(&vis);
     ao_gtao_mips_free(levels);
     return st;
+}
+
+obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
+                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats)
+{
+    return gtao_compute(ctx, pool, in, params, out, out_raw, stats, 0);
+}
+
+obs_status ao_gtao_compute_reference(obs_context *ctx, obs_pool *pool, const ao_input *in,
+                                     const ao_gtao_params *params, obs_image_f32 *out, obs_image_f32 *out_raw,
+                                     ao_gtao_stats *stats)
+{
+    return gtao_compute(ctx, pool, in, params, out, out_raw, stats, 1);
 }
 
 /* ================================================================================================
