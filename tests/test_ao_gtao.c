@@ -609,7 +609,7 @@ static int gtao_fast_equals_reference(obs_context *ctx, obs_pool *pool, const ao
     return same;
 }
 
-TEST(gtao_fast_main_pass_is_byte_identical_to_the_plain_port)
+TEST(gtao_fast_main_pass_scalar_and_avx2_are_byte_identical_to_the_plain_port)
 {
     obs_context *ctx = obs_context_create();
     obs_scene scene;
@@ -647,7 +647,11 @@ TEST(gtao_fast_main_pass_is_byte_identical_to_the_plain_port)
                 p.blur = 0, p.radius = 1e5f, p.radius_multiplier = 3.0f;
             if (c == 11)
                 p.denoise_passes = 3, p.frame_index = 70, p.normals = AO_GTAO_NORMALS_DEPTH;
+            /* the AVX2 lanes (where the CPU has them) and the scalar loop */
             CHECK_MSG(gtao_fast_equals_reference(ctx, pool, &in, &p), "normals %d case %d", use_n, c);
+            setenv("OBS_ISA", "scalar", 1);
+            CHECK_MSG(gtao_fast_equals_reference(ctx, pool, &in, &p), "scalar: normals %d case %d", use_n, c);
+            unsetenv("OBS_ISA");
         }
     }
     rast_gbuffer_free(&gb);
@@ -658,6 +662,8 @@ TEST(gtao_fast_main_pass_is_byte_identical_to_the_plain_port)
     obs_image_f32_row(&s.depth, 9)[9] = NAN;
     obs_image_f32_row(&s.depth, 12)[20] = 1e30f;
     ao_gtao_params p = ao_gtao_params_default();
+    CHECK(gtao_fast_equals_reference(ctx, pool, &s.in, &p));
+    p.thin_occluder_compensation = 0.7f, p.slices = 9;
     CHECK(gtao_fast_equals_reference(ctx, pool, &s.in, &p));
     obs_image_f32_free(&s.depth);
     obs_pool_destroy(pool);

@@ -919,10 +919,17 @@ static main_tables *main_tables_create(const ao_gtao_constants *k)
     return T;
 }
 
-/* main_pixel with the tables (same result bits). */
-static int main_pixel_fast(const ao_gtao_constants *k, const main_consts *mc, const main_tables *T,
-                           const obs_image_f32 *levels, const ao_input *in, int x, int y, float *vis_out,
-                           unsigned char *edges_out)
+/* What main_pixel has computed per pixel when the slice loop starts. */
+typedef struct px_setup {
+    float n[3], C[3], V[3];
+    float u, v, ssr, min_s, vis0;
+    int cell;                       /* (y mod 64) * 64 + x mod 64 */
+} px_setup;
+
+/* main_pixel up to the slice loop: the edges, then 0 (background) or 2 (degenerate normal) with
+ * *vis_out set, or 1 with S filled. */
+static int pixel_setup(const ao_gtao_constants *k, const main_consts *mc, const obs_image_f32 *levels,
+                       const ao_input *in, int x, int y, float *vis_out, unsigned char *edges_out, px_setup *S)
 {
     const obs_image_f32 *z0 = &levels[0];
     const int W = z0->width, H = z0->height;
@@ -938,7 +945,7 @@ static int main_pixel_fast(const ao_gtao_constants *k, const main_consts *mc, co
         *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
         return 0;
     }
-    float n[3];
+    float *n = S->n;
     if (k->normals_from_gbuffer) {
         n[0] = obs_image_f32_row(in->normal[0], y)[x];
         n[1] = obs_image_f32_row(in->normal[1], y)[x];
@@ -958,26 +965,48 @@ static int main_pixel_fast(const ao_gtao_constants *k, const main_consts *mc, co
 
     viewspace_z = viewspace_z * AO_GTAO_CENTER_Z_PULL;
     const float psx = k->viewport_pixel_size[0], psy = k->viewport_pixel_size[1];
-    const float u = ((float)x + 0.5f) * psx, v = ((float)y + 0.5f) * psy;
-    float C[3];
-    view_pos(k, u, v, viewspace_z, C);
-    float V[3] = {-C[0], -C[1], -C[2]};
+    S->u = ((float)x + 0.5f) * psx, S->v = ((float)y + 0.5f) * psy;
+    view_pos(k, S->u, S->v, viewspace_z, S->C);
+    float *V = S->V;
+    V[0] = -S->C[0], V[1] = -S->C[1], V[2] = -S->C[2];
     if (k->orthographic)
         V[0] = 0.0f, V[1] = 0.0f, V[2] = -1.0f;
     else
         normalize3(V);
+    S->cell = ((y & 63) << 6) | (x & 63);
+    const float pixel_size_x = k->orthographic ? k->ndc_to_view_mul_x_pixel_size[0]
+                                               : viewspace_z * k->ndc_to_view_mul_x_pixel_size[0];
+    S->ssr = mc->effect_radius / pixel_size_x;
+    S->vis0 = sat((10.0f - S->ssr) / 100.0f) * 0.5f;
+    S->min_s = mc->min_s_num / S->ssr;
+    return 1;
+}
 
-    const int cell = ((y & 63) << 6) | (x & 63);
+/* main_pixel after the slice loop: the mean, the power, the floor and the working-term store. */
+static void pixel_finish(const ao_gtao_constants *k, float visibility, float *vis_out)
+{
+    visibility = visibility / (float)k->slice_count;
+    visibility = hpow(visibility, k->final_value_power);
+    visibility = hmax_fast(0.03f, visibility);
+    if (k->gpu_packing)
+        *vis_out = unorm8(sat(visibility / AO_GTAO_OCCLUSION_TERM_SCALE));
+    else
+        *vis_out = visibility < AO_GTAO_OCCLUSION_TERM_SCALE ? visibility : AO_GTAO_OCCLUSION_TERM_SCALE;
+}
+
+/* main_pixel's slice loop with the tables (same result bits): the visibility sum. */
+static float pixel_slices(const ao_gtao_constants *k, const main_consts *mc, const main_tables *T,
+                          const obs_image_f32 *levels, const px_setup *S)
+{
+    const float *n = S->n, *C = S->C, *V = S->V;
+    const float u = S->u, v = S->v, ssr = S->ssr, min_s = S->min_s;
+    const float psx = k->viewport_pixel_size[0], psy = k->viewport_pixel_size[1];
+    const int cell = S->cell;
+    float visibility = S->vis0;
     const int ns = k->slice_count, nt = k->steps_per_slice;
     const float *cs_cell = T->cs + (size_t)cell * (size_t)ns * 2u;
     const float *sp_cell = T->spow + (size_t)cell * (size_t)ns * (size_t)nt;
 
-    const float pixel_size_x = k->orthographic ? k->ndc_to_view_mul_x_pixel_size[0]
-                                               : viewspace_z * k->ndc_to_view_mul_x_pixel_size[0];
-    const float ssr = mc->effect_radius / pixel_size_x;
-    float visibility = sat((10.0f - ssr) / 100.0f) * 0.5f;
-    const float min_s = mc->min_s_num / ssr;
-    const float slice_count = (float)ns;
     const int thin = mc->thin_scale != 1.0f; /* z * 1 is exact: the falloff distance is the distance */
     /* view_pos of a tap, split: a = mul * u + add, then * z (perspective) */
     const float mx = k->ndc_to_view_mul[0], my = k->ndc_to_view_mul[1];
@@ -1044,15 +1073,268 @@ static int main_pixel_fast(const ao_gtao_constants *k, const main_consts *mc, co
         const float iarc1 = (cos_norm + 2.0f * h1 * sin_n - hcos_fast(2.0f * h1 - nang)) / 4.0f;
         visibility = visibility + pn_len * (iarc0 + iarc1);
     }
-    visibility = visibility / slice_count;
-    visibility = hpow(visibility, k->final_value_power);
-    visibility = hmax_fast(0.03f, visibility);
-    if (k->gpu_packing)
-        *vis_out = unorm8(sat(visibility / AO_GTAO_OCCLUSION_TERM_SCALE));
-    else
-        *vis_out = visibility < AO_GTAO_OCCLUSION_TERM_SCALE ? visibility : AO_GTAO_OCCLUSION_TERM_SCALE;
-    return 1;
+    return visibility;
 }
+
+
+/* ---- The 8-lane slice loop (AVX2) ------------------------------------------------------------------
+ * Lane l is the l-th pixel of a row that needs a slice loop (its px_setup). Every lane does
+ * pixel_slices' float operations in its order with the IEEE single-rounding vector forms (add,
+ * sub, mul, div, sqrt; round-to-nearest-even; truncating converts; compares and blends for the
+ * branches), no FMA (the target is "avx2" without "fma"; -ffp-contract=off), and the cosines in
+ * double with the same reduction and polynomial: so the same bits as the scalar loop, which the
+ * tests check. The depth taps are scalar loads (the MIP level differs per lane). */
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#define GTAO_AVX2 1
+#include <immintrin.h>
+#define AVX2_FN __attribute__((target("avx2")))
+
+AVX2_FN static inline __m256 v_sat(__m256 v)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    const __m256 lt1 = _mm256_blendv_ps(one, v, _mm256_cmp_ps(v, one, _CMP_LT_OQ));
+    return _mm256_blendv_ps(zero, lt1, _mm256_cmp_ps(v, zero, _CMP_GT_OQ));
+}
+
+AVX2_FN static inline __m256 v_sign(__m256 v)
+{
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 neg = _mm256_blendv_ps(zero, _mm256_set1_ps(-1.0f), _mm256_cmp_ps(v, zero, _CMP_LT_OQ));
+    return _mm256_blendv_ps(neg, _mm256_set1_ps(1.0f), _mm256_cmp_ps(v, zero, _CMP_GT_OQ));
+}
+
+/* ao_gtao_fast_acos */
+AVX2_FN static inline __m256 v_fast_acos(__m256 in_x)
+{
+    const __m256 x = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), in_x);
+    __m256 res = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(-0.156583f), x), _mm256_set1_ps(1.570796f));
+    const __m256i i = _mm256_castps_si256(_mm256_sub_ps(_mm256_set1_ps(1.0f), x));
+    const __m256 fs = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_set1_epi32(0x1fbd1df5), _mm256_srai_epi32(i, 1)));
+    res = _mm256_mul_ps(res, fs);
+    const __m256 ge = _mm256_cmp_ps(in_x, _mm256_setzero_ps(), _CMP_GE_OQ);
+    return _mm256_blendv_ps(_mm256_sub_ps(_mm256_set1_ps(3.141593f), res), res, ge);
+}
+
+/* hmax_fast(a, b) where a is never NaN here (the running horizon cosine and 0.03): b NaN gives a */
+AVX2_FN static inline __m256 v_max_a(__m256 a, __m256 b)
+{
+    const __m256 take_a = _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_GT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q));
+    return _mm256_blendv_ps(b, a, take_a);
+}
+
+/* cos_or_sin of 4 angles (double) with the quadrant offset add (0 cos, 3 sin) */
+AVX2_FN static inline __m128 v_cos_or_sin4(__m256d x, int add)
+{
+    const __m256d rounder = _mm256_set1_pd(CS_ROUNDER);
+    const __m256d kd = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(x, _mm256_set1_pd(CS_TWO_OVER_PI)), rounder), rounder);
+    __m256d r = _mm256_sub_pd(x, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P1)));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P2)));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P3)));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P4)));
+    const __m256d z = _mm256_mul_pd(r, r);
+#define C_(v) _mm256_set1_pd(v)
+#define A_(a, b) _mm256_add_pd(a, b)
+#define M_(a, b) _mm256_mul_pd(a, b)
+    /* sn = r + r * z * (-1/6 + z * (1/120 + ... )) */
+    __m256d ps = C_(-1.0 / 121645100408832000.0);
+    ps = A_(C_(1.0 / 355687428096000.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 1307674368000.0), M_(z, ps));
+    ps = A_(C_(1.0 / 6227020800.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 39916800.0), M_(z, ps));
+    ps = A_(C_(1.0 / 362880.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 5040.0), M_(z, ps));
+    ps = A_(C_(1.0 / 120.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 6.0), M_(z, ps));
+    const __m256d sn = A_(r, M_(M_(r, z), ps));
+    /* cs = 1 - 0.5 z + z * z * (1/24 + z * (-1/720 + ...)) */
+    __m256d pc = C_(1.0 / 2432902008176640000.0);
+    pc = A_(C_(-1.0 / 6402373705728000.0), M_(z, pc));
+    pc = A_(C_(1.0 / 20922789888000.0), M_(z, pc));
+    pc = A_(C_(-1.0 / 87178291200.0), M_(z, pc));
+    pc = A_(C_(1.0 / 479001600.0), M_(z, pc));
+    pc = A_(C_(-1.0 / 3628800.0), M_(z, pc));
+    pc = A_(C_(1.0 / 40320.0), M_(z, pc));
+    pc = A_(C_(-1.0 / 720.0), M_(z, pc));
+    pc = A_(C_(1.0 / 24.0), M_(z, pc));
+    const __m256d cs = A_(_mm256_sub_pd(C_(1.0), M_(C_(0.5), z)), M_(M_(z, z), pc));
+#undef C_
+#undef A_
+#undef M_
+    /* q 0: cs, 1: -sn, 2: -cs, 3: sn */
+    const __m128i q = _mm_and_si128(_mm_add_epi32(_mm256_cvtpd_epi32(kd), _mm_set1_epi32(add)), _mm_set1_epi32(3));
+    const __m128i odd = _mm_cmpeq_epi32(_mm_and_si128(q, _mm_set1_epi32(1)), _mm_set1_epi32(1));
+    const __m128i neg = _mm_cmpeq_epi32(_mm_and_si128(_mm_xor_si128(q, _mm_srli_epi32(q, 1)), _mm_set1_epi32(1)),
+                                        _mm_set1_epi32(1));
+    __m256d v = _mm256_blendv_pd(cs, sn, _mm256_castsi256_pd(_mm256_cvtepi32_epi64(odd)));
+    v = _mm256_xor_pd(v, _mm256_and_pd(_mm256_castsi256_pd(_mm256_cvtepi32_epi64(neg)), _mm256_set1_pd(-0.0)));
+    return _mm256_cvtpd_ps(v);
+}
+
+/* hcos_fast / hsin_fast of 8 floats; lanes outside the polynomial's range go to the scalar form */
+AVX2_FN static inline __m256 v_cos_or_sin(__m256 a, int which)
+{
+    const int add = which ? 3 : 0;
+    const __m128 lo = v_cos_or_sin4(_mm256_cvtps_pd(_mm256_castps256_ps128(a)), add);
+    const __m128 hi = v_cos_or_sin4(_mm256_cvtps_pd(_mm256_extractf128_ps(a, 1)), add);
+    __m256 r = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
+    const __m256 absa = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a);
+    const int bad = _mm256_movemask_ps(_mm256_cmp_ps(absa, _mm256_set1_ps(3.0e9f), _CMP_NLT_UQ));
+    if (bad) {
+        float av[8], rv[8];
+        _mm256_storeu_ps(av, a);
+        _mm256_storeu_ps(rv, r);
+        for (int l = 0; l < 8; l++)
+            if (bad & (1 << l))
+                rv[l] = cos_or_sin(av[l], which);
+        r = _mm256_loadu_ps(rv);
+    }
+    return r;
+}
+
+/* texel() of 8 lanes: floor(uv * size) clamped, NaN and negative -> 0 */
+AVX2_FN static inline __m256i v_texel(__m256 uv, __m256i size)
+{
+    const __m256 sf = _mm256_cvtepi32_ps(size);
+    const __m256 t = _mm256_mul_ps(uv, sf);
+    const __m256i ti = _mm256_cvttps_epi32(t);
+    const __m256i last = _mm256_sub_epi32(size, _mm256_set1_epi32(1));
+    __m256i r = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(ti), _mm256_castsi256_ps(last),
+                                                     _mm256_cmp_ps(t, sf, _CMP_GE_OQ)));
+    r = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(t, _mm256_setzero_ps(), _CMP_NGE_UQ)), r);
+    return r;
+}
+
+AVX2_FN static void slices_avx2(const ao_gtao_constants *k, const main_consts *mc, const main_tables *T,
+                                const obs_image_f32 *levels, const px_setup S[8], float out[8])
+{
+    float t[20][8];
+    int cells[8];
+    for (int l = 0; l < 8; l++) {
+        for (int a = 0; a < 3; a++)
+            t[a][l] = S[l].n[a], t[3 + a][l] = S[l].C[a], t[6 + a][l] = S[l].V[a];
+        t[9][l] = S[l].u, t[10][l] = S[l].v, t[11][l] = S[l].ssr, t[12][l] = S[l].min_s, t[13][l] = S[l].vis0;
+        cells[l] = S[l].cell;
+    }
+#define LD(i) _mm256_loadu_ps(t[i])
+    const __m256 n0 = LD(0), n1 = LD(1), n2 = LD(2), C0 = LD(3), C1 = LD(4), C2 = LD(5);
+    const __m256 V0 = LD(6), V1 = LD(7), V2 = LD(8), u = LD(9), v = LD(10), ssr = LD(11), min_s = LD(12);
+    __m256 visibility = LD(13);
+#undef LD
+    const int ns = k->slice_count, nt = k->steps_per_slice;
+    const __m256i cell = _mm256_loadu_si256((const __m256i *)cells);
+    const __m256i cs_base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(2 * ns));
+    const __m256i sp_base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(ns * nt));
+    const __m256 psx = _mm256_set1_ps(k->viewport_pixel_size[0]), psy = _mm256_set1_ps(k->viewport_pixel_size[1]);
+    const __m256 mx = _mm256_set1_ps(k->ndc_to_view_mul[0]), my = _mm256_set1_ps(k->ndc_to_view_mul[1]);
+    const __m256 ax = _mm256_set1_ps(k->ndc_to_view_add[0]), ay = _mm256_set1_ps(k->ndc_to_view_add[1]);
+    const __m256 fmul = _mm256_set1_ps(mc->falloff_mul), fadd = _mm256_set1_ps(mc->falloff_add);
+    const __m256 thin_scale = _mm256_set1_ps(mc->thin_scale);
+    const int thin = mc->thin_scale != 1.0f, ortho_proj = k->orthographic;
+    const __m256 zero = _mm256_setzero_ps();
+    int wl[8] = {0}, hl[8] = {0};
+    for (int l = 0; l < AO_GTAO_DEPTH_MIP_LEVELS; l++)
+        wl[l] = levels[l].width, hl[l] = levels[l].height;
+    const __m256i Wl = _mm256_loadu_si256((const __m256i *)wl), Hl = _mm256_loadu_si256((const __m256i *)hl);
+    const __m256 mt0 = _mm256_set1_ps(T->mip_t[0]), mt1 = _mm256_set1_ps(T->mip_t[1]);
+    const __m256 mt2 = _mm256_set1_ps(T->mip_t[2]), mt3 = _mm256_set1_ps(T->mip_t[3]);
+#define ADD _mm256_add_ps
+#define SUB _mm256_sub_ps
+#define MUL _mm256_mul_ps
+#define DIV _mm256_div_ps
+#define DOT3(a0, a1, a2, b0, b1, b2) ADD(ADD(MUL(a0, b0), MUL(a1, b1)), MUL(a2, b2))
+
+    for (int sl = 0; sl < ns; sl++) {
+        const __m256 cos_phi = _mm256_i32gather_ps(T->cs, _mm256_add_epi32(cs_base, _mm256_set1_epi32(2 * sl)), 4);
+        const __m256 sin_phi = _mm256_i32gather_ps(T->cs, _mm256_add_epi32(cs_base, _mm256_set1_epi32(2 * sl + 1)), 4);
+        const __m256 om0 = MUL(cos_phi, ssr), om1 = MUL(_mm256_xor_ps(sin_phi, _mm256_set1_ps(-0.0f)), ssr);
+        const __m256 dv = DOT3(cos_phi, sin_phi, zero, V0, V1, V2);
+        const __m256 o0 = SUB(cos_phi, MUL(dv, V0)), o1 = SUB(sin_phi, MUL(dv, V1)), o2 = SUB(zero, MUL(dv, V2));
+        /* cross3(ortho, V), normalize3 */
+        __m256 x0 = SUB(MUL(o1, V2), MUL(o2, V1)), x1 = SUB(MUL(o2, V0), MUL(o0, V2)), x2 = SUB(MUL(o0, V1), MUL(o1, V0));
+        const __m256 xl = _mm256_sqrt_ps(DOT3(x0, x1, x2, x0, x1, x2));
+        x0 = DIV(x0, xl), x1 = DIV(x1, xl), x2 = DIV(x2, xl);
+        const __m256 na = DOT3(n0, n1, n2, x0, x1, x2);
+        const __m256 p0 = SUB(n0, MUL(x0, na)), p1 = SUB(n1, MUL(x1, na)), p2 = SUB(n2, MUL(x2, na));
+        const __m256 sign_norm = v_sign(DOT3(o0, o1, o2, p0, p1, p2));
+        __m256 pn_len = _mm256_sqrt_ps(DOT3(p0, p1, p2, p0, p1, p2));
+        const __m256 cos_norm = v_sat(DIV(DOT3(p0, p1, p2, V0, V1, V2), pn_len));
+        const __m256 nang = MUL(sign_norm, v_fast_acos(cos_norm));
+        const __m256 low0 = v_cos_or_sin(ADD(nang, _mm256_set1_ps(1.57079632679489661923f)), 0);
+        const __m256 low1 = v_cos_or_sin(SUB(nang, _mm256_set1_ps(1.57079632679489661923f)), 0);
+        __m256 hc0 = low0, hc1 = low1;
+
+        for (int st = 0; st < nt; st++) {
+            const __m256 sp = _mm256_i32gather_ps(T->spow, _mm256_add_epi32(sp_base, _mm256_set1_epi32(sl * nt + st)), 4);
+            const __m256 s = ADD(sp, min_s);
+            __m256 f0 = MUL(s, om0), f1 = MUL(s, om1);
+            const __m256 off_len = _mm256_sqrt_ps(ADD(MUL(f0, f0), MUL(f1, f1)));
+            const __m256i li = _mm256_sub_epi32(
+                _mm256_setzero_si256(),
+                _mm256_add_epi32(_mm256_add_epi32(_mm256_castps_si256(_mm256_cmp_ps(off_len, mt0, _CMP_GE_OQ)),
+                                                  _mm256_castps_si256(_mm256_cmp_ps(off_len, mt1, _CMP_GE_OQ))),
+                                 _mm256_add_epi32(_mm256_castps_si256(_mm256_cmp_ps(off_len, mt2, _CMP_GE_OQ)),
+                                                  _mm256_castps_si256(_mm256_cmp_ps(off_len, mt3, _CMP_GE_OQ)))));
+            f0 = MUL(_mm256_round_ps(f0, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC), psx);
+            f1 = MUL(_mm256_round_ps(f1, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC), psy);
+            const __m256 u0 = ADD(u, f0), v0 = ADD(v, f1), u1 = SUB(u, f0), v1 = SUB(v, f1);
+            const __m256i lw = _mm256_permutevar8x32_epi32(Wl, li), lh = _mm256_permutevar8x32_epi32(Hl, li);
+            int lv[8], tx0[8], ty0[8], tx1[8], ty1[8];
+            _mm256_storeu_si256((__m256i *)lv, li);
+            _mm256_storeu_si256((__m256i *)tx0, v_texel(u0, lw));
+            _mm256_storeu_si256((__m256i *)ty0, v_texel(v0, lh));
+            _mm256_storeu_si256((__m256i *)tx1, v_texel(u1, lw));
+            _mm256_storeu_si256((__m256i *)ty1, v_texel(v1, lh));
+            float z0v[8], z1v[8];
+            for (int l = 0; l < 8; l++) {
+                const obs_image_f32 *L = &levels[lv[l]];
+                z0v[l] = obs_image_f32_row(L, ty0[l])[tx0[l]];
+                z1v[l] = obs_image_f32_row(L, ty1[l])[tx1[l]];
+            }
+            const __m256 sz0 = _mm256_loadu_ps(z0v), sz1 = _mm256_loadu_ps(z1v);
+            const __m256 a0 = ADD(MUL(mx, u0), ax), b0 = ADD(MUL(my, v0), ay);
+            const __m256 a1 = ADD(MUL(mx, u1), ax), b1 = ADD(MUL(my, v1), ay);
+            const __m256 d00 = SUB(ortho_proj ? a0 : MUL(a0, sz0), C0), d01 = SUB(ortho_proj ? b0 : MUL(b0, sz0), C1);
+            const __m256 d02 = SUB(sz0, C2);
+            const __m256 d10 = SUB(ortho_proj ? a1 : MUL(a1, sz1), C0), d11 = SUB(ortho_proj ? b1 : MUL(b1, sz1), C1);
+            const __m256 d12 = SUB(sz1, C2);
+            const __m256 dist0 = _mm256_sqrt_ps(DOT3(d00, d01, d02, d00, d01, d02));
+            const __m256 dist1 = _mm256_sqrt_ps(DOT3(d10, d11, d12, d10, d11, d12));
+            __m256 fl0 = dist0, fl1 = dist1;
+            if (thin) {
+                const __m256 e02 = MUL(d02, thin_scale), e12 = MUL(d12, thin_scale);
+                fl0 = _mm256_sqrt_ps(DOT3(d00, d01, e02, d00, d01, e02));
+                fl1 = _mm256_sqrt_ps(DOT3(d10, d11, e12, d10, d11, e12));
+            }
+            const __m256 w0 = v_sat(ADD(MUL(fl0, fmul), fadd)), w1 = v_sat(ADD(MUL(fl1, fmul), fadd));
+            __m256 shc0 = DOT3(DIV(d00, dist0), DIV(d01, dist0), DIV(d02, dist0), V0, V1, V2);
+            __m256 shc1 = DOT3(DIV(d10, dist1), DIV(d11, dist1), DIV(d12, dist1), V0, V1, V2);
+            shc0 = ADD(low0, MUL(w0, SUB(shc0, low0)));
+            shc1 = ADD(low1, MUL(w1, SUB(shc1, low1)));
+            hc0 = v_max_a(hc0, shc0);
+            hc1 = v_max_a(hc1, shc1);
+        }
+
+        pn_len = ADD(pn_len, MUL(_mm256_set1_ps(0.05f), SUB(_mm256_set1_ps(1.0f), pn_len)));
+        const __m256 h0 = _mm256_xor_ps(v_fast_acos(hc1), _mm256_set1_ps(-0.0f));
+        const __m256 h1 = v_fast_acos(hc0);
+        const __m256 sin_n = v_cos_or_sin(nang, 1);
+        const __m256 two = _mm256_set1_ps(2.0f), four = _mm256_set1_ps(4.0f);
+        const __m256 c0 = v_cos_or_sin(SUB(MUL(two, h0), nang), 0);
+        const __m256 c1 = v_cos_or_sin(SUB(MUL(two, h1), nang), 0);
+        const __m256 iarc0 = DIV(SUB(ADD(cos_norm, MUL(MUL(two, h0), sin_n)), c0), four);
+        const __m256 iarc1 = DIV(SUB(ADD(cos_norm, MUL(MUL(two, h1), sin_n)), c1), four);
+        visibility = ADD(visibility, MUL(pn_len, ADD(iarc0, iarc1)));
+    }
+#undef ADD
+#undef SUB
+#undef MUL
+#undef DIV
+#undef DOT3
+    _mm256_storeu_ps(out, visibility);
+}
+#else
+#define GTAO_AVX2 0
+#endif
 
 typedef struct main_job {
     const ao_gtao_constants *k;
@@ -1064,6 +1346,7 @@ typedef struct main_job {
     unsigned char *edges;   /* rw x rh */
     int64_t (*counts)[2];
     const main_tables *tables;      /* NULL: the reference main_pixel */
+    int avx2;                       /* 1: the 8-lane slice loop */
 } main_job;
 
 static void main_row(void *user, int64_t task, int thread)
@@ -1074,11 +1357,42 @@ static void main_row(void *user, int64_t task, int thread)
     float *o = obs_image_f32_row(J->vis, r);
     unsigned char *e = J->edges + (size_t)r * (size_t)rw;
     int64_t bg = 0, deg = 0;
-    for (int i = 0; i < rw; i++) {
-        const int c = J->tables ? main_pixel_fast(J->k, &J->mc, J->tables, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i])
-                                : main_pixel(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i]);
-        bg += c == 0;
-        deg += c == 2;
+    if (!J->tables) {
+        for (int i = 0; i < rw; i++) {
+            const int c = main_pixel(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i]);
+            bg += c == 0;
+            deg += c == 2;
+        }
+    } else {
+        /* the setup per pixel; the slice loops of the pixels that need one, 8 lanes at a time
+         * (AVX2) or one by one (the row's last < 8 and the scalar build); then the finish */
+        px_setup S[8];
+        int idx[8], na = 0;
+        for (int i = 0; i < rw; i++) {
+            const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i], &S[na]);
+            bg += c == 0;
+            deg += c == 2;
+            if (c != 1)
+                continue;
+            idx[na++] = i;
+#if GTAO_AVX2
+            if (na == 8 && J->avx2) {
+                float acc[8];
+                slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
+                for (int l = 0; l < 8; l++)
+                    pixel_finish(J->k, acc[l], &o[idx[l]]);
+                na = 0;
+                continue;
+            }
+#endif
+            if (na == 8 || !J->avx2) {
+                for (int l = 0; l < na; l++)
+                    pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
+                na = 0;
+            }
+        }
+        for (int l = 0; l < na; l++)
+            pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
     }
     J->counts[r][0] = bg;
     J->counts[r][1] = deg;
@@ -1187,6 +1501,20 @@ static obs_status check_planes(obs_context *ctx, const ao_input *in, const obs_i
 
 static inline float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
+/* The 8-lane slice loop when the build and the CPU have AVX2, unless OBS_ISA=scalar (as the
+ * rasterizer chooses). Either gives the same bits. */
+static int gtao_use_avx2(void)
+{
+#if GTAO_AVX2
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
 static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
                                obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats, int reference)
 {
@@ -1254,6 +1582,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
         J.edges = edges;
         J.counts = counts;
         J.tables = tables;
+        J.avx2 = gtao_use_avx2();
         obs_pool_run(pool, rh, main_row, &J);
     }
     double t2 = obs_time_now();
