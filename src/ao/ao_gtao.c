@@ -658,7 +658,9 @@ typedef struct main_consts {
 /* XeGTAO_ComputeViewspaceNormal / XeGTAO_CalculateNormal from MIP 0 (clamped depths).
  * DIFF: XeGTAO's normal pass converts NDC depth without XeGTAO_ClampDepth (identical for depth <=
  * 65504), and stores the normal in R11G11B10_UNORM (we keep float32). */
-static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0, int x, int y, float nrm[3])
+/* e: XeGTAO_CalculateEdges of the same five depths (the main pass's edges) */
+static int normal_from_depth_e(const ao_gtao_constants *k, const obs_image_f32 *z0, int x, int y, const float e[4],
+                               float nrm[3])
 {
     const int W = z0->width, H = z0->height;
     const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
@@ -666,8 +668,6 @@ static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0
     const float zc = obs_image_f32_row(z0, y)[x];
     const float zl = obs_image_f32_row(z0, y)[xl], zr = obs_image_f32_row(z0, y)[xr];
     const float zt = obs_image_f32_row(z0, yt)[x], zb = obs_image_f32_row(z0, yb)[x];
-    float e[4];
-    ao_gtao_calculate_edges(zc, zl, zr, zt, zb, e);
     const float psx = k->viewport_pixel_size[0], psy = k->viewport_pixel_size[1];
     const float u = ((float)x + 0.5f) * psx, v = ((float)y + 0.5f) * psy;
     float C[3], L[3], R[3], T[3], B[3];
@@ -691,6 +691,17 @@ static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0
         return 0;
     normalize3(nrm);
     return 1;
+}
+
+static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0, int x, int y, float nrm[3])
+{
+    const int W = z0->width, H = z0->height;
+    const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
+    const int yt = y > 0 ? y - 1 : 0, yb = y < H - 1 ? y + 1 : H - 1;
+    float e[4];
+    ao_gtao_calculate_edges(obs_image_f32_row(z0, y)[x], obs_image_f32_row(z0, y)[xl], obs_image_f32_row(z0, y)[xr],
+                            obs_image_f32_row(z0, yt)[x], obs_image_f32_row(z0, yb)[x], e);
+    return normal_from_depth_e(k, z0, x, y, e, nrm);
 }
 
 /* One pixel of XeGTAO_MainPass: the working visibility (before the UNORM packing) and the packed
@@ -929,17 +940,10 @@ typedef struct px_setup {
 /* main_pixel up to the slice loop: the edges, then 0 (background) or 2 (degenerate normal) with
  * *vis_out set, or 1 with S filled. */
 static int pixel_setup(const ao_gtao_constants *k, const main_consts *mc, const obs_image_f32 *levels,
-                       const ao_input *in, int x, int y, float *vis_out, unsigned char *edges_out, px_setup *S)
+                       const ao_input *in, int x, int y, const float e[4], float *vis_out, px_setup *S)
 {
     const obs_image_f32 *z0 = &levels[0];
-    const int W = z0->width, H = z0->height;
-    const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
-    const int yt = y > 0 ? y - 1 : 0, yb = y < H - 1 ? y + 1 : H - 1;
-    const float *zrow = obs_image_f32_row(z0, y);
-    float viewspace_z = zrow[x];
-    float e[4];
-    calculate_edges(viewspace_z, zrow[xl], zrow[xr], obs_image_f32_row(z0, yt)[x], obs_image_f32_row(z0, yb)[x], e);
-    *edges_out = (unsigned char)pack_edges(e);
+    float viewspace_z = obs_image_f32_row(z0, y)[x];
 
     if (is_background(obs_image_f32_row(in->depth, y)[x])) {
         *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
@@ -956,7 +960,7 @@ static int pixel_setup(const ao_gtao_constants *k, const main_consts *mc, const 
             return 2;
         }
         normalize3(n);
-    } else if (!normal_from_depth(k, z0, x, y, n)) {
+    } else if (!normal_from_depth_e(k, z0, x, y, e, n)) {
         *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
         return 2;
     }
@@ -1332,6 +1336,39 @@ AVX2_FN static void slices_avx2(const ao_gtao_constants *k, const main_consts *m
 #undef DOT3
     _mm256_storeu_ps(out, visibility);
 }
+/* ---- Edges of a row (XeGTAO_CalculateEdges, XeGTAO_PackEdges), 8 pixels at a time ---------------
+ * calculate_edges and pack_edges in the vector forms of the same float operations. */
+AVX2_FN static void row_edges_avx2(const float *zc, const float *zl, const float *zr, const float *zt,
+                                   const float *zb, float e[][4], unsigned char *packed)
+{
+    const __m256 c = _mm256_loadu_ps(zc), sign = _mm256_set1_ps(-0.0f), half = _mm256_set1_ps(0.5f);
+    const __m256 e0 = _mm256_sub_ps(_mm256_loadu_ps(zl), c), e1 = _mm256_sub_ps(_mm256_loadu_ps(zr), c);
+    const __m256 e2 = _mm256_sub_ps(_mm256_loadu_ps(zt), c), e3 = _mm256_sub_ps(_mm256_loadu_ps(zb), c);
+    const __m256 slope_lr = _mm256_mul_ps(_mm256_sub_ps(e1, e0), half);
+    const __m256 slope_tb = _mm256_mul_ps(_mm256_sub_ps(e3, e2), half);
+    const __m256 ev[4] = {e0, e1, e2, e3};
+    const __m256 adj[4] = {_mm256_add_ps(e0, slope_lr), _mm256_sub_ps(e1, slope_lr), _mm256_add_ps(e2, slope_tb),
+                           _mm256_sub_ps(e3, slope_tb)};
+    const __m256 denom = _mm256_mul_ps(c, _mm256_set1_ps(0.011f));
+    __m256i pk = _mm256_setzero_si256();
+    float o[4][8];
+    for (int i = 0; i < 4; i++) {
+        const __m256 a = _mm256_andnot_ps(sign, ev[i]), s = _mm256_andnot_ps(sign, adj[i]);
+        const __m256 m = _mm256_blendv_ps(s, a, _mm256_cmp_ps(a, s, _CMP_LT_OQ));
+        const __m256 out = v_sat(_mm256_sub_ps(_mm256_set1_ps(1.25f), _mm256_div_ps(m, denom)));
+        _mm256_storeu_ps(o[i], out);
+        const __m256 q = _mm256_round_ps(_mm256_mul_ps(v_sat(out), _mm256_set1_ps(2.9f)),
+                                         _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+        pk = _mm256_or_si256(_mm256_slli_epi32(pk, 2), _mm256_cvttps_epi32(q));
+    }
+    int pv[8];
+    _mm256_storeu_si256((__m256i *)pv, pk);
+    for (int l = 0; l < 8; l++) {
+        packed[l] = (unsigned char)pv[l];
+        for (int i = 0; i < 4; i++)
+            e[l][i] = o[i][l];
+    }
+}
 #else
 #define GTAO_AVX2 0
 #endif
@@ -1364,31 +1401,55 @@ static void main_row(void *user, int64_t task, int thread)
             deg += c == 2;
         }
     } else {
-        /* the setup per pixel; the slice loops of the pixels that need one, 8 lanes at a time
-         * (AVX2) or one by one (the row's last < 8 and the scalar build); then the finish */
+        /* per chunk of 64 pixels: the edges (8 at a time with AVX2 where the neighbours are inside
+         * the row), then the setup per pixel; the slice loops of the pixels that need one, 8 lanes
+         * at a time (AVX2) or one by one (the row's last < 8 and the scalar build); the finish */
+        const obs_image_f32 *z0 = &J->levels[0];
+        const int W = z0->width, H = z0->height;
+        const int yt = y > 0 ? y - 1 : 0, yb = y < H - 1 ? y + 1 : H - 1;
+        const float *zr = obs_image_f32_row(z0, y), *zt = obs_image_f32_row(z0, yt), *zb = obs_image_f32_row(z0, yb);
         px_setup S[8];
         int idx[8], na = 0;
-        for (int i = 0; i < rw; i++) {
-            const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i], &S[na]);
-            bg += c == 0;
-            deg += c == 2;
-            if (c != 1)
-                continue;
-            idx[na++] = i;
+        float ech[64][4];
+        for (int i0 = 0; i0 < rw; i0 += 64) {
+            const int n = rw - i0 < 64 ? rw - i0 : 64;
+            for (int j = 0; j < n;) {
+                const int x = J->rx0 + i0 + j;
 #if GTAO_AVX2
-            if (na == 8 && J->avx2) {
-                float acc[8];
-                slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
-                for (int l = 0; l < 8; l++)
-                    pixel_finish(J->k, acc[l], &o[idx[l]]);
-                na = 0;
-                continue;
-            }
+                if (J->avx2 && j + 8 <= n && x >= 1 && x + 8 <= W - 1) {
+                    row_edges_avx2(zr + x, zr + x - 1, zr + x + 1, zt + x, zb + x, &ech[j], &e[i0 + j]);
+                    j += 8;
+                    continue;
+                }
 #endif
-            if (na == 8 || !J->avx2) {
-                for (int l = 0; l < na; l++)
-                    pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
-                na = 0;
+                const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
+                calculate_edges(zr[x], zr[xl], zr[xr], zt[x], zb[x], ech[j]);
+                e[i0 + j] = (unsigned char)pack_edges(ech[j]);
+                j++;
+            }
+            for (int j = 0; j < n; j++) {
+                const int i = i0 + j;
+                const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, ech[j], &o[i], &S[na]);
+                bg += c == 0;
+                deg += c == 2;
+                if (c != 1)
+                    continue;
+                idx[na++] = i;
+#if GTAO_AVX2
+                if (na == 8 && J->avx2) {
+                    float acc[8];
+                    slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
+                    for (int l = 0; l < 8; l++)
+                        pixel_finish(J->k, acc[l], &o[idx[l]]);
+                    na = 0;
+                    continue;
+                }
+#endif
+                if (na == 8 || !J->avx2) {
+                    for (int l = 0; l < na; l++)
+                        pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
+                    na = 0;
+                }
             }
         }
         for (int l = 0; l < na; l++)
