@@ -1452,6 +1452,18 @@ static void main_row(void *user, int64_t task, int thread)
                 }
             }
         }
+#if GTAO_AVX2
+        /* the row's last 2..7: lanes padded with copies of the first (their results unused) */
+        if (na >= 2 && J->avx2) {
+            float acc[8];
+            for (int l = na; l < 8; l++)
+                S[l] = S[0];
+            slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
+            for (int l = 0; l < na; l++)
+                pixel_finish(J->k, acc[l], &o[idx[l]]);
+            na = 0;
+        }
+#endif
         for (int l = 0; l < na; l++)
             pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
     }
@@ -1490,13 +1502,15 @@ static inline void unpack_edges_lut(unsigned p, float out[4])
 
 #if GTAO_AVX2
 /* ---- Denoise, 8 pixels of a row at a time (AVX2) --------------------------------------------------
- * denoise_row's float operations per lane in its order (XeGTAO_UnpackEdges' q / 3 as a division,
- * equal to the folded unpack_q3). Only for pixels whose left and right neighbours are inside the
+ * denoise_row's float operations per lane in its order (XeGTAO_UnpackEdges' q / 3 from the same
+ * folded table). Only for pixels whose left and right neighbours are inside the
  * buffer (no CLAMP), so the source reads are plain unaligned loads. */
+static const float unpack_q3_8[8] = {0.0f / 3.0f, 1.0f / 3.0f, 2.0f / 3.0f, 3.0f / 3.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+
 AVX2_FN static inline __m256 v_unpack(__m256i p, int shift)
 {
     const __m256i q = _mm256_and_si256(_mm256_srli_epi32(p, shift), _mm256_set1_epi32(3));
-    return _mm256_div_ps(_mm256_cvtepi32_ps(q), _mm256_set1_ps(3.0f));
+    return _mm256_permutevar8x32_ps(_mm256_loadu_ps(unpack_q3_8), q);
 }
 
 AVX2_FN static inline __m256i v_load8u(const unsigned char *p)
