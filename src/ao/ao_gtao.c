@@ -24,6 +24,39 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* AVX2 accelerators (bit-identical to the scalar loops; docs/ao/gtao.md, "Speed") */
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#define GTAO_AVX2 1
+#include <immintrin.h>
+#define AVX2_FN __attribute__((target("avx2")))
+#else
+#define GTAO_AVX2 0
+#endif
+
+/* The AVX2 paths when the build and the CPU have AVX2, unless OBS_ISA=scalar (as the rasterizer
+ * chooses). Either gives the same bits. */
+static int gtao_use_avx2(void)
+{
+#if GTAO_AVX2
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
+#if GTAO_AVX2
+/* saturate: v > 0 ? (v < 1 ? v : 1) : 0 (NaN -> 0) */
+AVX2_FN static inline __m256 v_sat(__m256 v)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    const __m256 lt1 = _mm256_blendv_ps(one, v, _mm256_cmp_ps(v, one, _CMP_LT_OQ));
+    return _mm256_blendv_ps(zero, lt1, _mm256_cmp_ps(v, zero, _CMP_GT_OQ));
+}
+#endif
+
 /* ================================================================================================
  * Params, presets, validation
  * ============================================================================================== */
@@ -539,7 +572,52 @@ typedef struct prefilter_job {
     obs_image_f32 *dst;
     const obs_image_f32 *src; /* NULL: level 0 from the input */
     mip_filter f;
+    int avx2;                 /* 1: 8 texels at a time where no child is clamped */
 } prefilter_job;
+
+#if GTAO_AVX2
+/* clamp_depth of 8 depths: d > 0 and finite ? min(d, 65504) : 65504 */
+AVX2_FN static inline void clamp8_avx2(const float *d, float *o)
+{
+    const __m256 v = _mm256_loadu_ps(d), cl = _mm256_set1_ps(AO_GTAO_DEPTH_CLAMP);
+    const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(v, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    const __m256 m = _mm256_blendv_ps(cl, v, _mm256_cmp_ps(v, cl, _CMP_LT_OQ));
+    _mm256_storeu_ps(o, _mm256_blendv_ps(cl, m, fg));
+}
+
+/* depth_mip_filter of 8 texels (children 2x, 2x + 1 of rows r0, r1). hmax as maxss for ordered
+ * operands; returns 0 (nothing written) if a child is NaN, for the scalar loop. */
+AVX2_FN static inline int mip8_avx2(const mip_filter *f, const float *r0, const float *r1, float *o)
+{
+    const __m256 a0 = _mm256_loadu_ps(r0), b0 = _mm256_loadu_ps(r0 + 8);
+    const __m256 a1 = _mm256_loadu_ps(r1), b1 = _mm256_loadu_ps(r1 + 8);
+#define EVEN(a, b) _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0))), _MM_SHUFFLE(3, 1, 2, 0)))
+#define ODD(a, b) _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1))), _MM_SHUFFLE(3, 1, 2, 0)))
+    const __m256 d0 = EVEN(a0, b0), d1 = ODD(a0, b0), d2 = EVEN(a1, b1), d3 = ODD(a1, b1);
+#undef EVEN
+#undef ODD
+    const __m256 nan = _mm256_or_ps(_mm256_cmp_ps(d0, d1, _CMP_UNORD_Q), _mm256_cmp_ps(d2, d3, _CMP_UNORD_Q));
+    if (_mm256_movemask_ps(nan))
+        return 0;
+    /* hmax(a, b) = a > b ? a : b */
+#define HMAX(a, b) _mm256_blendv_ps(b, a, _mm256_cmp_ps(a, b, _CMP_GT_OQ))
+    const __m256 m01 = HMAX(d0, d1), m23 = HMAX(d2, d3);
+    const __m256 max_depth = HMAX(m01, m23);
+#undef HMAX
+    const __m256 fm = _mm256_set1_ps(f->falloff_mul), fa = _mm256_set1_ps(f->falloff_add);
+    const __m256 w0 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d0), fm), fa));
+    const __m256 w1 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d1), fm), fa));
+    const __m256 w2 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d2), fm), fa));
+    const __m256 w3 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d3), fm), fa));
+    const __m256 wsum = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(w0, w1), w2), w3);
+    const __m256 num = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, d0), _mm256_mul_ps(w1, d1)),
+                                                   _mm256_mul_ps(w2, d2)),
+                                     _mm256_mul_ps(w3, d3));
+    _mm256_storeu_ps(o, _mm256_div_ps(num, wsum));
+    return 1;
+}
+#endif
 
 static void prefilter_row(void *user, int64_t task, int thread)
 {
@@ -549,7 +627,13 @@ static void prefilter_row(void *user, int64_t task, int thread)
     float *o = obs_image_f32_row(J->dst, y);
     if (!J->src) {
         const float *d = obs_image_f32_row(J->in->depth, y);
-        for (int x = 0; x < J->dst->width; x++)
+        int x = 0;
+#if GTAO_AVX2
+        if (J->avx2)
+            for (; x + 8 <= J->dst->width; x += 8)
+                clamp8_avx2(d + x, o + x);
+#endif
+        for (; x < J->dst->width; x++)
             o[x] = clamp_depth(d[x]);
         return;
     }
@@ -558,6 +642,13 @@ static void prefilter_row(void *user, int64_t task, int thread)
     const int y0 = 2 * y, y1 = 2 * y + 1 < s->height ? 2 * y + 1 : s->height - 1;
     const float *r0 = obs_image_f32_row(s, y0), *r1 = obs_image_f32_row(s, y1);
     for (int x = 0; x < J->dst->width; x++) {
+#if GTAO_AVX2
+        /* children 2x .. 2x + 15 inside the parent row */
+        if (J->avx2 && x + 8 <= J->dst->width && 2 * x + 16 <= s->width && mip8_avx2(&J->f, r0 + 2 * x, r1 + 2 * x, o + x)) {
+            x += 7;
+            continue;
+        }
+#endif
         const int x0 = 2 * x, x1 = 2 * x + 1 < s->width ? 2 * x + 1 : s->width - 1;
         o[x] = depth_mip_filter(&J->f, r0[x0], r0[x1], r1[x0], r1[x1]);
     }
@@ -569,13 +660,13 @@ void ao_gtao_mips_free(obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
         obs_image_f32_free(&levels[l]);
 }
 
-obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
-                                    obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
+static obs_status prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
+                                   obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS], int avx2)
 {
     if (!in || !k || !levels || !in->depth)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: prefilter: NULL argument");
     memset(levels, 0, sizeof(obs_image_f32) * AO_GTAO_DEPTH_MIP_LEVELS);
-    prefilter_job J = {in, NULL, NULL, mip_filter_from(k)};
+    prefilter_job J = {in, NULL, NULL, mip_filter_from(k), avx2};
     int w = in->width, h = in->height;
     for (int l = 0; l < AO_GTAO_DEPTH_MIP_LEVELS; l++) {
         obs_status st = obs_image_f32_alloc(ctx, w, h, &levels[l]);
@@ -590,6 +681,12 @@ obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_i
         h = h > 1 ? h >> 1 : 1;
     }
     return OBS_STATUS_OK;
+}
+
+obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
+                                    obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
+{
+    return prefilter_depths(ctx, pool, in, k, levels, gtao_use_avx2());
 }
 
 /* ================================================================================================
@@ -1088,17 +1185,7 @@ static float pixel_slices(const ao_gtao_constants *k, const main_consts *mc, con
  * branches), no FMA (the target is "avx2" without "fma"; -ffp-contract=off), and the cosines in
  * double with the same reduction and polynomial: so the same bits as the scalar loop, which the
  * tests check. The depth taps are scalar loads (the MIP level differs per lane). */
-#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
-#define GTAO_AVX2 1
-#include <immintrin.h>
-#define AVX2_FN __attribute__((target("avx2")))
-
-AVX2_FN static inline __m256 v_sat(__m256 v)
-{
-    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
-    const __m256 lt1 = _mm256_blendv_ps(one, v, _mm256_cmp_ps(v, one, _CMP_LT_OQ));
-    return _mm256_blendv_ps(zero, lt1, _mm256_cmp_ps(v, zero, _CMP_GT_OQ));
-}
+#if GTAO_AVX2
 
 AVX2_FN static inline __m256 v_sign(__m256 v)
 {
@@ -1369,8 +1456,6 @@ AVX2_FN static void row_edges_avx2(const float *zc, const float *zl, const float
             e[l][i] = o[i][l];
     }
 }
-#else
-#define GTAO_AVX2 0
 #endif
 
 typedef struct main_job {
@@ -1666,20 +1751,6 @@ static obs_status check_planes(obs_context *ctx, const ao_input *in, const obs_i
 
 static inline float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
-/* The 8-lane slice loop when the build and the CPU have AVX2, unless OBS_ISA=scalar (as the
- * rasterizer chooses). Either gives the same bits. */
-static int gtao_use_avx2(void)
-{
-#if GTAO_AVX2
-    const char *env = getenv("OBS_ISA");
-    if (env && !strcmp(env, "scalar"))
-        return 0;
-    return __builtin_cpu_supports("avx2") ? 1 : 0;
-#else
-    return 0;
-#endif
-}
-
 static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
                                obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats, int reference)
 {
@@ -1703,7 +1774,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
     /* ---- 1. PrefilterDepths ---- */
     double t0 = obs_time_now();
     obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS];
-    st = ao_gtao_prefilter_depths(ctx, pool, in, &k, levels);
+    st = prefilter_depths(ctx, pool, in, &k, levels, !reference && gtao_use_avx2());
     if (st != OBS_STATUS_OK)
         return st;
     double t1 = obs_time_now();
