@@ -1751,6 +1751,28 @@ static obs_status check_planes(obs_context *ctx, const ao_input *in, const obs_i
 
 static inline float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
+#if GTAO_AVX2
+/* step 4 of ao_gtao_compute for 8 pixels: background 1, else clamp01 (of the value * 1.5 when the
+ * flag says so) */
+AVX2_FN static void output8_avx2(const float *f, const float *r, const float *d, float *o, float *orw, int scale_f,
+                                 int scale_r)
+{
+    const __m256 dv = _mm256_loadu_ps(d), one = _mm256_set1_ps(1.0f), sc = _mm256_set1_ps(AO_GTAO_OCCLUSION_TERM_SCALE);
+    const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(dv, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(dv, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    __m256 fv = _mm256_loadu_ps(f);
+    if (scale_f)
+        fv = _mm256_mul_ps(fv, sc);
+    _mm256_storeu_ps(o, _mm256_blendv_ps(one, v_sat(fv), fg));
+    if (orw) {
+        __m256 rv = _mm256_loadu_ps(r);
+        if (scale_r)
+            rv = _mm256_mul_ps(rv, sc);
+        _mm256_storeu_ps(orw, _mm256_blendv_ps(one, v_sat(rv), fg));
+    }
+}
+#endif
+
 static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
                                obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats, int reference)
 {
@@ -1771,10 +1793,13 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
     const ao_gtao_constants k = ao_gtao_constants_from_params(params, in);
     const int W = in->width, H = in->height;
 
+    const int gtao_avx2 = gtao_use_avx2();
+    (void)gtao_avx2;
+
     /* ---- 1. PrefilterDepths ---- */
     double t0 = obs_time_now();
     obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS];
-    st = prefilter_depths(ctx, pool, in, &k, levels, !reference && gtao_use_avx2());
+    st = prefilter_depths(ctx, pool, in, &k, levels, !reference && gtao_avx2);
     if (st != OBS_STATUS_OK)
         return st;
     double t1 = obs_time_now();
@@ -1818,7 +1843,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
         J.edges = edges;
         J.counts = counts;
         J.tables = tables;
-        J.avx2 = gtao_use_avx2();
+        J.avx2 = gtao_avx2;
         obs_pool_run(pool, rh, main_row, &J);
     }
     double t2 = obs_time_now();
@@ -1860,7 +1885,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
             D.ew = rw;
             /* the reference runs the plain loop over every pixel (the test compares the two) */
             D.skip_bg = last && !reference ? in->depth : NULL;
-            D.avx2 = !reference && gtao_use_avx2();
+            D.avx2 = !reference && gtao_avx2;
             obs_pool_run(pool, view.height, denoise_row, &D);
             src = dst;
             ax0 = dx0, ay0 = dy0;
@@ -1879,7 +1904,14 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
             const float *d = obs_image_f32_row(in->depth, gy) + in->x0;
             float *o = obs_image_f32_row(out, y);
             float *orw = out_raw ? obs_image_f32_row(out_raw, y) : NULL;
-            for (int x = 0; x < in->w; x++) {
+            int x = 0;
+#if GTAO_AVX2
+            if (!reference && gtao_avx2)
+                for (; x + 8 <= in->w; x += 8)
+                    output8_avx2(f + x, r + x, d + x, o + x, orw ? orw + x : NULL, k.gpu_packing && m == 0,
+                                 k.gpu_packing);
+#endif
+            for (; x < in->w; x++) {
                 const int bg = is_background(d[x]);
                 /* without the denoiser, the packed working term is in XeGTAO's scaled units */
                 o[x] = bg ? 1.0f : clamp01((k.gpu_packing && m == 0) ? f[x] * AO_GTAO_OCCLUSION_TERM_SCALE : f[x]);
