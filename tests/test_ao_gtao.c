@@ -591,6 +591,117 @@ TEST(gtao_output_identical_for_1_2_8_threads_with_three_denoise_passes)
     obs_context_destroy(ctx);
 }
 
+/* ---- speed: the fast main pass against the plain port ------------------------------------------ */
+
+static int gtao_fast_equals_reference(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *p)
+{
+    obs_image_f32 o[2], r[2];
+    int same = 0;
+    if (obs_image_f32_alloc(ctx, in->w, in->h, &o[0]) == OBS_STATUS_OK &&
+        obs_image_f32_alloc(ctx, in->w, in->h, &o[1]) == OBS_STATUS_OK &&
+        obs_image_f32_alloc(ctx, in->w, in->h, &r[0]) == OBS_STATUS_OK &&
+        obs_image_f32_alloc(ctx, in->w, in->h, &r[1]) == OBS_STATUS_OK &&
+        ao_gtao_compute(ctx, pool, in, p, &o[0], &r[0], NULL) == OBS_STATUS_OK &&
+        ao_gtao_compute_reference(ctx, pool, in, p, &o[1], &r[1], NULL) == OBS_STATUS_OK)
+        same = tu_same_plane(&o[0], &o[1]) && tu_same_plane(&r[0], &r[1]);
+    for (int i = 0; i < 2; i++)
+        obs_image_f32_free(&o[i]), obs_image_f32_free(&r[i]);
+    return same;
+}
+
+TEST(gtao_fast_main_pass_scalar_and_avx2_are_byte_identical_to_the_plain_port)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene scene;
+    tu_ao_scene(&scene);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &scene, tu_ao_camera(), 150, 100, 4, &gb), ctx);
+    /* background (the camera sees past the ground), plus NaN, 0, negative, +inf and huge depths
+     * (1e30: beyond the 65504 clamp; 7e4) in a band and in single pixels on the sphere */
+    for (int x = 10; x < 60; x++) {
+        float *r = obs_image_f32_row(&gb.depth, 40 + x % 7);
+        r[x] = x % 5 == 0 ? NAN : x % 5 == 1 ? 1e30f : x % 5 == 2 ? 7e4f : x % 5 == 3 ? INFINITY : -1.0f;
+    }
+    obs_image_f32_row(&gb.depth, 55)[80] = 0.0f;
+    obs_image_f32_row(&gb.normal[0], 60)[75] = NAN; /* a degenerate G-buffer normal */
+    obs_pool *pool = obs_pool_create(2);
+    for (int use_n = 0; use_n < 2; use_n++) {
+        ao_input in;
+        CHECK_OK(ao_input_from_gbuffer(ctx, &gb, use_n, &in), ctx);
+        for (int c = 0; c < 12; c++) {
+            ao_gtao_params p;
+            ao_gtao_params_preset(c == 1 ? "low" : c == 2 ? "medium" : c == 3 ? "ultra" : "high", &p);
+            if (c == 4)
+                p.sample_distribution_power = 1.7f, p.final_value_power = 1.0f;
+            if (c == 5)
+                p.thin_occluder_compensation = 0.4f, p.falloff_range = 0.2f;
+            if (c == 6)
+                p.depth_mip_sampling_offset = 0.0f, p.radius = 3.0f;
+            if (c == 7)
+                p.depth_mip_sampling_offset = 30.0f, p.radius = 1e-5f;
+            if (c == 8)
+                p.gpu_packing = 1, p.denoise_passes = 2;
+            if (c == 9)
+                p.denoise_passes = 0, p.frame_index = 37, p.slices = 5, p.steps = 4;
+            if (c == 10)
+                p.blur = 0, p.radius = 1e5f, p.radius_multiplier = 3.0f;
+            if (c == 11)
+                p.denoise_passes = 3, p.frame_index = 70, p.normals = AO_GTAO_NORMALS_DEPTH;
+            /* the AVX2 lanes (where the CPU has them) and the scalar loop */
+            CHECK_MSG(gtao_fast_equals_reference(ctx, pool, &in, &p), "normals %d case %d", use_n, c);
+            setenv("OBS_ISA", "scalar", 1);
+            CHECK_MSG(gtao_fast_equals_reference(ctx, pool, &in, &p), "scalar: normals %d case %d", use_n, c);
+            unsetenv("OBS_ISA");
+        }
+    }
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&scene);
+    /* orthographic */
+    tu_synth s;
+    CHECK_OK(tu_synth_plane(ctx, 40, 30, 12.0, obs_dv3(0, 0.6, 0.8), -3.0, OBS_PROJECTION_ORTHOGRAPHIC, &s), ctx);
+    obs_image_f32_row(&s.depth, 9)[9] = NAN;
+    obs_image_f32_row(&s.depth, 12)[20] = 1e30f;
+    ao_gtao_params p = ao_gtao_params_default();
+    CHECK(gtao_fast_equals_reference(ctx, pool, &s.in, &p));
+    p.thin_occluder_compensation = 0.7f, p.slices = 9;
+    CHECK(gtao_fast_equals_reference(ctx, pool, &s.in, &p));
+    obs_image_f32_free(&s.depth);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}
+
+TEST(gtao_mip_thresholds_equal_the_log2_choice)
+{
+    /* every float within 4096 ulps of each level boundary, and a stride over [2^-8, 2^24], for
+     * the default offset and others; plus 0, NaN, +inf */
+    const float offsets[5] = {AO_GTAO_DEFAULT_DEPTH_MIP_SAMPLING_OFFSET, 0.0f, 1.0f, 3.15f, 30.0f};
+    int bad = 0;
+    for (int o = 0; o < 5; o++) {
+        const float off = offsets[o];
+        const float special[4] = {0.0f, -0.0f, NAN, INFINITY};
+        for (int i = 0; i < 4; i++)
+            bad += ao_gtao_mip_of_length(special[i], off, 0) != ao_gtao_mip_of_length(special[i], off, 1);
+        for (int j = 1; j <= 4; j++) {
+            /* the boundary of level j: log2(len) = off + j - 0.5 */
+            const float b = (float)exp2((double)off + j - 0.5);
+            uint32_t u;
+            memcpy(&u, &b, 4);
+            for (int d = -4096; d <= 4096; d++) {
+                const uint32_t w = u + (uint32_t)d;
+                float x;
+                memcpy(&x, &w, 4);
+                bad += ao_gtao_mip_of_length(x, off, 0) != ao_gtao_mip_of_length(x, off, 1);
+            }
+        }
+        for (uint32_t w = 0x3b800000u; w < 0x4b800000u; w += 4099u) {
+            float x;
+            memcpy(&x, &w, 4);
+            bad += ao_gtao_mip_of_length(x, off, 0) != ao_gtao_mip_of_length(x, off, 1);
+        }
+    }
+    CHECK_MSG(bad == 0, "%d lengths differ", bad);
+}
+
 TEST(ao_cli_gtao_takes_its_own_options_and_writes_the_constant_block)
 {
     const char *dir = test_tmpdir();

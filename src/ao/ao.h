@@ -1214,6 +1214,18 @@ typedef struct ao_gtao_stats {
 obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
                            obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats);
 
+/* ao_gtao_compute with the main pass as the plain per-tap port (main_pixel: noise, cos/sin of the
+ * slice angle, s^power and the log2 MIP choice per tap). The oracle of ao_gtao_compute's
+ * per-call tables and MIP thresholds (docs/ao/gtao.md, "Speed"): the same output bits, slower. */
+obs_status ao_gtao_compute_reference(obs_context *ctx, obs_pool *pool, const ao_input *in,
+                                     const ao_gtao_params *params, obs_image_f32 *out, obs_image_f32 *out_raw,
+                                     ao_gtao_stats *stats);
+
+/* The main pass's MIP choice for a tap offset of length off_len: fast = 0, min(floor(clamp(
+ * log2(off_len) - mip_offset, 0, 5) + 0.5), 4) with a double log2; fast = 1, the count of the
+ * per-call thresholds it reaches (what ao_gtao_compute uses). Exposed so the tests compare them. */
+int ao_gtao_mip_of_length(float off_len, float mip_offset, int fast);
+
 /* (end of GTAO as XeGTAO) */
 
 

@@ -24,6 +24,39 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* AVX2 accelerators (bit-identical to the scalar loops; docs/ao/gtao.md, "Speed") */
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#define GTAO_AVX2 1
+#include <immintrin.h>
+#define AVX2_FN __attribute__((target("avx2")))
+#else
+#define GTAO_AVX2 0
+#endif
+
+/* The AVX2 paths when the build and the CPU have AVX2, unless OBS_ISA=scalar (as the rasterizer
+ * chooses). Either gives the same bits. */
+static int gtao_use_avx2(void)
+{
+#if GTAO_AVX2
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
+#if GTAO_AVX2
+/* saturate: v > 0 ? (v < 1 ? v : 1) : 0 (NaN -> 0) */
+AVX2_FN static inline __m256 v_sat(__m256 v)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    const __m256 lt1 = _mm256_blendv_ps(one, v, _mm256_cmp_ps(v, one, _CMP_LT_OQ));
+    return _mm256_blendv_ps(zero, lt1, _mm256_cmp_ps(v, zero, _CMP_GT_OQ));
+}
+#endif
+
 /* ================================================================================================
  * Params, presets, validation
  * ============================================================================================== */
@@ -298,6 +331,116 @@ float ao_gtao_fast_acos(float in_x)
 }
 
 /* ================================================================================================
+ * Speed: exact shortcuts used by the fast main pass (docs/ao/gtao.md, "Speed"). Each gives the
+ * same float bits as the expression it replaces; ao_gtao_compute_reference keeps the plain form and
+ * the tests compare the two byte for byte.
+ * ============================================================================================== */
+
+/* fmaxf as glibc's x86-64 s_fmaxf.S computes it for ordered operands (maxss: a > b ? a : b, so
+ * an equal pair, +-0 included, yields b); NaN operands go to the library call. */
+static inline float hmax_fast(float a, float b)
+{
+    if (a == a && b == b)
+        return a > b ? a : b;
+    return fmaxf(a, b);
+}
+
+/* The cos (or sin) half of ao_i_cos_sin (ao_sao.c), the same double operations: the identical
+ * reduction and the one Taylor polynomial the quadrant selects, so the same float. */
+static const double CS_P1 = 0x1.921fbp+0, CS_P2 = 0x1.5110bp-22, CS_P3 = 0x1.18469800p-44,
+                    CS_P4 = 0x1.3198a2e037073p-69;
+static const double CS_TWO_OVER_PI = 0x1.45f306dc9c883p-1, CS_ROUNDER = 0x1.8p52;
+static inline double cs_sin_poly(double r, double z)
+{
+    return r + r * z * (-1.0 / 6.0 + z * (1.0 / 120.0 + z * (-1.0 / 5040.0 + z * (1.0 / 362880.0 +
+           z * (-1.0 / 39916800.0 + z * (1.0 / 6227020800.0 + z * (-1.0 / 1307674368000.0 +
+           z * (1.0 / 355687428096000.0 + z * (-1.0 / 121645100408832000.0)))))))));
+}
+static inline double cs_cos_poly(double z)
+{
+    return 1.0 - 0.5 * z + z * z * (1.0 / 24.0 + z * (-1.0 / 720.0 + z * (1.0 / 40320.0 + z * (-1.0 / 3628800.0 +
+           z * (1.0 / 479001600.0 + z * (-1.0 / 87178291200.0 + z * (1.0 / 20922789888000.0 +
+           z * (-1.0 / 6402373705728000.0 + z * (1.0 / 2432902008176640000.0)))))))));
+}
+/* which = 0: cos, 1: sin */
+static inline float cos_or_sin(float angle, int which)
+{
+    const double x = (double)angle;
+    if (!(fabs(x) < 3.0e9)) {
+        float c, s;
+        ao_i_cos_sin(angle, &c, &s);
+        return which ? s : c;
+    }
+    const double kd = (x * CS_TWO_OVER_PI + CS_ROUNDER) - CS_ROUNDER;
+    double r = x - kd * CS_P1;
+    r = r - kd * CS_P2;
+    r = r - kd * CS_P3;
+    r = r - kd * CS_P4;
+    const double z = r * r;
+    /* ao_i_cos_sin: q 0: (cs, sn), 1: (-sn, cs), 2: (-cs, -sn), 3: (sn, -cs) */
+    const int q = (int)(((int64_t)kd + (which ? 3 : 0)) & 3); /* sin at k = cos at k + 3 */
+    switch (q) {
+    case 0: return (float)cs_cos_poly(z);
+    case 1: return (float)-cs_sin_poly(r, z);
+    case 2: return (float)-cs_cos_poly(z);
+    default: return (float)cs_sin_poly(r, z);
+    }
+}
+static inline float hcos_fast(float a) { return cos_or_sin(a, 0); }
+static inline float hsin_fast(float a) { return cos_or_sin(a, 1); }
+
+/* The per-tap MIP choice of XeGTAO_MainPass, as main_pixel computes it: mipLevel =
+ * clamp(log2(offsetLength) - DepthMIPSamplingOffset, 0, 5), then the point-MIP level
+ * min(floor(mipLevel + 0.5), 4). */
+static int mip_of_length(float off_len, float mip_offset)
+{
+    float mip = hlog2(off_len) - mip_offset;
+    mip = mip > 0.0f ? (mip < (float)AO_GTAO_DEPTH_MIP_LEVELS ? mip : (float)AO_GTAO_DEPTH_MIP_LEVELS) : 0.0f;
+    int li = (int)floorf(mip + 0.5f);
+    return li > AO_GTAO_DEPTH_MIP_LEVELS - 1 ? AO_GTAO_DEPTH_MIP_LEVELS - 1 : li;
+}
+
+/* That choice is a non-decreasing step function of the length (log2, the subtraction, the clamp
+ * and floor are monotonic; lengths are >= 0 or NaN), so it equals the count of thresholds t_j
+ * (j = 1..4, the least float with level >= j) the length reaches: NaN reaches none (level 0, as
+ * the clamp gives), +inf all (level 4). t_j by bisection over the bit patterns of [0, +inf], which
+ * order as the floats do. This replaces a double log2 per tap by four compares. */
+static void mip_thresholds(float mip_offset, float t[AO_GTAO_DEPTH_MIP_LEVELS - 1])
+{
+    for (int j = 1; j < AO_GTAO_DEPTH_MIP_LEVELS; j++) {
+        uint32_t lo = 0u, hi = 0x7f800000u; /* level(lo) < j <= level(hi) (level(+inf) = 4) */
+        if (mip_of_length(0.0f, mip_offset) >= j) {
+            t[j - 1] = 0.0f;
+            continue;
+        }
+        while (hi - lo > 1u) {
+            const uint32_t mid = lo + (hi - lo) / 2u;
+            if (mip_of_length(u2f(mid), mip_offset) >= j)
+                hi = mid;
+            else
+                lo = mid;
+        }
+        t[j - 1] = u2f(hi);
+    }
+}
+
+static inline int mip_from_thresholds(float off_len, const float t[AO_GTAO_DEPTH_MIP_LEVELS - 1])
+{
+    return (off_len >= t[0]) + (off_len >= t[1]) + (off_len >= t[2]) + (off_len >= t[3]);
+}
+
+/* Test hook (ao.h): the threshold form against the log2 form for one length. */
+int ao_gtao_mip_of_length(float off_len, float mip_offset, int fast)
+{
+    if (!fast)
+        return mip_of_length(off_len, mip_offset);
+    float t[AO_GTAO_DEPTH_MIP_LEVELS - 1];
+    mip_thresholds(mip_offset, t);
+    return mip_from_thresholds(off_len, t);
+}
+_Static_assert(AO_GTAO_DEPTH_MIP_LEVELS == 5, "mip_from_thresholds counts four thresholds");
+
+/* ================================================================================================
  * Noise (XeGTAO.h HilbertIndex, vaGTAO.hlsl SpatioTemporalNoise)
  * ============================================================================================== */
 
@@ -342,7 +485,7 @@ void ao_gtao_noise_texture(int noise_index, float out[64 * 64 * 2])
  * Edges (XeGTAO_CalculateEdges, XeGTAO_PackEdges, XeGTAO_UnpackEdges)
  * ============================================================================================== */
 
-void ao_gtao_calculate_edges(float c, float l, float r, float t, float b, float out[4])
+static inline void calculate_edges(float c, float l, float r, float t, float b, float out[4])
 {
     float e[4] = {l - c, r - c, t - c, b - c};
     const float slope_lr = (e[1] - e[0]) * 0.5f;
@@ -356,7 +499,7 @@ void ao_gtao_calculate_edges(float c, float l, float r, float t, float b, float 
     }
 }
 
-unsigned ao_gtao_pack_edges(const float e[4])
+static inline unsigned pack_edges(const float e[4])
 {
     /* round(saturate(e) * 2.9) per edge (round_ne), dot with (64, 16, 4, 1)/255, stored in R8_UNORM:
      * exactly the integer (L << 6) | (R << 4) | (T << 2) | B. */
@@ -365,6 +508,13 @@ unsigned ao_gtao_pack_edges(const float e[4])
         q[i] = (unsigned)rintf(sat(e[i]) * 2.9f);
     return (q[0] << 6) | (q[1] << 4) | (q[2] << 2) | q[3];
 }
+
+void ao_gtao_calculate_edges(float c, float l, float r, float t, float b, float out[4])
+{
+    calculate_edges(c, l, r, t, b, out);
+}
+
+unsigned ao_gtao_pack_edges(const float e[4]) { return pack_edges(e); }
 
 void ao_gtao_unpack_edges(unsigned p, float out[4])
 {
@@ -408,7 +558,7 @@ static mip_filter mip_filter_from(const ao_gtao_constants *k)
 
 static inline float depth_mip_filter(const mip_filter *f, float d0, float d1, float d2, float d3)
 {
-    const float max_depth = hmax(hmax(d0, d1), hmax(d2, d3));
+    const float max_depth = hmax_fast(hmax_fast(d0, d1), hmax_fast(d2, d3)); /* = hmax */
     const float w0 = sat((max_depth - d0) * f->falloff_mul + f->falloff_add);
     const float w1 = sat((max_depth - d1) * f->falloff_mul + f->falloff_add);
     const float w2 = sat((max_depth - d2) * f->falloff_mul + f->falloff_add);
@@ -422,7 +572,52 @@ typedef struct prefilter_job {
     obs_image_f32 *dst;
     const obs_image_f32 *src; /* NULL: level 0 from the input */
     mip_filter f;
+    int avx2;                 /* 1: 8 texels at a time where no child is clamped */
 } prefilter_job;
+
+#if GTAO_AVX2
+/* clamp_depth of 8 depths: d > 0 and finite ? min(d, 65504) : 65504 */
+AVX2_FN static inline void clamp8_avx2(const float *d, float *o)
+{
+    const __m256 v = _mm256_loadu_ps(d), cl = _mm256_set1_ps(AO_GTAO_DEPTH_CLAMP);
+    const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(v, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    const __m256 m = _mm256_blendv_ps(cl, v, _mm256_cmp_ps(v, cl, _CMP_LT_OQ));
+    _mm256_storeu_ps(o, _mm256_blendv_ps(cl, m, fg));
+}
+
+/* depth_mip_filter of 8 texels (children 2x, 2x + 1 of rows r0, r1). hmax as maxss for ordered
+ * operands; returns 0 (nothing written) if a child is NaN, for the scalar loop. */
+AVX2_FN static inline int mip8_avx2(const mip_filter *f, const float *r0, const float *r1, float *o)
+{
+    const __m256 a0 = _mm256_loadu_ps(r0), b0 = _mm256_loadu_ps(r0 + 8);
+    const __m256 a1 = _mm256_loadu_ps(r1), b1 = _mm256_loadu_ps(r1 + 8);
+#define EVEN(a, b) _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(a, b, _MM_SHUFFLE(2, 0, 2, 0))), _MM_SHUFFLE(3, 1, 2, 0)))
+#define ODD(a, b) _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(a, b, _MM_SHUFFLE(3, 1, 3, 1))), _MM_SHUFFLE(3, 1, 2, 0)))
+    const __m256 d0 = EVEN(a0, b0), d1 = ODD(a0, b0), d2 = EVEN(a1, b1), d3 = ODD(a1, b1);
+#undef EVEN
+#undef ODD
+    const __m256 nan = _mm256_or_ps(_mm256_cmp_ps(d0, d1, _CMP_UNORD_Q), _mm256_cmp_ps(d2, d3, _CMP_UNORD_Q));
+    if (_mm256_movemask_ps(nan))
+        return 0;
+    /* hmax(a, b) = a > b ? a : b */
+#define HMAX(a, b) _mm256_blendv_ps(b, a, _mm256_cmp_ps(a, b, _CMP_GT_OQ))
+    const __m256 m01 = HMAX(d0, d1), m23 = HMAX(d2, d3);
+    const __m256 max_depth = HMAX(m01, m23);
+#undef HMAX
+    const __m256 fm = _mm256_set1_ps(f->falloff_mul), fa = _mm256_set1_ps(f->falloff_add);
+    const __m256 w0 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d0), fm), fa));
+    const __m256 w1 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d1), fm), fa));
+    const __m256 w2 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d2), fm), fa));
+    const __m256 w3 = v_sat(_mm256_add_ps(_mm256_mul_ps(_mm256_sub_ps(max_depth, d3), fm), fa));
+    const __m256 wsum = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(w0, w1), w2), w3);
+    const __m256 num = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(w0, d0), _mm256_mul_ps(w1, d1)),
+                                                   _mm256_mul_ps(w2, d2)),
+                                     _mm256_mul_ps(w3, d3));
+    _mm256_storeu_ps(o, _mm256_div_ps(num, wsum));
+    return 1;
+}
+#endif
 
 static void prefilter_row(void *user, int64_t task, int thread)
 {
@@ -432,7 +627,13 @@ static void prefilter_row(void *user, int64_t task, int thread)
     float *o = obs_image_f32_row(J->dst, y);
     if (!J->src) {
         const float *d = obs_image_f32_row(J->in->depth, y);
-        for (int x = 0; x < J->dst->width; x++)
+        int x = 0;
+#if GTAO_AVX2
+        if (J->avx2)
+            for (; x + 8 <= J->dst->width; x += 8)
+                clamp8_avx2(d + x, o + x);
+#endif
+        for (; x < J->dst->width; x++)
             o[x] = clamp_depth(d[x]);
         return;
     }
@@ -441,6 +642,13 @@ static void prefilter_row(void *user, int64_t task, int thread)
     const int y0 = 2 * y, y1 = 2 * y + 1 < s->height ? 2 * y + 1 : s->height - 1;
     const float *r0 = obs_image_f32_row(s, y0), *r1 = obs_image_f32_row(s, y1);
     for (int x = 0; x < J->dst->width; x++) {
+#if GTAO_AVX2
+        /* children 2x .. 2x + 15 inside the parent row */
+        if (J->avx2 && x + 8 <= J->dst->width && 2 * x + 16 <= s->width && mip8_avx2(&J->f, r0 + 2 * x, r1 + 2 * x, o + x)) {
+            x += 7;
+            continue;
+        }
+#endif
         const int x0 = 2 * x, x1 = 2 * x + 1 < s->width ? 2 * x + 1 : s->width - 1;
         o[x] = depth_mip_filter(&J->f, r0[x0], r0[x1], r1[x0], r1[x1]);
     }
@@ -452,13 +660,13 @@ void ao_gtao_mips_free(obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
         obs_image_f32_free(&levels[l]);
 }
 
-obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
-                                    obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
+static obs_status prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
+                                   obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS], int avx2)
 {
     if (!in || !k || !levels || !in->depth)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: prefilter: NULL argument");
     memset(levels, 0, sizeof(obs_image_f32) * AO_GTAO_DEPTH_MIP_LEVELS);
-    prefilter_job J = {in, NULL, NULL, mip_filter_from(k)};
+    prefilter_job J = {in, NULL, NULL, mip_filter_from(k), avx2};
     int w = in->width, h = in->height;
     for (int l = 0; l < AO_GTAO_DEPTH_MIP_LEVELS; l++) {
         obs_status st = obs_image_f32_alloc(ctx, w, h, &levels[l]);
@@ -473,6 +681,12 @@ obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_i
         h = h > 1 ? h >> 1 : 1;
     }
     return OBS_STATUS_OK;
+}
+
+obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
+                                    obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
+{
+    return prefilter_depths(ctx, pool, in, k, levels, gtao_use_avx2());
 }
 
 /* ================================================================================================
@@ -541,7 +755,9 @@ typedef struct main_consts {
 /* XeGTAO_ComputeViewspaceNormal / XeGTAO_CalculateNormal from MIP 0 (clamped depths).
  * DIFF: XeGTAO's normal pass converts NDC depth without XeGTAO_ClampDepth (identical for depth <=
  * 65504), and stores the normal in R11G11B10_UNORM (we keep float32). */
-static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0, int x, int y, float nrm[3])
+/* e: XeGTAO_CalculateEdges of the same five depths (the main pass's edges) */
+static int normal_from_depth_e(const ao_gtao_constants *k, const obs_image_f32 *z0, int x, int y, const float e[4],
+                               float nrm[3])
 {
     const int W = z0->width, H = z0->height;
     const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
@@ -549,8 +765,6 @@ static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0
     const float zc = obs_image_f32_row(z0, y)[x];
     const float zl = obs_image_f32_row(z0, y)[xl], zr = obs_image_f32_row(z0, y)[xr];
     const float zt = obs_image_f32_row(z0, yt)[x], zb = obs_image_f32_row(z0, yb)[x];
-    float e[4];
-    ao_gtao_calculate_edges(zc, zl, zr, zt, zb, e);
     const float psx = k->viewport_pixel_size[0], psy = k->viewport_pixel_size[1];
     const float u = ((float)x + 0.5f) * psx, v = ((float)y + 0.5f) * psy;
     float C[3], L[3], R[3], T[3], B[3];
@@ -574,6 +788,17 @@ static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0
         return 0;
     normalize3(nrm);
     return 1;
+}
+
+static int normal_from_depth(const ao_gtao_constants *k, const obs_image_f32 *z0, int x, int y, float nrm[3])
+{
+    const int W = z0->width, H = z0->height;
+    const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
+    const int yt = y > 0 ? y - 1 : 0, yb = y < H - 1 ? y + 1 : H - 1;
+    float e[4];
+    ao_gtao_calculate_edges(obs_image_f32_row(z0, y)[x], obs_image_f32_row(z0, y)[xl], obs_image_f32_row(z0, y)[xr],
+                            obs_image_f32_row(z0, yt)[x], obs_image_f32_row(z0, yb)[x], e);
+    return normal_from_depth_e(k, z0, x, y, e, nrm);
 }
 
 /* One pixel of XeGTAO_MainPass: the working visibility (before the UNORM packing) and the packed
@@ -744,6 +969,495 @@ static int main_pixel(const ao_gtao_constants *k, const main_consts *mc, const o
     return 1;
 }
 
+/* ---- The fast main pass: per-call tables and the per-pixel loop ----------------------------------
+ * Everything that depends only on the pixel's noise cell (x mod 64, y mod 64), the slice and the
+ * step is computed once per call with main_pixel's own expressions: the noise pair, cos/sin of the
+ * slice angle phi, and the step's s^power before the per-pixel + minS. The MIP choice uses
+ * mip_thresholds. The remaining per-pixel and per-tap float operations are main_pixel's, in its
+ * order. */
+typedef struct main_tables {
+    float noise[64 * 64][2];        /* ao_gtao_noise of the cell */
+    float *cs;                      /* [cell][slice][2]: cos phi, sin phi */
+    float *spow;                    /* [cell][slice][step]: hpow((step + stepNoise) / steps, power) */
+    float mip_t[AO_GTAO_DEPTH_MIP_LEVELS - 1];
+} main_tables;
+
+static void main_tables_free(main_tables *T)
+{
+    if (!T)
+        return;
+    free(T->cs);
+    free(T->spow);
+    free(T);
+}
+
+static main_tables *main_tables_create(const ao_gtao_constants *k)
+{
+    main_tables *T = (main_tables *)calloc(1, sizeof *T);
+    if (!T)
+        return NULL;
+    const int ns = k->slice_count, nt = k->steps_per_slice;
+    T->cs = (float *)malloc(sizeof(float) * 4096u * (size_t)ns * 2u);
+    T->spow = (float *)malloc(sizeof(float) * 4096u * (size_t)ns * (size_t)nt);
+    if (!T->cs || !T->spow) {
+        main_tables_free(T);
+        return NULL;
+    }
+    const float slice_count = (float)ns, steps = (float)nt;
+    for (uint32_t c = 0; c < 4096u; c++) {
+        ao_gtao_noise(c & 63u, c >> 6, k->noise_index, T->noise[c]);
+        const float noise_slice = T->noise[c][0], noise_sample = T->noise[c][1];
+        for (int sl = 0; sl < ns; sl++) {
+            const float slice = (float)sl;
+            const float slice_k = (slice + noise_slice) / slice_count;
+            const float phi = slice_k * 3.14159265358979323846f;
+            float *cs = T->cs + ((size_t)c * (size_t)ns + (size_t)sl) * 2u;
+            ao_i_cos_sin(phi, &cs[0], &cs[1]);
+            float *sp = T->spow + ((size_t)c * (size_t)ns + (size_t)sl) * (size_t)nt;
+            for (int st = 0; st < nt; st++) {
+                const float step = (float)st;
+                const float step_base = (slice + step * steps) * 0.6180339887498948482f;
+                const float step_noise = hfrac(noise_sample + step_base);
+                const float s = (step + step_noise) / steps;
+                sp[st] = hpow(s, k->sample_distribution_power);
+            }
+        }
+    }
+    mip_thresholds(k->depth_mip_sampling_offset, T->mip_t);
+    return T;
+}
+
+/* What main_pixel has computed per pixel when the slice loop starts. */
+typedef struct px_setup {
+    float n[3], C[3], V[3];
+    float u, v, ssr, min_s, vis0;
+    int cell;                       /* (y mod 64) * 64 + x mod 64 */
+} px_setup;
+
+/* main_pixel up to the slice loop: the edges, then 0 (background) or 2 (degenerate normal) with
+ * *vis_out set, or 1 with S filled. */
+static int pixel_setup(const ao_gtao_constants *k, const main_consts *mc, const obs_image_f32 *levels,
+                       const ao_input *in, int x, int y, const float e[4], float *vis_out, px_setup *S)
+{
+    const obs_image_f32 *z0 = &levels[0];
+    float viewspace_z = obs_image_f32_row(z0, y)[x];
+
+    if (is_background(obs_image_f32_row(in->depth, y)[x])) {
+        *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
+        return 0;
+    }
+    float *n = S->n;
+    if (k->normals_from_gbuffer) {
+        n[0] = obs_image_f32_row(in->normal[0], y)[x];
+        n[1] = obs_image_f32_row(in->normal[1], y)[x];
+        n[2] = -obs_image_f32_row(in->normal[2], y)[x];
+        const float l2 = dot3(n, n);
+        if (!(l2 > 0.0f) || !isfinite(l2)) {
+            *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
+            return 2;
+        }
+        normalize3(n);
+    } else if (!normal_from_depth_e(k, z0, x, y, e, n)) {
+        *vis_out = k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
+        return 2;
+    }
+    if (k->gpu_packing)
+        normal_r11g11b10(n);
+
+    viewspace_z = viewspace_z * AO_GTAO_CENTER_Z_PULL;
+    const float psx = k->viewport_pixel_size[0], psy = k->viewport_pixel_size[1];
+    S->u = ((float)x + 0.5f) * psx, S->v = ((float)y + 0.5f) * psy;
+    view_pos(k, S->u, S->v, viewspace_z, S->C);
+    float *V = S->V;
+    V[0] = -S->C[0], V[1] = -S->C[1], V[2] = -S->C[2];
+    if (k->orthographic)
+        V[0] = 0.0f, V[1] = 0.0f, V[2] = -1.0f;
+    else
+        normalize3(V);
+    S->cell = ((y & 63) << 6) | (x & 63);
+    const float pixel_size_x = k->orthographic ? k->ndc_to_view_mul_x_pixel_size[0]
+                                               : viewspace_z * k->ndc_to_view_mul_x_pixel_size[0];
+    S->ssr = mc->effect_radius / pixel_size_x;
+    S->vis0 = sat((10.0f - S->ssr) / 100.0f) * 0.5f;
+    S->min_s = mc->min_s_num / S->ssr;
+    return 1;
+}
+
+/* main_pixel after the slice loop: the mean, the power, the floor and the working-term store. */
+static void pixel_finish(const ao_gtao_constants *k, float visibility, float *vis_out)
+{
+    visibility = visibility / (float)k->slice_count;
+    visibility = hpow(visibility, k->final_value_power);
+    visibility = hmax_fast(0.03f, visibility);
+    if (k->gpu_packing)
+        *vis_out = unorm8(sat(visibility / AO_GTAO_OCCLUSION_TERM_SCALE));
+    else
+        *vis_out = visibility < AO_GTAO_OCCLUSION_TERM_SCALE ? visibility : AO_GTAO_OCCLUSION_TERM_SCALE;
+}
+
+/* main_pixel's slice loop with the tables (same result bits): the visibility sum. */
+static float pixel_slices(const ao_gtao_constants *k, const main_consts *mc, const main_tables *T,
+                          const obs_image_f32 *levels, const px_setup *S)
+{
+    const float *n = S->n, *C = S->C, *V = S->V;
+    const float u = S->u, v = S->v, ssr = S->ssr, min_s = S->min_s;
+    const float psx = k->viewport_pixel_size[0], psy = k->viewport_pixel_size[1];
+    const int cell = S->cell;
+    float visibility = S->vis0;
+    const int ns = k->slice_count, nt = k->steps_per_slice;
+    const float *cs_cell = T->cs + (size_t)cell * (size_t)ns * 2u;
+    const float *sp_cell = T->spow + (size_t)cell * (size_t)ns * (size_t)nt;
+
+    const int thin = mc->thin_scale != 1.0f; /* z * 1 is exact: the falloff distance is the distance */
+    /* view_pos of a tap, split: a = mul * u + add, then * z (perspective) */
+    const float mx = k->ndc_to_view_mul[0], my = k->ndc_to_view_mul[1];
+    const float ax = k->ndc_to_view_add[0], ay = k->ndc_to_view_add[1];
+    const int ortho_proj = k->orthographic;
+
+    for (int sl = 0; sl < ns; sl++) {
+        const float cos_phi = cs_cell[2 * sl], sin_phi = cs_cell[2 * sl + 1];
+        const float omega[2] = {cos_phi * ssr, -sin_phi * ssr};
+        const float dir[3] = {cos_phi, sin_phi, 0.0f};
+        const float dv = dot3(dir, V);
+        const float ortho[3] = {dir[0] - dv * V[0], dir[1] - dv * V[1], dir[2] - dv * V[2]};
+        float axis[3];
+        cross3(ortho, V, axis);
+        normalize3(axis);
+        const float na = dot3(n, axis);
+        const float pn[3] = {n[0] - axis[0] * na, n[1] - axis[1] * na, n[2] - axis[2] * na};
+        const float sign_norm = hsign(dot3(ortho, pn));
+        float pn_len = len3(pn);
+        const float cos_norm = sat(dot3(pn, V) / pn_len);
+        const float nang = sign_norm * ao_gtao_fast_acos(cos_norm);
+        const float low0 = hcos_fast(nang + 1.57079632679489661923f);
+        const float low1 = hcos_fast(nang - 1.57079632679489661923f);
+        float hc0 = low0, hc1 = low1;
+        const float *sp = sp_cell + (size_t)sl * (size_t)nt;
+
+        for (int st = 0; st < nt; st++) {
+            const float s = sp[st] + min_s;
+            float off[2] = {s * omega[0], s * omega[1]};
+            const float off_len = sqrtf(off[0] * off[0] + off[1] * off[1]);
+            const int li = mip_from_thresholds(off_len, T->mip_t);
+            off[0] = rintf(off[0]) * psx;
+            off[1] = rintf(off[1]) * psy;
+            const obs_image_f32 *L = &levels[li];
+            const float u0 = u + off[0], v0 = v + off[1], u1 = u - off[0], v1 = v - off[1];
+            const float sz0 = obs_image_f32_row(L, texel(v0, L->height))[texel(u0, L->width)];
+            const float sz1 = obs_image_f32_row(L, texel(v1, L->height))[texel(u1, L->width)];
+            const float a0 = mx * u0 + ax, b0 = my * v0 + ay, a1 = mx * u1 + ax, b1 = my * v1 + ay;
+            const float d0[3] = {(ortho_proj ? a0 : a0 * sz0) - C[0], (ortho_proj ? b0 : b0 * sz0) - C[1], sz0 - C[2]};
+            const float d1[3] = {(ortho_proj ? a1 : a1 * sz1) - C[0], (ortho_proj ? b1 : b1 * sz1) - C[1], sz1 - C[2]};
+            const float dist0 = len3(d0), dist1 = len3(d1);
+            const float hv0[3] = {d0[0] / dist0, d0[1] / dist0, d0[2] / dist0};
+            const float hv1[3] = {d1[0] / dist1, d1[1] / dist1, d1[2] / dist1};
+            float fl0 = dist0, fl1 = dist1;
+            if (thin) {
+                const float fb0[3] = {d0[0], d0[1], d0[2] * mc->thin_scale};
+                const float fb1[3] = {d1[0], d1[1], d1[2] * mc->thin_scale};
+                fl0 = len3(fb0), fl1 = len3(fb1);
+            }
+            const float w0 = sat(fl0 * mc->falloff_mul + mc->falloff_add);
+            const float w1 = sat(fl1 * mc->falloff_mul + mc->falloff_add);
+            float shc0 = dot3(hv0, V), shc1 = dot3(hv1, V);
+            shc0 = hlerp(low0, shc0, w0);
+            shc1 = hlerp(low1, shc1, w1);
+            hc0 = hmax_fast(hc0, shc0);
+            hc1 = hmax_fast(hc1, shc1);
+        }
+
+        pn_len = hlerp(pn_len, 1.0f, 0.05f);
+        const float h0 = -ao_gtao_fast_acos(hc1);
+        const float h1 = ao_gtao_fast_acos(hc0);
+        const float sin_n = hsin_fast(nang);
+        const float iarc0 = (cos_norm + 2.0f * h0 * sin_n - hcos_fast(2.0f * h0 - nang)) / 4.0f;
+        const float iarc1 = (cos_norm + 2.0f * h1 * sin_n - hcos_fast(2.0f * h1 - nang)) / 4.0f;
+        visibility = visibility + pn_len * (iarc0 + iarc1);
+    }
+    return visibility;
+}
+
+
+/* ---- The 8-lane slice loop (AVX2) ------------------------------------------------------------------
+ * Lane l is the l-th pixel of a row that needs a slice loop (its px_setup). Every lane does
+ * pixel_slices' float operations in its order with the IEEE single-rounding vector forms (add,
+ * sub, mul, div, sqrt; round-to-nearest-even; truncating converts; compares and blends for the
+ * branches), no FMA (the target is "avx2" without "fma"; -ffp-contract=off), and the cosines in
+ * double with the same reduction and polynomial: so the same bits as the scalar loop, which the
+ * tests check. The depth taps are scalar loads (the MIP level differs per lane). */
+#if GTAO_AVX2
+
+AVX2_FN static inline __m256 v_sign(__m256 v)
+{
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 neg = _mm256_blendv_ps(zero, _mm256_set1_ps(-1.0f), _mm256_cmp_ps(v, zero, _CMP_LT_OQ));
+    return _mm256_blendv_ps(neg, _mm256_set1_ps(1.0f), _mm256_cmp_ps(v, zero, _CMP_GT_OQ));
+}
+
+/* ao_gtao_fast_acos */
+AVX2_FN static inline __m256 v_fast_acos(__m256 in_x)
+{
+    const __m256 x = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), in_x);
+    __m256 res = _mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(-0.156583f), x), _mm256_set1_ps(1.570796f));
+    const __m256i i = _mm256_castps_si256(_mm256_sub_ps(_mm256_set1_ps(1.0f), x));
+    const __m256 fs = _mm256_castsi256_ps(_mm256_add_epi32(_mm256_set1_epi32(0x1fbd1df5), _mm256_srai_epi32(i, 1)));
+    res = _mm256_mul_ps(res, fs);
+    const __m256 ge = _mm256_cmp_ps(in_x, _mm256_setzero_ps(), _CMP_GE_OQ);
+    return _mm256_blendv_ps(_mm256_sub_ps(_mm256_set1_ps(3.141593f), res), res, ge);
+}
+
+/* hmax_fast(a, b) where a is never NaN here (the running horizon cosine and 0.03): b NaN gives a */
+AVX2_FN static inline __m256 v_max_a(__m256 a, __m256 b)
+{
+    const __m256 take_a = _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_GT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q));
+    return _mm256_blendv_ps(b, a, take_a);
+}
+
+/* cos_or_sin of 4 angles (double) with the quadrant offset add (0 cos, 3 sin) */
+AVX2_FN static inline __m128 v_cos_or_sin4(__m256d x, int add)
+{
+    const __m256d rounder = _mm256_set1_pd(CS_ROUNDER);
+    const __m256d kd = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(x, _mm256_set1_pd(CS_TWO_OVER_PI)), rounder), rounder);
+    __m256d r = _mm256_sub_pd(x, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P1)));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P2)));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P3)));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, _mm256_set1_pd(CS_P4)));
+    const __m256d z = _mm256_mul_pd(r, r);
+#define C_(v) _mm256_set1_pd(v)
+#define A_(a, b) _mm256_add_pd(a, b)
+#define M_(a, b) _mm256_mul_pd(a, b)
+    /* sn = r + r * z * (-1/6 + z * (1/120 + ... )) */
+    __m256d ps = C_(-1.0 / 121645100408832000.0);
+    ps = A_(C_(1.0 / 355687428096000.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 1307674368000.0), M_(z, ps));
+    ps = A_(C_(1.0 / 6227020800.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 39916800.0), M_(z, ps));
+    ps = A_(C_(1.0 / 362880.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 5040.0), M_(z, ps));
+    ps = A_(C_(1.0 / 120.0), M_(z, ps));
+    ps = A_(C_(-1.0 / 6.0), M_(z, ps));
+    const __m256d sn = A_(r, M_(M_(r, z), ps));
+    /* cs = 1 - 0.5 z + z * z * (1/24 + z * (-1/720 + ...)) */
+    __m256d pc = C_(1.0 / 2432902008176640000.0);
+    pc = A_(C_(-1.0 / 6402373705728000.0), M_(z, pc));
+    pc = A_(C_(1.0 / 20922789888000.0), M_(z, pc));
+    pc = A_(C_(-1.0 / 87178291200.0), M_(z, pc));
+    pc = A_(C_(1.0 / 479001600.0), M_(z, pc));
+    pc = A_(C_(-1.0 / 3628800.0), M_(z, pc));
+    pc = A_(C_(1.0 / 40320.0), M_(z, pc));
+    pc = A_(C_(-1.0 / 720.0), M_(z, pc));
+    pc = A_(C_(1.0 / 24.0), M_(z, pc));
+    const __m256d cs = A_(_mm256_sub_pd(C_(1.0), M_(C_(0.5), z)), M_(M_(z, z), pc));
+#undef C_
+#undef A_
+#undef M_
+    /* q 0: cs, 1: -sn, 2: -cs, 3: sn */
+    const __m128i q = _mm_and_si128(_mm_add_epi32(_mm256_cvtpd_epi32(kd), _mm_set1_epi32(add)), _mm_set1_epi32(3));
+    const __m128i odd = _mm_cmpeq_epi32(_mm_and_si128(q, _mm_set1_epi32(1)), _mm_set1_epi32(1));
+    const __m128i neg = _mm_cmpeq_epi32(_mm_and_si128(_mm_xor_si128(q, _mm_srli_epi32(q, 1)), _mm_set1_epi32(1)),
+                                        _mm_set1_epi32(1));
+    __m256d v = _mm256_blendv_pd(cs, sn, _mm256_castsi256_pd(_mm256_cvtepi32_epi64(odd)));
+    v = _mm256_xor_pd(v, _mm256_and_pd(_mm256_castsi256_pd(_mm256_cvtepi32_epi64(neg)), _mm256_set1_pd(-0.0)));
+    return _mm256_cvtpd_ps(v);
+}
+
+/* hcos_fast / hsin_fast of 8 floats; lanes outside the polynomial's range go to the scalar form */
+AVX2_FN static inline __m256 v_cos_or_sin(__m256 a, int which)
+{
+    const int add = which ? 3 : 0;
+    const __m128 lo = v_cos_or_sin4(_mm256_cvtps_pd(_mm256_castps256_ps128(a)), add);
+    const __m128 hi = v_cos_or_sin4(_mm256_cvtps_pd(_mm256_extractf128_ps(a, 1)), add);
+    __m256 r = _mm256_insertf128_ps(_mm256_castps128_ps256(lo), hi, 1);
+    const __m256 absa = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a);
+    const int bad = _mm256_movemask_ps(_mm256_cmp_ps(absa, _mm256_set1_ps(3.0e9f), _CMP_NLT_UQ));
+    if (bad) {
+        float av[8], rv[8];
+        _mm256_storeu_ps(av, a);
+        _mm256_storeu_ps(rv, r);
+        for (int l = 0; l < 8; l++)
+            if (bad & (1 << l))
+                rv[l] = cos_or_sin(av[l], which);
+        r = _mm256_loadu_ps(rv);
+    }
+    return r;
+}
+
+/* texel() of 8 lanes: floor(uv * size) clamped, NaN and negative -> 0 */
+AVX2_FN static inline __m256i v_texel(__m256 uv, __m256i size)
+{
+    const __m256 sf = _mm256_cvtepi32_ps(size);
+    const __m256 t = _mm256_mul_ps(uv, sf);
+    const __m256i ti = _mm256_cvttps_epi32(t);
+    const __m256i last = _mm256_sub_epi32(size, _mm256_set1_epi32(1));
+    __m256i r = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(ti), _mm256_castsi256_ps(last),
+                                                     _mm256_cmp_ps(t, sf, _CMP_GE_OQ)));
+    r = _mm256_andnot_si256(_mm256_castps_si256(_mm256_cmp_ps(t, _mm256_setzero_ps(), _CMP_NGE_UQ)), r);
+    return r;
+}
+
+AVX2_FN static void slices_avx2(const ao_gtao_constants *k, const main_consts *mc, const main_tables *T,
+                                const obs_image_f32 *levels, const px_setup S[8], float out[8])
+{
+    float t[20][8];
+    int cells[8];
+    for (int l = 0; l < 8; l++) {
+        for (int a = 0; a < 3; a++)
+            t[a][l] = S[l].n[a], t[3 + a][l] = S[l].C[a], t[6 + a][l] = S[l].V[a];
+        t[9][l] = S[l].u, t[10][l] = S[l].v, t[11][l] = S[l].ssr, t[12][l] = S[l].min_s, t[13][l] = S[l].vis0;
+        cells[l] = S[l].cell;
+    }
+#define LD(i) _mm256_loadu_ps(t[i])
+    const __m256 n0 = LD(0), n1 = LD(1), n2 = LD(2), C0 = LD(3), C1 = LD(4), C2 = LD(5);
+    const __m256 V0 = LD(6), V1 = LD(7), V2 = LD(8), u = LD(9), v = LD(10), ssr = LD(11), min_s = LD(12);
+    __m256 visibility = LD(13);
+#undef LD
+    const int ns = k->slice_count, nt = k->steps_per_slice;
+    const __m256i cell = _mm256_loadu_si256((const __m256i *)cells);
+    const __m256i cs_base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(2 * ns));
+    const __m256i sp_base = _mm256_mullo_epi32(cell, _mm256_set1_epi32(ns * nt));
+    const __m256 psx = _mm256_set1_ps(k->viewport_pixel_size[0]), psy = _mm256_set1_ps(k->viewport_pixel_size[1]);
+    const __m256 mx = _mm256_set1_ps(k->ndc_to_view_mul[0]), my = _mm256_set1_ps(k->ndc_to_view_mul[1]);
+    const __m256 ax = _mm256_set1_ps(k->ndc_to_view_add[0]), ay = _mm256_set1_ps(k->ndc_to_view_add[1]);
+    const __m256 fmul = _mm256_set1_ps(mc->falloff_mul), fadd = _mm256_set1_ps(mc->falloff_add);
+    const __m256 thin_scale = _mm256_set1_ps(mc->thin_scale);
+    const int thin = mc->thin_scale != 1.0f, ortho_proj = k->orthographic;
+    const __m256 zero = _mm256_setzero_ps();
+    int wl[8] = {0}, hl[8] = {0};
+    for (int l = 0; l < AO_GTAO_DEPTH_MIP_LEVELS; l++)
+        wl[l] = levels[l].width, hl[l] = levels[l].height;
+    const __m256i Wl = _mm256_loadu_si256((const __m256i *)wl), Hl = _mm256_loadu_si256((const __m256i *)hl);
+    const __m256 mt0 = _mm256_set1_ps(T->mip_t[0]), mt1 = _mm256_set1_ps(T->mip_t[1]);
+    const __m256 mt2 = _mm256_set1_ps(T->mip_t[2]), mt3 = _mm256_set1_ps(T->mip_t[3]);
+#define ADD _mm256_add_ps
+#define SUB _mm256_sub_ps
+#define MUL _mm256_mul_ps
+#define DIV _mm256_div_ps
+#define DOT3(a0, a1, a2, b0, b1, b2) ADD(ADD(MUL(a0, b0), MUL(a1, b1)), MUL(a2, b2))
+
+    for (int sl = 0; sl < ns; sl++) {
+        const __m256 cos_phi = _mm256_i32gather_ps(T->cs, _mm256_add_epi32(cs_base, _mm256_set1_epi32(2 * sl)), 4);
+        const __m256 sin_phi = _mm256_i32gather_ps(T->cs, _mm256_add_epi32(cs_base, _mm256_set1_epi32(2 * sl + 1)), 4);
+        const __m256 om0 = MUL(cos_phi, ssr), om1 = MUL(_mm256_xor_ps(sin_phi, _mm256_set1_ps(-0.0f)), ssr);
+        const __m256 dv = DOT3(cos_phi, sin_phi, zero, V0, V1, V2);
+        const __m256 o0 = SUB(cos_phi, MUL(dv, V0)), o1 = SUB(sin_phi, MUL(dv, V1)), o2 = SUB(zero, MUL(dv, V2));
+        /* cross3(ortho, V), normalize3 */
+        __m256 x0 = SUB(MUL(o1, V2), MUL(o2, V1)), x1 = SUB(MUL(o2, V0), MUL(o0, V2)), x2 = SUB(MUL(o0, V1), MUL(o1, V0));
+        const __m256 xl = _mm256_sqrt_ps(DOT3(x0, x1, x2, x0, x1, x2));
+        x0 = DIV(x0, xl), x1 = DIV(x1, xl), x2 = DIV(x2, xl);
+        const __m256 na = DOT3(n0, n1, n2, x0, x1, x2);
+        const __m256 p0 = SUB(n0, MUL(x0, na)), p1 = SUB(n1, MUL(x1, na)), p2 = SUB(n2, MUL(x2, na));
+        const __m256 sign_norm = v_sign(DOT3(o0, o1, o2, p0, p1, p2));
+        __m256 pn_len = _mm256_sqrt_ps(DOT3(p0, p1, p2, p0, p1, p2));
+        const __m256 cos_norm = v_sat(DIV(DOT3(p0, p1, p2, V0, V1, V2), pn_len));
+        const __m256 nang = MUL(sign_norm, v_fast_acos(cos_norm));
+        const __m256 low0 = v_cos_or_sin(ADD(nang, _mm256_set1_ps(1.57079632679489661923f)), 0);
+        const __m256 low1 = v_cos_or_sin(SUB(nang, _mm256_set1_ps(1.57079632679489661923f)), 0);
+        __m256 hc0 = low0, hc1 = low1;
+
+        for (int st = 0; st < nt; st++) {
+            const __m256 sp = _mm256_i32gather_ps(T->spow, _mm256_add_epi32(sp_base, _mm256_set1_epi32(sl * nt + st)), 4);
+            const __m256 s = ADD(sp, min_s);
+            __m256 f0 = MUL(s, om0), f1 = MUL(s, om1);
+            const __m256 off_len = _mm256_sqrt_ps(ADD(MUL(f0, f0), MUL(f1, f1)));
+            const __m256i li = _mm256_sub_epi32(
+                _mm256_setzero_si256(),
+                _mm256_add_epi32(_mm256_add_epi32(_mm256_castps_si256(_mm256_cmp_ps(off_len, mt0, _CMP_GE_OQ)),
+                                                  _mm256_castps_si256(_mm256_cmp_ps(off_len, mt1, _CMP_GE_OQ))),
+                                 _mm256_add_epi32(_mm256_castps_si256(_mm256_cmp_ps(off_len, mt2, _CMP_GE_OQ)),
+                                                  _mm256_castps_si256(_mm256_cmp_ps(off_len, mt3, _CMP_GE_OQ)))));
+            f0 = MUL(_mm256_round_ps(f0, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC), psx);
+            f1 = MUL(_mm256_round_ps(f1, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC), psy);
+            const __m256 u0 = ADD(u, f0), v0 = ADD(v, f1), u1 = SUB(u, f0), v1 = SUB(v, f1);
+            const __m256i lw = _mm256_permutevar8x32_epi32(Wl, li), lh = _mm256_permutevar8x32_epi32(Hl, li);
+            int lv[8], tx0[8], ty0[8], tx1[8], ty1[8];
+            _mm256_storeu_si256((__m256i *)lv, li);
+            _mm256_storeu_si256((__m256i *)tx0, v_texel(u0, lw));
+            _mm256_storeu_si256((__m256i *)ty0, v_texel(v0, lh));
+            _mm256_storeu_si256((__m256i *)tx1, v_texel(u1, lw));
+            _mm256_storeu_si256((__m256i *)ty1, v_texel(v1, lh));
+            float z0v[8], z1v[8];
+            for (int l = 0; l < 8; l++) {
+                const obs_image_f32 *L = &levels[lv[l]];
+                z0v[l] = obs_image_f32_row(L, ty0[l])[tx0[l]];
+                z1v[l] = obs_image_f32_row(L, ty1[l])[tx1[l]];
+            }
+            const __m256 sz0 = _mm256_loadu_ps(z0v), sz1 = _mm256_loadu_ps(z1v);
+            const __m256 a0 = ADD(MUL(mx, u0), ax), b0 = ADD(MUL(my, v0), ay);
+            const __m256 a1 = ADD(MUL(mx, u1), ax), b1 = ADD(MUL(my, v1), ay);
+            const __m256 d00 = SUB(ortho_proj ? a0 : MUL(a0, sz0), C0), d01 = SUB(ortho_proj ? b0 : MUL(b0, sz0), C1);
+            const __m256 d02 = SUB(sz0, C2);
+            const __m256 d10 = SUB(ortho_proj ? a1 : MUL(a1, sz1), C0), d11 = SUB(ortho_proj ? b1 : MUL(b1, sz1), C1);
+            const __m256 d12 = SUB(sz1, C2);
+            const __m256 dist0 = _mm256_sqrt_ps(DOT3(d00, d01, d02, d00, d01, d02));
+            const __m256 dist1 = _mm256_sqrt_ps(DOT3(d10, d11, d12, d10, d11, d12));
+            __m256 fl0 = dist0, fl1 = dist1;
+            if (thin) {
+                const __m256 e02 = MUL(d02, thin_scale), e12 = MUL(d12, thin_scale);
+                fl0 = _mm256_sqrt_ps(DOT3(d00, d01, e02, d00, d01, e02));
+                fl1 = _mm256_sqrt_ps(DOT3(d10, d11, e12, d10, d11, e12));
+            }
+            const __m256 w0 = v_sat(ADD(MUL(fl0, fmul), fadd)), w1 = v_sat(ADD(MUL(fl1, fmul), fadd));
+            __m256 shc0 = DOT3(DIV(d00, dist0), DIV(d01, dist0), DIV(d02, dist0), V0, V1, V2);
+            __m256 shc1 = DOT3(DIV(d10, dist1), DIV(d11, dist1), DIV(d12, dist1), V0, V1, V2);
+            shc0 = ADD(low0, MUL(w0, SUB(shc0, low0)));
+            shc1 = ADD(low1, MUL(w1, SUB(shc1, low1)));
+            hc0 = v_max_a(hc0, shc0);
+            hc1 = v_max_a(hc1, shc1);
+        }
+
+        pn_len = ADD(pn_len, MUL(_mm256_set1_ps(0.05f), SUB(_mm256_set1_ps(1.0f), pn_len)));
+        const __m256 h0 = _mm256_xor_ps(v_fast_acos(hc1), _mm256_set1_ps(-0.0f));
+        const __m256 h1 = v_fast_acos(hc0);
+        const __m256 sin_n = v_cos_or_sin(nang, 1);
+        const __m256 two = _mm256_set1_ps(2.0f), four = _mm256_set1_ps(4.0f);
+        const __m256 c0 = v_cos_or_sin(SUB(MUL(two, h0), nang), 0);
+        const __m256 c1 = v_cos_or_sin(SUB(MUL(two, h1), nang), 0);
+        const __m256 iarc0 = DIV(SUB(ADD(cos_norm, MUL(MUL(two, h0), sin_n)), c0), four);
+        const __m256 iarc1 = DIV(SUB(ADD(cos_norm, MUL(MUL(two, h1), sin_n)), c1), four);
+        visibility = ADD(visibility, MUL(pn_len, ADD(iarc0, iarc1)));
+    }
+#undef ADD
+#undef SUB
+#undef MUL
+#undef DIV
+#undef DOT3
+    _mm256_storeu_ps(out, visibility);
+}
+/* ---- Edges of a row (XeGTAO_CalculateEdges, XeGTAO_PackEdges), 8 pixels at a time ---------------
+ * calculate_edges and pack_edges in the vector forms of the same float operations. */
+AVX2_FN static void row_edges_avx2(const float *zc, const float *zl, const float *zr, const float *zt,
+                                   const float *zb, float e[][4], unsigned char *packed)
+{
+    const __m256 c = _mm256_loadu_ps(zc), sign = _mm256_set1_ps(-0.0f), half = _mm256_set1_ps(0.5f);
+    const __m256 e0 = _mm256_sub_ps(_mm256_loadu_ps(zl), c), e1 = _mm256_sub_ps(_mm256_loadu_ps(zr), c);
+    const __m256 e2 = _mm256_sub_ps(_mm256_loadu_ps(zt), c), e3 = _mm256_sub_ps(_mm256_loadu_ps(zb), c);
+    const __m256 slope_lr = _mm256_mul_ps(_mm256_sub_ps(e1, e0), half);
+    const __m256 slope_tb = _mm256_mul_ps(_mm256_sub_ps(e3, e2), half);
+    const __m256 ev[4] = {e0, e1, e2, e3};
+    const __m256 adj[4] = {_mm256_add_ps(e0, slope_lr), _mm256_sub_ps(e1, slope_lr), _mm256_add_ps(e2, slope_tb),
+                           _mm256_sub_ps(e3, slope_tb)};
+    const __m256 denom = _mm256_mul_ps(c, _mm256_set1_ps(0.011f));
+    __m256i pk = _mm256_setzero_si256();
+    float o[4][8];
+    for (int i = 0; i < 4; i++) {
+        const __m256 a = _mm256_andnot_ps(sign, ev[i]), s = _mm256_andnot_ps(sign, adj[i]);
+        const __m256 m = _mm256_blendv_ps(s, a, _mm256_cmp_ps(a, s, _CMP_LT_OQ));
+        const __m256 out = v_sat(_mm256_sub_ps(_mm256_set1_ps(1.25f), _mm256_div_ps(m, denom)));
+        _mm256_storeu_ps(o[i], out);
+        const __m256 q = _mm256_round_ps(_mm256_mul_ps(v_sat(out), _mm256_set1_ps(2.9f)),
+                                         _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+        pk = _mm256_or_si256(_mm256_slli_epi32(pk, 2), _mm256_cvttps_epi32(q));
+    }
+    int pv[8];
+    _mm256_storeu_si256((__m256i *)pv, pk);
+    for (int l = 0; l < 8; l++) {
+        packed[l] = (unsigned char)pv[l];
+        for (int i = 0; i < 4; i++)
+            e[l][i] = o[i][l];
+    }
+}
+#endif
+
 typedef struct main_job {
     const ao_gtao_constants *k;
     main_consts mc;
@@ -753,6 +1467,8 @@ typedef struct main_job {
     obs_image_f32 *vis;
     unsigned char *edges;   /* rw x rh */
     int64_t (*counts)[2];
+    const main_tables *tables;      /* NULL: the reference main_pixel */
+    int avx2;                       /* 1: the 8-lane slice loop */
 } main_job;
 
 static void main_row(void *user, int64_t task, int thread)
@@ -763,10 +1479,78 @@ static void main_row(void *user, int64_t task, int thread)
     float *o = obs_image_f32_row(J->vis, r);
     unsigned char *e = J->edges + (size_t)r * (size_t)rw;
     int64_t bg = 0, deg = 0;
-    for (int i = 0; i < rw; i++) {
-        const int c = main_pixel(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i]);
-        bg += c == 0;
-        deg += c == 2;
+    if (!J->tables) {
+        for (int i = 0; i < rw; i++) {
+            const int c = main_pixel(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, &o[i], &e[i]);
+            bg += c == 0;
+            deg += c == 2;
+        }
+    } else {
+        /* per chunk of 64 pixels: the edges (8 at a time with AVX2 where the neighbours are inside
+         * the row), then the setup per pixel; the slice loops of the pixels that need one, 8 lanes
+         * at a time (AVX2) or one by one (the row's last < 8 and the scalar build); the finish */
+        const obs_image_f32 *z0 = &J->levels[0];
+        const int W = z0->width, H = z0->height;
+        const int yt = y > 0 ? y - 1 : 0, yb = y < H - 1 ? y + 1 : H - 1;
+        const float *zr = obs_image_f32_row(z0, y), *zt = obs_image_f32_row(z0, yt), *zb = obs_image_f32_row(z0, yb);
+        px_setup S[8];
+        int idx[8], na = 0;
+        float ech[64][4];
+        for (int i0 = 0; i0 < rw; i0 += 64) {
+            const int n = rw - i0 < 64 ? rw - i0 : 64;
+            for (int j = 0; j < n;) {
+                const int x = J->rx0 + i0 + j;
+#if GTAO_AVX2
+                if (J->avx2 && j + 8 <= n && x >= 1 && x + 8 <= W - 1) {
+                    row_edges_avx2(zr + x, zr + x - 1, zr + x + 1, zt + x, zb + x, &ech[j], &e[i0 + j]);
+                    j += 8;
+                    continue;
+                }
+#endif
+                const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
+                calculate_edges(zr[x], zr[xl], zr[xr], zt[x], zb[x], ech[j]);
+                e[i0 + j] = (unsigned char)pack_edges(ech[j]);
+                j++;
+            }
+            for (int j = 0; j < n; j++) {
+                const int i = i0 + j;
+                const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, ech[j], &o[i], &S[na]);
+                bg += c == 0;
+                deg += c == 2;
+                if (c != 1)
+                    continue;
+                idx[na++] = i;
+#if GTAO_AVX2
+                if (na == 8 && J->avx2) {
+                    float acc[8];
+                    slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
+                    for (int l = 0; l < 8; l++)
+                        pixel_finish(J->k, acc[l], &o[idx[l]]);
+                    na = 0;
+                    continue;
+                }
+#endif
+                if (na == 8 || !J->avx2) {
+                    for (int l = 0; l < na; l++)
+                        pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
+                    na = 0;
+                }
+            }
+        }
+#if GTAO_AVX2
+        /* the row's last 2..7: lanes padded with copies of the first (their results unused) */
+        if (na >= 2 && J->avx2) {
+            float acc[8];
+            for (int l = na; l < 8; l++)
+                S[l] = S[0];
+            slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
+            for (int l = 0; l < na; l++)
+                pixel_finish(J->k, acc[l], &o[idx[l]]);
+            na = 0;
+        }
+#endif
+        for (int l = 0; l < na; l++)
+            pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
     }
     J->counts[r][0] = bg;
     J->counts[r][1] = deg;
@@ -786,7 +1570,103 @@ typedef struct denoise_job {
     int W, H;                       /* the full buffer (CLAMP addressing) */
     float blur_amount;              /* beta (last pass) or beta / 5 */
     int pack;                       /* gpu_packing: 1 intermediate (8-bit store), 2 last (* 1.5, 8-bit) */
+    const obs_image_f32 *skip_bg;   /* last pass: the input depth; its background pixels are written 1
+                                       (ao_gtao_compute overwrites them with 1 anyway). NULL: all */
+    int avx2;                       /* 1: 8 pixels at a time where no CLAMP applies */
 } denoise_job;
+
+/* XeGTAO_UnpackEdges per 2-bit value: q / 3 (the same float division, folded) */
+static const float unpack_q3[4] = {0.0f / 3.0f, 1.0f / 3.0f, 2.0f / 3.0f, 3.0f / 3.0f};
+static inline void unpack_edges_lut(unsigned p, float out[4])
+{
+    out[0] = unpack_q3[(p >> 6) & 3u];
+    out[1] = unpack_q3[(p >> 4) & 3u];
+    out[2] = unpack_q3[(p >> 2) & 3u];
+    out[3] = unpack_q3[p & 3u];
+}
+
+#if GTAO_AVX2
+/* ---- Denoise, 8 pixels of a row at a time (AVX2) --------------------------------------------------
+ * denoise_row's float operations per lane in its order (XeGTAO_UnpackEdges' q / 3 from the same
+ * folded table). Only for pixels whose left and right neighbours are inside the
+ * buffer (no CLAMP), so the source reads are plain unaligned loads. */
+static const float unpack_q3_8[8] = {0.0f / 3.0f, 1.0f / 3.0f, 2.0f / 3.0f, 3.0f / 3.0f, 0.0f, 0.0f, 0.0f, 0.0f};
+
+AVX2_FN static inline __m256 v_unpack(__m256i p, int shift)
+{
+    const __m256i q = _mm256_and_si256(_mm256_srli_epi32(p, shift), _mm256_set1_epi32(3));
+    return _mm256_permutevar8x32_ps(_mm256_loadu_ps(unpack_q3_8), q);
+}
+
+AVX2_FN static inline __m256i v_load8u(const unsigned char *p)
+{
+    return _mm256_cvtepu8_epi32(_mm_loadl_epi64((const __m128i *)p));
+}
+
+AVX2_FN static inline __m256 v_unorm8(__m256 v)
+{
+    v = v_sat(v);
+    const __m256i q = _mm256_cvttps_epi32(_mm256_add_ps(_mm256_mul_ps(v, _mm256_set1_ps(255.0f)), _mm256_set1_ps(0.5f)));
+    return _mm256_div_ps(_mm256_cvtepi32_ps(q), _mm256_set1_ps(255.0f));
+}
+
+AVX2_FN static void denoise8_avx2(const denoise_job *J, const float *rc, const float *rt, const float *rb,
+                                  const unsigned char *ec, const unsigned char *et, const unsigned char *eb,
+                                  const float *bg, float *o)
+{
+    /* rc, rt, rb: the source rows at the centre column; ec, et, eb: the edge rows there */
+    const __m256i pC = v_load8u(ec), pL = v_load8u(ec - 1), pR = v_load8u(ec + 1), pT = v_load8u(et),
+                  pB = v_load8u(eb);
+    __m256 eC0 = v_unpack(pC, 6), eC1 = v_unpack(pC, 4), eC2 = v_unpack(pC, 2), eC3 = v_unpack(pC, 0);
+    const __m256 eL1 = v_unpack(pL, 4), eL2 = v_unpack(pL, 2), eL3 = v_unpack(pL, 0);
+    const __m256 eR0 = v_unpack(pR, 6), eR2 = v_unpack(pR, 2), eR3 = v_unpack(pR, 0);
+    const __m256 eT0 = v_unpack(pT, 6), eT1 = v_unpack(pT, 4), eT3 = v_unpack(pT, 0);
+    const __m256 eB0 = v_unpack(pB, 6), eB1 = v_unpack(pB, 4), eB2 = v_unpack(pB, 2);
+    eC0 = _mm256_mul_ps(eC0, eL1);
+    eC1 = _mm256_mul_ps(eC1, eR0);
+    eC2 = _mm256_mul_ps(eC2, eT3);
+    eC3 = _mm256_mul_ps(eC3, eB2);
+    const __m256 sum_e = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(eC0, eC1), eC2), eC3);
+    const __m256 edginess = _mm256_mul_ps(
+        _mm256_div_ps(v_sat(_mm256_sub_ps(_mm256_set1_ps(4.0f - 2.5f), sum_e)), _mm256_set1_ps(4.0f - 2.5f)),
+        _mm256_set1_ps(0.5f));
+    eC0 = v_sat(_mm256_add_ps(eC0, edginess));
+    eC1 = v_sat(_mm256_add_ps(eC1, edginess));
+    eC2 = v_sat(_mm256_add_ps(eC2, edginess));
+    eC3 = v_sat(_mm256_add_ps(eC3, edginess));
+    const __m256 diag = _mm256_set1_ps(0.85f * 0.5f);
+#define M _mm256_mul_ps
+#define A _mm256_add_ps
+    const __m256 wTL = M(diag, A(M(eC0, eL2), M(eC2, eT0)));
+    const __m256 wTR = M(diag, A(M(eC2, eT1), M(eC1, eR2)));
+    const __m256 wBL = M(diag, A(M(eC3, eB0), M(eC0, eL3)));
+    const __m256 wBR = M(diag, A(M(eC1, eR3), M(eC3, eB1)));
+    __m256 sum_w = _mm256_set1_ps(J->blur_amount);
+    __m256 sum = M(_mm256_loadu_ps(rc), sum_w);
+    const __m256 vals[8] = {_mm256_loadu_ps(rc - 1), _mm256_loadu_ps(rc + 1), _mm256_loadu_ps(rt),
+                            _mm256_loadu_ps(rb),     _mm256_loadu_ps(rt - 1), _mm256_loadu_ps(rt + 1),
+                            _mm256_loadu_ps(rb - 1), _mm256_loadu_ps(rb + 1)};
+    const __m256 ws[8] = {eC0, eC1, eC2, eC3, wTL, wTR, wBL, wBR};
+    for (int q = 0; q < 8; q++) {
+        sum = A(sum, M(ws[q], vals[q]));
+        sum_w = A(sum_w, ws[q]);
+    }
+#undef M
+#undef A
+    __m256 v = _mm256_div_ps(sum, sum_w);
+    if (J->pack == 1)
+        v = v_unorm8(v);
+    else if (J->pack == 2)
+        v = v_unorm8(_mm256_mul_ps(v, _mm256_set1_ps(AO_GTAO_OCCLUSION_TERM_SCALE)));
+    if (bg) {
+        const __m256 d = _mm256_loadu_ps(bg);
+        const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(d, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                        _mm256_cmp_ps(d, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+        v = _mm256_blendv_ps(_mm256_set1_ps(1.0f), v, fg);
+    }
+    _mm256_storeu_ps(o, v);
+}
+#endif
 
 static void denoise_row(void *user, int64_t task, int thread)
 {
@@ -801,16 +1681,29 @@ static void denoise_row(void *user, int64_t task, int thread)
     const int ex0 = J->ex0;
     float *o = obs_image_f32_row(J->dst, (int)task);
     const float diag = 0.85f * 0.5f;
+    const float *bgrow = J->skip_bg ? obs_image_f32_row(J->skip_bg, y) : NULL;
     for (int i = 0; i < J->dst->width; i++) {
         const int x = J->dx0 + i;
+#if GTAO_AVX2
+        if (J->avx2 && i + 8 <= J->dst->width && x >= 1 && x + 8 <= J->W - 1) {
+            denoise8_avx2(J, rc + (x - J->ax0), rt + (x - J->ax0), rb + (x - J->ax0), ec + (x - ex0), et + (x - ex0),
+                          eb + (x - ex0), bgrow ? bgrow + x : NULL, o + i);
+            i += 7;
+            continue;
+        }
+#endif
+        if (bgrow && is_background(bgrow[x])) {
+            o[i] = 1.0f;
+            continue;
+        }
         const int xl = x > 0 ? x - 1 : 0, xr = x < J->W - 1 ? x + 1 : J->W - 1;
         const int c = x - J->ax0, l = xl - J->ax0, r = xr - J->ax0;
         float eC[4], eL[4], eR[4], eT[4], eB[4];
-        ao_gtao_unpack_edges(ec[x - ex0], eC);
-        ao_gtao_unpack_edges(ec[xl - ex0], eL);
-        ao_gtao_unpack_edges(ec[xr - ex0], eR);
-        ao_gtao_unpack_edges(et[x - ex0], eT);
-        ao_gtao_unpack_edges(eb[x - ex0], eB);
+        unpack_edges_lut(ec[x - ex0], eC);
+        unpack_edges_lut(ec[xl - ex0], eL);
+        unpack_edges_lut(ec[xr - ex0], eR);
+        unpack_edges_lut(et[x - ex0], eT);
+        unpack_edges_lut(eb[x - ex0], eB);
         /* enforce symmetry with the neighbours' facing edges */
         eC[0] = eC[0] * eL[1];
         eC[1] = eC[1] * eR[0];
@@ -858,8 +1751,30 @@ static obs_status check_planes(obs_context *ctx, const ao_input *in, const obs_i
 
 static inline float clamp01(float v) { return v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f; }
 
-obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
-                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats)
+#if GTAO_AVX2
+/* step 4 of ao_gtao_compute for 8 pixels: background 1, else clamp01 (of the value * 1.5 when the
+ * flag says so) */
+AVX2_FN static void output8_avx2(const float *f, const float *r, const float *d, float *o, float *orw, int scale_f,
+                                 int scale_r)
+{
+    const __m256 dv = _mm256_loadu_ps(d), one = _mm256_set1_ps(1.0f), sc = _mm256_set1_ps(AO_GTAO_OCCLUSION_TERM_SCALE);
+    const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(dv, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(dv, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    __m256 fv = _mm256_loadu_ps(f);
+    if (scale_f)
+        fv = _mm256_mul_ps(fv, sc);
+    _mm256_storeu_ps(o, _mm256_blendv_ps(one, v_sat(fv), fg));
+    if (orw) {
+        __m256 rv = _mm256_loadu_ps(r);
+        if (scale_r)
+            rv = _mm256_mul_ps(rv, sc);
+        _mm256_storeu_ps(orw, _mm256_blendv_ps(one, v_sat(rv), fg));
+    }
+}
+#endif
+
+static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
+                               obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats, int reference)
 {
     obs_status st = ao_input_validate(ctx, in);
     if (st != OBS_STATUS_OK)
@@ -878,10 +1793,13 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     const ao_gtao_constants k = ao_gtao_constants_from_params(params, in);
     const int W = in->width, H = in->height;
 
+    const int gtao_avx2 = gtao_use_avx2();
+    (void)gtao_avx2;
+
     /* ---- 1. PrefilterDepths ---- */
     double t0 = obs_time_now();
     obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS];
-    st = ao_gtao_prefilter_depths(ctx, pool, in, &k, levels);
+    st = prefilter_depths(ctx, pool, in, &k, levels, !reference && gtao_avx2);
     if (st != OBS_STATUS_OK)
         return st;
     double t1 = obs_time_now();
@@ -894,11 +1812,14 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     obs_image_f32 vis = {0}, ping = {0}, pong = {0};
     unsigned char *edges = NULL;
     int64_t(*counts)[2] = NULL;
+    main_tables *tables = NULL;
     st = obs_image_f32_alloc(ctx, rw, rh, &vis);
     if (st == OBS_STATUS_OK) {
         edges = (unsigned char *)malloc((size_t)rw * (size_t)rh);
         counts = (int64_t(*)[2])calloc((size_t)rh, sizeof *counts);
-        if (!edges || !counts)
+        if (!reference)
+            tables = main_tables_create(&k);
+        if (!edges || !counts || (!reference && !tables))
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "gtao: out of memory");
     }
     if (st == OBS_STATUS_OK) {
@@ -921,6 +1842,8 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
         J.vis = &vis;
         J.edges = edges;
         J.counts = counts;
+        J.tables = tables;
+        J.avx2 = gtao_avx2;
         obs_pool_run(pool, rh, main_row, &J);
     }
     double t2 = obs_time_now();
@@ -960,6 +1883,9 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             D.ex0 = rx0;
             D.ey0 = ry0;
             D.ew = rw;
+            /* the reference runs the plain loop over every pixel (the test compares the two) */
+            D.skip_bg = last && !reference ? in->depth : NULL;
+            D.avx2 = !reference && gtao_avx2;
             obs_pool_run(pool, view.height, denoise_row, &D);
             src = dst;
             ax0 = dx0, ay0 = dy0;
@@ -978,7 +1904,14 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             const float *d = obs_image_f32_row(in->depth, gy) + in->x0;
             float *o = obs_image_f32_row(out, y);
             float *orw = out_raw ? obs_image_f32_row(out_raw, y) : NULL;
-            for (int x = 0; x < in->w; x++) {
+            int x = 0;
+#if GTAO_AVX2
+            if (!reference && gtao_avx2)
+                for (; x + 8 <= in->w; x += 8)
+                    output8_avx2(f + x, r + x, d + x, o + x, orw ? orw + x : NULL, k.gpu_packing && m == 0,
+                                 k.gpu_packing);
+#endif
+            for (; x < in->w; x++) {
                 const int bg = is_background(d[x]);
                 /* without the denoiser, the packed working term is in XeGTAO's scaled units */
                 o[x] = bg ? 1.0f : clamp01((k.gpu_packing && m == 0) ? f[x] * AO_GTAO_OCCLUSION_TERM_SCALE : f[x]);
@@ -997,6 +1930,7 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             stats->seconds_denoise = t3 - t2;
         }
     }
+    main_tables_free(tables);
     free(counts);
     free(edges);
     obs_image_f32_free(&pong);
@@ -1004,6 +1938,19 @@ obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     obs_image_f32_free(&vis);
     ao_gtao_mips_free(levels);
     return st;
+}
+
+obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
+                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats)
+{
+    return gtao_compute(ctx, pool, in, params, out, out_raw, stats, 0);
+}
+
+obs_status ao_gtao_compute_reference(obs_context *ctx, obs_pool *pool, const ao_input *in,
+                                     const ao_gtao_params *params, obs_image_f32 *out, obs_image_f32 *out_raw,
+                                     ao_gtao_stats *stats)
+{
+    return gtao_compute(ctx, pool, in, params, out, out_raw, stats, 1);
 }
 
 /* ================================================================================================
