@@ -243,13 +243,33 @@ typedef struct alchemy_job {
     const obs_image_f32 *const *n;  /* normal planes, full buffer, our row order */
     int rx0, ry0;                   /* rectangle origin, our row order */
     obs_image_f32 *out;
-    int64_t (*counts)[2];
+    int64_t (*counts)[2];           /* per task */
+    int tiles_x;                    /* tiles per row of tiles */
 } alchemy_job;
 
-static void alchemy_row(void *user, int64_t task, int thread)
+/* Tasks are AL_TILE x AL_TILE pixel tiles of the rectangle, in row-major order. Every pixel's value
+ * depends only on the inputs, so the split changes no bit; square tiles keep the union of their
+ * pixels' tap disks small ((32 + 2R)^2 depths instead of a whole row's (W + 2R) x 2R), which keeps
+ * large disks (R of hundreds of pixels, a plane near the camera) in L2. */
+#define AL_TILE 32
+
+typedef void (*alchemy_rect_fn)(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2]);
+
+static void alchemy_tile(const alchemy_job *J, int64_t task, alchemy_rect_fn rect)
 {
-    (void)thread;
-    const alchemy_job *J = (const alchemy_job *)user;
+    const int tx = (int)(task % J->tiles_x), ty = (int)(task / J->tiles_x);
+    const int i0 = tx * AL_TILE, i1 = i0 + AL_TILE < J->out->width ? i0 + AL_TILE : J->out->width;
+    const int r0 = ty * AL_TILE, r1 = r0 + AL_TILE < J->out->height ? r0 + AL_TILE : J->out->height;
+    int64_t cnt[2] = {0, 0};
+    rect(J, r0, r1, i0, i1, cnt);
+    J->counts[task][0] = cnt[0];
+    J->counts[task][1] = cnt[1];
+}
+
+/* The scalar pass over output row `task`, columns [i_begin, i_end); adds to cnt {background,
+ * degenerate normal}. */
+static void alchemy_span(const alchemy_job *J, int64_t task, int i_begin, int i_end, int64_t cnt[2])
+{
     const ao_alchemy_constants *k = J->k;
     const obs_image_f32 *D = J->in->depth;
     const int W = k->full_width, H = k->full_height;
@@ -259,7 +279,7 @@ static void alchemy_row(void *user, int64_t task, int thread)
                 *n2 = obs_image_f32_row(J->n[2], y);
     float *o = obs_image_f32_row(J->out, (int)task);
     int64_t n_bg = 0, n_degen = 0;
-    for (int i = 0; i < J->out->width; i++) {
+    for (int i = i_begin; i < i_end; i++) {
         const int x = J->rx0 + i, gx = x;
         /* ---- Centre: C = csPos(ssC, z_C), z_C = -depth; background gets visibility 1 ---- */
         const float d = drow[x];
@@ -313,10 +333,20 @@ static void alchemy_row(void *user, int64_t task, int thread)
         }
         o[i] = alchemy_finish(k, sum);
     }
-    if (J->counts) {
-        J->counts[task][0] = n_bg;
-        J->counts[task][1] = n_degen;
-    }
+    cnt[0] += n_bg;
+    cnt[1] += n_degen;
+}
+
+static void alchemy_rect_scalar(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
+{
+    for (int r = r0; r < r1; r++)
+        alchemy_span(J, r, i0, i1, cnt);
+}
+
+static void alchemy_tile_scalar(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    alchemy_tile((const alchemy_job *)user, task, alchemy_rect_scalar);
 }
 
 #if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
@@ -393,68 +423,77 @@ static inline AL_AVX2 __m256i trunc_to_int8(__m256 v)
  * the j-th surface pixel of the group, in row order), tap t for all lanes at once, in the scalar
  * order of operations. A skipped tap (background, range check) adds +0 to its lane, which leaves the
  * sum's bits unchanged (the sum starts at +0 and its terms are >= +0 or NaN, so it is never -0). */
-static AL_AVX2 void alchemy_row_avx2(void *user, int64_t task, int thread)
+static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
 {
-    (void)thread;
-    const alchemy_job *J = (const alchemy_job *)user;
     const ao_alchemy_constants *k = J->k;
     const obs_image_f32 *D = J->in->depth;
     const int W = k->full_width, H = k->full_height;
-    const int y = J->ry0 + (int)task, gy = H - 1 - y;
-    const float *drow = obs_image_f32_row(D, y);
-    const float *n0 = obs_image_f32_row(J->n[0], y), *n1 = obs_image_f32_row(J->n[1], y),
-                *n2 = obs_image_f32_row(J->n[2], y);
-    float *o = obs_image_f32_row(J->out, (int)task);
     int64_t n_bg = 0, n_degen = 0;
     float aC0[AL_CHUNK], aC1[AL_CHUNK], aC2[AL_CHUNK], aN0[AL_CHUNK], aN1[AL_CHUNK], aN2[AL_CHUNK],
         aSpin[AL_CHUNK], aDisk[AL_CHUNK], aZb[AL_CHUNK], aSum[AL_CHUNK];
-    int aGx[AL_CHUNK], aIdx[AL_CHUNK];
+    int aGx[AL_CHUNK], aGy[AL_CHUNK];
+    float *aOut[AL_CHUNK];
     const __m256 pi0 = _mm256_set1_ps(k->proj_info[0]), pi1 = _mm256_set1_ps(k->proj_info[1]),
                  pi2 = _mm256_set1_ps(k->proj_info[2]), pi3 = _mm256_set1_ps(k->proj_info[3]);
     const __m256 half = _mm256_set1_ps(0.5f), zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
     const __m256 r2 = _mm256_set1_ps(k->radius2), eps = _mm256_set1_ps(k->epsilon);
     const __m256 signbit = _mm256_set1_ps(-0.0f);
-    const __m256i vgy = _mm256_set1_epi32(gy), vWm1 = _mm256_set1_epi32(W - 1), vHm1 = _mm256_set1_epi32(H - 1),
+    const __m256i vWm1 = _mm256_set1_epi32(W - 1), vHm1 = _mm256_set1_epi32(H - 1),
                   izero = _mm256_setzero_si256(), vstride = _mm256_set1_epi32((int)D->stride);
     const int ortho = k->orthographic, range = k->range_check;
-    int i = 0;
-    while (i < J->out->width) {
-        /* ---- Prologue: the scalar row's centre, normal, rotation and disk, compacted ---- */
+    int row = r0, i = i0; /* the next pixel of the rectangle, row-major */
+    while (row < r1) {
+        /* ---- Prologue: the scalar row's centre, normal, rotation and disk, compacted over the
+         * rectangle's surface pixels in row-major order ---- */
         int m = 0;
-        for (; i < J->out->width && m < AL_CHUNK; i++) {
-            const int x = J->rx0 + i, gx = x;
-            const float d = drow[x];
-            if (!is_surface(d)) {
-                o[i] = 1.0f;
-                n_bg++;
-                continue;
+        while (row < r1 && m < AL_CHUNK) {
+            const int y = J->ry0 + row, gy = H - 1 - y;
+            const float *drow = obs_image_f32_row(D, y);
+            const float *n0 = obs_image_f32_row(J->n[0], y), *n1 = obs_image_f32_row(J->n[1], y),
+                        *n2 = obs_image_f32_row(J->n[2], y);
+            float *orow = obs_image_f32_row(J->out, row);
+            for (; i < i1 && m < AL_CHUNK; i++) {
+                const int x = J->rx0 + i, gx = x;
+                float *o = orow + i;
+                const float d = drow[x];
+                if (!is_surface(d)) {
+                    *o = 1.0f;
+                    n_bg++;
+                    continue;
+                }
+                const float zC = -d;
+                float C[3];
+                cs_pos(k, gx, gy, zC, C);
+                const float a = n0[x], b = n1[x], c = n2[x];
+                const float l2 = a * a + b * b + c * c;
+                if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
+                    *o = 1.0f;
+                    n_degen++;
+                    continue;
+                }
+                const float inv = 1.0f / sqrtf(l2);
+                aC0[m] = C[0], aC1[m] = C[1], aC2[m] = C[2];
+                aN0[m] = a * inv, aN1[m] = b * inv, aN2[m] = c * inv;
+                aSpin[m] = ao_sao_spin(gx, gy);
+                aDisk[m] = disk_radius(k, zC);
+                aZb[m] = zC * k->bias;
+                aGx[m] = gx;
+                aGy[m] = gy;
+                aOut[m] = o;
+                m++;
             }
-            const float zC = -d;
-            float C[3];
-            cs_pos(k, gx, gy, zC, C);
-            const float a = n0[x], b = n1[x], c = n2[x];
-            const float l2 = a * a + b * b + c * c;
-            if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
-                o[i] = 1.0f;
-                n_degen++;
-                continue;
+            if (i == i1) {
+                i = i0;
+                row++;
             }
-            const float inv = 1.0f / sqrtf(l2);
-            aC0[m] = C[0], aC1[m] = C[1], aC2[m] = C[2];
-            aN0[m] = a * inv, aN1[m] = b * inv, aN2[m] = c * inv;
-            aSpin[m] = ao_sao_spin(gx, gy);
-            aDisk[m] = disk_radius(k, zC);
-            aZb[m] = zC * k->bias;
-            aGx[m] = gx;
-            aIdx[m] = i;
-            m++;
         }
         /* pad the last group with copies of its last pixel (results discarded) */
         const int mp = (m + 7) & ~7;
         for (int j = m; j < mp; j++) {
             aC0[j] = aC0[m - 1], aC1[j] = aC1[m - 1], aC2[j] = aC2[m - 1];
             aN0[j] = aN0[m - 1], aN1[j] = aN1[m - 1], aN2[j] = aN2[m - 1];
-            aSpin[j] = aSpin[m - 1], aDisk[j] = aDisk[m - 1], aZb[j] = aZb[m - 1], aGx[j] = aGx[m - 1];
+            aSpin[j] = aSpin[m - 1], aDisk[j] = aDisk[m - 1], aZb[j] = aZb[m - 1];
+            aGx[j] = aGx[m - 1], aGy[j] = aGy[m - 1];
         }
         for (int g = 0; g < mp; g += 8) {
             const __m256 C0 = _mm256_loadu_ps(aC0 + g), C1 = _mm256_loadu_ps(aC1 + g), C2 = _mm256_loadu_ps(aC2 + g);
@@ -462,6 +501,7 @@ static AL_AVX2 void alchemy_row_avx2(void *user, int64_t task, int thread)
             const __m256 spin = _mm256_loadu_ps(aSpin + g), disk = _mm256_loadu_ps(aDisk + g);
             const __m256 zb = _mm256_loadu_ps(aZb + g);
             const __m256i gx = _mm256_loadu_si256((const __m256i *)(aGx + g));
+            const __m256i vgy = _mm256_loadu_si256((const __m256i *)(aGy + g));
             __m256 sum = zero;
             for (int t = 0; t < k->num_samples; t++) {
                 /* ---- tapLocation (tap()): alpha, angle, ssR, cos/sin, ivec2 ---- */
@@ -508,12 +548,15 @@ static AL_AVX2 void alchemy_row_avx2(void *user, int64_t task, int thread)
             _mm256_storeu_ps(aSum + g, sum);
         }
         for (int j = 0; j < m; j++)
-            o[aIdx[j]] = alchemy_finish(k, aSum[j]);
+            *aOut[j] = alchemy_finish(k, aSum[j]);
     }
-    if (J->counts) {
-        J->counts[task][0] = n_bg;
-        J->counts[task][1] = n_degen;
-    }
+    cnt[0] += n_bg;
+    cnt[1] += n_degen;
+}
+static void alchemy_tile_avx2(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    alchemy_tile((const alchemy_job *)user, task, alchemy_rect_avx2);
 }
 #undef AL_AVX2
 #endif
@@ -556,7 +599,7 @@ obs_status ao_alchemy_raw_isa(obs_context *ctx, obs_pool *pool, const ao_input *
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ao_alchemy_raw: constants out of range");
     if ((unsigned)isa >= AO_ALCHEMY_ISA_COUNT || !ao_alchemy_isa_available(isa))
         return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "ao_alchemy_raw: ISA %d not available here", (int)isa);
-    void (*row_fn)(void *, int64_t, int) = alchemy_row;
+    void (*tile_fn)(void *, int64_t, int) = alchemy_tile_scalar;
 #if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
     if (isa == AO_ALCHEMY_ISA_AUTO) {
         const char *env = getenv("OBS_ISA");
@@ -565,16 +608,18 @@ obs_status ao_alchemy_raw_isa(obs_context *ctx, obs_pool *pool, const ao_input *
     }
     /* the gather's 32-bit element index (H - 1 - cy) * stride + cx must fit: else the scalar row */
     if (isa == AO_ALCHEMY_ISA_AVX2 && (int64_t)in->depth->stride * in->height <= INT32_MAX)
-        row_fn = alchemy_row_avx2;
+        tile_fn = alchemy_tile_avx2;
 #endif
-    int64_t(*rc)[2] = (int64_t(*)[2])calloc((size_t)rect[3], sizeof *rc);
+    const int tiles_x = (rect[2] + AL_TILE - 1) / AL_TILE, tiles_y = (rect[3] + AL_TILE - 1) / AL_TILE;
+    const int64_t ntask = (int64_t)tiles_x * tiles_y;
+    int64_t(*rc)[2] = (int64_t(*)[2])calloc((size_t)ntask, sizeof *rc);
     if (!rc)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "alchemy: out of memory");
-    alchemy_job J = {k, in, normals, rect[0], rect[1], out, rc};
-    obs_pool_run(pool, rect[3], row_fn, &J);
+    alchemy_job J = {k, in, normals, rect[0], rect[1], out, rc, tiles_x};
+    obs_pool_run(pool, ntask, tile_fn, &J);
     if (counts) {
         counts[0] = counts[1] = 0;
-        for (int r = 0; r < rect[3]; r++) { /* fixed order: deterministic */
+        for (int64_t r = 0; r < ntask; r++) { /* fixed order: deterministic */
             counts[0] += rc[r][0];
             counts[1] += rc[r][1];
         }
