@@ -453,6 +453,18 @@ static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int 
                         *n2 = obs_image_f32_row(J->n[2], y);
             float *orow = obs_image_f32_row(J->out, row);
             for (; i < i1 && m < AL_CHUNK; i++) {
+                /* eight background pixels at once (visibility 1, as below) */
+                while (i + 8 <= i1) {
+                    const __m256 d8 = _mm256_loadu_ps(drow + J->rx0 + i);
+                    const __m256 s8 = _mm256_and_ps(_mm256_cmp_ps(d8, zero, _CMP_GT_OQ), _mm256_cmp_ps(d8, inf, _CMP_LT_OQ));
+                    if (_mm256_movemask_ps(s8))
+                        break;
+                    _mm256_storeu_ps(orow + i, _mm256_set1_ps(1.0f));
+                    n_bg += 8;
+                    i += 8;
+                }
+                if (i == i1)
+                    break;
                 const int x = J->rx0 + i, gx = x;
                 float *o = orow + i;
                 const float d = drow[x];
