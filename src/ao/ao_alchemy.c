@@ -16,6 +16,11 @@
  * Arithmetic is float32 in the estimator's order (the build uses -ffp-contract=off); cos/sin are
  * ao_i_cos_sin (correctly rounded), pow is (float)pow(double, double). docs/ao/alchemy.md lists every
  * difference from the paper and the ports.
+ *
+ * Two paths give the same bits (test alchemy_avx2_equals_scalar_bit_for_bit): the scalar one
+ * (alchemy_span, the reference, always compiled) and, in OBS_HAVE_AVX2 builds on AVX2 CPUs, the
+ * AVX2 one (alchemy_rect_avx2: lane j = the j-th surface pixel of a group of eight, in row-major
+ * order within a 32x32 tile; docs/ao/alchemy.md "Speed").
  */
 #include "ao.h"
 #include "ao_internal.h"
