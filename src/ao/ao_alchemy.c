@@ -421,12 +421,12 @@ static inline AL_AVX2 __m256i trunc_to_int8(__m256 v)
     return _mm256_andnot_si256(_mm256_castps_si256(nan), _mm256_cvttps_epi32(cl));
 }
 
-#define AL_CHUNK 64 /* surface pixels gathered per chunk of a row (a multiple of 8) */
+#define AL_CHUNK 64 /* surface pixels compacted per chunk of a rectangle (a multiple of 8) */
 
-/* The AVX2 row: the scalar row's per-pixel prologue (background, normal, spin, disk) compacts the
- * row's surface pixels into lanes; the taps then run eight surface pixels per vector (lane j =
- * the j-th surface pixel of the group, in row order), tap t for all lanes at once, in the scalar
- * order of operations. A skipped tap (background, range check) adds +0 to its lane, which leaves the
+/* The AVX2 pass over output rows [r0, r1), columns [i0, i1) (one tile): the scalar row's
+ * per-pixel prologue (background, normal, spin, disk) compacts the rectangle's surface pixels into
+ * lanes; the taps then run eight surface pixels per vector (lane j = the j-th surface pixel of the
+ * group, in row-major order), tap t for all lanes at once, in the scalar order of operations. A skipped tap (background, range check) adds +0 to its lane, which leaves the
  * sum's bits unchanged (the sum starts at +0 and its terms are >= +0 or NaN, so it is never -0). */
 static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
 {
