@@ -461,6 +461,162 @@ TEST(alchemy_hard_cases_stay_finite)
     obs_context_destroy(ctx);
 }
 
+/* ---- SIMD against scalar ---------------------------------------------------------------------- */
+
+/* The raw pass on ISA isa over the whole buffer. */
+static obs_status raw_on(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_alchemy_params *p,
+                         const obs_image_f32 *const nrm[3], ao_alchemy_isa isa, obs_image_f32 *out, int64_t counts[2])
+{
+    const ao_alchemy_constants k = ao_alchemy_constants_from_params(p, in);
+    const int rect[4] = {0, 0, in->width, in->height};
+    return ao_alchemy_raw_isa(ctx, pool, in, &k, nrm, rect, out, counts, isa);
+}
+
+TEST(alchemy_avx2_equals_scalar_bit_for_bit)
+{
+    /* The AVX2 pass promises the scalar pass's bits (ao.h, ao_alchemy_isa). A real scene (spheres on
+     * a plane, background around), 97 px wide so that rows end in partial vector groups, with
+     * NaN, +-inf, 0, negative, denormal, 1e-30 and 1e30 depths and zero / NaN / huge normals
+     * scattered over it; every preset, the range check off, tiny and huge radii, 1024 samples,
+     * orthographic planes; 1 and 2 threads. */
+    obs_context *ctx = obs_context_create();
+    if (!ao_alchemy_isa_available(AO_ALCHEMY_ISA_AVX2)) {
+        fprintf(stderr, "  (no AVX2 here: only the UNSUPPORTED_ISA answer is checked)\n");
+        obs_image_f32 o;
+        tu_synth sp;
+        CHECK_OK(tu_synth_plane(ctx, 8, 8, 8.0, obs_dv3(0, 0, 1), -2.0, OBS_PROJECTION_PERSPECTIVE, &sp), ctx);
+        CHECK_OK(obs_image_f32_alloc(ctx, 8, 8, &o), ctx);
+        ao_alchemy_params p = ao_alchemy_params_default();
+        const obs_image_f32 *nr[3] = {&sp.depth, &sp.depth, &sp.depth};
+        CHECK(raw_on(ctx, NULL, &sp.in, &p, nr, AO_ALCHEMY_ISA_AVX2, &o, NULL) == OBS_STATUS_UNSUPPORTED_ISA);
+        obs_image_f32_free(&o);
+        obs_image_f32_free(&sp.depth);
+        obs_context_destroy(ctx);
+        return;
+    }
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 97, 61, 0, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    obs_image_f32 bad, bn[3];
+    CHECK_OK(obs_image_f32_alloc(ctx, gb.width, gb.height, &bad), ctx);
+    for (int a = 0; a < 3; a++)
+        CHECK_OK(obs_image_f32_alloc(ctx, gb.width, gb.height, &bn[a]), ctx);
+    const float specials[] = {NAN, INFINITY, -INFINITY, 0.0f, -1.0f, 1e-40f, 1e-30f, 1e30f, 3e38f};
+    int nspecial = 0;
+    for (int y = 0; y < gb.height; y++)
+        for (int x = 0; x < gb.width; x++) {
+            const unsigned h = (unsigned)(x * 73856093u) ^ (unsigned)(y * 19349663u);
+            float d = obs_image_f32_row(&gb.depth, y)[x];
+            if (h % 11 == 0) {
+                d = specials[(h / 11) % 9];
+                nspecial++;
+            }
+            obs_image_f32_row(&bad, y)[x] = d;
+            for (int a = 0; a < 3; a++)
+                obs_image_f32_row(&bn[a], y)[x] = obs_image_f32_row(in.normal[a], y)[x];
+            if (h % 13 == 1)
+                obs_image_f32_row(&bn[0], y)[x] = obs_image_f32_row(&bn[1], y)[x] = obs_image_f32_row(&bn[2], y)[x] = 0.0f;
+            if (h % 17 == 2)
+                obs_image_f32_row(&bn[(h / 17) % 3], y)[x] = (h / 51) % 2 ? NAN : 1e20f;
+        }
+    CHECK(nspecial > 100);
+    ao_input bi = in;
+    bi.depth = &bad;
+    const obs_image_f32 *gn[3] = {in.normal[0], in.normal[1], in.normal[2]};
+    const obs_image_f32 *badn[3] = {&bn[0], &bn[1], &bn[2]};
+    obs_pool *pool2 = obs_pool_create(2);
+    const char *presets[] = {"default", "thesis", "port"};
+    int cases = 0;
+    for (int pi = 0; pi < 3; pi++)
+        for (int var = 0; var < 5; var++)
+            for (int scene = 0; scene < 2; scene++) {
+                ao_alchemy_params p;
+                CHECK(ao_alchemy_params_preset(presets[pi], &p));
+                if (var == 1)
+                    p.range_check = 0;
+                if (var == 2)
+                    p.radius = 1e-4f;
+                if (var == 3) {
+                    p.radius = 1e5f;
+                    p.range_check = pi != 1;
+                }
+                if (var == 4) {
+                    p.samples = pi == 0 ? AO_ALCHEMY_MAX_SAMPLES : 37;
+                    p.spiral_turns = pi == 2 ? 999999 : 3;
+                }
+                const ao_input *ip = scene ? &bi : &in;
+                const obs_image_f32 *const *np = scene ? badn : gn;
+                obs_image_f32 a, b, c;
+                CHECK_OK(obs_image_f32_alloc(ctx, in.width, in.height, &a), ctx);
+                CHECK_OK(obs_image_f32_alloc(ctx, in.width, in.height, &b), ctx);
+                CHECK_OK(obs_image_f32_alloc(ctx, in.width, in.height, &c), ctx);
+                int64_t ca[2], cb[2], cc[2];
+                CHECK_OK(raw_on(ctx, NULL, ip, &p, np, AO_ALCHEMY_ISA_SCALAR, &a, ca), ctx);
+                CHECK_OK(raw_on(ctx, NULL, ip, &p, np, AO_ALCHEMY_ISA_AVX2, &b, cb), ctx);
+                CHECK_OK(raw_on(ctx, pool2, ip, &p, np, AO_ALCHEMY_ISA_AVX2, &c, cc), ctx);
+                int same = ca[0] == cb[0] && ca[1] == cb[1] && ca[0] == cc[0] && ca[1] == cc[1];
+                for (int y = 0; y < a.height; y++)
+                    same &= !memcmp(obs_image_f32_row(&a, y), obs_image_f32_row(&b, y), sizeof(float) * (size_t)a.width) &&
+                            !memcmp(obs_image_f32_row(&a, y), obs_image_f32_row(&c, y), sizeof(float) * (size_t)a.width);
+                CHECK_MSG(same, "preset %s variant %d scene %d: AVX2 differs from scalar", presets[pi], var, scene);
+                obs_image_f32_free(&a);
+                obs_image_f32_free(&b);
+                obs_image_f32_free(&c);
+                cases++;
+            }
+    /* orthographic and perspective planes, tilted to the horizon, a wide field of view (f = 4 px:
+     * |csPos.xy| >> |z|), FLT_MAX depths scattered over them (so that v overflows to inf and
+     * inf * 0 makes v.n NaN, which maxf must pass on as the shader's max does), the normal constant
+     * with n.x = 0 exactly, the range check on and off */
+    for (int pr = 0; pr < 2; pr++)
+        for (int rc = 0; rc < 2; rc++) {
+            tu_synth sp;
+            CHECK_OK(tu_synth_plane(ctx, 45, 23, pr ? 0.5 : 4.0, obs_dv3(0, 0.9, 0.4358898944), -3.0,
+                                    pr ? OBS_PROJECTION_ORTHOGRAPHIC : OBS_PROJECTION_PERSPECTIVE, &sp),
+                     ctx);
+            for (int y = 0; y < 23; y++)
+                for (int x = 0; x < 45; x++)
+                    if ((x * 7 + y * 3) % 5 == 0)
+                        obs_image_f32_row(&sp.depth, y)[x] = (x + y) % 2 ? 3.4028235e38f : specials[(x + y) % 9];
+            ao_alchemy_params p = ao_alchemy_params_default();
+            p.range_check = rc;
+            obs_image_f32 rn[3], a, b;
+            const float nc[3] = {0.0f, 0.9f, 0.4358898944f};
+            for (int q = 0; q < 3; q++) {
+                CHECK_OK(obs_image_f32_alloc(ctx, 45, 23, &rn[q]), ctx);
+                for (int y = 0; y < 23; y++)
+                    for (int x = 0; x < 45; x++)
+                        obs_image_f32_row(&rn[q], y)[x] = nc[q];
+            }
+            const obs_image_f32 *rp[3] = {&rn[0], &rn[1], &rn[2]};
+            CHECK_OK(obs_image_f32_alloc(ctx, 45, 23, &a), ctx);
+            CHECK_OK(obs_image_f32_alloc(ctx, 45, 23, &b), ctx);
+            CHECK_OK(raw_on(ctx, NULL, &sp.in, &p, rp, AO_ALCHEMY_ISA_SCALAR, &a, NULL), ctx);
+            CHECK_OK(raw_on(ctx, NULL, &sp.in, &p, rp, AO_ALCHEMY_ISA_AVX2, &b, NULL), ctx);
+            int same = 1;
+            for (int y = 0; y < a.height; y++)
+                same &= !memcmp(obs_image_f32_row(&a, y), obs_image_f32_row(&b, y), sizeof(float) * (size_t)a.width);
+            CHECK_MSG(same, "plane, projection %d, range check %d: AVX2 differs from scalar", pr, rc);
+            for (int q = 0; q < 3; q++)
+                obs_image_f32_free(&rn[q]);
+            obs_image_f32_free(&a);
+            obs_image_f32_free(&b);
+            obs_image_f32_free(&sp.depth);
+        }
+    CHECK(cases == 30);
+    CHECK(ao_alchemy_isa_available(AO_ALCHEMY_ISA_SCALAR) && !ao_alchemy_isa_available(AO_ALCHEMY_ISA_COUNT));
+    obs_pool_destroy(pool2);
+    for (int a = 0; a < 3; a++)
+        obs_image_f32_free(&bn[a]);
+    obs_image_f32_free(&bad);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
 /* ---- params ------------------------------------------------------------------------------------ */
 
 TEST(alchemy_params_presets_and_validation)

@@ -693,6 +693,24 @@ obs_status ao_alchemy_raw(obs_context *ctx, obs_pool *pool, const ao_input *in, 
                           const obs_image_f32 *const normals[3], const int rect[4], obs_image_f32 *out,
                           int64_t counts[2]);
 
+/* The instruction set of the AO pass. Every ISA gives the same bits (the AVX2 path evaluates the
+ * scalar path's float and double operations, in the same order, eight pixels per vector; tested). */
+typedef enum ao_alchemy_isa {
+    AO_ALCHEMY_ISA_AUTO = 0,        /* AVX2 when the CPU and the build have it, unless OBS_ISA=scalar */
+    AO_ALCHEMY_ISA_SCALAR,          /* the reference path, always compiled */
+    AO_ALCHEMY_ISA_AVX2,            /* OBS_HAVE_AVX2 builds on AVX2 CPUs */
+    AO_ALCHEMY_ISA_COUNT
+} ao_alchemy_isa;
+
+/* 1 if isa can run here (AUTO and SCALAR always). */
+int ao_alchemy_isa_available(ao_alchemy_isa isa);
+
+/* ao_alchemy_raw on a chosen ISA (ao_alchemy_raw is AUTO). Returns as ao_alchemy_raw, and
+ * UNSUPPORTED_ISA where isa cannot run here. */
+obs_status ao_alchemy_raw_isa(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_alchemy_constants *k,
+                              const obs_image_f32 *const normals[3], const int rect[4], obs_image_f32 *out,
+                              int64_t counts[2], ao_alchemy_isa isa);
+
 /* The constant block as one JSON object (the uniforms a shader port needs). snprintf semantics. */
 int ao_alchemy_constants_to_json(const ao_alchemy_constants *k, char *buf, size_t size);
 

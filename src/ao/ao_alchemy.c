@@ -16,6 +16,11 @@
  * Arithmetic is float32 in the estimator's order (the build uses -ffp-contract=off); cos/sin are
  * ao_i_cos_sin (correctly rounded), pow is (float)pow(double, double). docs/ao/alchemy.md lists every
  * difference from the paper and the ports.
+ *
+ * Two paths give the same bits (test alchemy_avx2_equals_scalar_bit_for_bit): the scalar one
+ * (alchemy_span, the reference, always compiled) and, in OBS_HAVE_AVX2 builds on AVX2 CPUs, the
+ * AVX2 one (alchemy_rect_avx2: lane j = the j-th surface pixel of a group of eight, in row-major
+ * order within a 32x32 tile; docs/ao/alchemy.md "Speed").
  */
 #include "ao.h"
 #include "ao_internal.h"
@@ -229,19 +234,47 @@ void ao_alchemy_tap_offset(const ao_alchemy_constants *k, int x_gl, int y_gl, fl
     tap(k, ao_sao_spin(x_gl, y_gl), disk_px, i, &offset[0], &offset[1]);
 }
 
+/* ---- A = max(0, 1 - (2 sigma / s) sum)^k (shared by every ISA) ---- */
+static inline float alchemy_finish(const ao_alchemy_constants *k, float sum)
+{
+    const float base = maxf(0.0f, 1.0f - k->intensity_scale * sum);
+    float A = k->contrast == 1.0f ? base : (float)pow((double)base, (double)k->contrast);
+    return A >= 0.0f && A <= 1.0f ? A : (A > 1.0f ? 1.0f : 0.0f); /* NaN cannot occur; belt and braces */
+}
+
 typedef struct alchemy_job {
     const ao_alchemy_constants *k;
     const ao_input *in;
     const obs_image_f32 *const *n;  /* normal planes, full buffer, our row order */
     int rx0, ry0;                   /* rectangle origin, our row order */
     obs_image_f32 *out;
-    int64_t (*counts)[2];
+    int64_t (*counts)[2];           /* per task */
+    int tiles_x;                    /* tiles per row of tiles */
 } alchemy_job;
 
-static void alchemy_row(void *user, int64_t task, int thread)
+/* Tasks are AL_TILE x AL_TILE pixel tiles of the rectangle, in row-major order. Every pixel's value
+ * depends only on the inputs, so the split changes no bit; square tiles keep the union of their
+ * pixels' tap disks small ((32 + 2R)^2 depths instead of a whole row's (W + 2R) x 2R), which keeps
+ * large disks (R of hundreds of pixels, a plane near the camera) in L2. */
+#define AL_TILE 32
+
+typedef void (*alchemy_rect_fn)(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2]);
+
+static void alchemy_tile(const alchemy_job *J, int64_t task, alchemy_rect_fn rect)
 {
-    (void)thread;
-    const alchemy_job *J = (const alchemy_job *)user;
+    const int tx = (int)(task % J->tiles_x), ty = (int)(task / J->tiles_x);
+    const int i0 = tx * AL_TILE, i1 = i0 + AL_TILE < J->out->width ? i0 + AL_TILE : J->out->width;
+    const int r0 = ty * AL_TILE, r1 = r0 + AL_TILE < J->out->height ? r0 + AL_TILE : J->out->height;
+    int64_t cnt[2] = {0, 0};
+    rect(J, r0, r1, i0, i1, cnt);
+    J->counts[task][0] = cnt[0];
+    J->counts[task][1] = cnt[1];
+}
+
+/* The scalar pass over output row `task`, columns [i_begin, i_end); adds to cnt {background,
+ * degenerate normal}. */
+static void alchemy_span(const alchemy_job *J, int64_t task, int i_begin, int i_end, int64_t cnt[2])
+{
     const ao_alchemy_constants *k = J->k;
     const obs_image_f32 *D = J->in->depth;
     const int W = k->full_width, H = k->full_height;
@@ -251,7 +284,7 @@ static void alchemy_row(void *user, int64_t task, int thread)
                 *n2 = obs_image_f32_row(J->n[2], y);
     float *o = obs_image_f32_row(J->out, (int)task);
     int64_t n_bg = 0, n_degen = 0;
-    for (int i = 0; i < J->out->width; i++) {
+    for (int i = i_begin; i < i_end; i++) {
         const int x = J->rx0 + i, gx = x;
         /* ---- Centre: C = csPos(ssC, z_C), z_C = -depth; background gets visibility 1 ---- */
         const float d = drow[x];
@@ -303,20 +336,266 @@ static void alchemy_row(void *user, int64_t task, int thread)
                 continue;
             sum += maxf(0.0f, vn + zb) / (vv + k->epsilon);
         }
-        /* ---- A = max(0, 1 - (2 sigma / s) sum)^k ---- */
-        const float base = maxf(0.0f, 1.0f - k->intensity_scale * sum);
-        float A = k->contrast == 1.0f ? base : (float)pow((double)base, (double)k->contrast);
-        o[i] = A >= 0.0f && A <= 1.0f ? A : (A > 1.0f ? 1.0f : 0.0f); /* NaN cannot occur; belt and braces */
+        o[i] = alchemy_finish(k, sum);
     }
-    if (J->counts) {
-        J->counts[task][0] = n_bg;
-        J->counts[task][1] = n_degen;
+    cnt[0] += n_bg;
+    cnt[1] += n_degen;
+}
+
+static void alchemy_rect_scalar(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
+{
+    for (int r = r0; r < r1; r++)
+        alchemy_span(J, r, i0, i1, cnt);
+}
+
+static void alchemy_tile_scalar(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    alchemy_tile((const alchemy_job *)user, task, alchemy_rect_scalar);
+}
+
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#define AL_AVX2 __attribute__((target("avx2")))
+
+/* ao_i_cos_sin on four doubles: the same reduction and polynomials, operation for operation (no
+ * FMA: the build has -ffp-contract=off and these are separate mul/add intrinsics), so every lane
+ * equals the scalar result. Lanes with |x| >= 3e9 (or NaN) are flagged in *big for the caller to
+ * redo through ao_i_cos_sin (its libm branch). */
+static inline AL_AVX2 void cos_sin_pd(__m256d x, __m256d *c, __m256d *s, int *big)
+{
+    const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7FFFFFFFFFFFFFFFll));
+    *big = _mm256_movemask_pd(_mm256_cmp_pd(_mm256_and_pd(x, absmask), _mm256_set1_pd(3.0e9), _CMP_NLT_UQ));
+    const __m256d P1 = _mm256_set1_pd(0x1.921fbp+0), P2 = _mm256_set1_pd(0x1.5110bp-22),
+                  P3 = _mm256_set1_pd(0x1.18469800p-44), P4 = _mm256_set1_pd(0x1.3198a2e037073p-69);
+    const __m256d TWO_OVER_PI = _mm256_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = _mm256_set1_pd(0x1.8p52);
+    const __m256d kd = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);
+    __m256d r = _mm256_sub_pd(x, _mm256_mul_pd(kd, P1));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P2));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P3));
+    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P4));
+    const __m256d z = _mm256_mul_pd(r, r);
+#define AL_C(v) _mm256_set1_pd(v)
+#define AL_MA(a, b, cst) _mm256_add_pd(AL_C(cst), _mm256_mul_pd(a, b)) /* cst + a * b */
+    /* sn = r + r * z * (-1/6 + z * (1/120 + ... z * (-1/19!))) */
+    __m256d ps = AL_C(-1.0 / 121645100408832000.0);
+    ps = AL_MA(z, ps, 1.0 / 355687428096000.0);
+    ps = AL_MA(z, ps, -1.0 / 1307674368000.0);
+    ps = AL_MA(z, ps, 1.0 / 6227020800.0);
+    ps = AL_MA(z, ps, -1.0 / 39916800.0);
+    ps = AL_MA(z, ps, 1.0 / 362880.0);
+    ps = AL_MA(z, ps, -1.0 / 5040.0);
+    ps = AL_MA(z, ps, 1.0 / 120.0);
+    ps = AL_MA(z, ps, -1.0 / 6.0);
+    const __m256d sn = _mm256_add_pd(r, _mm256_mul_pd(_mm256_mul_pd(r, z), ps));
+    /* cs = 1 - 0.5 z + z z (1/24 + z * (-1/720 + ... z * (1/20!))) */
+    __m256d pc = AL_C(1.0 / 2432902008176640000.0);
+    pc = AL_MA(z, pc, -1.0 / 6402373705728000.0);
+    pc = AL_MA(z, pc, 1.0 / 20922789888000.0);
+    pc = AL_MA(z, pc, -1.0 / 87178291200.0);
+    pc = AL_MA(z, pc, 1.0 / 479001600.0);
+    pc = AL_MA(z, pc, -1.0 / 3628800.0);
+    pc = AL_MA(z, pc, 1.0 / 40320.0);
+    pc = AL_MA(z, pc, -1.0 / 720.0);
+    pc = AL_MA(z, pc, 1.0 / 24.0);
+    const __m256d cs = _mm256_add_pd(_mm256_sub_pd(AL_C(1.0), _mm256_mul_pd(AL_C(0.5), z)),
+                                     _mm256_mul_pd(_mm256_mul_pd(z, z), pc));
+#undef AL_MA
+#undef AL_C
+    /* quadrant k mod 4 (|k| < 2^31 here): 0 (cs, sn), 1 (-sn, cs), 2 (-cs, -sn), 3 (sn, -cs) */
+    const __m256i q = _mm256_cvtepi32_epi64(_mm256_cvtpd_epi32(kd));
+    const __m256i one = _mm256_set1_epi64x(1), two = _mm256_set1_epi64x(2);
+    const __m256d swap = _mm256_castsi256_pd(_mm256_cmpeq_epi64(_mm256_and_si256(q, one), one));
+    const __m256d cneg = _mm256_castsi256_pd(
+        _mm256_slli_epi64(_mm256_and_si256(_mm256_add_epi64(q, one), two), 62)); /* sign bit if q = 1, 2 */
+    const __m256d sneg = _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_and_si256(q, two), 62)); /* q = 2, 3 */
+    *c = _mm256_xor_pd(_mm256_blendv_pd(cs, sn, swap), cneg);
+    *s = _mm256_xor_pd(_mm256_blendv_pd(sn, cs, swap), sneg);
+}
+
+/* trunc_to_int on eight floats: NaN -> 0, clamp to +-2^30, truncate */
+static inline AL_AVX2 __m256i trunc_to_int8(__m256 v)
+{
+    const __m256 nan = _mm256_cmp_ps(v, v, _CMP_UNORD_Q);
+    const __m256 cl = _mm256_min_ps(_mm256_max_ps(v, _mm256_set1_ps(-1073741824.0f)), _mm256_set1_ps(1073741824.0f));
+    return _mm256_andnot_si256(_mm256_castps_si256(nan), _mm256_cvttps_epi32(cl));
+}
+
+#define AL_CHUNK 64 /* surface pixels compacted per chunk of a rectangle (a multiple of 8) */
+
+/* The AVX2 pass over output rows [r0, r1), columns [i0, i1) (one tile): the scalar row's
+ * per-pixel prologue (background, normal, spin, disk) compacts the rectangle's surface pixels into
+ * lanes; the taps then run eight surface pixels per vector (lane j = the j-th surface pixel of the
+ * group, in row-major order), tap t for all lanes at once, in the scalar order of operations. A skipped tap (background, range check) adds +0 to its lane, which leaves the
+ * sum's bits unchanged (the sum starts at +0 and its terms are >= +0 or NaN, so it is never -0). */
+static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
+{
+    const ao_alchemy_constants *k = J->k;
+    const obs_image_f32 *D = J->in->depth;
+    const int W = k->full_width, H = k->full_height;
+    int64_t n_bg = 0, n_degen = 0;
+    float aC0[AL_CHUNK], aC1[AL_CHUNK], aC2[AL_CHUNK], aN0[AL_CHUNK], aN1[AL_CHUNK], aN2[AL_CHUNK],
+        aSpin[AL_CHUNK], aDisk[AL_CHUNK], aZb[AL_CHUNK], aSum[AL_CHUNK];
+    int aGx[AL_CHUNK], aGy[AL_CHUNK];
+    float *aOut[AL_CHUNK];
+    const __m256 pi0 = _mm256_set1_ps(k->proj_info[0]), pi1 = _mm256_set1_ps(k->proj_info[1]),
+                 pi2 = _mm256_set1_ps(k->proj_info[2]), pi3 = _mm256_set1_ps(k->proj_info[3]);
+    const __m256 half = _mm256_set1_ps(0.5f), zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
+    const __m256 r2 = _mm256_set1_ps(k->radius2), eps = _mm256_set1_ps(k->epsilon);
+    const __m256 signbit = _mm256_set1_ps(-0.0f);
+    const __m256i vWm1 = _mm256_set1_epi32(W - 1), vHm1 = _mm256_set1_epi32(H - 1),
+                  izero = _mm256_setzero_si256(), vstride = _mm256_set1_epi32((int)D->stride);
+    const int ortho = k->orthographic, range = k->range_check;
+    int row = r0, i = i0; /* the next pixel of the rectangle, row-major */
+    while (row < r1) {
+        /* ---- Prologue: the scalar row's centre, normal, rotation and disk, compacted over the
+         * rectangle's surface pixels in row-major order ---- */
+        int m = 0;
+        while (row < r1 && m < AL_CHUNK) {
+            const int y = J->ry0 + row, gy = H - 1 - y;
+            const float *drow = obs_image_f32_row(D, y);
+            const float *n0 = obs_image_f32_row(J->n[0], y), *n1 = obs_image_f32_row(J->n[1], y),
+                        *n2 = obs_image_f32_row(J->n[2], y);
+            float *orow = obs_image_f32_row(J->out, row);
+            for (; i < i1 && m < AL_CHUNK; i++) {
+                /* eight background pixels at once (visibility 1, as below) */
+                while (i + 8 <= i1) {
+                    const __m256 d8 = _mm256_loadu_ps(drow + J->rx0 + i);
+                    const __m256 s8 = _mm256_and_ps(_mm256_cmp_ps(d8, zero, _CMP_GT_OQ), _mm256_cmp_ps(d8, inf, _CMP_LT_OQ));
+                    if (_mm256_movemask_ps(s8))
+                        break;
+                    _mm256_storeu_ps(orow + i, _mm256_set1_ps(1.0f));
+                    n_bg += 8;
+                    i += 8;
+                }
+                if (i == i1)
+                    break;
+                const int x = J->rx0 + i, gx = x;
+                float *o = orow + i;
+                const float d = drow[x];
+                if (!is_surface(d)) {
+                    *o = 1.0f;
+                    n_bg++;
+                    continue;
+                }
+                const float zC = -d;
+                float C[3];
+                cs_pos(k, gx, gy, zC, C);
+                const float a = n0[x], b = n1[x], c = n2[x];
+                const float l2 = a * a + b * b + c * c;
+                if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
+                    *o = 1.0f;
+                    n_degen++;
+                    continue;
+                }
+                const float inv = 1.0f / sqrtf(l2);
+                aC0[m] = C[0], aC1[m] = C[1], aC2[m] = C[2];
+                aN0[m] = a * inv, aN1[m] = b * inv, aN2[m] = c * inv;
+                aSpin[m] = ao_sao_spin(gx, gy);
+                aDisk[m] = disk_radius(k, zC);
+                aZb[m] = zC * k->bias;
+                aGx[m] = gx;
+                aGy[m] = gy;
+                aOut[m] = o;
+                m++;
+            }
+            if (i == i1) {
+                i = i0;
+                row++;
+            }
+        }
+        /* pad the last group with copies of its last pixel (results discarded) */
+        const int mp = (m + 7) & ~7;
+        for (int j = m; j < mp; j++) {
+            aC0[j] = aC0[m - 1], aC1[j] = aC1[m - 1], aC2[j] = aC2[m - 1];
+            aN0[j] = aN0[m - 1], aN1[j] = aN1[m - 1], aN2[j] = aN2[m - 1];
+            aSpin[j] = aSpin[m - 1], aDisk[j] = aDisk[m - 1], aZb[j] = aZb[m - 1];
+            aGx[j] = aGx[m - 1], aGy[j] = aGy[m - 1];
+        }
+        for (int g = 0; g < mp; g += 8) {
+            const __m256 C0 = _mm256_loadu_ps(aC0 + g), C1 = _mm256_loadu_ps(aC1 + g), C2 = _mm256_loadu_ps(aC2 + g);
+            const __m256 N0 = _mm256_loadu_ps(aN0 + g), N1 = _mm256_loadu_ps(aN1 + g), N2 = _mm256_loadu_ps(aN2 + g);
+            const __m256 spin = _mm256_loadu_ps(aSpin + g), disk = _mm256_loadu_ps(aDisk + g);
+            const __m256 zb = _mm256_loadu_ps(aZb + g);
+            const __m256i gx = _mm256_loadu_si256((const __m256i *)(aGx + g));
+            const __m256i vgy = _mm256_loadu_si256((const __m256i *)(aGy + g));
+            __m256 sum = zero;
+            for (int t = 0; t < k->num_samples; t++) {
+                /* ---- tapLocation (tap()): alpha, angle, ssR, cos/sin, ivec2 ---- */
+                const float alpha = ((float)t + 0.5f) * k->inv_num_samples;
+                const __m256 angle = _mm256_add_ps(_mm256_set1_ps(alpha * k->turns_angle), spin);
+                const __m256 ssR = _mm256_mul_ps(_mm256_set1_ps(alpha), disk);
+                __m256d clo, slo, chi, shi;
+                int big_lo, big_hi;
+                cos_sin_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(angle)), &clo, &slo, &big_lo);
+                cos_sin_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(angle, 1)), &chi, &shi, &big_hi);
+                __m256 cs = _mm256_set_m128(_mm256_cvtpd_ps(chi), _mm256_cvtpd_ps(clo));
+                __m256 sn = _mm256_set_m128(_mm256_cvtpd_ps(shi), _mm256_cvtpd_ps(slo));
+                if (big_lo | big_hi) { /* not reached by these angles (|spin| <= 2^31); kept exact */
+                    float la[8], lc[8], ls[8];
+                    _mm256_storeu_ps(la, angle), _mm256_storeu_ps(lc, cs), _mm256_storeu_ps(ls, sn);
+                    for (int j = 0; j < 8; j++)
+                        if (((big_lo | big_hi << 4) >> j) & 1)
+                            ao_i_cos_sin(la[j], &lc[j], &ls[j]);
+                    cs = _mm256_loadu_ps(lc), sn = _mm256_loadu_ps(ls);
+                }
+                const __m256i ox = trunc_to_int8(_mm256_mul_ps(ssR, cs)), oy = trunc_to_int8(_mm256_mul_ps(ssR, sn));
+                /* ---- CLAMP_TO_EDGE texel and its depth ---- */
+                const __m256i cx = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(gx, ox), izero), vWm1);
+                const __m256i cy = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(vgy, oy), izero), vHm1);
+                const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(vHm1, cy), vstride), cx);
+                const __m256 dq = _mm256_i32gather_ps(D->data, idx, 4);
+                __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dq, zero, _CMP_GT_OQ), _mm256_cmp_ps(dq, inf, _CMP_LT_OQ));
+                /* ---- Q = csPos(texel, -dq); v = Q - C ---- */
+                const __m256 z = _mm256_xor_ps(dq, signbit);
+                const __m256 ax = _mm256_add_ps(_mm256_mul_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cx), half), pi0), pi2);
+                const __m256 ay = _mm256_add_ps(_mm256_mul_ps(_mm256_add_ps(_mm256_cvtepi32_ps(cy), half), pi1), pi3);
+                const __m256 Q0 = ortho ? ax : _mm256_mul_ps(ax, z), Q1 = ortho ? ay : _mm256_mul_ps(ay, z);
+                const __m256 v0 = _mm256_sub_ps(Q0, C0), v1 = _mm256_sub_ps(Q1, C1), v2 = _mm256_sub_ps(z, C2);
+                const __m256 vv = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, v0), _mm256_mul_ps(v1, v1)),
+                                                _mm256_mul_ps(v2, v2));
+                const __m256 vn = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, N0), _mm256_mul_ps(v1, N1)),
+                                                _mm256_mul_ps(v2, N2));
+                if (range)
+                    ok = _mm256_and_ps(ok, _mm256_cmp_ps(vv, r2, _CMP_LT_OQ));
+                /* maxf(0, x) = 0 > x ? 0 : x is MAXPS(0, x) (x NaN -> x) */
+                const __m256 term = _mm256_div_ps(_mm256_max_ps(zero, _mm256_add_ps(vn, zb)), _mm256_add_ps(vv, eps));
+                sum = _mm256_add_ps(sum, _mm256_and_ps(ok, term));
+            }
+            _mm256_storeu_ps(aSum + g, sum);
+        }
+        for (int j = 0; j < m; j++)
+            *aOut[j] = alchemy_finish(k, aSum[j]);
+    }
+    cnt[0] += n_bg;
+    cnt[1] += n_degen;
+}
+static void alchemy_tile_avx2(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    alchemy_tile((const alchemy_job *)user, task, alchemy_rect_avx2);
+}
+#undef AL_AVX2
+#endif
+
+int ao_alchemy_isa_available(ao_alchemy_isa isa)
+{
+    switch (isa) {
+    case AO_ALCHEMY_ISA_AUTO:
+    case AO_ALCHEMY_ISA_SCALAR: return 1;
+    case AO_ALCHEMY_ISA_AVX2:
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+        return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+        return 0;
+#endif
+    default: return 0;
     }
 }
 
-obs_status ao_alchemy_raw(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_alchemy_constants *k,
-                          const obs_image_f32 *const normals[3], const int rect[4], obs_image_f32 *out,
-                          int64_t counts[2])
+obs_status ao_alchemy_raw_isa(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_alchemy_constants *k,
+                              const obs_image_f32 *const normals[3], const int rect[4], obs_image_f32 *out,
+                              int64_t counts[2], ao_alchemy_isa isa)
 {
     if (!in || !k || !normals || !normals[0] || !normals[1] || !normals[2] || !rect || !out || !out->data)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ao_alchemy_raw: NULL argument");
@@ -335,20 +614,42 @@ obs_status ao_alchemy_raw(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     if (k->num_samples < 1 || k->num_samples > AO_ALCHEMY_MAX_SAMPLES || !isfinite(k->intensity_scale) ||
         !(k->proj_scale > 0.0f) || !isfinite(k->proj_scale) || !(k->epsilon > 0.0f) || !(k->contrast > 0.0f))
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ao_alchemy_raw: constants out of range");
-    int64_t(*rc)[2] = (int64_t(*)[2])calloc((size_t)rect[3], sizeof *rc);
+    if ((unsigned)isa >= AO_ALCHEMY_ISA_COUNT || !ao_alchemy_isa_available(isa))
+        return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "ao_alchemy_raw: ISA %d not available here", (int)isa);
+    void (*tile_fn)(void *, int64_t, int) = alchemy_tile_scalar;
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+    if (isa == AO_ALCHEMY_ISA_AUTO) {
+        const char *env = getenv("OBS_ISA");
+        isa = (env && !strcmp(env, "scalar")) || !ao_alchemy_isa_available(AO_ALCHEMY_ISA_AVX2) ? AO_ALCHEMY_ISA_SCALAR
+                                                                                                 : AO_ALCHEMY_ISA_AVX2;
+    }
+    /* the gather's 32-bit element index (H - 1 - cy) * stride + cx must fit: else the scalar row */
+    if (isa == AO_ALCHEMY_ISA_AVX2 && (int64_t)in->depth->stride * in->height <= INT32_MAX)
+        tile_fn = alchemy_tile_avx2;
+#endif
+    const int tiles_x = (rect[2] + AL_TILE - 1) / AL_TILE, tiles_y = (rect[3] + AL_TILE - 1) / AL_TILE;
+    const int64_t ntask = (int64_t)tiles_x * tiles_y;
+    int64_t(*rc)[2] = (int64_t(*)[2])calloc((size_t)ntask, sizeof *rc);
     if (!rc)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "alchemy: out of memory");
-    alchemy_job J = {k, in, normals, rect[0], rect[1], out, rc};
-    obs_pool_run(pool, rect[3], alchemy_row, &J);
+    alchemy_job J = {k, in, normals, rect[0], rect[1], out, rc, tiles_x};
+    obs_pool_run(pool, ntask, tile_fn, &J);
     if (counts) {
         counts[0] = counts[1] = 0;
-        for (int r = 0; r < rect[3]; r++) { /* fixed order: deterministic */
+        for (int64_t r = 0; r < ntask; r++) { /* fixed order: deterministic */
             counts[0] += rc[r][0];
             counts[1] += rc[r][1];
         }
     }
     free(rc);
     return OBS_STATUS_OK;
+}
+
+obs_status ao_alchemy_raw(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_alchemy_constants *k,
+                          const obs_image_f32 *const normals[3], const int rect[4], obs_image_f32 *out,
+                          int64_t counts[2])
+{
+    return ao_alchemy_raw_isa(ctx, pool, in, k, normals, rect, out, counts, AO_ALCHEMY_ISA_AUTO);
 }
 
 /* ================================================================================================

@@ -228,31 +228,46 @@ static obs_status level_ao(obs_context *ctx, obs_pool *pool, const ao_input *li,
  * Upsampling and the blend
  * ============================================================================================== */
 
+/* One axis of texture(tex, vUV) with GL_LINEAR and CLAMP_TO_EDGE on an n-texel level axis, for the
+ * full buffer's fragment centre g of N: texel coordinate u = (g + 0.5) / N * n - 0.5, the two texels
+ * around it (clamped) and the weight of the second. Columns are tabulated once per call and rows
+ * once per row: the same float operations as per pixel, so the same bits. */
+typedef struct lin_tap {
+    int i0, i1;
+    float a;
+} lin_tap;
+
+static lin_tap lin_axis(int g, int N, int n)
+{
+    const float u = ((float)g + 0.5f) / (float)N * (float)n - 0.5f;
+    const float fu = floorf(u);
+    lin_tap t;
+    t.a = u - fu;
+    t.i0 = (int)fu;
+    t.i1 = t.i0 + 1;
+    t.i0 = t.i0 < 0 ? 0 : t.i0 > n - 1 ? n - 1 : t.i0;
+    t.i1 = t.i1 < 0 ? 0 : t.i1 > n - 1 ? n - 1 : t.i1;
+    return t;
+}
+
 typedef struct blend_job {
     const ao_input *in;
     const obs_image_f32 *lev[AO_MSSAO_SEED_LEVELS]; /* level l's plane: level 0 over rect0, others whole */
     int rect0[4];
     float I[AO_MSSAO_SEED_LEVELS];
     obs_image_f32 *out;
+    const lin_tap *col[AO_MSSAO_SEED_LEVELS];       /* levels 1..: lin_axis of window column i */
 } blend_job;
 
 /* texture(tex, vUV) with GL_LINEAR and CLAMP_TO_EDGE on a w x h level (our row order), vUV the full
- * buffer's fragment centre: texel coordinate u = vUV.x * w - 0.5 (GL coordinates). */
-static float sample_linear(const obs_image_f32 *T, int W, int H, int gx, int gy)
+ * buffer's fragment centre: bilinear of the four texels lin_axis picks in x (cu) and y (cv, GL). */
+static inline float sample_linear(const obs_image_f32 *T, lin_tap cu, lin_tap cv)
 {
-    const int w = T->width, h = T->height;
-    const float u = ((float)gx + 0.5f) / (float)W * (float)w - 0.5f;
-    const float v = ((float)gy + 0.5f) / (float)H * (float)h - 0.5f;
-    const float fu = floorf(u), fv = floorf(v);
-    const float au = u - fu, av = v - fv;
-    int i0 = (int)fu, j0 = (int)fv, i1 = i0 + 1, j1 = j0 + 1;
-    i0 = i0 < 0 ? 0 : i0 > w - 1 ? w - 1 : i0;
-    i1 = i1 < 0 ? 0 : i1 > w - 1 ? w - 1 : i1;
-    j0 = j0 < 0 ? 0 : j0 > h - 1 ? h - 1 : j0;
-    j1 = j1 < 0 ? 0 : j1 > h - 1 ? h - 1 : j1;
-    const float *r0 = obs_image_f32_row(T, h - 1 - j0), *r1 = obs_image_f32_row(T, h - 1 - j1);
-    const float a = r0[i0] * (1.0f - au) + r0[i1] * au;
-    const float b = r1[i0] * (1.0f - au) + r1[i1] * au;
+    const int h = T->height;
+    const float au = cu.a, av = cv.a;
+    const float *r0 = obs_image_f32_row(T, h - 1 - cv.i0), *r1 = obs_image_f32_row(T, h - 1 - cv.i1);
+    const float a = r0[cu.i0] * (1.0f - au) + r0[cu.i1] * au;
+    const float b = r1[cu.i0] * (1.0f - au) + r1[cu.i1] * au;
     return a * (1.0f - av) + b * av;
 }
 
@@ -265,8 +280,10 @@ static void blend_row(void *user, int64_t task, int thread)
     float *o = obs_image_f32_row(J->out, (int)task);
     const float *l0 = obs_image_f32_row(J->lev[0], y - J->rect0[1]) + (in->x0 - J->rect0[0]);
     const float *drow = obs_image_f32_row(in->depth, y) + in->x0;
+    lin_tap cv[AO_MSSAO_SEED_LEVELS];
+    for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
+        cv[l] = lin_axis(gy, in->height, J->lev[l]->height);
     for (int i = 0; i < in->w; i++) {
-        const int gx = in->x0 + i;
         if (!(drow[i] > 0.0f && drow[i] < INFINITY)) { /* background keeps 1 (documented) */
             o[i] = 1.0f;
             continue;
@@ -274,7 +291,7 @@ static void blend_row(void *user, int64_t task, int thread)
         /* level 0 is at the full resolution: texel centres coincide, GL_LINEAR returns the texel */
         float occ = J->I[0] * (1.0f - l0[i]);
         for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
-            occ += J->I[l] * (1.0f - sample_linear(J->lev[l], in->width, in->height, gx, gy));
+            occ += J->I[l] * (1.0f - sample_linear(J->lev[l], J->col[l][i], cv[l]));
         /* V = 1 - min(1, sum_l I_l (1 - A_l)) */
         const float V = 1.0f - occ;
         o[i] = V > 0.0f ? (V < 1.0f ? V : 1.0f) : 0.0f;
@@ -340,6 +357,16 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
         J.in = in;
         memcpy(J.rect0, rect0, sizeof rect0);
         memcpy(J.I, params->level_intensity, sizeof J.I);
+        /* the column half of every level's bilinear lookup, once per call (same bits as per pixel) */
+        lin_tap *cols = (lin_tap *)malloc(sizeof(lin_tap) * (size_t)in->w * (AO_MSSAO_SEED_LEVELS - 1));
+        if (!cols)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao-seed: out of memory");
+        for (int l = 1; l < AO_MSSAO_SEED_LEVELS && cols; l++) {
+            lin_tap *c = cols + (size_t)(l - 1) * in->w;
+            for (int i = 0; i < in->w; i++)
+                c[i] = lin_axis(in->x0 + i, in->width, raw[l].width);
+            J.col[l] = c;
+        }
         for (int pass = 0; pass < 2; pass++) {
             obs_image_f32 *dst = pass == 0 ? out : out_raw;
             if (!dst)
@@ -347,8 +374,10 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
             for (int l = 0; l < AO_MSSAO_SEED_LEVELS; l++)
                 J.lev[l] = pass == 0 && ap->blur ? &blr[l] : &raw[l];
             J.out = dst;
-            obs_pool_run(pool, in->h, blend_row, &J);
+            if (cols)
+                obs_pool_run(pool, in->h, blend_row, &J);
         }
+        free(cols);
     }
     if (stats && st == OBS_STATUS_OK) {
         stats->pixels_computed = computed;
