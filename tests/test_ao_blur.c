@@ -184,3 +184,48 @@ TEST(ao_blur_reach_grows_the_window_and_clips_to_the_buffer)
     ao_blur_reach(&in, -3, r);
     CHECK(r[0] == 4 && r[1] == 20 && r[2] == 90 && r[3] == 10);
 }
+
+/* The blur's loops run over whole rows (vectorised across x); every pixel must still get exactly the
+ * shader's per-pixel sum, bit for bit: computed here pixel by pixel, in the shader's order. */
+TEST(ao_gauss21_equals_the_per_pixel_shader_sum_bit_for_bit)
+{
+    obs_context *ctx = obs_context_create();
+    const int sizes[3][2] = {{1, 1}, {23, 5}, {131, 77}};
+    for (int s = 0; s < 3; s++) {
+        const int W = sizes[s][0], H = sizes[s][1];
+        obs_image_f32 a = {0}, b = {0}, h = {0};
+        CHECK_OK(obs_image_f32_alloc(ctx, W, H, &a), ctx);
+        CHECK_OK(obs_image_f32_alloc(ctx, W, H, &b), ctx);
+        CHECK_OK(obs_image_f32_alloc(ctx, W, H, &h), ctx);
+        uint32_t seed = 99u + (uint32_t)s;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                obs_image_f32_row(&a, y)[x] = lcg01(&seed) * (x % 3 ? 1.0f : 1e-3f);
+        obs_pool *pool = obs_pool_create(2);
+        CHECK_OK(ao_blur_gaussian21(ctx, pool, &a, &b), ctx);
+        obs_pool_destroy(pool);
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                float c = 0.0f;
+                for (int i = -10; i <= 10; i++) {
+                    int xx = x + i < 0 ? 0 : x + i >= W ? W - 1 : x + i;
+                    c += ao_gauss21_kernel[10 - i] * obs_image_f32_row(&a, y)[xx];
+                }
+                obs_image_f32_row(&h, y)[x] = c;
+            }
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                float c = 0.0f;
+                for (int i = -10; i <= 10; i++) {
+                    int yy = y - i < 0 ? 0 : y - i >= H ? H - 1 : y - i;
+                    c += ao_gauss21_kernel[10 - i] * obs_image_f32_row(&h, yy)[x];
+                }
+                CHECK_MSG(c == obs_image_f32_row(&b, y)[x], "%dx%d: (%d,%d) = %.9g, per-pixel sum %.9g", W, H, x, y,
+                          (double)obs_image_f32_row(&b, y)[x], (double)c);
+            }
+        obs_image_f32_free(&a);
+        obs_image_f32_free(&b);
+        obs_image_f32_free(&h);
+    }
+    obs_context_destroy(ctx);
+}

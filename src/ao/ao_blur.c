@@ -24,41 +24,71 @@ typedef struct gauss_job {
 
 static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
 
-/* One output row. The sum runs i = -10..10 in the shader's order, color += kernel[10 - i] * tap,
- * starting from 0 (Figura 31). Horizontal taps are at x + i. Vertical taps are at GL row
- * y_gl + i, which is our row y - i (ao.h: rows run downwards here, upwards in GL), so the same
- * float additions happen in the same order as on the GPU. Taps outside clamp to the edge
- * (GL_CLAMP_TO_EDGE). Offsets land on texel centres, where GL_LINEAR and GL_NEAREST agree. */
-static void gauss_row(void *user, int64_t task, int thread)
+/* Rows per task: enough work per task for the pool, few enough tasks for two threads to balance. */
+#define GAUSS_ROWS_PER_TASK 8
+
+/* One band of output rows. Every output value is the shader's sum
+ *     c = 0; for i = -10..10: c += kernel[10 - i] * tap(i)
+ * (Figura 31), accumulated in float in exactly that order. Horizontal taps are at x + i; vertical
+ * taps at GL row y_gl + i, which is our row y - i (ao.h: rows run downwards here, upwards in GL), so
+ * the same float additions happen in the same order as on the GPU. Taps outside clamp to the edge
+ * (GL_CLAMP_TO_EDGE). Offsets land on texel centres, where GL_LINEAR and GL_NEAREST agree.
+ *
+ * The loops run i outside and x inside, over a whole row at once (a row padded with its clamped
+ * edge texels for the horizontal pass): each pixel's sum still takes its 21 terms in the order
+ * above, so the compiler's vectorisation across x (plain IEEE lanes, no FMA: -ffp-contract=off)
+ * cannot change a bit; test ao_gauss21_accumulates_in_the_shader_order checks it. */
+static void gauss_band(void *user, int64_t task, int thread)
 {
     (void)thread;
     const gauss_job *j = (const gauss_job *)user;
-    const int y = (int)task, W = j->src->width, H = j->src->height, R = AO_GAUSS21_RADIUS;
-    float *o = obs_image_f32_row(j->dst, y);
+    const int W = j->src->width, H = j->src->height, R = AO_GAUSS21_RADIUS;
+    const int y0 = (int)task * GAUSS_ROWS_PER_TASK;
+    const int y1 = y0 + GAUSS_ROWS_PER_TASK < H ? y0 + GAUSS_ROWS_PER_TASK : H;
+    float *pad = NULL;
     if (!j->vertical) {
-        const float *s = obs_image_f32_row(j->src, y);
-        for (int x = 0; x < W; x++) {
-            float c = 0.0f;
-            if (x >= R && x + R < W) {
-                for (int i = -R; i <= R; i++)
-                    c += ao_gauss21_kernel[R - i] * s[x + i];
-            } else {
-                for (int i = -R; i <= R; i++)
-                    c += ao_gauss21_kernel[R - i] * s[clampi(x + i, 0, W - 1)];
+        pad = (float *)obs_aligned_alloc(sizeof(float) * (size_t)(W + 2 * R));
+        if (!pad) { /* cannot happen for sizes the caller allocated; fall back to clamped taps */
+            for (int y = y0; y < y1; y++) {
+                const float *s = obs_image_f32_row(j->src, y);
+                float *o = obs_image_f32_row(j->dst, y);
+                for (int x = 0; x < W; x++) {
+                    float c = 0.0f;
+                    for (int i = -R; i <= R; i++)
+                        c += ao_gauss21_kernel[R - i] * s[clampi(x + i, 0, W - 1)];
+                    o[x] = c;
+                }
             }
-            o[x] = c;
+            return;
         }
-        return;
     }
-    const float *rows[2 * AO_GAUSS21_RADIUS + 1];
-    for (int i = -R; i <= R; i++)
-        rows[i + R] = obs_image_f32_row(j->src, clampi(y - i, 0, H - 1));
-    for (int x = 0; x < W; x++) {
-        float c = 0.0f;
-        for (int i = -R; i <= R; i++)
-            c += ao_gauss21_kernel[R - i] * rows[i + R][x];
-        o[x] = c;
+    for (int y = y0; y < y1; y++) {
+        float *restrict o = obs_image_f32_row(j->dst, y);
+        for (int x = 0; x < W; x++)
+            o[x] = 0.0f;
+        if (!j->vertical) {
+            const float *s = obs_image_f32_row(j->src, y);
+            for (int k = 0; k < R; k++) {
+                pad[k] = s[0];
+                pad[W + R + k] = s[W - 1];
+            }
+            memcpy(pad + R, s, sizeof(float) * (size_t)W);
+            for (int i = -R; i <= R; i++) {
+                const float w = ao_gauss21_kernel[R - i];
+                const float *restrict t = pad + R + i;
+                for (int x = 0; x < W; x++)
+                    o[x] += w * t[x];
+            }
+        } else {
+            for (int i = -R; i <= R; i++) {
+                const float w = ao_gauss21_kernel[R - i];
+                const float *restrict t = obs_image_f32_row(j->src, clampi(y - i, 0, H - 1));
+                for (int x = 0; x < W; x++)
+                    o[x] += w * t[x];
+            }
+        }
     }
+    obs_aligned_free(pad);
 }
 
 obs_status ao_blur_gaussian21(obs_context *ctx, obs_pool *pool, const obs_image_f32 *in, obs_image_f32 *out)
@@ -76,8 +106,9 @@ obs_status ao_blur_gaussian21(obs_context *ctx, obs_pool *pool, const obs_image_
     if (st != OBS_STATUS_OK)
         return st;
     gauss_job h = {in, &tmp, 0}, v = {&tmp, out, 1};
-    obs_pool_run(pool, in->height, gauss_row, &h);
-    obs_pool_run(pool, in->height, gauss_row, &v);
+    const int64_t bands = (in->height + GAUSS_ROWS_PER_TASK - 1) / GAUSS_ROWS_PER_TASK;
+    obs_pool_run(pool, bands, gauss_band, &h);
+    obs_pool_run(pool, bands, gauss_band, &v);
     obs_image_f32_free(&tmp);
     return OBS_STATUS_OK;
 }
