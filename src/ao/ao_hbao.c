@@ -21,6 +21,7 @@
 #include "ao.h"
 #include "ao_internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -861,62 +862,196 @@ HB_AVX2 static inline void hb_fetch8(const hb_fetcher *f, __m256 u, __m256 v, __
     *Sz = d;
 }
 
-/* classic_taps for 8 lanes of one direction; lanes with live[i] == 0 add nothing */
-HB_AVX2 static void classic_taps8(const ao_hbao_constants *k, const hb_fetcher *f, const classic_px *c,
-                                  const classic_ray *o, const int *live, float *ao_out)
+/* (float)atan((double)x) and (float)tan((double)x) over 8 lanes, bit-identical to f_atan / f_tan
+ * by construction (as hb_exp2f): the value in double with a relative error far below 2^-46, then
+ * the float rounding taken only where y (1 -+ 2^-46) round alike; other lanes in need (about 1 in
+ * 2^21) call libm. atan: |x| > 1 -> pi/2 - atan(1/|x|); atan(y) = atan(c) + atan(u),
+ * c = rint(16 y)/16, u = (y - c)/(1 + y c), |u| <= 1/32, odd series to u^13. tan: |x| <= pi/4 ->
+ * sin/cos series (to t^17, t^16); else cos(t)/sin(t) with t = pi/2 - |x| taken exactly
+ * (Sterbenz) plus pi/2's low part. Lanes not in need may come back as anything. */
+static const double hb_atan_tab[17] = {
+    0.0, 0.06241880999595735, 0.12435499454676144, 0.18534794999569476, 0.24497866312686414,
+    0.3028848683749714, 0.35877067027057225, 0.4124104415973873, 0.4636476090008061, 0.5123894603107377,
+    0.5585993153435624, 0.6022873461349642, 0.6435011087932844, 0.6823165548747481, 0.7188299996216245,
+    0.7531512809621944, 0.7853981633974483}; /* atan(i/16) */
+static const double hb_atan_q[6] = {-0.3333333333333333, 0.2, -0.14285714285714285, 0.1111111111111111,
+                                    -0.09090909090909091, 0.07692307692307693}; /* (-1)^k / (2k + 1) */
+static const double hb_sin_c[8] = {-0.16666666666666666, 0.008333333333333333, -0.0001984126984126984,
+                                   2.7557319223985893e-06, -2.505210838544172e-08, 1.6059043836821613e-10,
+                                   -7.647163731819816e-13, 2.8114572543455206e-15}; /* (-1)^k / (2k+1)! */
+static const double hb_cos_c[8] = {-0.5, 0.041666666666666664, -0.001388888888888889, 2.48015873015873e-05,
+                                   -2.755731922398589e-07, 2.08767569878681e-09, -1.1470745597729725e-11,
+                                   4.779477332387385e-14}; /* (-1)^k / (2k)! */
+#define HB_PIO2_HI 0x1.921fb54442d18p+0
+#define HB_PIO2_LO 0x1.1a62633145c07p-54
+
+HB_AVX2 static inline __m256d hb_atan4d(__m256d x)
 {
-    float Px[8], Py[8], Pz[8], U[8], V[8], dU[8], dV[8], tH[8], sH[8], nS[8];
-    float maxSteps = 0.0f;
-    for (int i = 0; i < 8; i++) {
-        const int on = live[i] && o[i].valid;
-        Px[i] = c[i].P.x;
-        Py[i] = c[i].P.y;
-        Pz[i] = c[i].P.z;
-        U[i] = o[i].u;
-        V[i] = o[i].v;
-        dU[i] = o[i].du;
-        dV[i] = o[i].dv;
-        tH[i] = o[i].tanH;
-        sH[i] = o[i].sinH;
-        nS[i] = on ? c[i].numSteps : 0.0f;
-        if (on && nS[i] > maxSteps)
-            maxSteps = nS[i];
+    const __m256d sgn = _mm256_set1_pd(-0.0), one = _mm256_set1_pd(1.0);
+    __m256d ax = _mm256_min_pd(_mm256_andnot_pd(sgn, x), _mm256_set1_pd(1e300)); /* NaN, inf -> 1e300 */
+    const __m256d inv = _mm256_cmp_pd(ax, one, _CMP_GT_OQ);
+    const __m256d y = _mm256_blendv_pd(ax, _mm256_div_pd(one, ax), inv);
+    const __m256d ci = _mm256_round_pd(_mm256_mul_pd(y, _mm256_set1_pd(16.0)), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+    const __m256d atc = _mm256_i32gather_pd(hb_atan_tab, _mm256_cvtpd_epi32(ci), 8);
+    const __m256d c = _mm256_mul_pd(ci, _mm256_set1_pd(0.0625));
+    const __m256d u = _mm256_div_pd(_mm256_sub_pd(y, c), _mm256_add_pd(one, _mm256_mul_pd(y, c)));
+    const __m256d u2 = _mm256_mul_pd(u, u);
+    __m256d q = _mm256_set1_pd(hb_atan_q[5]);
+    for (int k = 4; k >= 0; k--)
+        q = _mm256_add_pd(_mm256_mul_pd(q, u2), _mm256_set1_pd(hb_atan_q[k]));
+    const __m256d a = _mm256_add_pd(atc, _mm256_add_pd(u, _mm256_mul_pd(_mm256_mul_pd(u, u2), q)));
+    const __m256d r = _mm256_blendv_pd(
+        a, _mm256_add_pd(_mm256_sub_pd(_mm256_set1_pd(HB_PIO2_HI), a), _mm256_set1_pd(HB_PIO2_LO)), inv);
+    return _mm256_or_pd(r, _mm256_and_pd(x, sgn));
+}
+
+HB_AVX2 static inline __m256d hb_tan4d(__m256d x)
+{
+    const __m256d sgn = _mm256_set1_pd(-0.0), one = _mm256_set1_pd(1.0);
+    const __m256d ax = _mm256_min_pd(_mm256_andnot_pd(sgn, x), _mm256_set1_pd(2.0)); /* NaN -> 2 */
+    const __m256d big = _mm256_cmp_pd(ax, _mm256_set1_pd(0x1.921fb54442d18p-1), _CMP_GT_OQ);
+    const __m256d t = _mm256_blendv_pd(
+        ax, _mm256_add_pd(_mm256_sub_pd(_mm256_set1_pd(HB_PIO2_HI), ax), _mm256_set1_pd(HB_PIO2_LO)), big);
+    const __m256d t2 = _mm256_mul_pd(t, t);
+    __m256d ps = _mm256_set1_pd(hb_sin_c[7]), pc = _mm256_set1_pd(hb_cos_c[7]);
+    for (int k = 6; k >= 0; k--) {
+        ps = _mm256_add_pd(_mm256_mul_pd(ps, t2), _mm256_set1_pd(hb_sin_c[k]));
+        pc = _mm256_add_pd(_mm256_mul_pd(pc, t2), _mm256_set1_pd(hb_cos_c[k]));
     }
-    __m256 ao = _mm256_setzero_ps();
-    if (maxSteps >= 1.0f) {
-        const __m256 px = _mm256_loadu_ps(Px), py = _mm256_loadu_ps(Py), pz = _mm256_loadu_ps(Pz);
-        const __m256 du = _mm256_loadu_ps(dU), dv = _mm256_loadu_ps(dV), ns = _mm256_loadu_ps(nS);
-        const __m256 sqrR = _mm256_set1_ps(k->sqr_R), invR = _mm256_set1_ps(k->inv_R);
-        const __m256 att = _mm256_set1_ps(k->attenuation), one = _mm256_set1_ps(1.0f);
-        const __m256 inf = _mm256_set1_ps(INFINITY);
-        __m256 u = _mm256_loadu_ps(U), v = _mm256_loadu_ps(V);
-        __m256 tanH = _mm256_loadu_ps(tH), sinH = _mm256_loadu_ps(sH);
-        for (float j = 1.0f; j <= maxSteps; j += 1.0f) {
-            const __m256 on = _mm256_cmp_ps(_mm256_set1_ps(j), ns, _CMP_LE_OQ);
-            u = _mm256_add_ps(u, du);
-            v = _mm256_add_ps(v, dv);
-            __m256 Sx, Sy, Sz;
-            hb_fetch8(f, u, v, &Sx, &Sy, &Sz);
-            const __m256 Dx = _mm256_sub_ps(Sx, px), Dy = _mm256_sub_ps(Sy, py), Dz = _mm256_sub_ps(Sz, pz);
-            const __m256 d2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(Dx, Dx), _mm256_mul_ps(Dy, Dy)),
-                                            _mm256_mul_ps(Dz, Dz));
-            const __m256 tanS = _mm256_div_ps(
-                _mm256_sub_ps(pz, Sz), _mm256_sqrt_ps(_mm256_add_ps(_mm256_mul_ps(Dx, Dx), _mm256_mul_ps(Dy, Dy))));
-            __m256 m = _mm256_and_ps(on, _mm256_cmp_ps(d2, sqrR, _CMP_LT_OQ));
-            m = _mm256_and_ps(m, _mm256_cmp_ps(tanS, tanH, _CMP_GT_OQ));
-            m = _mm256_and_ps(m, _mm256_cmp_ps(tanS, inf, _CMP_LT_OQ));
-            if (_mm256_movemask_ps(m)) {
-                const __m256 sinS =
-                    _mm256_div_ps(tanS, _mm256_sqrt_ps(_mm256_add_ps(one, _mm256_mul_ps(tanS, tanS))));
-                const __m256 r = _mm256_mul_ps(_mm256_sqrt_ps(d2), invR);
-                const __m256 w = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(att, r), r));
-                ao = _mm256_blendv_ps(ao, _mm256_add_ps(ao, _mm256_mul_ps(w, _mm256_sub_ps(sinS, sinH))), m);
-                tanH = _mm256_blendv_ps(tanH, tanS, m);
-                sinH = _mm256_blendv_ps(sinH, sinS, m);
+    const __m256d s = _mm256_add_pd(t, _mm256_mul_pd(_mm256_mul_pd(t, t2), ps));
+    const __m256d c = _mm256_add_pd(one, _mm256_mul_pd(t2, pc));
+    const __m256d r = _mm256_div_pd(_mm256_blendv_pd(s, c, big), _mm256_blendv_pd(c, s, big));
+    return _mm256_xor_pd(r, _mm256_and_pd(x, sgn));
+}
+
+/* The float rounding of 4 doubles where certain, NaN where not */
+HB_AVX2 static inline __m128 hb_round_certain4(__m256d y)
+{
+    const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_LO)));
+    const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_HI)));
+    return _mm_blendv_ps(_mm_set1_ps(NAN), lo, _mm_cmpeq_ps(lo, hi));
+}
+
+/* fn 0: atan, 1: tan */
+HB_AVX2 static inline __m256 hb_trig8(__m256 x, __m256 need, int fn)
+{
+    __m128 r[2];
+    for (int h = 0; h < 2; h++) {
+        const __m256d xd = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(x, 1) : _mm256_castps256_ps128(x));
+        r[h] = hb_round_certain4(fn ? hb_tan4d(xd) : hb_atan4d(xd));
+    }
+    __m256 res = _mm256_set_m128(r[1], r[0]);
+    /* the domain: finite x (atan), |x| <= 1.6 (tan); false for NaN */
+    const __m256 dom = _mm256_cmp_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), x),
+                                     _mm256_set1_ps(fn ? 1.6f : FLT_MAX), _CMP_LE_OQ);
+    const int mb = _mm256_movemask_ps(
+        _mm256_and_ps(need, _mm256_or_ps(_mm256_cmp_ps(res, res, _CMP_UNORD_Q), _mm256_xor_ps(dom, _mm256_castsi256_ps(_mm256_set1_epi32(-1))))));
+    if (mb) {
+        float xs[8], rs[8];
+        _mm256_storeu_ps(xs, x);
+        _mm256_storeu_ps(rs, res);
+        for (int i = 0; i < 8; i++)
+            if (mb >> i & 1)
+                rs[i] = fn ? f_tan(xs[i]) : f_atan(xs[i]);
+        res = _mm256_loadu_ps(rs);
+    }
+    return res;
+}
+
+/* snap_uv_offset over 8 lanes */
+HB_AVX2 static inline __m256 hb_snap8(__m256 u, __m256 res, __m256 inv)
+{
+    return _mm256_mul_ps(_mm256_round_ps(_mm256_mul_ps(u, res), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC), inv);
+}
+
+/* classic_dir + classic_taps for 8 pixels (live[i]: lane i runs), every direction; ao_out[i] is
+ * the sum over directions in direction order, as classic_pixel's */
+HB_AVX2 static void classic_group8(const ao_hbao_constants *k, const hb_fetcher *f, const classic_px *c,
+                                   const int *live, float *ao_out)
+{
+    float L[17][8];
+    int first = 0;
+    while (!live[first])
+        first++;
+    for (int i = 0; i < 8; i++) {
+        const classic_px *q = live[i] ? &c[i] : &c[first];
+        const float vals[17] = {q->u0,     q->v0,     q->P.x,  q->P.y,  q->P.z,  q->dPdu.x,
+                                q->dPdu.y, q->dPdu.z, q->dPdv.x, q->dPdv.y, q->dPdv.z, q->sx,
+                                q->sy,     live[i] ? q->numSteps : 0.0f, q->rd[0], q->rd[1], q->rd[2]};
+        for (int j = 0; j < 17; j++)
+            L[j][i] = vals[j];
+    }
+    const __m256 u0 = _mm256_loadu_ps(L[0]), v0 = _mm256_loadu_ps(L[1]);
+    const __m256 px = _mm256_loadu_ps(L[2]), py = _mm256_loadu_ps(L[3]), pz = _mm256_loadu_ps(L[4]);
+    const __m256 dPdux = _mm256_loadu_ps(L[5]), dPduy = _mm256_loadu_ps(L[6]), dPduz = _mm256_loadu_ps(L[7]);
+    const __m256 dPdvx = _mm256_loadu_ps(L[8]), dPdvy = _mm256_loadu_ps(L[9]), dPdvz = _mm256_loadu_ps(L[10]);
+    const __m256 sx = _mm256_loadu_ps(L[11]), sy = _mm256_loadu_ps(L[12]), ns = _mm256_loadu_ps(L[13]);
+    const __m256 rd0 = _mm256_loadu_ps(L[14]), rd1 = _mm256_loadu_ps(L[15]), rd2 = _mm256_loadu_ps(L[16]);
+    const __m256 one = _mm256_set1_ps(1.0f), inf = _mm256_set1_ps(INFINITY), sgn = _mm256_set1_ps(-0.0f);
+    const __m256 res0 = _mm256_set1_ps(k->resolution[0]), res1 = _mm256_set1_ps(k->resolution[1]);
+    const __m256 inv0 = _mm256_set1_ps(k->inv_resolution[0]), inv1 = _mm256_set1_ps(k->inv_resolution[1]);
+    const __m256 bias = _mm256_set1_ps(k->angle_bias), halfpi = _mm256_set1_ps(HBAO_PI_F * 0.5f);
+    const __m256 sqrR = _mm256_set1_ps(k->sqr_R), invR = _mm256_set1_ps(k->inv_R);
+    const __m256 att = _mm256_set1_ps(k->attenuation);
+    const __m256 liveM = _mm256_cmp_ps(ns, one, _CMP_GE_OQ); /* live lanes have numSteps >= 1 */
+    __m256 aoT = _mm256_setzero_ps();
+    for (int d = 0; d < k->num_dirs; d++) {
+        /* classic_dir */
+        const __m256 cd = _mm256_set1_ps(k->dirs[d][0]), sd = _mm256_set1_ps(k->dirs[d][1]);
+        __m256 du = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(cd, rd0), _mm256_mul_ps(sd, rd1)), sx);
+        __m256 dv = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(cd, rd1), _mm256_mul_ps(sd, rd0)), sy);
+        __m256 u = _mm256_add_ps(u0, hb_snap8(_mm256_mul_ps(rd2, du), res0, inv0));
+        __m256 v = _mm256_add_ps(v0, hb_snap8(_mm256_mul_ps(rd2, dv), res1, inv1));
+        du = hb_snap8(du, res0, inv0);
+        dv = hb_snap8(dv, res1, inv1);
+        const __m256 Tx = _mm256_add_ps(_mm256_mul_ps(du, dPdux), _mm256_mul_ps(dv, dPdvx));
+        const __m256 Ty = _mm256_add_ps(_mm256_mul_ps(du, dPduy), _mm256_mul_ps(dv, dPdvy));
+        const __m256 Tz = _mm256_add_ps(_mm256_mul_ps(du, dPduz), _mm256_mul_ps(dv, dPdvz));
+        const __m256 tanT = _mm256_div_ps(_mm256_xor_ps(Tz, sgn),
+                                          _mm256_sqrt_ps(_mm256_add_ps(_mm256_mul_ps(Tx, Tx), _mm256_mul_ps(Ty, Ty))));
+        const __m256 ok1 = _mm256_and_ps(liveM, _mm256_cmp_ps(_mm256_andnot_ps(sgn, tanT), inf, _CMP_LT_OQ));
+        __m256 ao = _mm256_setzero_ps();
+        if (_mm256_movemask_ps(ok1)) {
+            const __m256 phi = _mm256_add_ps(hb_trig8(tanT, ok1, 0), bias);
+            const __m256 ok = _mm256_and_ps(ok1, _mm256_cmp_ps(phi, halfpi, _CMP_LT_OQ));
+            if (_mm256_movemask_ps(ok)) {
+                __m256 tanH = hb_trig8(phi, ok, 1);
+                __m256 sinH = _mm256_div_ps(tanH, _mm256_sqrt_ps(_mm256_add_ps(one, _mm256_mul_ps(tanH, tanH))));
+                float nsd[8];
+                _mm256_storeu_ps(nsd, _mm256_and_ps(ns, ok));
+                float maxSteps = 0.0f;
+                for (int i = 0; i < 8; i++)
+                    maxSteps = nsd[i] > maxSteps ? nsd[i] : maxSteps;
+                const __m256 nsv = _mm256_loadu_ps(nsd);
+                /* classic_taps */
+                for (float j = 1.0f; j <= maxSteps; j += 1.0f) {
+                    const __m256 on = _mm256_cmp_ps(_mm256_set1_ps(j), nsv, _CMP_LE_OQ);
+                    u = _mm256_add_ps(u, du);
+                    v = _mm256_add_ps(v, dv);
+                    __m256 Sx, Sy, Sz;
+                    hb_fetch8(f, u, v, &Sx, &Sy, &Sz);
+                    const __m256 Dx = _mm256_sub_ps(Sx, px), Dy = _mm256_sub_ps(Sy, py), Dz = _mm256_sub_ps(Sz, pz);
+                    const __m256 dxy = _mm256_add_ps(_mm256_mul_ps(Dx, Dx), _mm256_mul_ps(Dy, Dy));
+                    const __m256 d2 = _mm256_add_ps(dxy, _mm256_mul_ps(Dz, Dz));
+                    const __m256 tanS = _mm256_div_ps(_mm256_sub_ps(pz, Sz), _mm256_sqrt_ps(dxy));
+                    __m256 m = _mm256_and_ps(on, _mm256_cmp_ps(d2, sqrR, _CMP_LT_OQ));
+                    m = _mm256_and_ps(m, _mm256_cmp_ps(tanS, tanH, _CMP_GT_OQ));
+                    m = _mm256_and_ps(m, _mm256_cmp_ps(tanS, inf, _CMP_LT_OQ));
+                    if (_mm256_movemask_ps(m)) {
+                        const __m256 sinS =
+                            _mm256_div_ps(tanS, _mm256_sqrt_ps(_mm256_add_ps(one, _mm256_mul_ps(tanS, tanS))));
+                        const __m256 r = _mm256_mul_ps(_mm256_sqrt_ps(d2), invR);
+                        const __m256 w = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(att, r), r));
+                        ao = _mm256_blendv_ps(ao, _mm256_add_ps(ao, _mm256_mul_ps(w, _mm256_sub_ps(sinS, sinH))), m);
+                        tanH = _mm256_blendv_ps(tanH, tanS, m);
+                        sinH = _mm256_blendv_ps(sinH, sinS, m);
+                    }
+                }
             }
         }
+        aoT = _mm256_add_ps(aoT, ao); /* ao += AccumulatedHorizonOcclusion(...); 0 where it adds 0 */
     }
-    _mm256_storeu_ps(ao_out, ao);
+    _mm256_storeu_ps(ao_out, aoT);
 }
 
 /* plus_taps for 8 lanes; lanes with live[i] == 0 are computed on a copy of lane 0's state or
@@ -1017,20 +1152,8 @@ HB_AVX2 static void hbao_group8(const hbao_job *J, const hb_fetcher *f, int x, i
         }
         if (!nlive)
             return;
-        float ao[8] = {0};
-        for (int d = 0; d < k->num_dirs; d++) {
-            classic_ray o[8];
-            float a[8];
-            for (int i = 0; i < 8; i++) {
-                if (live[i])
-                    classic_dir(k, &c[i], d, &o[i]);
-                else
-                    o[i] = (classic_ray){0};
-            }
-            classic_taps8(k, f, c, o, live, a);
-            for (int i = 0; i < 8; i++)
-                ao[i] += a[i]; /* ao += AccumulatedHorizonOcclusion(...) */
-        }
+        float ao[8];
+        classic_group8(k, f, c, live, ao);
         for (int i = 0; i < n; i++)
             if (live[i]) {
                 const float r = classic_finish(k, ao[i]);
