@@ -1228,21 +1228,23 @@ static void hbao_row(void *user, int64_t task, int thread)
  * The blur
  * ============================================================================================== */
 
-/* The AVX2 tap loops when the build and the CPU have AVX2, unless OBS_ISA=scalar (as the
- * rasterizer), and when every texel index fits the 32-bit gather. Both paths give the same bits. */
-static int hbao_use_avx2(const obs_image_f32 *z)
+int ao_hbao_simd_available(void)
 {
 #if HB_HAVE_AVX2
     const char *env = getenv("OBS_ISA");
     if (env && !strcmp(env, "scalar"))
         return 0;
-    if ((int64_t)z->stride * z->height >= ((int64_t)1 << 31))
-        return 0;
     return __builtin_cpu_supports("avx2") ? 1 : 0;
 #else
-    (void)z;
     return 0;
 #endif
+}
+
+/* The AVX2 loops when ao_hbao_simd_available() (the build, the CPU, OBS_ISA=scalar as the
+ * rasterizer) and every texel index of the depth plane fits the 32-bit gather. Same bits. */
+static int hbao_use_avx2(const obs_image_f32 *z)
+{
+    return (int64_t)z->stride * z->height < ((int64_t)1 << 31) && ao_hbao_simd_available();
 }
 
 typedef struct blur_job {
