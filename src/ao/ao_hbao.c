@@ -204,8 +204,8 @@ static inline float f_exp2(float x) { return (float)exp2((double)x); }
  * rounding a few ulp: relative error below 2^-50), which glibc's exp2 (< 1 ulp) also is. The float
  * rounding of the exact 2^x is then certain unless a float rounding boundary lies within
  * 2^-46 (relative) of our double: we check that y (1 - 2^-46) and y (1 + 2^-46) round to the same
- * float, and else (about 1 call in 2^21) call libm. x < -151 gives +0 (2^x < 2^-150, half the
- * least subnormal), NaN and x > 127 go to libm. The AVX2 version below is the same computation. */
+ * float, and else call libm (1.5e-5 of the floats in [-160, 0], measured). x < -151 gives +0 (2^x < 2^-150, half the
+ * least subnormal), NaN and x > 127 go to libm. The AVX2 version (hb_exp2f8) gets there with a table. */
 #define HB_EXP2_SAFE_LO (1.0 - 0x1p-46)
 #define HB_EXP2_SAFE_HI (1.0 + 0x1p-46)
 static const double hb_exp2_c[14] = {
@@ -1129,6 +1129,111 @@ HB_AVX2 static void plus_taps8(const ao_hbao_constants *k, const hb_fetcher *f, 
     _mm256_storeu_ps(small_out, smallAO);
 }
 
+/* min_diff over 8 lanes */
+HB_AVX2 static inline void hb_min_diff8(__m256 Px, __m256 Py, __m256 Pz, __m256 Rx, __m256 Ry, __m256 Rz, __m256 Lx,
+                                        __m256 Ly, __m256 Lz, __m256 *ox, __m256 *oy, __m256 *oz)
+{
+    const __m256 ax = _mm256_sub_ps(Rx, Px), ay = _mm256_sub_ps(Ry, Py), az = _mm256_sub_ps(Rz, Pz);
+    const __m256 bx = _mm256_sub_ps(Px, Lx), by = _mm256_sub_ps(Py, Ly), bz = _mm256_sub_ps(Pz, Lz);
+    const __m256 l1 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, ax), _mm256_mul_ps(ay, ay)), _mm256_mul_ps(az, az));
+    const __m256 l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bx, bx), _mm256_mul_ps(by, by)), _mm256_mul_ps(bz, bz));
+    /* (l1 < l2 || l2 != l2) ? V1 : V2 */
+    const __m256 m = _mm256_or_ps(_mm256_cmp_ps(l1, l2, _CMP_LT_OQ), _mm256_cmp_ps(l2, l2, _CMP_UNORD_Q));
+    *ox = _mm256_blendv_ps(bx, ax, m);
+    *oy = _mm256_blendv_ps(by, ay, m);
+    *oz = _mm256_blendv_ps(bz, az, m);
+}
+
+/* plus_setup for the 8 pixels x .. x + 7 of row y (lanes >= n and background lanes are not live);
+ * fills c[i] and live[i] for the live lanes, counts background and degenerate normals as
+ * plus_setup does; every early value is 1. */
+HB_AVX2 static void plus_setup8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, plus_px *c, int *live,
+                                int64_t *n_bg, int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    const float *zr = obs_image_f32_row(J->z, y);
+    int any = 0;
+    for (int i = 0; i < 8; i++)
+        live[i] = 0;
+    for (int i = 0; i < n; i++)
+        any |= zr[x + i] < INFINITY;
+    if (!any) { /* all background (most groups of a typical frame) */
+        *n_bg += n;
+        return;
+    }
+    const int y_gl = k->full_height - 1 - y;
+    float X[8];
+    for (int i = 0; i < 8; i++)
+        X[i] = (float)(x + (i < n ? i : 0));
+    const __m256 half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.0f), inf = _mm256_set1_ps(INFINITY);
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 u0 = _mm256_div_ps(_mm256_add_ps(_mm256_loadu_ps(X), half), _mm256_set1_ps(k->resolution[0]));
+    const __m256 v0 = _mm256_set1_ps(((float)y_gl + 0.5f) / k->resolution[1]);
+    __m256 Px, Py, Pz;
+    hb_fetch8(f, u0, v0, &Px, &Py, &Pz);
+    __m256 Nx, Ny, Nz, l2;
+    if (!k->normals_from_gbuffer) {
+        const __m256 iu = _mm256_set1_ps(k->inv_resolution[0]), iv = _mm256_set1_ps(k->inv_resolution[1]);
+        const __m256 niu = _mm256_set1_ps(-k->inv_resolution[0]), niv = _mm256_set1_ps(-k->inv_resolution[1]);
+        __m256 Rx, Ry, Rz, Lx, Ly, Lz, Tx, Ty, Tz, Bx, By, Bz;
+        hb_fetch8(f, _mm256_add_ps(u0, iu), v0, &Rx, &Ry, &Rz);
+        hb_fetch8(f, _mm256_add_ps(u0, niu), v0, &Lx, &Ly, &Lz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, iv), &Tx, &Ty, &Tz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, niv), &Bx, &By, &Bz);
+        __m256 ax, ay, az, bx, by, bz;
+        hb_min_diff8(Px, Py, Pz, Rx, Ry, Rz, Lx, Ly, Lz, &ax, &ay, &az);
+        hb_min_diff8(Px, Py, Pz, Tx, Ty, Tz, Bx, By, Bz, &bx, &by, &bz);
+        /* c = cross(a, b) */
+        const __m256 cx = _mm256_sub_ps(_mm256_mul_ps(ay, bz), _mm256_mul_ps(az, by));
+        const __m256 cy = _mm256_sub_ps(_mm256_mul_ps(az, bx), _mm256_mul_ps(ax, bz));
+        const __m256 cz = _mm256_sub_ps(_mm256_mul_ps(ax, by), _mm256_mul_ps(ay, bx));
+        l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(cx, cx), _mm256_mul_ps(cy, cy)), _mm256_mul_ps(cz, cz));
+        const __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(l2));
+        const __m256 sgn = _mm256_set1_ps(-0.0f);
+        Nx = _mm256_xor_ps(_mm256_mul_ps(cx, inv), sgn);
+        Ny = _mm256_xor_ps(_mm256_mul_ps(cy, inv), sgn);
+        Nz = _mm256_xor_ps(_mm256_mul_ps(cz, inv), sgn);
+    } else {
+        float G[3][8];
+        for (int i = 0; i < 8; i++) {
+            const int xi = x + (i < n ? i : 0);
+            G[0][i] = obs_image_f32_row(J->in->normal[0], y)[xi];
+            G[1][i] = obs_image_f32_row(J->in->normal[1], y)[xi];
+            G[2][i] = -obs_image_f32_row(J->in->normal[2], y)[xi];
+        }
+        const __m256 gx = _mm256_loadu_ps(G[0]), gy = _mm256_loadu_ps(G[1]), gz = _mm256_loadu_ps(G[2]);
+        l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(gx, gx), _mm256_mul_ps(gy, gy)), _mm256_mul_ps(gz, gz));
+        const __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(l2));
+        Nx = _mm256_mul_ps(gx, inv);
+        Ny = _mm256_mul_ps(gy, inv);
+        Nz = _mm256_mul_ps(gz, inv);
+    }
+    const __m256 normal_ok = _mm256_and_ps(_mm256_cmp_ps(l2, zero, _CMP_GT_OQ), _mm256_cmp_ps(l2, inf, _CMP_LT_OQ));
+    const __m256 rp = _mm256_div_ps(_mm256_set1_ps(k->radius_to_screen), k->orthographic ? one : Pz);
+    const __m256 small = k->small_scale_amount > 0.0f ? _mm256_cmp_ps(rp, one, _CMP_LT_OQ) : zero;
+    const __m256 step = _mm256_div_ps(rp, _mm256_set1_ps((float)k->num_steps + 1.0f));
+    const int nok = _mm256_movemask_ps(normal_ok), sm = _mm256_movemask_ps(small);
+    float A[10][8];
+    const __m256 v[10] = {u0, v0, Px, Py, Pz, Nx, Ny, Nz, step, zero};
+    for (int j = 0; j < 9; j++)
+        _mm256_storeu_ps(A[j], v[j]);
+    for (int i = 0; i < n; i++) {
+        if (!(zr[x + i] < INFINITY)) { /* background (cleaned to +inf): visibility 1 */
+            (*n_bg)++;
+        } else if (!(nok >> i & 1)) {
+            (*n_degen)++;
+        } else if (!(sm >> i & 1)) {
+            live[i] = 1;
+            c[i].u0 = A[0][i];
+            c[i].v0 = A[1][i];
+            c[i].P = (v3){A[2][i], A[3][i], A[4][i]};
+            c[i].N = (v3){A[5][i], A[6][i], A[7][i]};
+            c[i].stepSizePixels = A[8][i];
+            c[i].rd = J->noise[ao_hbao_noise_index(k, x + i, y)];
+        }
+    }
+}
+
 /* hbao_row's pixels x .. x + n - 1 (n <= 8) through the AVX2 tap loops */
 HB_AVX2 static void hbao_group8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, const float *zr,
                                 float *out, int64_t *n_bg, int64_t *n_small, int64_t *n_degen)
@@ -1161,17 +1266,12 @@ HB_AVX2 static void hbao_group8(const hbao_job *J, const hb_fetcher *f, int x, i
             }
     } else {
         plus_px c[8];
+        plus_setup8(J, f, x, y, n, c, live, n_bg, n_degen);
         for (int i = 0; i < n; i++) {
-            float early;
-            if (!(zr[x + i] < INFINITY)) {
-                out[i] = 1.0f;
-                (*n_bg)++;
-            } else if (!plus_setup(J, x + i, y, &c[i], &early, n_degen)) {
-                out[i] = early;
-            } else {
-                live[i] = 1;
+            if (live[i])
                 nlive++;
-            }
+            else
+                out[i] = 1.0f; /* background, degenerate normal, or (split) radius < 1 px */
         }
         if (!nlive)
             return;
@@ -1303,22 +1403,37 @@ static inline float blur_pixel(const blur_job *J, int i, int y)
 }
 
 #if HB_HAVE_AVX2
-/* hb_exp2f over 8 lanes (the same computation in 2 x 4 doubles); lanes not in need (a mask) may
- * come back as anything, lanes in need whose rounding is not certain go to libm */
+/* hb_exp2f over 8 lanes, 2 x 4 doubles, with a table: 2^x = 2^e 2^(k/32) 2^f, n = rint(32 x),
+ * k = n mod 32, e = n div 32, f = (32 x - n)/32 exact, |f| <= 1/64, 2^f to degree 6
+ * (truncation < 2^-57); 2^(k/32) correctly rounded. Relative error below 2^-50, the same
+ * rounding-certainty check as hb_exp2f, so the same floats as libm's (float)exp2((double)x).
+ * Lanes not in need may come back as anything; lanes in need that are not certain call libm. */
+static const double hb_exp2_tab[32] = {
+    1.0, 1.0218971486541166, 1.0442737824274138, 1.0671404006768237, 1.0905077326652577,
+    1.1143867425958924, 1.1387886347566916, 1.1637248587775775, 1.189207115002721, 1.215247359980469,
+    1.241857812073484, 1.2690509571917332, 1.2968395546510096, 1.3252366431597413, 1.3542555469368927,
+    1.383909881963832, 1.4142135623730951, 1.4451808069770467, 1.4768261459394993, 1.5091644275934228,
+    1.5422108254079407, 1.5759808451078865, 1.6104903319492543, 1.645755478153965, 1.681792830507429,
+    1.718619298122478, 1.7562521603732995, 1.7947090750031072, 1.8340080864093424, 1.8741676341103,
+    1.9152065613971474, 1.9571441241754002}; /* 2^(k/32) */
+
 HB_AVX2 static inline __m256 hb_exp2f8(__m256 x, __m256 need)
 {
     const __m256 xc = _mm256_min_ps(_mm256_max_ps(x, _mm256_set1_ps(-151.0f)), _mm256_set1_ps(127.0f));
     __m128 r[2];
     for (int h = 0; h < 2; h++) {
-        const __m256d xd = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(xc, 1) : _mm256_castps256_ps128(xc));
-        const __m256d n = _mm256_round_pd(xd, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
-        const __m256d f = _mm256_sub_pd(xd, n);
-        __m256d p = _mm256_set1_pd(hb_exp2_c[13]);
-        for (int i = 12; i >= 0; i--)
+        const __m256d x32 = _mm256_mul_pd(_mm256_cvtps_pd(h ? _mm256_extractf128_ps(xc, 1) : _mm256_castps256_ps128(xc)),
+                                          _mm256_set1_pd(32.0));
+        const __m256d n = _mm256_round_pd(x32, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+        const __m256d f = _mm256_mul_pd(_mm256_sub_pd(x32, n), _mm256_set1_pd(0.03125));
+        __m256d p = _mm256_set1_pd(hb_exp2_c[6]);
+        for (int i = 5; i >= 0; i--)
             p = _mm256_add_pd(_mm256_mul_pd(p, f), _mm256_set1_pd(hb_exp2_c[i]));
+        const __m128i ni = _mm256_cvtpd_epi32(n);
+        const __m256d t = _mm256_i32gather_pd(hb_exp2_tab, _mm_and_si128(ni, _mm_set1_epi32(31)), 8);
         const __m256i e = _mm256_slli_epi64(
-            _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm256_cvtpd_epi32(n)), _mm256_set1_epi64x(1023)), 52);
-        const __m256d y = _mm256_mul_pd(p, _mm256_castsi256_pd(e));
+            _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm_srai_epi32(ni, 5)), _mm256_set1_epi64x(1023)), 52);
+        const __m256d y = _mm256_mul_pd(_mm256_mul_pd(t, p), _mm256_castsi256_pd(e));
         const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_LO)));
         const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_HI)));
         r[h] = _mm_blendv_ps(_mm_set1_ps(NAN), lo, _mm_cmpeq_ps(lo, hi));
