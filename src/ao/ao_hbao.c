@@ -17,6 +17,13 @@
  * the ideal functions: cos/sin via ao_i_cos_sin, atan/tan/exp2/pow as the double libm result
  * rounded to float, sqrt correctly rounded, inversesqrt as 1/sqrt; round() is round-half-even
  * (D3D round_ne). Deviations from the references are marked "Deviation:" and listed in hbao.md.
+ *
+ * SIMD: the scalar code is the reference and always compiled. With AVX2 (OBS_HAVE_AVX2, the CPU,
+ * OBS_ISA not "scalar") the tap loops, CLASSIC's direction set-up, PLUS's pixel set-up and the blur
+ * run 8 pixels of a row per lane group (lane i = pixel x + i), each lane with the scalar float
+ * operations in the scalar order (no FMA), taps gathered; exp2/atan/tan are evaluated in double
+ * and rounded to float only where that rounding is certain (else libm), so every output bit is
+ * the scalar path's (hbao.md "Speed"; test hbao_avx2_paths_give_the_scalar_bits).
  */
 #include "ao.h"
 #include "ao_internal.h"
@@ -1144,6 +1151,119 @@ HB_AVX2 static inline void hb_min_diff8(__m256 Px, __m256 Py, __m256 Pz, __m256 
     *oz = _mm256_blendv_ps(bz, az, m);
 }
 
+/* tangent_eye_pos over 8 lanes */
+HB_AVX2 static inline void hb_tangent8(const hb_fetcher *f, __m256 u, __m256 v, __m256 Nx, __m256 Ny, __m256 Nz,
+                                       __m256 w, __m256 *X, __m256 *Y, __m256 *Z)
+{
+    hb_fetch8(f, u, v, X, Y, Z);
+    const __m256 NdotV =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(Nx, *X), _mm256_mul_ps(Ny, *Y)), _mm256_mul_ps(Nz, *Z));
+    const __m256 m = _mm256_cmp_ps(NdotV, _mm256_setzero_ps(), _CMP_LT_OQ);
+    const __m256 sc = _mm256_div_ps(w, NdotV);
+    *X = _mm256_blendv_ps(*X, _mm256_mul_ps(*X, sc), m);
+    *Y = _mm256_blendv_ps(*Y, _mm256_mul_ps(*Y, sc), m);
+    *Z = _mm256_blendv_ps(*Z, _mm256_mul_ps(*Z, sc), m);
+}
+
+/* classic_setup for the 8 pixels x .. x + 7 of row y (lanes >= n and background lanes are not
+ * live); fills c[i] and live[i] for the live lanes, counts as classic_setup (background, then
+ * small radius, then a degenerate G-buffer normal); every early value is 1. fminf: its operands
+ * are never NaN here (P.z of a surface pixel is finite and > 0), so it is min. */
+HB_AVX2 static void classic_setup8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, classic_px *c,
+                                   int *live, int64_t *n_bg, int64_t *n_small, int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    const float *zr = obs_image_f32_row(J->z, y);
+    int any = 0;
+    for (int i = 0; i < 8; i++)
+        live[i] = 0;
+    for (int i = 0; i < n; i++)
+        any |= zr[x + i] < INFINITY;
+    if (!any) {
+        *n_bg += n;
+        return;
+    }
+    float X[8];
+    for (int i = 0; i < 8; i++)
+        X[i] = (float)(x + (i < n ? i : 0));
+    const __m256 one = _mm256_set1_ps(1.0f), inf = _mm256_set1_ps(INFINITY), zero = _mm256_setzero_ps();
+    const __m256 res0 = _mm256_set1_ps(k->resolution[0]), res1 = _mm256_set1_ps(k->resolution[1]);
+    const __m256 u0 = _mm256_div_ps(_mm256_add_ps(_mm256_loadu_ps(X), _mm256_set1_ps(0.5f)), res0);
+    const __m256 v0 = _mm256_set1_ps(((float)y + 0.5f) / k->resolution[1]);
+    __m256 Px, Py, Pz;
+    hb_fetch8(f, u0, v0, &Px, &Py, &Pz);
+    __m256 sx = _mm256_set1_ps(0.5f * k->R * k->focal_len[0]), sy = _mm256_set1_ps(0.5f * k->R * k->focal_len[1]);
+    if (!k->orthographic) {
+        sx = _mm256_div_ps(sx, Pz);
+        sy = _mm256_div_ps(sy, Pz);
+    }
+    const __m256 m = _mm256_min_ps(_mm256_mul_ps(sx, res0), _mm256_mul_ps(sy, res1));
+    const __m256 numSteps = _mm256_min_ps(_mm256_set1_ps((float)k->num_steps), m);
+    const int big = _mm256_movemask_ps(_mm256_cmp_ps(numSteps, one, _CMP_GE_OQ));
+    sx = _mm256_div_ps(sx, _mm256_add_ps(numSteps, one));
+    sy = _mm256_div_ps(sy, _mm256_add_ps(numSteps, one));
+    const __m256 iu = _mm256_set1_ps(k->inv_resolution[0]), iv = _mm256_set1_ps(k->inv_resolution[1]);
+    const __m256 niu = _mm256_set1_ps(-k->inv_resolution[0]), niv = _mm256_set1_ps(-k->inv_resolution[1]);
+    __m256 Rx, Ry, Rz, Lx, Ly, Lz, Tx, Ty, Tz, Bx, By, Bz;
+    int nok = 0xff;
+    if (k->normals_from_gbuffer) {
+        float G[3][8];
+        for (int i = 0; i < 8; i++) {
+            const int xi = x + (i < n ? i : 0);
+            G[0][i] = obs_image_f32_row(J->in->normal[0], y)[xi];
+            G[1][i] = obs_image_f32_row(J->in->normal[1], y)[xi];
+            G[2][i] = -obs_image_f32_row(J->in->normal[2], y)[xi];
+        }
+        const __m256 gx = _mm256_loadu_ps(G[0]), gy = _mm256_loadu_ps(G[1]), gz = _mm256_loadu_ps(G[2]);
+        const __m256 l2 =
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(gx, gx), _mm256_mul_ps(gy, gy)), _mm256_mul_ps(gz, gz));
+        nok = _mm256_movemask_ps(_mm256_and_ps(_mm256_cmp_ps(l2, zero, _CMP_GT_OQ), _mm256_cmp_ps(l2, inf, _CMP_LT_OQ)));
+        const __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(l2));
+        const __m256 Nx = _mm256_mul_ps(gx, inv), Ny = _mm256_mul_ps(gy, inv), Nz = _mm256_mul_ps(gz, inv);
+        const __m256 w = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(Px, Nx), _mm256_mul_ps(Py, Ny)), _mm256_mul_ps(Pz, Nz));
+        hb_tangent8(f, _mm256_add_ps(u0, iu), v0, Nx, Ny, Nz, w, &Rx, &Ry, &Rz);
+        hb_tangent8(f, _mm256_add_ps(u0, niu), v0, Nx, Ny, Nz, w, &Lx, &Ly, &Lz);
+        hb_tangent8(f, u0, _mm256_add_ps(v0, iv), Nx, Ny, Nz, w, &Tx, &Ty, &Tz);
+        hb_tangent8(f, u0, _mm256_add_ps(v0, niv), Nx, Ny, Nz, w, &Bx, &By, &Bz);
+    } else {
+        hb_fetch8(f, _mm256_add_ps(u0, iu), v0, &Rx, &Ry, &Rz);
+        hb_fetch8(f, _mm256_add_ps(u0, niu), v0, &Lx, &Ly, &Lz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, iv), &Tx, &Ty, &Tz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, niv), &Bx, &By, &Bz);
+    }
+    __m256 ux, uy, uz, vx, vy, vz;
+    hb_min_diff8(Px, Py, Pz, Rx, Ry, Rz, Lx, Ly, Lz, &ux, &uy, &uz);
+    hb_min_diff8(Px, Py, Pz, Tx, Ty, Tz, Bx, By, Bz, &vx, &vy, &vz);
+    const __m256 aspect = _mm256_set1_ps(k->resolution[1] * k->inv_resolution[0]);
+    vx = _mm256_mul_ps(vx, aspect);
+    vy = _mm256_mul_ps(vy, aspect);
+    vz = _mm256_mul_ps(vz, aspect);
+    float A[14][8];
+    const __m256 vals[14] = {u0, Px, Py, Pz, ux, uy, uz, vx, vy, vz, sx, sy, numSteps, v0};
+    for (int j = 0; j < 14; j++)
+        _mm256_storeu_ps(A[j], vals[j]);
+    for (int i = 0; i < n; i++) {
+        if (!(zr[x + i] < INFINITY)) { /* background (cleaned to +inf): visibility 1 */
+            (*n_bg)++;
+        } else if (!(big >> i & 1)) {
+            (*n_small)++;
+        } else if (!(nok >> i & 1)) {
+            (*n_degen)++;
+        } else {
+            live[i] = 1;
+            c[i].u0 = A[0][i];
+            c[i].v0 = A[13][i];
+            c[i].P = (v3){A[1][i], A[2][i], A[3][i]};
+            c[i].dPdu = (v3){A[4][i], A[5][i], A[6][i]};
+            c[i].dPdv = (v3){A[7][i], A[8][i], A[9][i]};
+            c[i].sx = A[10][i];
+            c[i].sy = A[11][i];
+            c[i].numSteps = A[12][i];
+            c[i].rd = J->noise[ao_hbao_noise_index(k, x + i, y)];
+        }
+    }
+}
+
 /* plus_setup for the 8 pixels x .. x + 7 of row y (lanes >= n and background lanes are not live);
  * fills c[i] and live[i] for the live lanes, counts background and degenerate normals as
  * plus_setup does; every early value is 1. */
@@ -1235,25 +1355,20 @@ HB_AVX2 static void plus_setup8(const hbao_job *J, const hb_fetcher *f, int x, i
 }
 
 /* hbao_row's pixels x .. x + n - 1 (n <= 8) through the AVX2 tap loops */
-HB_AVX2 static void hbao_group8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, const float *zr,
-                                float *out, int64_t *n_bg, int64_t *n_small, int64_t *n_degen)
+HB_AVX2 static void hbao_group8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, float *out,
+                                int64_t *n_bg, int64_t *n_small, int64_t *n_degen)
 {
     const ao_hbao_constants *k = J->k;
     int live[8] = {0};
     int nlive = 0;
     if (k->variant == AO_HBAO_VARIANT_CLASSIC) {
         classic_px c[8];
+        classic_setup8(J, f, x, y, n, c, live, n_bg, n_small, n_degen);
         for (int i = 0; i < n; i++) {
-            float early;
-            if (!(zr[x + i] < INFINITY)) { /* background (cleaned to +inf): visibility 1 */
-                out[i] = 1.0f;
-                (*n_bg)++;
-            } else if (!classic_setup(J, x + i, y, &c[i], &early, n_small, n_degen)) {
-                out[i] = early;
-            } else {
-                live[i] = 1;
+            if (live[i])
                 nlive++;
-            }
+            else
+                out[i] = 1.0f; /* background, radius under a pixel, or no usable G-buffer normal */
         }
         if (!nlive)
             return;
@@ -1300,7 +1415,7 @@ static void hbao_row(void *user, int64_t task, int thread)
         hb_fetch8_init(&f, J->k, J->z, J->k->variant == AO_HBAO_VARIANT_PLUS);
         for (int i = 0; i < J->ao->width; i += 8) {
             const int n = J->ao->width - i < 8 ? J->ao->width - i : 8;
-            hbao_group8(J, &f, J->rx0 + i, y, n, zr, out + i, &n_bg, &n_small, &n_degen);
+            hbao_group8(J, &f, J->rx0 + i, y, n, out + i, &n_bg, &n_small, &n_degen);
         }
         J->counts[task][0] = n_bg;
         J->counts[task][1] = n_small;
