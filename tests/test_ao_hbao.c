@@ -1131,3 +1131,92 @@ TEST(ao_cli_hbao_plus_preset_writes_outputs_and_constants)
     const char *b[] = {"ao", "--method", "hbao", "--angle-bias", "95", "--scene", scene, "-o", prefix, NULL};
     CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, err), 2);
 }
+
+/* ---- SIMD = scalar ------------------------------------------------------------------------------ */
+
+/* Run with OBS_ISA=scalar (the scalar tap loops, libm's exp2/atan/tan) and without (the AVX2 loops
+ * and their rounding-certain exp2/atan/tan, where the build and CPU have AVX2); every bit equal. */
+static int hb_same_both_isas(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_hbao_params *p)
+{
+    const char *old = getenv("OBS_ISA");
+    char saved[64] = {0};
+    if (old)
+        snprintf(saved, sizeof saved, "%s", old);
+    obs_image_f32 out[2], raw[2];
+    int ok = 1;
+    for (int isa = 0; isa < 2; isa++) {
+        if (isa == 0)
+            setenv("OBS_ISA", "scalar", 1);
+        else
+            unsetenv("OBS_ISA");
+        if (hb_run(ctx, pool, in, p, &out[isa], &raw[isa], NULL) != OBS_STATUS_OK)
+            ok = 0;
+    }
+    if (old)
+        setenv("OBS_ISA", saved, 1);
+    else
+        unsetenv("OBS_ISA");
+    ok = ok && tu_same_plane(&out[0], &out[1]) && tu_same_plane(&raw[0], &raw[1]);
+    for (int isa = 0; isa < 2; isa++) {
+        obs_image_f32_free(&out[isa]);
+        obs_image_f32_free(&raw[isa]);
+    }
+    return ok;
+}
+
+TEST(hbao_avx2_paths_give_the_scalar_bits)
+{
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    /* 83 columns: every row ends in a partial group of 8 */
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 83, 61, 5, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    /* background is there already (the sky); add NaN, +-inf, 0, negative, huge and tiny depths */
+    obs_image_f32 *d = (obs_image_f32 *)in.depth;
+    static const float hard[] = {NAN, INFINITY, -INFINITY, 0.0f, -2.0f, 3e37f, 1e30f, 1e-30f};
+    for (int i = 0; i < 48; i++)
+        obs_image_f32_row(d, (i * 53 + 7) % d->height)[(i * 37 + 3) % d->width] = hard[i % 8];
+    static const char *presets[] = {"default", "plus", "hbaoplus", "gl-ssao"};
+    int n = 0;
+    for (int pi = 0; pi < 4; pi++)
+        for (int nm = 0; nm < 2; nm++)
+            for (int r = 0; r < 3; r++) {
+                static const float radii[] = {0.5f, 4.0f, 1e4f};
+                ao_hbao_params p;
+                CHECK(ao_hbao_params_preset(presets[pi], &p));
+                p.normals = (ao_hbao_normals)nm;
+                p.radius = radii[r];
+                if (r == 1) { /* odd counts, no bias, a wide blur */
+                    p.directions = 7;
+                    p.steps = 5;
+                    p.angle_bias_deg = 0.0f;
+                    p.blur_radius = 9;
+                }
+                CHECK_MSG(hb_same_both_isas(ctx, pool, &in, &p), "preset %s normals %d radius %g", presets[pi], nm,
+                          (double)radii[r]);
+                n++;
+            }
+    /* orthographic, a grazing plane with hard depths */
+    tu_synth sp;
+    CHECK_OK(tu_synth_plane(ctx, 45, 30, 30.0, obs_dv3(0, 0.99, 0.1410674), -0.05, OBS_PROJECTION_ORTHOGRAPHIC, &sp),
+             ctx);
+    for (int i = 0; i < 16; i++)
+        obs_image_f32_row(&sp.depth, (i * 7) % 30)[(i * 11) % 45] = hard[i % 8];
+    for (int var = 0; var < 2; var++) {
+        ao_hbao_params p = ao_hbao_params_default();
+        p.variant = (ao_hbao_variant)var;
+        CHECK_MSG(hb_same_both_isas(ctx, pool, &sp.in, &p), "orthographic variant %d", var);
+        n++;
+    }
+    printf("  %d configurations: scalar and %s paths bit-identical\n", n,
+           ao_hbao_simd_available() ? "AVX2" : "(no AVX2 here: scalar again)");
+    obs_image_f32_free(&sp.depth);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}

@@ -905,6 +905,11 @@ obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
 obs_status ao_hbao_blur(obs_context *ctx, obs_pool *pool, const obs_image_f32 *ao, const obs_image_f32 *depth,
                         int x0, int y0, int radius, float sigma, float sharpness, int depth_slope, obs_image_f32 *out);
 
+/* 1 when ao_hbao_compute and ao_hbao_blur run their AVX2 loops (8 pixels per lane group): the build
+ * has AVX2 (OBS_HAVE_AVX2), the CPU has it and OBS_ISA is not "scalar" (read at each call). Both
+ * paths give the same bits (tests/test_ao_hbao.c, hbao_avx2_paths_give_the_scalar_bits). */
+int ao_hbao_simd_available(void);
+
 /* (end of HBAO) */
 
 

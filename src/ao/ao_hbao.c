@@ -17,15 +17,31 @@
  * the ideal functions: cos/sin via ao_i_cos_sin, atan/tan/exp2/pow as the double libm result
  * rounded to float, sqrt correctly rounded, inversesqrt as 1/sqrt; round() is round-half-even
  * (D3D round_ne). Deviations from the references are marked "Deviation:" and listed in hbao.md.
+ *
+ * SIMD: the scalar code is the reference and always compiled. With AVX2 (OBS_HAVE_AVX2, the CPU,
+ * OBS_ISA not "scalar") the tap loops, CLASSIC's direction set-up, PLUS's pixel set-up and the blur
+ * run 8 pixels of a row per lane group (lane i = pixel x + i), each lane with the scalar float
+ * operations in the scalar order (no FMA), taps gathered; exp2/atan/tan are evaluated in double
+ * and rounded to float only where that rounding is certain (else libm), so every output bit is
+ * the scalar path's (hbao.md "Speed"; test hbao_avx2_paths_give_the_scalar_bits).
  */
 #include "ao.h"
 #include "ao_internal.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#define HB_HAVE_AVX2 1
+#define HB_AVX2 __attribute__((target("avx2")))
+#else
+#define HB_HAVE_AVX2 0
+#endif
 
 #define HBAO_PI_F 3.14159265f /* HorizonBasedAOEngine.fx and hbao.frag.glsl: #define M_PI 3.14159265f */
 
@@ -189,6 +205,41 @@ int ao_hbao_params_to_string(const ao_hbao_params *p, char *buf, size_t size)
 static inline float f_atan(float x) { return (float)atan((double)x); }
 static inline float f_tan(float x) { return (float)tan((double)x); }
 static inline float f_exp2(float x) { return (float)exp2((double)x); }
+
+/* (float)exp2((double)x), fast and bit-identical (the blur's weights). 2^x = 2^n 2^f, n = rint(x),
+ * |f| <= 1/2, 2^f by its Taylor series to degree 13 in double (truncation < 2e-17, Horner
+ * rounding a few ulp: relative error below 2^-50), which glibc's exp2 (< 1 ulp) also is. The float
+ * rounding of the exact 2^x is then certain unless a float rounding boundary lies within
+ * 2^-46 (relative) of our double: we check that y (1 - 2^-46) and y (1 + 2^-46) round to the same
+ * float, and else call libm (1.5e-5 of the floats in [-160, 0], measured). x < -151 gives +0 (2^x < 2^-150, half the
+ * least subnormal), NaN and x > 127 go to libm. The AVX2 version (hb_exp2f8) gets there with a table. */
+#define HB_EXP2_SAFE_LO (1.0 - 0x1p-46)
+#define HB_EXP2_SAFE_HI (1.0 + 0x1p-46)
+static const double hb_exp2_c[14] = {
+    1.0, 0.6931471805599453, 0.24022650695910072, 0.05550410866482158, 0.009618129107628477,
+    0.0013333558146428443, 0.0001540353039338161, 1.5252733804059841e-05, 1.321548679014431e-06,
+    1.01780860092397e-07, 7.054911620801123e-09, 4.4455382718708116e-10, 2.5678435993488206e-11,
+    1.3691488853904128e-12}; /* ln(2)^k / k!, correctly rounded */
+
+static inline float hb_exp2f(float x)
+{
+    if (!(x >= -151.0f))
+        return x != x ? f_exp2(x) : 0.0f;
+    if (!(x <= 127.0f))
+        return f_exp2(x);
+    const double xd = (double)x;
+    const double n = (xd + 6755399441055744.0) - 6755399441055744.0; /* rint: 1.5 * 2^52 */
+    const double f = xd - n;                                        /* exact */
+    double p = hb_exp2_c[13];
+    for (int i = 12; i >= 0; i--)
+        p = p * f + hb_exp2_c[i];
+    const uint64_t bits = (uint64_t)((int64_t)n + 1023) << 52;
+    double sc;
+    memcpy(&sc, &bits, sizeof sc);
+    const double y = p * sc;
+    const float lo = (float)(y * HB_EXP2_SAFE_LO), hi = (float)(y * HB_EXP2_SAFE_HI);
+    return lo == hi ? lo : f_exp2(x);
+}
 static inline float f_sin(float x)
 {
     float c, s;
@@ -372,6 +423,7 @@ typedef struct hbao_job {
     int rx0, ry0;                  /* region origin (our coordinates) */
     obs_image_f32 *ao;             /* region-sized, our rows */
     int64_t (*counts)[3];          /* per row: background, small radius, degenerate normal */
+    int avx2;                      /* 1: the 8-pixel AVX2 tap loops (bit-identical to the scalar ones) */
 } hbao_job;
 
 typedef struct v3 {
@@ -423,36 +475,157 @@ static inline v3 min_diff(v3 P, v3 Pr, v3 Pl)
 /* snap_uv_offset: round(uv * g_Resolution) * g_InvResolution (HLSL round = round_ne) */
 static inline float snap(float u, float res, float inv) { return rintf(u * res) * inv; }
 
-static inline int finite3(v3 a) { return isfinite(a.x) && isfinite(a.y) && isfinite(a.z); }
+/* ---- CLASSIC: HorizonBasedAOEngine.fx ----
+ * Split in three steps so that the AVX2 path shares the per-pixel and per-direction set-up with
+ * the scalar one and only runs the tap loop 8 pixels at a time: classic_setup (the pixel),
+ * classic_dir (one direction's start, increment and horizon), classic_taps (the steps). */
 
-/* ---- CLASSIC: HorizonBasedAOEngine.fx ---- */
+typedef struct classic_px {
+    float u0, v0;          /* IN.texUV */
+    v3 P, dPdu, dPdv;
+    float sx, sy;          /* step_size (uv), already divided by numSteps + 1 */
+    float numSteps;        /* not an integer in general */
+    const float *rd;       /* (cos(alpha), sin(alpha), jitter) */
+} classic_px;
 
-/* AccumulatedHorizonOcclusion (qualityMode 1) */
-static float classic_direction(const ao_hbao_constants *k, const obs_image_f32 *z, float du, float dv, float u0,
-                               float v0, v3 P, float numSteps, float randstep, v3 dPdu, v3 dPdv)
+typedef struct classic_ray {
+    float u, v, du, dv;    /* start (jittered, snapped) and snapped increment */
+    float tanH, sinH;      /* the biased tangent's horizon */
+    int valid;             /* 0: the direction adds 0 (degenerate basis or horizon at pi/2) */
+} classic_ray;
+
+/* tangent_eye_pos: intersect the view ray through uv with the tangent plane (N, w), except for
+ * silhouette edges (NdotV >= 0) */
+static inline v3 tangent_eye_pos(const ao_hbao_constants *k, const obs_image_f32 *z, float u, float v, v3 N, float w)
 {
+    v3 V = fetch_pos(k, z, u, v, 0);
+    const float NdotV = v3_dot(N, V);
+    if (NdotV < 0.0f) {
+        const float s = w / NdotV;
+        V = (v3){V.x * s, V.y * s, V.z * s};
+    }
+    return V;
+}
+
+/* HORIZON_BASED_AO_PS up to the direction loop. Returns 0 with *early set when the pixel is done. */
+static int classic_setup(const hbao_job *J, int x, int y, classic_px *c, float *early, int64_t *n_small,
+                         int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    const obs_image_f32 *z = J->z;
+    /* IN.texUV at the pixel centre (D3D: y down) */
+    const float u0 = ((float)x + 0.5f) / k->resolution[0], v0 = ((float)y + 0.5f) / k->resolution[1];
+    const v3 P = fetch_pos(k, z, u0, v0, 0);
+    /* Project the radius of influence g_R from eye space to texture space:
+     * step_size = 0.5 * g_R * g_FocalLen / P.z (orthographic extension: no "/ P.z") */
+    float sx = 0.5f * k->R * k->focal_len[0], sy = 0.5f * k->R * k->focal_len[1];
+    if (!k->orthographic) {
+        sx = sx / P.z;
+        sy = sy / P.z;
+    }
+    /* Early out if the projected radius is smaller than 1 pixel */
+    const float m = fminf(sx * k->resolution[0], sy * k->resolution[1]);
+    const float numSteps = fminf((float)k->num_steps, m);
+    if (!(numSteps >= 1.0f)) {
+        (*n_small)++;
+        *early = 1.0f;
+        return 0;
+    }
+    sx = sx / (numSteps + 1.0f);
+    sy = sy / (numSteps + 1.0f);
+
+    /* Nearest neighbor pixels (on the tangent plane with normals) */
+    const float iu = k->inv_resolution[0], iv = k->inv_resolution[1];
+    v3 Pr, Pl, Pt, Pb;
+    if (k->normals_from_gbuffer) {
+        /* N = normalize(tNormal): our view-space normal in the sample's eye space (z into the screen) */
+        const float *n0 = obs_image_f32_row(J->in->normal[0], y), *n1 = obs_image_f32_row(J->in->normal[1], y),
+                    *n2 = obs_image_f32_row(J->in->normal[2], y);
+        v3 N = {n0[x], n1[x], -n2[x]};
+        const float l2 = v3_dot(N, N);
+        if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
+            (*n_degen)++;
+            *early = 1.0f; /* no usable G-buffer normal */
+            return 0;
+        }
+        const float inv = 1.0f / sqrtf(l2);
+        N = (v3){N.x * inv, N.y * inv, N.z * inv};
+        const float w = v3_dot(P, N); /* tangentPlane = float4(N, dot(P, N)) */
+        Pr = tangent_eye_pos(k, z, u0 + iu, v0, N, w);
+        Pl = tangent_eye_pos(k, z, u0 + -iu, v0, N, w);
+        Pt = tangent_eye_pos(k, z, u0, v0 + iv, N, w);
+        Pb = tangent_eye_pos(k, z, u0, v0 + -iv, N, w);
+    } else {
+        Pr = fetch_pos(k, z, u0 + iu, v0, 0);
+        Pl = fetch_pos(k, z, u0 + -iu, v0, 0);
+        Pt = fetch_pos(k, z, u0, v0 + iv, 0);
+        Pb = fetch_pos(k, z, u0, v0 + -iv, 0);
+    }
+    /* Screen-aligned basis for the tangent plane: dPdu = min_diff(P, Pr, Pl),
+     * dPdv = min_diff(P, Pt, Pb) * (g_Resolution.y * g_InvResolution.x) */
+    const v3 dPdu = min_diff(P, Pr, Pl);
+    v3 dPdv = min_diff(P, Pt, Pb);
+    const float aspect = k->resolution[1] * k->inv_resolution[0];
+    dPdv = (v3){dPdv.x * aspect, dPdv.y * aspect, dPdv.z * aspect};
+    c->u0 = u0;
+    c->v0 = v0;
+    c->P = P;
+    c->dPdu = dPdu;
+    c->dPdv = dPdv;
+    c->sx = sx;
+    c->sy = sy;
+    c->numSteps = numSteps;
+    c->rd = J->noise[ao_hbao_noise_index(k, x, y)];
+    return 1;
+}
+
+/* The direction loop's body up to AccumulatedHorizonOcclusion's step loop (qualityMode 1) */
+static inline void classic_dir(const ao_hbao_constants *k, const classic_px *c, int d, classic_ray *o)
+{
+    const float *rd = c->rd;
+    /* deltaUV = rotate(g_Dirs[d], rand_Dir.xy) * step_size.xy */
+    float du = (k->dirs[d][0] * rd[0] - k->dirs[d][1] * rd[1]) * c->sx;
+    float dv = (k->dirs[d][0] * rd[1] + k->dirs[d][1] * rd[0]) * c->sy;
     /* Randomize starting point within the first sample distance: uv = uv0 + snap_uv_offset(randstep * deltaUV) */
-    float u = u0 + snap(randstep * du, k->resolution[0], k->inv_resolution[0]);
-    float v = v0 + snap(randstep * dv, k->resolution[1], k->inv_resolution[1]);
+    o->u = c->u0 + snap(rd[2] * du, k->resolution[0], k->inv_resolution[0]);
+    o->v = c->v0 + snap(rd[2] * dv, k->resolution[1], k->inv_resolution[1]);
     /* Snap increments to pixels: deltaUV = snap_uv_offset(deltaUV) */
     du = snap(du, k->resolution[0], k->inv_resolution[0]);
     dv = snap(dv, k->resolution[1], k->inv_resolution[1]);
+    o->du = du;
+    o->dv = dv;
+    o->valid = 0;
+    o->tanH = o->sinH = 0.0f;
     /* Compute tangent vector using the tangent plane: T = deltaUV.x * dPdu + deltaUV.y * dPdv */
+    const v3 dPdu = c->dPdu, dPdv = c->dPdv;
     const v3 T = {du * dPdu.x + dv * dPdv.x, du * dPdu.y + dv * dPdv.y, du * dPdu.z + dv * dPdv.z};
     /* biased_tangent: phi = atan(tangent(T)) + g_AngleBias; tan(min(phi, M_PI*0.5)),
      * tangent(T) = -T.z / length(T.xy) */
     const float tanT = -T.z / sqrtf(T.x * T.x + T.y * T.y);
     if (!isfinite(tanT))
-        return 0.0f; /* Deviation: a degenerate tangent basis (background on both sides) adds 0 */
+        return; /* Deviation: a degenerate tangent basis (background on both sides) adds 0 */
     const float phi = f_atan(tanT) + k->angle_bias;
     /* Deviation: tan(min(phi, M_PI*0.5)) with M_PI*0.5 = 1.57079637f, 4.4e-8 ABOVE pi/2: an exact
      * tan gives -2.3e7 there (the horizon flips to straight down and every tap counts), a GPU's
      * sin/cos approximation either sign. We take the intended limit: a vertical horizon, tanH =
      * +inf, sinH = 1, so no tap counts (hbao.md, "Differences"). */
     if (!(phi < HBAO_PI_F * 0.5f))
+        return;
+    const float tanH = f_tan(phi);
+    o->tanH = tanH;
+    o->sinH = tanH / sqrtf(1.0f + tanH * tanH);
+    o->valid = 1;
+}
+
+/* AccumulatedHorizonOcclusion's step loop */
+static float classic_taps(const ao_hbao_constants *k, const obs_image_f32 *z, const classic_px *c,
+                          const classic_ray *o)
+{
+    if (!o->valid)
         return 0.0f;
-    float tanH = f_tan(phi);
-    float sinH = tanH / sqrtf(1.0f + tanH * tanH);
+    const v3 P = c->P;
+    const float du = o->du, dv = o->dv, numSteps = c->numSteps;
+    float u = o->u, v = o->v, tanH = o->tanH, sinH = o->sinH;
     float ao = 0.0f;
     /* for (float j = 1; j <= numSteps; ++j): numSteps is not an integer in general */
     for (float j = 1.0f; j <= numSteps; j += 1.0f) {
@@ -481,93 +654,39 @@ static float classic_direction(const ao_hbao_constants *k, const obs_image_f32 *
     return ao;
 }
 
-/* tangent_eye_pos: intersect the view ray through uv with the tangent plane (N, w), except for
- * silhouette edges (NdotV >= 0) */
-static inline v3 tangent_eye_pos(const ao_hbao_constants *k, const obs_image_f32 *z, float u, float v, v3 N, float w)
+/* return 1.0 - ao / g_NumDir * g_Contrast.
+ * Deviation: saturated (the reference's value leaves [0, 1] when the horizon flips, hbao.md) */
+static inline float classic_finish(const ao_hbao_constants *k, float ao)
 {
-    v3 V = fetch_pos(k, z, u, v, 0);
-    const float NdotV = v3_dot(N, V);
-    if (NdotV < 0.0f) {
-        const float s = w / NdotV;
-        V = (v3){V.x * s, V.y * s, V.z * s};
-    }
-    return V;
+    return clampf01(1.0f - ao / (float)k->num_dirs * k->contrast);
 }
 
 static float classic_pixel(const hbao_job *J, int x, int y, int64_t *n_small, int64_t *n_degen)
 {
-    const ao_hbao_constants *k = J->k;
-    const obs_image_f32 *z = J->z;
-    /* IN.texUV at the pixel centre (D3D: y down) */
-    const float u0 = ((float)x + 0.5f) / k->resolution[0], v0 = ((float)y + 0.5f) / k->resolution[1];
-    const v3 P = fetch_pos(k, z, u0, v0, 0);
-    /* Project the radius of influence g_R from eye space to texture space:
-     * step_size = 0.5 * g_R * g_FocalLen / P.z (orthographic extension: no "/ P.z") */
-    float sx = 0.5f * k->R * k->focal_len[0], sy = 0.5f * k->R * k->focal_len[1];
-    if (!k->orthographic) {
-        sx = sx / P.z;
-        sy = sy / P.z;
-    }
-    /* Early out if the projected radius is smaller than 1 pixel */
-    const float m = fminf(sx * k->resolution[0], sy * k->resolution[1]);
-    const float numSteps = fminf((float)k->num_steps, m);
-    if (!(numSteps >= 1.0f)) {
-        (*n_small)++;
-        return 1.0f;
-    }
-    sx = sx / (numSteps + 1.0f);
-    sy = sy / (numSteps + 1.0f);
-
-    /* Nearest neighbor pixels (on the tangent plane with normals) */
-    const float iu = k->inv_resolution[0], iv = k->inv_resolution[1];
-    v3 Pr, Pl, Pt, Pb;
-    if (k->normals_from_gbuffer) {
-        /* N = normalize(tNormal): our view-space normal in the sample's eye space (z into the screen) */
-        const float *n0 = obs_image_f32_row(J->in->normal[0], y), *n1 = obs_image_f32_row(J->in->normal[1], y),
-                    *n2 = obs_image_f32_row(J->in->normal[2], y);
-        v3 N = {n0[x], n1[x], -n2[x]};
-        const float l2 = v3_dot(N, N);
-        if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
-            (*n_degen)++;
-            return 1.0f; /* no usable G-buffer normal */
-        }
-        const float inv = 1.0f / sqrtf(l2);
-        N = (v3){N.x * inv, N.y * inv, N.z * inv};
-        const float w = v3_dot(P, N); /* tangentPlane = float4(N, dot(P, N)) */
-        Pr = tangent_eye_pos(k, z, u0 + iu, v0, N, w);
-        Pl = tangent_eye_pos(k, z, u0 + -iu, v0, N, w);
-        Pt = tangent_eye_pos(k, z, u0, v0 + iv, N, w);
-        Pb = tangent_eye_pos(k, z, u0, v0 + -iv, N, w);
-    } else {
-        Pr = fetch_pos(k, z, u0 + iu, v0, 0);
-        Pl = fetch_pos(k, z, u0 + -iu, v0, 0);
-        Pt = fetch_pos(k, z, u0, v0 + iv, 0);
-        Pb = fetch_pos(k, z, u0, v0 + -iv, 0);
-    }
-    /* Screen-aligned basis for the tangent plane: dPdu = min_diff(P, Pr, Pl),
-     * dPdv = min_diff(P, Pt, Pb) * (g_Resolution.y * g_InvResolution.x) */
-    const v3 dPdu = min_diff(P, Pr, Pl);
-    v3 dPdv = min_diff(P, Pt, Pb);
-    const float aspect = k->resolution[1] * k->inv_resolution[0];
-    dPdv = (v3){dPdv.x * aspect, dPdv.y * aspect, dPdv.z * aspect};
-
-    /* (cos(alpha), sin(alpha), jitter) */
-    const float *rd = J->noise[ao_hbao_noise_index(k, x, y)];
+    classic_px c;
+    float early;
+    if (!classic_setup(J, x, y, &c, &early, n_small, n_degen))
+        return early;
     float ao = 0.0f;
-    for (int d = 0; d < k->num_dirs; d++) {
-        /* deltaUV = rotate(g_Dirs[d], rand_Dir.xy) * step_size.xy */
-        const float du = (k->dirs[d][0] * rd[0] - k->dirs[d][1] * rd[1]) * sx;
-        const float dv = (k->dirs[d][0] * rd[1] + k->dirs[d][1] * rd[0]) * sy;
-        ao += classic_direction(k, z, du, dv, u0, v0, P, numSteps, rd[2], dPdu, dPdv);
+    for (int d = 0; d < J->k->num_dirs; d++) {
+        classic_ray o;
+        classic_dir(J->k, &c, d, &o);
+        ao += classic_taps(J->k, J->z, &c, &o);
     }
-    /* return 1.0 - ao / g_NumDir * g_Contrast.
-     * Deviation: saturated (the reference's value leaves [0, 1] when the horizon flips, hbao.md) */
-    return clampf01(1.0f - ao / (float)k->num_dirs * k->contrast);
+    return classic_finish(J->k, ao);
 }
 
 /* ---- PLUS: gl_ssao hbao.frag.glsl, AO_DEINTERLEAVED 0 ---- */
 
-static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
+typedef struct plus_px {
+    float u0, v0;          /* texCoord */
+    v3 P, N;
+    float stepSizePixels;
+    const float *rd;       /* (cos(Alpha), sin(Alpha), rand1, rand2) */
+} plus_px;
+
+/* main() up to the direction loop. Returns 0 with *early set when the pixel is done. */
+static int plus_setup(const hbao_job *J, int x, int y, plus_px *c, float *early, int64_t *n_degen)
 {
     const ao_hbao_constants *k = J->k;
     const obs_image_f32 *z = J->z;
@@ -583,14 +702,15 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
         const v3 Pr = fetch_pos(k, z, u0 + iu, v0, 1), Pl = fetch_pos(k, z, u0 + -iu, v0, 1);
         const v3 Pt = fetch_pos(k, z, u0, v0 + iv, 1), Pb = fetch_pos(k, z, u0, v0 + -iv, 1);
         const v3 a = min_diff(P, Pr, Pl), b = min_diff(P, Pt, Pb);
-        const v3 c = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
-        const float l2 = v3_dot(c, c);
+        const v3 cr = {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+        const float l2 = v3_dot(cr, cr);
         if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
             (*n_degen)++;
-            return 1.0f; /* Deviation: NaN normal on a GPU; visibility 1 here */
+            *early = 1.0f; /* Deviation: NaN normal on a GPU; visibility 1 here */
+            return 0;
         }
         const float inv = 1.0f / sqrtf(l2); /* normalize(v) = v * inversesqrt(dot(v, v)) */
-        N = (v3){-(c.x * inv), -(c.y * inv), -(c.z * inv)};
+        N = (v3){-(cr.x * inv), -(cr.y * inv), -(cr.z * inv)};
     } else {
         /* the G-buffer's view-space normal in the shader's eye space (z into the screen) */
         N = (v3){obs_image_f32_row(J->in->normal[0], y)[x], obs_image_f32_row(J->in->normal[1], y)[x],
@@ -598,7 +718,8 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
         const float l2 = v3_dot(N, N);
         if (!(l2 > 0.0f) || !(l2 < INFINITY)) {
             (*n_degen)++;
-            return 1.0f;
+            *early = 1.0f;
+            return 0;
         }
         const float inv = 1.0f / sqrtf(l2);
         N = (v3){N.x * inv, N.y * inv, N.z * inv};
@@ -606,19 +727,34 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
     /* Compute projection of disk of radius control.R into screen space:
      * RadiusPixels = RadiusToScreen / (projOrtho != 0 ? 1.0 : ViewPosition.z) */
     const float radiusPixels = k->radius_to_screen / (k->orthographic ? 1.0f : P.z);
-    const int split = k->small_scale_amount > 0.0f;
     /* HBAO+ CoarseAO_PS: early exit if the projected radius is smaller than 1 full-res pixel */
-    if (split && radiusPixels < 1.0f)
-        return 1.0f;
+    if (k->small_scale_amount > 0.0f && radiusPixels < 1.0f) {
+        *early = 1.0f;
+        return 0;
+    }
+    c->u0 = u0;
+    c->v0 = v0;
+    c->P = P;
+    c->N = N;
     /* Get jitter vector for the current full-res pixel: (cos(Alpha), sin(Alpha), rand1, rand2) */
-    const float *rd = J->noise[ao_hbao_noise_index(k, x, y)];
+    c->rd = J->noise[ao_hbao_noise_index(k, x, y)];
     /* ComputeCoarseAO: Divide by NUM_STEPS+1 so that the farthest samples are not fully attenuated */
-    const float stepSizePixels = radiusPixels / ((float)k->num_steps + 1.0f);
+    c->stepSizePixels = radiusPixels / ((float)k->num_steps + 1.0f);
+    return 1;
+}
+
+/* ComputeCoarseAO's loops. *smallAO: HBAO+'s SmallScaleAO (the first steps) when split, else 0. */
+static float plus_taps(const ao_hbao_constants *k, const obs_image_f32 *z, const plus_px *c, float *smallAO_out)
+{
+    const int split = k->small_scale_amount > 0.0f;
+    const float *rd = c->rd;
+    const float stepSizePixels = c->stepSizePixels, u0 = c->u0, v0 = c->v0;
+    const v3 P = c->P, N = c->N;
     float AO = 0.0f, smallAO = 0.0f; /* HBAO+: SmallScaleAO (first step), LargeScaleAO (in AO) */
     for (int d = 0; d < k->num_dirs; d++) {
-        const float c = k->plus_dirs[d][0], s = k->plus_dirs[d][1]; /* (cos, sin)(Alpha * d) */
+        const float cs = k->plus_dirs[d][0], sn = k->plus_dirs[d][1]; /* (cos, sin)(Alpha * d) */
         /* Direction = RotateDirection(vec2(cos(Angle), sin(Angle)), Rand.xy) */
-        const float dirx = c * rd[0] - s * rd[1], diry = c * rd[1] + s * rd[0];
+        const float dirx = cs * rd[0] - sn * rd[1], diry = cs * rd[1] + sn * rd[0];
         /* Jitter starting sample within the first step: RayPixels = Rand.z * StepSizePixels + 1.0 */
         float rayPixels = rd[2] * stepSizePixels + 1.0f;
         for (int st = 0; st < k->num_steps; st++) {
@@ -641,7 +777,13 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
                 AO += t;
         }
     }
-    if (!split) {
+    *smallAO_out = smallAO;
+    return AO;
+}
+
+static float plus_finish(const ao_hbao_constants *k, float AO, float smallAO)
+{
+    if (!(k->small_scale_amount > 0.0f)) {
         /* AO *= control.AOMultiplier / (NUM_DIRECTIONS * NUM_STEPS); clamp(1.0 - AO * 2.0, 0, 1) */
         AO *= k->ao_multiplier / (float)(k->num_dirs * k->num_steps);
     } else {
@@ -655,6 +797,610 @@ static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
     return (float)pow((double)A, (double)k->pow_exponent);
 }
 
+static float plus_pixel(const hbao_job *J, int x, int y, int64_t *n_degen)
+{
+    plus_px c;
+    float early, smallAO;
+    if (!plus_setup(J, x, y, &c, &early, n_degen))
+        return early;
+    const float AO = plus_taps(J->k, J->z, &c, &smallAO);
+    return plus_finish(J->k, AO, smallAO);
+}
+
+/* ---- AVX2: the tap loops, 8 pixels of a row per call (lane i = pixel x + i) ----
+ * Every lane runs the scalar loop's float operations in the scalar loop's order (separate mul and
+ * add, no FMA: neither -mfma nor contraction), so each lane's result is bit-identical to
+ * classic_taps / plus_taps; the scalar set-up (classic_setup, classic_dir, plus_setup) and the
+ * finish are shared. Skipped taps are masked (blend), never added as 0. */
+#if HB_HAVE_AVX2
+
+/* texel_of over 8 lanes: !(t >= 0) -> 0, t >= n -> n - 1, else (int)t */
+HB_AVX2 static inline __m256i hb_texel8(__m256 t, __m256 nf, __m256i nm1)
+{
+    __m256i ti = _mm256_cvttps_epi32(t);
+    ti = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(ti), _mm256_castsi256_ps(nm1),
+                                              _mm256_cmp_ps(t, nf, _CMP_GE_OQ)));
+    return _mm256_and_si256(ti, _mm256_castps_si256(_mm256_cmp_ps(t, _mm256_setzero_ps(), _CMP_GE_OQ)));
+}
+
+typedef struct hb_fetcher {
+    __m256 res0, res1, w_f, h_f, a0, a1, a2, a3;
+    __m256i w_m1, h_m1, stride;
+    const float *z;
+    int gl, ortho;
+} hb_fetcher;
+
+HB_AVX2 static void hb_fetch8_init(hb_fetcher *f, const ao_hbao_constants *k, const obs_image_f32 *z, int gl)
+{
+    f->res0 = _mm256_set1_ps(k->resolution[0]);
+    f->res1 = _mm256_set1_ps(k->resolution[1]);
+    f->w_f = _mm256_set1_ps((float)k->full_width);
+    f->h_f = _mm256_set1_ps((float)k->full_height);
+    f->w_m1 = _mm256_set1_epi32(k->full_width - 1);
+    f->h_m1 = _mm256_set1_epi32(k->full_height - 1);
+    f->stride = _mm256_set1_epi32((int)z->stride);
+    f->a0 = _mm256_set1_ps(k->uv_to_view[0]);
+    f->a1 = _mm256_set1_ps(k->uv_to_view[1]);
+    f->a2 = _mm256_set1_ps(k->uv_to_view[2]);
+    f->a3 = _mm256_set1_ps(k->uv_to_view[3]);
+    f->z = z->data;
+    f->gl = gl;
+    f->ortho = k->orthographic;
+}
+
+/* fetch_pos over 8 lanes */
+HB_AVX2 static inline void hb_fetch8(const hb_fetcher *f, __m256 u, __m256 v, __m256 *Sx, __m256 *Sy, __m256 *Sz)
+{
+    const __m256i tx = hb_texel8(_mm256_mul_ps(u, f->res0), f->w_f, f->w_m1);
+    __m256i ty = hb_texel8(_mm256_mul_ps(v, f->res1), f->h_f, f->h_m1);
+    if (f->gl)
+        ty = _mm256_sub_epi32(f->h_m1, ty);
+    const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(ty, f->stride), tx);
+    const __m256 d = _mm256_i32gather_ps(f->z, idx, 4);
+    const __m256 ax = _mm256_add_ps(_mm256_mul_ps(u, f->a0), f->a2);
+    const __m256 ay = _mm256_add_ps(_mm256_mul_ps(v, f->a1), f->a3);
+    if (!f->ortho) {
+        *Sx = _mm256_mul_ps(ax, d);
+        *Sy = _mm256_mul_ps(ay, d);
+    } else {
+        *Sx = ax;
+        *Sy = ay;
+    }
+    *Sz = d;
+}
+
+/* (float)atan((double)x) and (float)tan((double)x) over 8 lanes, bit-identical to f_atan / f_tan
+ * by construction (as hb_exp2f): the value in double with a relative error far below 2^-46, then
+ * the float rounding taken only where y (1 -+ 2^-46) round alike; other lanes in need (about 1 in
+ * 2^21) call libm. atan: |x| > 1 -> pi/2 - atan(1/|x|); atan(y) = atan(c) + atan(u),
+ * c = rint(16 y)/16, u = (y - c)/(1 + y c), |u| <= 1/32, odd series to u^13. tan: |x| <= pi/4 ->
+ * sin/cos series (to t^17, t^16); else cos(t)/sin(t) with t = pi/2 - |x| taken exactly
+ * (Sterbenz) plus pi/2's low part. Lanes not in need may come back as anything. */
+static const double hb_atan_tab[17] = {
+    0.0, 0.06241880999595735, 0.12435499454676144, 0.18534794999569476, 0.24497866312686414,
+    0.3028848683749714, 0.35877067027057225, 0.4124104415973873, 0.4636476090008061, 0.5123894603107377,
+    0.5585993153435624, 0.6022873461349642, 0.6435011087932844, 0.6823165548747481, 0.7188299996216245,
+    0.7531512809621944, 0.7853981633974483}; /* atan(i/16) */
+static const double hb_atan_q[6] = {-0.3333333333333333, 0.2, -0.14285714285714285, 0.1111111111111111,
+                                    -0.09090909090909091, 0.07692307692307693}; /* (-1)^k / (2k + 1) */
+static const double hb_sin_c[8] = {-0.16666666666666666, 0.008333333333333333, -0.0001984126984126984,
+                                   2.7557319223985893e-06, -2.505210838544172e-08, 1.6059043836821613e-10,
+                                   -7.647163731819816e-13, 2.8114572543455206e-15}; /* (-1)^k / (2k+1)! */
+static const double hb_cos_c[8] = {-0.5, 0.041666666666666664, -0.001388888888888889, 2.48015873015873e-05,
+                                   -2.755731922398589e-07, 2.08767569878681e-09, -1.1470745597729725e-11,
+                                   4.779477332387385e-14}; /* (-1)^k / (2k)! */
+#define HB_PIO2_HI 0x1.921fb54442d18p+0
+#define HB_PIO2_LO 0x1.1a62633145c07p-54
+
+HB_AVX2 static inline __m256d hb_atan4d(__m256d x)
+{
+    const __m256d sgn = _mm256_set1_pd(-0.0), one = _mm256_set1_pd(1.0);
+    __m256d ax = _mm256_min_pd(_mm256_andnot_pd(sgn, x), _mm256_set1_pd(1e300)); /* NaN, inf -> 1e300 */
+    const __m256d inv = _mm256_cmp_pd(ax, one, _CMP_GT_OQ);
+    const __m256d y = _mm256_blendv_pd(ax, _mm256_div_pd(one, ax), inv);
+    const __m256d ci = _mm256_round_pd(_mm256_mul_pd(y, _mm256_set1_pd(16.0)), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+    const __m256d atc = _mm256_i32gather_pd(hb_atan_tab, _mm256_cvtpd_epi32(ci), 8);
+    const __m256d c = _mm256_mul_pd(ci, _mm256_set1_pd(0.0625));
+    const __m256d u = _mm256_div_pd(_mm256_sub_pd(y, c), _mm256_add_pd(one, _mm256_mul_pd(y, c)));
+    const __m256d u2 = _mm256_mul_pd(u, u);
+    __m256d q = _mm256_set1_pd(hb_atan_q[5]);
+    for (int k = 4; k >= 0; k--)
+        q = _mm256_add_pd(_mm256_mul_pd(q, u2), _mm256_set1_pd(hb_atan_q[k]));
+    const __m256d a = _mm256_add_pd(atc, _mm256_add_pd(u, _mm256_mul_pd(_mm256_mul_pd(u, u2), q)));
+    const __m256d r = _mm256_blendv_pd(
+        a, _mm256_add_pd(_mm256_sub_pd(_mm256_set1_pd(HB_PIO2_HI), a), _mm256_set1_pd(HB_PIO2_LO)), inv);
+    return _mm256_or_pd(r, _mm256_and_pd(x, sgn));
+}
+
+HB_AVX2 static inline __m256d hb_tan4d(__m256d x)
+{
+    const __m256d sgn = _mm256_set1_pd(-0.0), one = _mm256_set1_pd(1.0);
+    const __m256d ax = _mm256_min_pd(_mm256_andnot_pd(sgn, x), _mm256_set1_pd(2.0)); /* NaN -> 2 */
+    const __m256d big = _mm256_cmp_pd(ax, _mm256_set1_pd(0x1.921fb54442d18p-1), _CMP_GT_OQ);
+    const __m256d t = _mm256_blendv_pd(
+        ax, _mm256_add_pd(_mm256_sub_pd(_mm256_set1_pd(HB_PIO2_HI), ax), _mm256_set1_pd(HB_PIO2_LO)), big);
+    const __m256d t2 = _mm256_mul_pd(t, t);
+    __m256d ps = _mm256_set1_pd(hb_sin_c[7]), pc = _mm256_set1_pd(hb_cos_c[7]);
+    for (int k = 6; k >= 0; k--) {
+        ps = _mm256_add_pd(_mm256_mul_pd(ps, t2), _mm256_set1_pd(hb_sin_c[k]));
+        pc = _mm256_add_pd(_mm256_mul_pd(pc, t2), _mm256_set1_pd(hb_cos_c[k]));
+    }
+    const __m256d s = _mm256_add_pd(t, _mm256_mul_pd(_mm256_mul_pd(t, t2), ps));
+    const __m256d c = _mm256_add_pd(one, _mm256_mul_pd(t2, pc));
+    const __m256d r = _mm256_div_pd(_mm256_blendv_pd(s, c, big), _mm256_blendv_pd(c, s, big));
+    return _mm256_xor_pd(r, _mm256_and_pd(x, sgn));
+}
+
+/* The float rounding of 4 doubles where certain, NaN where not */
+HB_AVX2 static inline __m128 hb_round_certain4(__m256d y)
+{
+    const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_LO)));
+    const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_HI)));
+    return _mm_blendv_ps(_mm_set1_ps(NAN), lo, _mm_cmpeq_ps(lo, hi));
+}
+
+/* fn 0: atan, 1: tan */
+HB_AVX2 static inline __m256 hb_trig8(__m256 x, __m256 need, int fn)
+{
+    __m128 r[2];
+    for (int h = 0; h < 2; h++) {
+        const __m256d xd = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(x, 1) : _mm256_castps256_ps128(x));
+        r[h] = hb_round_certain4(fn ? hb_tan4d(xd) : hb_atan4d(xd));
+    }
+    __m256 res = _mm256_set_m128(r[1], r[0]);
+    /* the domain: finite x (atan), |x| <= 1.6 (tan); false for NaN */
+    const __m256 dom = _mm256_cmp_ps(_mm256_andnot_ps(_mm256_set1_ps(-0.0f), x),
+                                     _mm256_set1_ps(fn ? 1.6f : FLT_MAX), _CMP_LE_OQ);
+    const int mb = _mm256_movemask_ps(
+        _mm256_and_ps(need, _mm256_or_ps(_mm256_cmp_ps(res, res, _CMP_UNORD_Q), _mm256_xor_ps(dom, _mm256_castsi256_ps(_mm256_set1_epi32(-1))))));
+    if (mb) {
+        float xs[8], rs[8];
+        _mm256_storeu_ps(xs, x);
+        _mm256_storeu_ps(rs, res);
+        for (int i = 0; i < 8; i++)
+            if (mb >> i & 1)
+                rs[i] = fn ? f_tan(xs[i]) : f_atan(xs[i]);
+        res = _mm256_loadu_ps(rs);
+    }
+    return res;
+}
+
+/* snap_uv_offset over 8 lanes */
+HB_AVX2 static inline __m256 hb_snap8(__m256 u, __m256 res, __m256 inv)
+{
+    return _mm256_mul_ps(_mm256_round_ps(_mm256_mul_ps(u, res), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC), inv);
+}
+
+/* classic_dir + classic_taps for 8 pixels (live[i]: lane i runs), every direction; ao_out[i] is
+ * the sum over directions in direction order, as classic_pixel's */
+HB_AVX2 static void classic_group8(const ao_hbao_constants *k, const hb_fetcher *f, const classic_px *c,
+                                   const int *live, float *ao_out)
+{
+    float L[17][8];
+    int first = 0;
+    while (!live[first])
+        first++;
+    for (int i = 0; i < 8; i++) {
+        const classic_px *q = live[i] ? &c[i] : &c[first];
+        const float vals[17] = {q->u0,     q->v0,     q->P.x,  q->P.y,  q->P.z,  q->dPdu.x,
+                                q->dPdu.y, q->dPdu.z, q->dPdv.x, q->dPdv.y, q->dPdv.z, q->sx,
+                                q->sy,     live[i] ? q->numSteps : 0.0f, q->rd[0], q->rd[1], q->rd[2]};
+        for (int j = 0; j < 17; j++)
+            L[j][i] = vals[j];
+    }
+    const __m256 u0 = _mm256_loadu_ps(L[0]), v0 = _mm256_loadu_ps(L[1]);
+    const __m256 px = _mm256_loadu_ps(L[2]), py = _mm256_loadu_ps(L[3]), pz = _mm256_loadu_ps(L[4]);
+    const __m256 dPdux = _mm256_loadu_ps(L[5]), dPduy = _mm256_loadu_ps(L[6]), dPduz = _mm256_loadu_ps(L[7]);
+    const __m256 dPdvx = _mm256_loadu_ps(L[8]), dPdvy = _mm256_loadu_ps(L[9]), dPdvz = _mm256_loadu_ps(L[10]);
+    const __m256 sx = _mm256_loadu_ps(L[11]), sy = _mm256_loadu_ps(L[12]), ns = _mm256_loadu_ps(L[13]);
+    const __m256 rd0 = _mm256_loadu_ps(L[14]), rd1 = _mm256_loadu_ps(L[15]), rd2 = _mm256_loadu_ps(L[16]);
+    const __m256 one = _mm256_set1_ps(1.0f), inf = _mm256_set1_ps(INFINITY), sgn = _mm256_set1_ps(-0.0f);
+    const __m256 res0 = _mm256_set1_ps(k->resolution[0]), res1 = _mm256_set1_ps(k->resolution[1]);
+    const __m256 inv0 = _mm256_set1_ps(k->inv_resolution[0]), inv1 = _mm256_set1_ps(k->inv_resolution[1]);
+    const __m256 bias = _mm256_set1_ps(k->angle_bias), halfpi = _mm256_set1_ps(HBAO_PI_F * 0.5f);
+    const __m256 sqrR = _mm256_set1_ps(k->sqr_R), invR = _mm256_set1_ps(k->inv_R);
+    const __m256 att = _mm256_set1_ps(k->attenuation);
+    const __m256 liveM = _mm256_cmp_ps(ns, one, _CMP_GE_OQ); /* live lanes have numSteps >= 1 */
+    __m256 aoT = _mm256_setzero_ps();
+    for (int d = 0; d < k->num_dirs; d++) {
+        /* classic_dir */
+        const __m256 cd = _mm256_set1_ps(k->dirs[d][0]), sd = _mm256_set1_ps(k->dirs[d][1]);
+        __m256 du = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(cd, rd0), _mm256_mul_ps(sd, rd1)), sx);
+        __m256 dv = _mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(cd, rd1), _mm256_mul_ps(sd, rd0)), sy);
+        __m256 u = _mm256_add_ps(u0, hb_snap8(_mm256_mul_ps(rd2, du), res0, inv0));
+        __m256 v = _mm256_add_ps(v0, hb_snap8(_mm256_mul_ps(rd2, dv), res1, inv1));
+        du = hb_snap8(du, res0, inv0);
+        dv = hb_snap8(dv, res1, inv1);
+        const __m256 Tx = _mm256_add_ps(_mm256_mul_ps(du, dPdux), _mm256_mul_ps(dv, dPdvx));
+        const __m256 Ty = _mm256_add_ps(_mm256_mul_ps(du, dPduy), _mm256_mul_ps(dv, dPdvy));
+        const __m256 Tz = _mm256_add_ps(_mm256_mul_ps(du, dPduz), _mm256_mul_ps(dv, dPdvz));
+        const __m256 tanT = _mm256_div_ps(_mm256_xor_ps(Tz, sgn),
+                                          _mm256_sqrt_ps(_mm256_add_ps(_mm256_mul_ps(Tx, Tx), _mm256_mul_ps(Ty, Ty))));
+        const __m256 ok1 = _mm256_and_ps(liveM, _mm256_cmp_ps(_mm256_andnot_ps(sgn, tanT), inf, _CMP_LT_OQ));
+        __m256 ao = _mm256_setzero_ps();
+        if (_mm256_movemask_ps(ok1)) {
+            const __m256 phi = _mm256_add_ps(hb_trig8(tanT, ok1, 0), bias);
+            const __m256 ok = _mm256_and_ps(ok1, _mm256_cmp_ps(phi, halfpi, _CMP_LT_OQ));
+            if (_mm256_movemask_ps(ok)) {
+                __m256 tanH = hb_trig8(phi, ok, 1);
+                __m256 sinH = _mm256_div_ps(tanH, _mm256_sqrt_ps(_mm256_add_ps(one, _mm256_mul_ps(tanH, tanH))));
+                float nsd[8];
+                _mm256_storeu_ps(nsd, _mm256_and_ps(ns, ok));
+                float maxSteps = 0.0f;
+                for (int i = 0; i < 8; i++)
+                    maxSteps = nsd[i] > maxSteps ? nsd[i] : maxSteps;
+                const __m256 nsv = _mm256_loadu_ps(nsd);
+                /* classic_taps */
+                for (float j = 1.0f; j <= maxSteps; j += 1.0f) {
+                    const __m256 on = _mm256_cmp_ps(_mm256_set1_ps(j), nsv, _CMP_LE_OQ);
+                    u = _mm256_add_ps(u, du);
+                    v = _mm256_add_ps(v, dv);
+                    __m256 Sx, Sy, Sz;
+                    hb_fetch8(f, u, v, &Sx, &Sy, &Sz);
+                    const __m256 Dx = _mm256_sub_ps(Sx, px), Dy = _mm256_sub_ps(Sy, py), Dz = _mm256_sub_ps(Sz, pz);
+                    const __m256 dxy = _mm256_add_ps(_mm256_mul_ps(Dx, Dx), _mm256_mul_ps(Dy, Dy));
+                    const __m256 d2 = _mm256_add_ps(dxy, _mm256_mul_ps(Dz, Dz));
+                    const __m256 tanS = _mm256_div_ps(_mm256_sub_ps(pz, Sz), _mm256_sqrt_ps(dxy));
+                    __m256 m = _mm256_and_ps(on, _mm256_cmp_ps(d2, sqrR, _CMP_LT_OQ));
+                    m = _mm256_and_ps(m, _mm256_cmp_ps(tanS, tanH, _CMP_GT_OQ));
+                    m = _mm256_and_ps(m, _mm256_cmp_ps(tanS, inf, _CMP_LT_OQ));
+                    if (_mm256_movemask_ps(m)) {
+                        const __m256 sinS =
+                            _mm256_div_ps(tanS, _mm256_sqrt_ps(_mm256_add_ps(one, _mm256_mul_ps(tanS, tanS))));
+                        const __m256 r = _mm256_mul_ps(_mm256_sqrt_ps(d2), invR);
+                        const __m256 w = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(att, r), r));
+                        ao = _mm256_blendv_ps(ao, _mm256_add_ps(ao, _mm256_mul_ps(w, _mm256_sub_ps(sinS, sinH))), m);
+                        tanH = _mm256_blendv_ps(tanH, tanS, m);
+                        sinH = _mm256_blendv_ps(sinH, sinS, m);
+                    }
+                }
+            }
+        }
+        aoT = _mm256_add_ps(aoT, ao); /* ao += AccumulatedHorizonOcclusion(...); 0 where it adds 0 */
+    }
+    _mm256_storeu_ps(ao_out, aoT);
+}
+
+/* plus_taps for 8 lanes; lanes with live[i] == 0 are computed on a copy of lane 0's state or
+ * garbage and ignored by the caller */
+HB_AVX2 static void plus_taps8(const ao_hbao_constants *k, const hb_fetcher *f, const plus_px *c, const int *live,
+                               float *AO_out, float *small_out)
+{
+    const int split = k->small_scale_amount > 0.0f;
+    float Px[8], Py[8], Pz[8], Nx[8], Ny[8], Nz[8], U0[8], V0[8], St[8], R0[8], R1[8], R2[8];
+    int first = 0;
+    while (!live[first])
+        first++;
+    for (int i = 0; i < 8; i++) {
+        const plus_px *q = live[i] ? &c[i] : &c[first];
+        Px[i] = q->P.x;
+        Py[i] = q->P.y;
+        Pz[i] = q->P.z;
+        Nx[i] = q->N.x;
+        Ny[i] = q->N.y;
+        Nz[i] = q->N.z;
+        U0[i] = q->u0;
+        V0[i] = q->v0;
+        St[i] = q->stepSizePixels;
+        R0[i] = q->rd[0];
+        R1[i] = q->rd[1];
+        R2[i] = q->rd[2];
+    }
+    const __m256 px = _mm256_loadu_ps(Px), py = _mm256_loadu_ps(Py), pz = _mm256_loadu_ps(Pz);
+    const __m256 nx = _mm256_loadu_ps(Nx), ny = _mm256_loadu_ps(Ny), nz = _mm256_loadu_ps(Nz);
+    const __m256 u0 = _mm256_loadu_ps(U0), v0 = _mm256_loadu_ps(V0), step = _mm256_loadu_ps(St);
+    const __m256 r0 = _mm256_loadu_ps(R0), r1 = _mm256_loadu_ps(R1), r2 = _mm256_loadu_ps(R2);
+    const __m256 inv0 = _mm256_set1_ps(k->inv_resolution[0]), inv1 = _mm256_set1_ps(k->inv_resolution[1]);
+    const __m256 bias = _mm256_set1_ps(k->ndotv_bias), nir2 = _mm256_set1_ps(k->neg_inv_R2);
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
+    __m256 AO = zero, smallAO = zero;
+    for (int d = 0; d < k->num_dirs; d++) {
+        const __m256 cs = _mm256_set1_ps(k->plus_dirs[d][0]), sn = _mm256_set1_ps(k->plus_dirs[d][1]);
+        const __m256 dirx = _mm256_sub_ps(_mm256_mul_ps(cs, r0), _mm256_mul_ps(sn, r1));
+        const __m256 diry = _mm256_add_ps(_mm256_mul_ps(cs, r1), _mm256_mul_ps(sn, r0));
+        __m256 ray = _mm256_add_ps(_mm256_mul_ps(r2, step), one);
+        for (int st = 0; st < k->num_steps; st++) {
+            const __m256 su = _mm256_add_ps(
+                _mm256_mul_ps(_mm256_round_ps(_mm256_mul_ps(ray, dirx), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC),
+                              inv0),
+                u0);
+            const __m256 sv = _mm256_add_ps(
+                _mm256_mul_ps(_mm256_round_ps(_mm256_mul_ps(ray, diry), _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC),
+                              inv1),
+                v0);
+            __m256 Sx, Sy, Sz;
+            hb_fetch8(f, su, sv, &Sx, &Sy, &Sz);
+            ray = _mm256_add_ps(ray, step);
+            const __m256 Vx = _mm256_sub_ps(Sx, px), Vy = _mm256_sub_ps(Sy, py), Vz = _mm256_sub_ps(Sz, pz);
+            const __m256 VdotV = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(Vx, Vx), _mm256_mul_ps(Vy, Vy)),
+                                               _mm256_mul_ps(Vz, Vz));
+            const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(VdotV, zero, _CMP_GT_OQ), _mm256_cmp_ps(VdotV, inf, _CMP_LT_OQ));
+            const __m256 NdotV = _mm256_mul_ps(
+                _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, Vx), _mm256_mul_ps(ny, Vy)), _mm256_mul_ps(nz, Vz)),
+                _mm256_div_ps(one, _mm256_sqrt_ps(VdotV)));
+            /* clampf01: v > 0 ? (v < 1 ? v : 1) : 0 */
+            const __m256 a = _mm256_sub_ps(NdotV, bias);
+            const __m256 ca = _mm256_and_ps(_mm256_blendv_ps(one, a, _mm256_cmp_ps(a, one, _CMP_LT_OQ)),
+                                            _mm256_cmp_ps(a, zero, _CMP_GT_OQ));
+            const __m256 b = _mm256_add_ps(_mm256_mul_ps(VdotV, nir2), one);
+            const __m256 cb = _mm256_and_ps(_mm256_blendv_ps(one, b, _mm256_cmp_ps(b, one, _CMP_LT_OQ)),
+                                            _mm256_cmp_ps(b, zero, _CMP_GT_OQ));
+            const __m256 t = _mm256_mul_ps(ca, cb);
+            if (split && st == 0)
+                smallAO = _mm256_blendv_ps(smallAO, _mm256_add_ps(smallAO, t), ok);
+            else
+                AO = _mm256_blendv_ps(AO, _mm256_add_ps(AO, t), ok);
+        }
+    }
+    _mm256_storeu_ps(AO_out, AO);
+    _mm256_storeu_ps(small_out, smallAO);
+}
+
+/* min_diff over 8 lanes */
+HB_AVX2 static inline void hb_min_diff8(__m256 Px, __m256 Py, __m256 Pz, __m256 Rx, __m256 Ry, __m256 Rz, __m256 Lx,
+                                        __m256 Ly, __m256 Lz, __m256 *ox, __m256 *oy, __m256 *oz)
+{
+    const __m256 ax = _mm256_sub_ps(Rx, Px), ay = _mm256_sub_ps(Ry, Py), az = _mm256_sub_ps(Rz, Pz);
+    const __m256 bx = _mm256_sub_ps(Px, Lx), by = _mm256_sub_ps(Py, Ly), bz = _mm256_sub_ps(Pz, Lz);
+    const __m256 l1 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, ax), _mm256_mul_ps(ay, ay)), _mm256_mul_ps(az, az));
+    const __m256 l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(bx, bx), _mm256_mul_ps(by, by)), _mm256_mul_ps(bz, bz));
+    /* (l1 < l2 || l2 != l2) ? V1 : V2 */
+    const __m256 m = _mm256_or_ps(_mm256_cmp_ps(l1, l2, _CMP_LT_OQ), _mm256_cmp_ps(l2, l2, _CMP_UNORD_Q));
+    *ox = _mm256_blendv_ps(bx, ax, m);
+    *oy = _mm256_blendv_ps(by, ay, m);
+    *oz = _mm256_blendv_ps(bz, az, m);
+}
+
+/* tangent_eye_pos over 8 lanes */
+HB_AVX2 static inline void hb_tangent8(const hb_fetcher *f, __m256 u, __m256 v, __m256 Nx, __m256 Ny, __m256 Nz,
+                                       __m256 w, __m256 *X, __m256 *Y, __m256 *Z)
+{
+    hb_fetch8(f, u, v, X, Y, Z);
+    const __m256 NdotV =
+        _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(Nx, *X), _mm256_mul_ps(Ny, *Y)), _mm256_mul_ps(Nz, *Z));
+    const __m256 m = _mm256_cmp_ps(NdotV, _mm256_setzero_ps(), _CMP_LT_OQ);
+    const __m256 sc = _mm256_div_ps(w, NdotV);
+    *X = _mm256_blendv_ps(*X, _mm256_mul_ps(*X, sc), m);
+    *Y = _mm256_blendv_ps(*Y, _mm256_mul_ps(*Y, sc), m);
+    *Z = _mm256_blendv_ps(*Z, _mm256_mul_ps(*Z, sc), m);
+}
+
+/* classic_setup for the 8 pixels x .. x + 7 of row y (lanes >= n and background lanes are not
+ * live); fills c[i] and live[i] for the live lanes, counts as classic_setup (background, then
+ * small radius, then a degenerate G-buffer normal); every early value is 1. fminf: its operands
+ * are never NaN here (P.z of a surface pixel is finite and > 0), so it is min. */
+HB_AVX2 static void classic_setup8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, classic_px *c,
+                                   int *live, int64_t *n_bg, int64_t *n_small, int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    const float *zr = obs_image_f32_row(J->z, y);
+    int any = 0;
+    for (int i = 0; i < 8; i++)
+        live[i] = 0;
+    for (int i = 0; i < n; i++)
+        any |= zr[x + i] < INFINITY;
+    if (!any) {
+        *n_bg += n;
+        return;
+    }
+    float X[8];
+    for (int i = 0; i < 8; i++)
+        X[i] = (float)(x + (i < n ? i : 0));
+    const __m256 one = _mm256_set1_ps(1.0f), inf = _mm256_set1_ps(INFINITY), zero = _mm256_setzero_ps();
+    const __m256 res0 = _mm256_set1_ps(k->resolution[0]), res1 = _mm256_set1_ps(k->resolution[1]);
+    const __m256 u0 = _mm256_div_ps(_mm256_add_ps(_mm256_loadu_ps(X), _mm256_set1_ps(0.5f)), res0);
+    const __m256 v0 = _mm256_set1_ps(((float)y + 0.5f) / k->resolution[1]);
+    __m256 Px, Py, Pz;
+    hb_fetch8(f, u0, v0, &Px, &Py, &Pz);
+    __m256 sx = _mm256_set1_ps(0.5f * k->R * k->focal_len[0]), sy = _mm256_set1_ps(0.5f * k->R * k->focal_len[1]);
+    if (!k->orthographic) {
+        sx = _mm256_div_ps(sx, Pz);
+        sy = _mm256_div_ps(sy, Pz);
+    }
+    const __m256 m = _mm256_min_ps(_mm256_mul_ps(sx, res0), _mm256_mul_ps(sy, res1));
+    const __m256 numSteps = _mm256_min_ps(_mm256_set1_ps((float)k->num_steps), m);
+    const int big = _mm256_movemask_ps(_mm256_cmp_ps(numSteps, one, _CMP_GE_OQ));
+    sx = _mm256_div_ps(sx, _mm256_add_ps(numSteps, one));
+    sy = _mm256_div_ps(sy, _mm256_add_ps(numSteps, one));
+    const __m256 iu = _mm256_set1_ps(k->inv_resolution[0]), iv = _mm256_set1_ps(k->inv_resolution[1]);
+    const __m256 niu = _mm256_set1_ps(-k->inv_resolution[0]), niv = _mm256_set1_ps(-k->inv_resolution[1]);
+    __m256 Rx, Ry, Rz, Lx, Ly, Lz, Tx, Ty, Tz, Bx, By, Bz;
+    int nok = 0xff;
+    if (k->normals_from_gbuffer) {
+        float G[3][8];
+        for (int i = 0; i < 8; i++) {
+            const int xi = x + (i < n ? i : 0);
+            G[0][i] = obs_image_f32_row(J->in->normal[0], y)[xi];
+            G[1][i] = obs_image_f32_row(J->in->normal[1], y)[xi];
+            G[2][i] = -obs_image_f32_row(J->in->normal[2], y)[xi];
+        }
+        const __m256 gx = _mm256_loadu_ps(G[0]), gy = _mm256_loadu_ps(G[1]), gz = _mm256_loadu_ps(G[2]);
+        const __m256 l2 =
+            _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(gx, gx), _mm256_mul_ps(gy, gy)), _mm256_mul_ps(gz, gz));
+        nok = _mm256_movemask_ps(_mm256_and_ps(_mm256_cmp_ps(l2, zero, _CMP_GT_OQ), _mm256_cmp_ps(l2, inf, _CMP_LT_OQ)));
+        const __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(l2));
+        const __m256 Nx = _mm256_mul_ps(gx, inv), Ny = _mm256_mul_ps(gy, inv), Nz = _mm256_mul_ps(gz, inv);
+        const __m256 w = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(Px, Nx), _mm256_mul_ps(Py, Ny)), _mm256_mul_ps(Pz, Nz));
+        hb_tangent8(f, _mm256_add_ps(u0, iu), v0, Nx, Ny, Nz, w, &Rx, &Ry, &Rz);
+        hb_tangent8(f, _mm256_add_ps(u0, niu), v0, Nx, Ny, Nz, w, &Lx, &Ly, &Lz);
+        hb_tangent8(f, u0, _mm256_add_ps(v0, iv), Nx, Ny, Nz, w, &Tx, &Ty, &Tz);
+        hb_tangent8(f, u0, _mm256_add_ps(v0, niv), Nx, Ny, Nz, w, &Bx, &By, &Bz);
+    } else {
+        hb_fetch8(f, _mm256_add_ps(u0, iu), v0, &Rx, &Ry, &Rz);
+        hb_fetch8(f, _mm256_add_ps(u0, niu), v0, &Lx, &Ly, &Lz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, iv), &Tx, &Ty, &Tz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, niv), &Bx, &By, &Bz);
+    }
+    __m256 ux, uy, uz, vx, vy, vz;
+    hb_min_diff8(Px, Py, Pz, Rx, Ry, Rz, Lx, Ly, Lz, &ux, &uy, &uz);
+    hb_min_diff8(Px, Py, Pz, Tx, Ty, Tz, Bx, By, Bz, &vx, &vy, &vz);
+    const __m256 aspect = _mm256_set1_ps(k->resolution[1] * k->inv_resolution[0]);
+    vx = _mm256_mul_ps(vx, aspect);
+    vy = _mm256_mul_ps(vy, aspect);
+    vz = _mm256_mul_ps(vz, aspect);
+    float A[14][8];
+    const __m256 vals[14] = {u0, Px, Py, Pz, ux, uy, uz, vx, vy, vz, sx, sy, numSteps, v0};
+    for (int j = 0; j < 14; j++)
+        _mm256_storeu_ps(A[j], vals[j]);
+    for (int i = 0; i < n; i++) {
+        if (!(zr[x + i] < INFINITY)) { /* background (cleaned to +inf): visibility 1 */
+            (*n_bg)++;
+        } else if (!(big >> i & 1)) {
+            (*n_small)++;
+        } else if (!(nok >> i & 1)) {
+            (*n_degen)++;
+        } else {
+            live[i] = 1;
+            c[i].u0 = A[0][i];
+            c[i].v0 = A[13][i];
+            c[i].P = (v3){A[1][i], A[2][i], A[3][i]};
+            c[i].dPdu = (v3){A[4][i], A[5][i], A[6][i]};
+            c[i].dPdv = (v3){A[7][i], A[8][i], A[9][i]};
+            c[i].sx = A[10][i];
+            c[i].sy = A[11][i];
+            c[i].numSteps = A[12][i];
+            c[i].rd = J->noise[ao_hbao_noise_index(k, x + i, y)];
+        }
+    }
+}
+
+/* plus_setup for the 8 pixels x .. x + 7 of row y (lanes >= n and background lanes are not live);
+ * fills c[i] and live[i] for the live lanes, counts background and degenerate normals as
+ * plus_setup does; every early value is 1. */
+HB_AVX2 static void plus_setup8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, plus_px *c, int *live,
+                                int64_t *n_bg, int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    const float *zr = obs_image_f32_row(J->z, y);
+    int any = 0;
+    for (int i = 0; i < 8; i++)
+        live[i] = 0;
+    for (int i = 0; i < n; i++)
+        any |= zr[x + i] < INFINITY;
+    if (!any) { /* all background (most groups of a typical frame) */
+        *n_bg += n;
+        return;
+    }
+    const int y_gl = k->full_height - 1 - y;
+    float X[8];
+    for (int i = 0; i < 8; i++)
+        X[i] = (float)(x + (i < n ? i : 0));
+    const __m256 half = _mm256_set1_ps(0.5f), one = _mm256_set1_ps(1.0f), inf = _mm256_set1_ps(INFINITY);
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 u0 = _mm256_div_ps(_mm256_add_ps(_mm256_loadu_ps(X), half), _mm256_set1_ps(k->resolution[0]));
+    const __m256 v0 = _mm256_set1_ps(((float)y_gl + 0.5f) / k->resolution[1]);
+    __m256 Px, Py, Pz;
+    hb_fetch8(f, u0, v0, &Px, &Py, &Pz);
+    __m256 Nx, Ny, Nz, l2;
+    if (!k->normals_from_gbuffer) {
+        const __m256 iu = _mm256_set1_ps(k->inv_resolution[0]), iv = _mm256_set1_ps(k->inv_resolution[1]);
+        const __m256 niu = _mm256_set1_ps(-k->inv_resolution[0]), niv = _mm256_set1_ps(-k->inv_resolution[1]);
+        __m256 Rx, Ry, Rz, Lx, Ly, Lz, Tx, Ty, Tz, Bx, By, Bz;
+        hb_fetch8(f, _mm256_add_ps(u0, iu), v0, &Rx, &Ry, &Rz);
+        hb_fetch8(f, _mm256_add_ps(u0, niu), v0, &Lx, &Ly, &Lz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, iv), &Tx, &Ty, &Tz);
+        hb_fetch8(f, u0, _mm256_add_ps(v0, niv), &Bx, &By, &Bz);
+        __m256 ax, ay, az, bx, by, bz;
+        hb_min_diff8(Px, Py, Pz, Rx, Ry, Rz, Lx, Ly, Lz, &ax, &ay, &az);
+        hb_min_diff8(Px, Py, Pz, Tx, Ty, Tz, Bx, By, Bz, &bx, &by, &bz);
+        /* c = cross(a, b) */
+        const __m256 cx = _mm256_sub_ps(_mm256_mul_ps(ay, bz), _mm256_mul_ps(az, by));
+        const __m256 cy = _mm256_sub_ps(_mm256_mul_ps(az, bx), _mm256_mul_ps(ax, bz));
+        const __m256 cz = _mm256_sub_ps(_mm256_mul_ps(ax, by), _mm256_mul_ps(ay, bx));
+        l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(cx, cx), _mm256_mul_ps(cy, cy)), _mm256_mul_ps(cz, cz));
+        const __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(l2));
+        const __m256 sgn = _mm256_set1_ps(-0.0f);
+        Nx = _mm256_xor_ps(_mm256_mul_ps(cx, inv), sgn);
+        Ny = _mm256_xor_ps(_mm256_mul_ps(cy, inv), sgn);
+        Nz = _mm256_xor_ps(_mm256_mul_ps(cz, inv), sgn);
+    } else {
+        float G[3][8];
+        for (int i = 0; i < 8; i++) {
+            const int xi = x + (i < n ? i : 0);
+            G[0][i] = obs_image_f32_row(J->in->normal[0], y)[xi];
+            G[1][i] = obs_image_f32_row(J->in->normal[1], y)[xi];
+            G[2][i] = -obs_image_f32_row(J->in->normal[2], y)[xi];
+        }
+        const __m256 gx = _mm256_loadu_ps(G[0]), gy = _mm256_loadu_ps(G[1]), gz = _mm256_loadu_ps(G[2]);
+        l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(gx, gx), _mm256_mul_ps(gy, gy)), _mm256_mul_ps(gz, gz));
+        const __m256 inv = _mm256_div_ps(one, _mm256_sqrt_ps(l2));
+        Nx = _mm256_mul_ps(gx, inv);
+        Ny = _mm256_mul_ps(gy, inv);
+        Nz = _mm256_mul_ps(gz, inv);
+    }
+    const __m256 normal_ok = _mm256_and_ps(_mm256_cmp_ps(l2, zero, _CMP_GT_OQ), _mm256_cmp_ps(l2, inf, _CMP_LT_OQ));
+    const __m256 rp = _mm256_div_ps(_mm256_set1_ps(k->radius_to_screen), k->orthographic ? one : Pz);
+    const __m256 small = k->small_scale_amount > 0.0f ? _mm256_cmp_ps(rp, one, _CMP_LT_OQ) : zero;
+    const __m256 step = _mm256_div_ps(rp, _mm256_set1_ps((float)k->num_steps + 1.0f));
+    const int nok = _mm256_movemask_ps(normal_ok), sm = _mm256_movemask_ps(small);
+    float A[10][8];
+    const __m256 v[10] = {u0, v0, Px, Py, Pz, Nx, Ny, Nz, step, zero};
+    for (int j = 0; j < 9; j++)
+        _mm256_storeu_ps(A[j], v[j]);
+    for (int i = 0; i < n; i++) {
+        if (!(zr[x + i] < INFINITY)) { /* background (cleaned to +inf): visibility 1 */
+            (*n_bg)++;
+        } else if (!(nok >> i & 1)) {
+            (*n_degen)++;
+        } else if (!(sm >> i & 1)) {
+            live[i] = 1;
+            c[i].u0 = A[0][i];
+            c[i].v0 = A[1][i];
+            c[i].P = (v3){A[2][i], A[3][i], A[4][i]};
+            c[i].N = (v3){A[5][i], A[6][i], A[7][i]};
+            c[i].stepSizePixels = A[8][i];
+            c[i].rd = J->noise[ao_hbao_noise_index(k, x + i, y)];
+        }
+    }
+}
+
+/* hbao_row's pixels x .. x + n - 1 (n <= 8) through the AVX2 tap loops */
+HB_AVX2 static void hbao_group8(const hbao_job *J, const hb_fetcher *f, int x, int y, int n, float *out,
+                                int64_t *n_bg, int64_t *n_small, int64_t *n_degen)
+{
+    const ao_hbao_constants *k = J->k;
+    int live[8] = {0};
+    int nlive = 0;
+    if (k->variant == AO_HBAO_VARIANT_CLASSIC) {
+        classic_px c[8];
+        classic_setup8(J, f, x, y, n, c, live, n_bg, n_small, n_degen);
+        for (int i = 0; i < n; i++) {
+            if (live[i])
+                nlive++;
+            else
+                out[i] = 1.0f; /* background, radius under a pixel, or no usable G-buffer normal */
+        }
+        if (!nlive)
+            return;
+        float ao[8];
+        classic_group8(k, f, c, live, ao);
+        for (int i = 0; i < n; i++)
+            if (live[i]) {
+                const float r = classic_finish(k, ao[i]);
+                out[i] = r == r ? r : 1.0f;
+            }
+    } else {
+        plus_px c[8];
+        plus_setup8(J, f, x, y, n, c, live, n_bg, n_degen);
+        for (int i = 0; i < n; i++) {
+            if (live[i])
+                nlive++;
+            else
+                out[i] = 1.0f; /* background, degenerate normal, or (split) radius < 1 px */
+        }
+        if (!nlive)
+            return;
+        float AO[8], smallAO[8];
+        plus_taps8(k, f, c, live, AO, smallAO);
+        for (int i = 0; i < n; i++)
+            if (live[i]) {
+                const float r = plus_finish(k, AO[i], smallAO[i]);
+                out[i] = r == r ? r : 1.0f;
+            }
+    }
+}
+#endif
+
 static void hbao_row(void *user, int64_t task, int thread)
 {
     (void)thread;
@@ -663,6 +1409,20 @@ static void hbao_row(void *user, int64_t task, int thread)
     float *out = obs_image_f32_row(J->ao, (int)task);
     const float *zr = obs_image_f32_row(J->z, y);
     int64_t n_bg = 0, n_small = 0, n_degen = 0;
+#if HB_HAVE_AVX2
+    if (J->avx2) {
+        hb_fetcher f;
+        hb_fetch8_init(&f, J->k, J->z, J->k->variant == AO_HBAO_VARIANT_PLUS);
+        for (int i = 0; i < J->ao->width; i += 8) {
+            const int n = J->ao->width - i < 8 ? J->ao->width - i : 8;
+            hbao_group8(J, &f, J->rx0 + i, y, n, out + i, &n_bg, &n_small, &n_degen);
+        }
+        J->counts[task][0] = n_bg;
+        J->counts[task][1] = n_small;
+        J->counts[task][2] = n_degen;
+        return;
+    }
+#endif
     for (int i = 0; i < J->ao->width; i++) {
         const int x = J->rx0 + i;
         if (!(zr[x] < INFINITY)) { /* background (cleaned to +inf): visibility 1 */
@@ -683,6 +1443,25 @@ static void hbao_row(void *user, int64_t task, int thread)
  * The blur
  * ============================================================================================== */
 
+int ao_hbao_simd_available(void)
+{
+#if HB_HAVE_AVX2
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
+/* The AVX2 loops when ao_hbao_simd_available() (the build, the CPU, OBS_ISA=scalar as the
+ * rasterizer) and every texel index of the depth plane fits the 32-bit gather. Same bits. */
+static int hbao_use_avx2(const obs_image_f32 *z)
+{
+    return (int64_t)z->stride * z->height < ((int64_t)1 << 31) && ao_hbao_simd_available();
+}
+
 typedef struct blur_job {
     const obs_image_f32 *a;        /* source AO; its pixel (0,0) is buffer (ax0, ay0) */
     int ax0, ay0;
@@ -692,62 +1471,188 @@ typedef struct blur_job {
     int axis;                      /* 0: x (+x first), 1: y (+y_gl = our -y first) */
     int radius, slope;
     float falloff, sharpness;
+    int avx2;                      /* 1: blur_group8 (bit-identical to blur_pixel) */
 } blur_job;
+
+/* One pixel of a blur pass (dst column i, buffer row y) */
+static inline float blur_pixel(const blur_job *J, int i, int y)
+{
+    const int W = J->z->width, H = J->z->height;
+    const int x = J->dx0 + i;
+    const float c = obs_image_f32_row(J->a, y - J->ay0)[x - J->ax0];
+    const float zc = obs_image_f32_row(J->z, y)[x];
+    if (!(zc < INFINITY)) /* background centre: passes through */
+        return c;
+    /* ComputeBlur: TotalAO = AOZ.x; TotalW = 1.0; ProcessRadius1(+DeltaUV); ProcessRadius1(-DeltaUV) */
+    float total = c, wt = 1.0f;
+    for (int side = 0; side < 2; side++) {
+        /* +DeltaUV: +x, or +v in GL (up: our row - 1) */
+        const int step = J->axis == 0 ? (side == 0 ? 1 : -1) : (side == 0 ? -1 : 1);
+        float slope = 0.0f;
+        for (int r = 1; r <= J->radius; r++) {
+            int tx = x, ty = y;
+            if (J->axis == 0) {
+                tx = x + step * r;
+                tx = tx < 0 ? 0 : tx > W - 1 ? W - 1 : tx;
+            } else {
+                ty = y + step * r;
+                ty = ty < 0 ? 0 : ty > H - 1 ? H - 1 : ty;
+            }
+            const float zt = obs_image_f32_row(J->z, ty)[tx];
+            if (r == 1 && J->slope) /* ProcessRadius1: DepthSlope = AODepth.y - Center.Depth */
+                slope = zt < INFINITY ? zt - zc : 0.0f; /* Deviation: no slope from background */
+            if (!(zt < INFINITY))
+                continue; /* Deviation: background taps get weight 0 */
+            const float at = obs_image_f32_row(J->a, ty - J->ay0)[tx - J->ax0];
+            /* CrossBilateralWeight: SampleDepth -= DepthSlope * R;
+             * DeltaZ = (SampleDepth - Center.Depth) * Sharpness; exp2(-R*R*BlurFalloff - DeltaZ*DeltaZ) */
+            const float fr = (float)r;
+            const float sd = zt - slope * fr;
+            const float dz = (sd - zc) * J->sharpness;
+            const float w = hb_exp2f(-fr * fr * J->falloff - dz * dz);
+            total += w * at;
+            wt += w;
+        }
+    }
+    return total / wt;
+}
+
+#if HB_HAVE_AVX2
+/* hb_exp2f over 8 lanes, 2 x 4 doubles, with a table: 2^x = 2^e 2^(k/32) 2^f, n = rint(32 x),
+ * k = n mod 32, e = n div 32, f = (32 x - n)/32 exact, |f| <= 1/64, 2^f to degree 6
+ * (truncation < 2^-57); 2^(k/32) correctly rounded. Relative error below 2^-50, the same
+ * rounding-certainty check as hb_exp2f, so the same floats as libm's (float)exp2((double)x).
+ * Lanes not in need may come back as anything; lanes in need that are not certain call libm. */
+static const double hb_exp2_tab[32] = {
+    1.0, 1.0218971486541166, 1.0442737824274138, 1.0671404006768237, 1.0905077326652577,
+    1.1143867425958924, 1.1387886347566916, 1.1637248587775775, 1.189207115002721, 1.215247359980469,
+    1.241857812073484, 1.2690509571917332, 1.2968395546510096, 1.3252366431597413, 1.3542555469368927,
+    1.383909881963832, 1.4142135623730951, 1.4451808069770467, 1.4768261459394993, 1.5091644275934228,
+    1.5422108254079407, 1.5759808451078865, 1.6104903319492543, 1.645755478153965, 1.681792830507429,
+    1.718619298122478, 1.7562521603732995, 1.7947090750031072, 1.8340080864093424, 1.8741676341103,
+    1.9152065613971474, 1.9571441241754002}; /* 2^(k/32) */
+
+HB_AVX2 static inline __m256 hb_exp2f8(__m256 x, __m256 need)
+{
+    const __m256 xc = _mm256_min_ps(_mm256_max_ps(x, _mm256_set1_ps(-151.0f)), _mm256_set1_ps(127.0f));
+    __m128 r[2];
+    for (int h = 0; h < 2; h++) {
+        const __m256d x32 = _mm256_mul_pd(_mm256_cvtps_pd(h ? _mm256_extractf128_ps(xc, 1) : _mm256_castps256_ps128(xc)),
+                                          _mm256_set1_pd(32.0));
+        const __m256d n = _mm256_round_pd(x32, _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+        const __m256d f = _mm256_mul_pd(_mm256_sub_pd(x32, n), _mm256_set1_pd(0.03125));
+        __m256d p = _mm256_set1_pd(hb_exp2_c[6]);
+        for (int i = 5; i >= 0; i--)
+            p = _mm256_add_pd(_mm256_mul_pd(p, f), _mm256_set1_pd(hb_exp2_c[i]));
+        const __m128i ni = _mm256_cvtpd_epi32(n);
+        const __m256d t = _mm256_i32gather_pd(hb_exp2_tab, _mm_and_si128(ni, _mm_set1_epi32(31)), 8);
+        const __m256i e = _mm256_slli_epi64(
+            _mm256_add_epi64(_mm256_cvtepi32_epi64(_mm_srai_epi32(ni, 5)), _mm256_set1_epi64x(1023)), 52);
+        const __m256d y = _mm256_mul_pd(_mm256_mul_pd(t, p), _mm256_castsi256_pd(e));
+        const __m128 lo = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_LO)));
+        const __m128 hi = _mm256_cvtpd_ps(_mm256_mul_pd(y, _mm256_set1_pd(HB_EXP2_SAFE_HI)));
+        r[h] = _mm_blendv_ps(_mm_set1_ps(NAN), lo, _mm_cmpeq_ps(lo, hi));
+    }
+    __m256 res = _mm256_set_m128(r[1], r[0]);
+    /* x in [-151, 127] and certain: done; x < -151 came out as 2^-151 -> +0 (certain) */
+    const __m256 inrange = _mm256_cmp_ps(x, _mm256_set1_ps(127.0f), _CMP_LE_OQ); /* false for NaN */
+    const __m256 bad = _mm256_and_ps(need, _mm256_or_ps(_mm256_cmp_ps(res, res, _CMP_UNORD_Q),
+                                                        _mm256_xor_ps(inrange, _mm256_castsi256_ps(_mm256_set1_epi32(-1)))));
+    int mb = _mm256_movemask_ps(bad);
+    if (mb) {
+        float xs[8], rs[8];
+        _mm256_storeu_ps(xs, x);
+        _mm256_storeu_ps(rs, res);
+        for (int i = 0; i < 8; i++)
+            if (mb >> i & 1)
+                rs[i] = f_exp2(xs[i]);
+        res = _mm256_loadu_ps(rs);
+    }
+    return res;
+}
+
+/* blur_pixel for dst columns i .. i + 7 (lane l = column i + l), bit-identical per lane; the
+ * caller guarantees that no horizontal tap needs the edge clamp */
+HB_AVX2 static void blur_group8(const blur_job *J, int i, int y, float *o)
+{
+    const int H = J->z->height;
+    const int x = J->dx0 + i;
+    const float *zrow = obs_image_f32_row(J->z, y) + x;
+    const float *arow = obs_image_f32_row(J->a, y - J->ay0) + (x - J->ax0);
+    const __m256 c = _mm256_loadu_ps(arow), zc = _mm256_loadu_ps(zrow);
+    const __m256 inf = _mm256_set1_ps(INFINITY), one = _mm256_set1_ps(1.0f);
+    const __m256 sharp = _mm256_set1_ps(J->sharpness);
+    const __m256 centre = _mm256_cmp_ps(zc, inf, _CMP_LT_OQ);
+    if (!_mm256_movemask_ps(centre)) {
+        _mm256_storeu_ps(o, c);
+        return;
+    }
+    __m256 total = c, wt = one;
+    for (int side = 0; side < 2; side++) {
+        const int step = J->axis == 0 ? (side == 0 ? 1 : -1) : (side == 0 ? -1 : 1);
+        __m256 slope = _mm256_setzero_ps();
+        for (int r = 1; r <= J->radius; r++) {
+            const float *zp, *ap;
+            if (J->axis == 0) {
+                zp = zrow + step * r;
+                ap = arow + step * r;
+            } else {
+                int ty = y + step * r;
+                ty = ty < 0 ? 0 : ty > H - 1 ? H - 1 : ty;
+                zp = obs_image_f32_row(J->z, ty) + x;
+                ap = obs_image_f32_row(J->a, ty - J->ay0) + (x - J->ax0);
+            }
+            const __m256 zt = _mm256_loadu_ps(zp);
+            const __m256 ok = _mm256_cmp_ps(zt, inf, _CMP_LT_OQ);
+            if (r == 1 && J->slope)
+                slope = _mm256_and_ps(_mm256_sub_ps(zt, zc), ok); /* zt < inf ? zt - zc : +0 */
+            const __m256 need = _mm256_and_ps(ok, centre);
+            if (!_mm256_movemask_ps(need))
+                continue;
+            const __m256 at = _mm256_loadu_ps(ap);
+            const float fr = (float)r;
+            const float cr = -fr * fr * J->falloff; /* the scalar expression's first term */
+            const __m256 sd = _mm256_sub_ps(zt, _mm256_mul_ps(slope, _mm256_set1_ps(fr)));
+            const __m256 dz = _mm256_mul_ps(_mm256_sub_ps(sd, zc), sharp);
+            const __m256 w = hb_exp2f8(_mm256_sub_ps(_mm256_set1_ps(cr), _mm256_mul_ps(dz, dz)), need);
+            total = _mm256_blendv_ps(total, _mm256_add_ps(total, _mm256_mul_ps(w, at)), ok);
+            wt = _mm256_blendv_ps(wt, _mm256_add_ps(wt, w), ok);
+        }
+    }
+    _mm256_storeu_ps(o, _mm256_blendv_ps(c, _mm256_div_ps(total, wt), centre));
+}
+#endif
 
 static void blur_row(void *user, int64_t task, int thread)
 {
     (void)thread;
     const blur_job *J = (const blur_job *)user;
-    const int W = J->z->width, H = J->z->height, y = J->dy0 + (int)task;
+    const int y = J->dy0 + (int)task;
     float *o = obs_image_f32_row(J->dst, (int)task);
-    for (int i = 0; i < J->dst->width; i++) {
-        const int x = J->dx0 + i;
-        const float c = obs_image_f32_row(J->a, y - J->ay0)[x - J->ax0];
-        const float zc = obs_image_f32_row(J->z, y)[x];
-        if (!(zc < INFINITY)) { /* background centre: passes through */
-            o[i] = c;
-            continue;
-        }
-        /* ComputeBlur: TotalAO = AOZ.x; TotalW = 1.0; ProcessRadius1(+DeltaUV); ProcessRadius1(-DeltaUV) */
-        float total = c, wt = 1.0f;
-        for (int side = 0; side < 2; side++) {
-            /* +DeltaUV: +x, or +v in GL (up: our row - 1) */
-            const int step = J->axis == 0 ? (side == 0 ? 1 : -1) : (side == 0 ? -1 : 1);
-            float slope = 0.0f;
-            for (int r = 1; r <= J->radius; r++) {
-                int tx = x, ty = y;
-                if (J->axis == 0) {
-                    tx = x + step * r;
-                    tx = tx < 0 ? 0 : tx > W - 1 ? W - 1 : tx;
-                } else {
-                    ty = y + step * r;
-                    ty = ty < 0 ? 0 : ty > H - 1 ? H - 1 : ty;
-                }
-                const float zt = obs_image_f32_row(J->z, ty)[tx];
-                if (r == 1 && J->slope) /* ProcessRadius1: DepthSlope = AODepth.y - Center.Depth */
-                    slope = zt < INFINITY ? zt - zc : 0.0f; /* Deviation: no slope from background */
-                if (!(zt < INFINITY))
-                    continue; /* Deviation: background taps get weight 0 */
-                const float at = obs_image_f32_row(J->a, ty - J->ay0)[tx - J->ax0];
-                /* CrossBilateralWeight: SampleDepth -= DepthSlope * R;
-                 * DeltaZ = (SampleDepth - Center.Depth) * Sharpness; exp2(-R*R*BlurFalloff - DeltaZ*DeltaZ) */
-                const float fr = (float)r;
-                const float sd = zt - slope * fr;
-                const float dz = (sd - zc) * J->sharpness;
-                const float w = f_exp2(-fr * fr * J->falloff - dz * dz);
-                total += w * at;
-                wt += w;
+    int i = 0;
+#if HB_HAVE_AVX2
+    if (J->avx2) {
+        const int W = J->z->width, reach = J->axis == 0 ? J->radius : 0;
+        for (; i + 8 <= J->dst->width; i += 8) {
+            const int x = J->dx0 + i;
+            if (x - reach < 0 || x + 7 + reach > W - 1) {
+                for (int l = 0; l < 8; l++)
+                    o[i + l] = blur_pixel(J, i + l, y);
+            } else {
+                blur_group8(J, i, y, o + i);
             }
         }
-        o[i] = total / wt;
     }
+#endif
+    for (; i < J->dst->width; i++)
+        o[i] = blur_pixel(J, i, y);
 }
 
 static void blur_run(obs_pool *pool, const obs_image_f32 *a, int ax0, int ay0, const obs_image_f32 *z,
                      obs_image_f32 *dst, int dx0, int dy0, int axis, int radius, int slope, float falloff,
                      float sharpness)
 {
-    blur_job J = {a, ax0, ay0, z, dst, dx0, dy0, axis, radius, slope, falloff, sharpness};
+    blur_job J = {a, ax0, ay0, z, dst, dx0, dy0, axis, radius, slope, falloff, sharpness, hbao_use_avx2(z)};
     obs_pool_run(pool, dst->height, blur_row, &J);
 }
 
@@ -866,6 +1771,7 @@ obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
         J->ry0 = ry0;
         J->ao = &raw;
         J->counts = counts;
+        J->avx2 = hbao_use_avx2(&z);
         obs_pool_run(pool, rh, hbao_row, J);
     }
     double t2 = obs_time_now();
