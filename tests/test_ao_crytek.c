@@ -595,6 +595,114 @@ TEST(crytek_hard_cases_stay_finite_and_in_unit_range)
     obs_context_destroy(ctx);
 }
 
+/* ---- scalar == AVX2 ------------------------------------------------------------------------------ */
+
+TEST(crytek_avx2_equals_scalar_byte_for_byte)
+{
+    /* The AVX2 path (8 pixels per vector, gathered bilinear footprints, scalar fetches at edges and
+     * background) against the scalar reference on the analytic scene with its sky, plus NaN, +inf,
+     * 0, negative, huge (3e38) and far (1e30) depths scattered over it; a window whose region does
+     * not start on a multiple of 4; every space, filter, sky, output, N, tiny/default/huge radii
+     * (taps behind the eye), perspective and orthographic, with and without blur, 1 and 2 threads. */
+    if (!ao_crytek_isa_available(AO_CRYTEK_ISA_AVX2)) {
+        printf("    (no AVX2 in this CPU or build: only AUTO == SCALAR is checked)\n");
+    }
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 117, 71, 13, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 0, &in), ctx);
+    obs_image_f32 *depth = (obs_image_f32 *)in.depth;
+    for (int y = 0; y < depth->height; y++)
+        for (int x = 0; x < depth->width; x++) {
+            const int h = (x * 7 + y * 13) % 53;
+            float *d = obs_image_f32_row(depth, y) + x;
+            if (h == 0)
+                *d = NAN;
+            else if (h == 1)
+                *d = INFINITY;
+            else if (h == 2)
+                *d = 0.0f;
+            else if (h == 3)
+                *d = -1.0f;
+            else if (h == 4)
+                *d = 3e38f;
+            else if (h == 5)
+                *d = 1e30f;
+        }
+    const ao_crytek_isa isas[3] = {AO_CRYTEK_ISA_SCALAR, AO_CRYTEK_ISA_AVX2, AO_CRYTEK_ISA_AUTO};
+    const int nisa = ao_crytek_isa_available(AO_CRYTEK_ISA_AVX2) ? 3 : 1;
+    obs_pool *pool2 = obs_pool_create(2);
+    static const float radii[] = {1e-6f, 0.5f, 3.0f, 1e6f};
+    static const int samples[] = {4, 8, 16, 32};
+    int cases = 0;
+    for (int pr = 0; pr < 2; pr++)
+        for (int space = 0; space < 2; space++)
+            for (int filter = 0; filter < 2; filter++)
+                for (int sky = 0; sky < 2; sky++)
+                    for (int ri = 0; ri < 4; ri++)
+                        for (int ni = 0; ni < 4; ni++) {
+                            if (ni != 2 && ri != 1)
+                                continue; /* N varies at the default radius only */
+                            in.projection = pr ? OBS_PROJECTION_ORTHOGRAPHIC : OBS_PROJECTION_PERSPECTIVE;
+                            ao_crytek_params p = ao_crytek_params_default();
+                            p.space = (ao_crytek_space)space;
+                            p.filter = (ao_crytek_filter)filter;
+                            p.sky = (ao_crytek_sky)sky;
+                            p.radius = radii[ri];
+                            p.offset_scale = ri == 3 ? 0.3f : 0.01f;
+                            p.samples = samples[ni];
+                            p.output = (ao_crytek_output)((ri + ni) & 1);
+                            p.blur = (sky + ni) & 1;
+                            ao_crytek_constants *k = (ao_crytek_constants *)malloc(sizeof *k);
+                            ao_crytek_constants_from_params(&p, &in, k);
+                            obs_image_f32 ref, ref_raw;
+                            CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &ref), ctx);
+                            CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &ref_raw), ctx);
+                            CHECK_OK(ao_crytek_compute_constants_isa(ctx, NULL, &in, k, AO_CRYTEK_ISA_SCALAR, &ref,
+                                                                     &ref_raw, NULL),
+                                     ctx);
+                            for (int ii = 0; ii < nisa; ii++)
+                                for (int th = 0; th < 2; th++) {
+                                    obs_image_f32 o, r;
+                                    CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &o), ctx);
+                                    CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &r), ctx);
+                                    CHECK_OK(ao_crytek_compute_constants_isa(ctx, th ? pool2 : NULL, &in, k, isas[ii],
+                                                                             &o, &r, NULL),
+                                             ctx);
+                                    CHECK_MSG(tu_same_plane(&o, &ref) && tu_same_plane(&r, &ref_raw),
+                                              "isa %d threads %d: ortho %d space %d filter %d sky %d r %g N %d differ",
+                                              (int)isas[ii], th + 1, pr, space, filter, sky, (double)radii[ri],
+                                              samples[ni]);
+                                    obs_image_f32_free(&o);
+                                    obs_image_f32_free(&r);
+                                }
+                            obs_image_f32_free(&ref);
+                            obs_image_f32_free(&ref_raw);
+                            free(k);
+                            cases++;
+                        }
+    CHECK(cases == 2 * 2 * 2 * 2 * 7);
+    /* an ISA this build or CPU lacks is an error, not a silent fallback */
+    if (!ao_crytek_isa_available(AO_CRYTEK_ISA_AVX2)) {
+        ao_crytek_params p = ao_crytek_params_default();
+        ao_crytek_constants *k = (ao_crytek_constants *)malloc(sizeof *k);
+        ao_crytek_constants_from_params(&p, &in, k);
+        obs_image_f32 o;
+        CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &o), ctx);
+        CHECK(ao_crytek_compute_constants_isa(ctx, NULL, &in, k, AO_CRYTEK_ISA_AVX2, &o, NULL, NULL) ==
+              OBS_STATUS_UNSUPPORTED_ISA);
+        obs_image_f32_free(&o);
+        free(k);
+    }
+    obs_pool_destroy(pool2);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
 /* ---- parameters --------------------------------------------------------------------------------- */
 
 TEST(crytek_bad_params_are_rejected_naming_the_field)
