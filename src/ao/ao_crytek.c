@@ -247,7 +247,8 @@ typedef struct crytek_job {
     const float *rtab;             /* [16][N][3]: the rotated taps R = o_t * M per texel */
     const float *rtab8;            /* NULL (scalar), or [4][N][3][8]: rtab lane-expanded for the
                                       AVX2 path, lane l of texel row j = texel 4 j + (l & 3) */
-    const obs_image_f32 *dgl;      /* the depth in GL row order, every non-surface value +inf */
+    const obs_image_f32 *dgl;      /* the depth in GL row order: a view of in->depth with rows
+                                      reversed (data = row H - 1, stride negated), no copy */
     const ao_input *in;
     int rx0, ry0;                  /* region origin, our row order */
     obs_image_f32 *ao;             /* region-sized, our row order */
@@ -315,8 +316,8 @@ static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float 
         } else {
             return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)]; /* NaN: the nearest path */
         }
-        /* every non-surface depth is +inf in G (never NaN): a branch-free test of the four */
-        if ((t00 < INFINITY) & (t10 < INFINITY) & (t01 < INFINITY) & (t11 < INFINITY)) {
+        /* a branch-free test of the four for background (NaN, <= 0, +inf) */
+        if (is_surface(t00) & is_surface(t10) & is_surface(t01) & is_surface(t11)) {
             const float r0v = t00 + a * (t10 - t00), r1v = t01 + a * (t11 - t01);
             return r0v + b * (r1v - r0v);
         }
@@ -454,8 +455,11 @@ __attribute__((target("avx2"))) static __m256 fetch8(const crytek_job *J, __m256
             const __m256 t10 = _mm256_i32gather_ps(G->data + 1, idx, 4);
             const __m256 t01 = _mm256_i32gather_ps(G->data + G->stride, idx, 4);
             const __m256 t11 = _mm256_i32gather_ps(G->data + G->stride + 1, idx, 4);
+            /* is_surface of the four (ordered compares: NaN fails) */
             __m256 ok = _mm256_and_ps(_mm256_cmp_ps(t00, inf, _CMP_LT_OQ), _mm256_cmp_ps(t10, inf, _CMP_LT_OQ));
             ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t01, inf, _CMP_LT_OQ), _mm256_cmp_ps(t11, inf, _CMP_LT_OQ)));
+            ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t00, zero, _CMP_GT_OQ), _mm256_cmp_ps(t10, zero, _CMP_GT_OQ)));
+            ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t01, zero, _CMP_GT_OQ), _mm256_cmp_ps(t11, zero, _CMP_GT_OQ)));
             done = _mm256_and_ps(inter, ok);
             /* lerp(lerp(T00, T10, a), lerp(T01, T11, a), b) */
             const __m256 r0v = _mm256_add_ps(t00, _mm256_mul_ps(a, _mm256_sub_ps(t10, t00)));
@@ -619,23 +623,6 @@ static void expand_taps(const ao_crytek_constants *k, const float *rtab, float *
                         rtab[((size_t)(4 * j + (l & 3)) * N + t) * 3 + c];
 }
 
-/* The depth texture as the shader sees it: GL row order, background (+inf, NaN, <= 0) as +inf. */
-typedef struct dgl_job {
-    const ao_input *in;
-    obs_image_f32 *out;
-} dgl_job;
-
-static void dgl_row(void *user, int64_t task, int thread)
-{
-    (void)thread;
-    const dgl_job *J = (const dgl_job *)user;
-    const int H = J->in->height, W = J->in->width, r = (int)task;
-    const float *d = obs_image_f32_row(J->in->depth, H - 1 - r);
-    float *o = obs_image_f32_row(J->out, r);
-    for (int x = 0; x < W; x++)
-        o[x] = is_surface(d[x]) ? d[x] : INFINITY;
-}
-
 static obs_status check_constants(obs_context *ctx, const ao_input *in, const ao_crytek_constants *k)
 {
     if (!k)
@@ -700,23 +687,21 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
     int rect[4];
     ao_blur_reach(in, k->blur ? AO_GAUSS21_RADIUS : 0, rect);
     const int rx0 = rect[0], ry0 = rect[1], rw = rect[2], rh = rect[3];
-    obs_image_f32 raw = {0}, blurred = {0}, dgl = {0};
+    obs_image_f32 raw = {0}, blurred = {0};
+    /* the depth texture as the shader sees it: GL row order (row j = our row H - 1 - j) */
+    const obs_image_f32 dgl = {obs_image_f32_row(in->depth, in->height - 1), in->width, in->height, -in->depth->stride};
     int64_t *bg = NULL;
     double t0 = obs_time_now();
     float *rtab = (float *)malloc(sizeof(float) * 3 * AO_CRYTEK_ROT_TILE * AO_CRYTEK_ROT_TILE * (size_t)k->num_samples);
     float *rtab8 = NULL;
     st = rtab ? obs_image_f32_alloc(ctx, rw, rh, &raw) : obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, in->width, in->height, &dgl);
-    /* the AVX2 path gathers with int32 texel indices j stride + i (+ stride + 1) */
-    if (st == OBS_STATUS_OK && isa == AO_CRYTEK_ISA_AVX2 && (int64_t)(dgl.height + 1) * dgl.stride < INT32_MAX) {
+    /* the AVX2 path gathers with int32 texel indices j stride + i (+ stride + 1), stride < 0 */
+    if (st == OBS_STATUS_OK && isa == AO_CRYTEK_ISA_AVX2 && (int64_t)(in->height + 1) * in->depth->stride < INT32_MAX) {
         rtab8 = (float *)malloc(sizeof(float) * 3 * 8 * AO_CRYTEK_ROT_TILE * (size_t)k->num_samples);
         if (!rtab8)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
     }
     if (st == OBS_STATUS_OK) {
-        dgl_job D = {in, &dgl};
-        obs_pool_run(pool, in->height, dgl_row, &D);
         rotate_taps(k, rtab);
         if (rtab8)
             expand_taps(k, rtab, rtab8);
@@ -769,7 +754,6 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
     free(bg);
     free(rtab8);
     free(rtab);
-    obs_image_f32_free(&dgl);
     obs_image_f32_free(&blurred);
     obs_image_f32_free(&raw);
     return st;
