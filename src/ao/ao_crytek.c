@@ -433,7 +433,7 @@ __attribute__((target("avx2"))) static __m256 fetch8(const crytek_job *J, __m256
     const ao_crytek_constants *k = J->k;
     const obs_image_f32 *G = J->dgl;
     const int W = k->full_width, H = k->full_height;
-    const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
+    const __m256 zero = _mm256_setzero_ps();
     const __m256i stride = _mm256_set1_epi32((int)G->stride);
     __m256 dS, done;
     if (k->filter == AO_CRYTEK_FILTER_LINEAR) {
@@ -451,20 +451,43 @@ __attribute__((target("avx2"))) static __m256 fetch8(const crytek_job *J, __m256
             const __m256 a = _mm256_sub_ps(fx, _mm256_cvtepi32_ps(i0)), b = _mm256_sub_ps(fy, _mm256_cvtepi32_ps(j0));
             __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(j0, stride), i0);
             idx = _mm256_and_si256(idx, _mm256_castps_si256(inter)); /* unused lanes read texel 0 */
-            const __m256 t00 = _mm256_i32gather_ps(G->data, idx, 4);
-            const __m256 t10 = _mm256_i32gather_ps(G->data + 1, idx, 4);
-            const __m256 t01 = _mm256_i32gather_ps(G->data + G->stride, idx, 4);
-            const __m256 t11 = _mm256_i32gather_ps(G->data + G->stride + 1, idx, 4);
-            /* is_surface of the four (ordered compares: NaN fails) */
-            __m256 ok = _mm256_and_ps(_mm256_cmp_ps(t00, inf, _CMP_LT_OQ), _mm256_cmp_ps(t10, inf, _CMP_LT_OQ));
-            ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t01, inf, _CMP_LT_OQ), _mm256_cmp_ps(t11, inf, _CMP_LT_OQ)));
-            ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t00, zero, _CMP_GT_OQ), _mm256_cmp_ps(t10, zero, _CMP_GT_OQ)));
-            ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t01, zero, _CMP_GT_OQ), _mm256_cmp_ps(t11, zero, _CMP_GT_OQ)));
+            /* (T00, T10) and (T01, T11) are adjacent: gather them as 64-bit pairs, lanes
+             * {0, 1, 4, 5} and {2, 3, 6, 7}, so that the even/odd split comes out in lane order */
+            const __m256i ip = _mm256_permutevar8x32_epi32(idx, _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7));
+            const __m128i ilo = _mm256_castsi256_si128(ip), ihi = _mm256_extracti128_si256(ip, 1);
+            const double *row0 = (const double *)(const void *)G->data;
+            const double *row1 = (const double *)(const void *)(G->data + G->stride);
+            const __m256 p0lo = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ilo, 4));
+            const __m256 p0hi = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ihi, 4));
+            const __m256 p1lo = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ilo, 4));
+            const __m256 p1hi = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ihi, 4));
+            const __m256 t00 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(2, 0, 2, 0));
+            const __m256 t10 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(3, 1, 3, 1));
+            const __m256 t01 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(2, 0, 2, 0));
+            const __m256 t11 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(3, 1, 3, 1));
+            /* is_surface of the four: as integers, bits - 1 < 0x7f7fffff unsigned exactly for
+             * 0 < t < +inf (+0 wraps, -0 and negatives have the sign bit, NaN is above +inf) */
+            const __m256i m1 = _mm256_set1_epi32(1);
+            __m256i um = _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t00), m1),
+                                          _mm256_sub_epi32(_mm256_castps_si256(t10), m1));
+            um = _mm256_max_epu32(um, _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t01), m1),
+                                                       _mm256_sub_epi32(_mm256_castps_si256(t11), m1)));
+            const __m256i lim = _mm256_set1_epi32(0x7f7ffffe);
+            const __m256 ok = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_min_epu32(um, lim), um));
             done = _mm256_and_ps(inter, ok);
             /* lerp(lerp(T00, T10, a), lerp(T01, T11, a), b) */
             const __m256 r0v = _mm256_add_ps(t00, _mm256_mul_ps(a, _mm256_sub_ps(t10, t00)));
             const __m256 r1v = _mm256_add_ps(t01, _mm256_mul_ps(a, _mm256_sub_ps(t11, t01)));
             dS = _mm256_add_ps(r0v, _mm256_mul_ps(b, _mm256_sub_ps(r1v, r0v)));
+            /* touching background: the nearest texel (trunc(sx), trunc(sy)), inside the buffer
+             * here (fx in [0, W - 1) gives sx in [0.5, W - 0.5]) */
+            const __m256 near = _mm256_andnot_ps(ok, inter);
+            if (!_mm256_testz_ps(near, near)) {
+                __m256i in_ = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(sy), stride), _mm256_cvttps_epi32(sx));
+                in_ = _mm256_and_si256(in_, _mm256_castps_si256(near));
+                dS = _mm256_mask_i32gather_ps(dS, G->data, in_, near, 4);
+                done = inter;
+            }
         }
     } else {
         /* nearest inside the buffer: texel (trunc(sx), trunc(sy)) */
