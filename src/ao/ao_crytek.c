@@ -428,85 +428,84 @@ static int64_t row_scalar(const crytek_job *J, int task, int i0, int i1)
  * from the edges and free of background is gathered (4 texels); every other tap (edges, NaN or
  * huge positions, background in the footprint, nearest fetches outside the buffer) is fetched by
  * the scalar fetch() lane by lane. test_ao_crytek.c checks scalar == AVX2 byte for byte. */
-__attribute__((target("avx2"))) static __m256 fetch8(const crytek_job *J, __m256 sx, __m256 sy, __m256 need)
+/* Per-pass vector constants of the AVX2 path, set once per block (kept out of the tap loop). */
+typedef struct crytek_v8 {
+    __m256 zero, one, half, inf, sky_value, kx, ky, size0, size1, wm1, hm1, w, h;
+    __m256i stride, perm, m1, lim;
+} crytek_v8;
+
+#define CK_AVX2 __attribute__((target("avx2"), always_inline)) static inline
+
+/* fetch() for 8 lanes; lanes outside `need` are don't-care. linear is a compile-time constant at
+ * every call. */
+CK_AVX2 __m256 fetch8(const crytek_job *J, const crytek_v8 *c, __m256 sx, __m256 sy, __m256 need, const int linear)
 {
-    const ao_crytek_constants *k = J->k;
     const obs_image_f32 *G = J->dgl;
-    const int W = k->full_width, H = k->full_height;
-    const __m256 zero = _mm256_setzero_ps();
-    const __m256i stride = _mm256_set1_epi32((int)G->stride);
     __m256 dS, done;
-    if (k->filter == AO_CRYTEK_FILTER_LINEAR) {
-        const __m256 fx = _mm256_sub_ps(sx, _mm256_set1_ps(0.5f)), fy = _mm256_sub_ps(sy, _mm256_set1_ps(0.5f));
-        __m256 inter = _mm256_and_ps(_mm256_cmp_ps(fx, zero, _CMP_GE_OQ), _mm256_cmp_ps(fy, zero, _CMP_GE_OQ));
-        inter = _mm256_and_ps(inter, _mm256_cmp_ps(fx, _mm256_set1_ps((float)(W - 1)), _CMP_LT_OQ));
-        inter = _mm256_and_ps(inter, _mm256_cmp_ps(fy, _mm256_set1_ps((float)(H - 1)), _CMP_LT_OQ));
+    if (linear) {
+        const __m256 fx = _mm256_sub_ps(sx, c->half), fy = _mm256_sub_ps(sy, c->half);
+        __m256 inter = _mm256_and_ps(_mm256_cmp_ps(fx, c->zero, _CMP_GE_OQ), _mm256_cmp_ps(fy, c->zero, _CMP_GE_OQ));
+        inter = _mm256_and_ps(inter, _mm256_cmp_ps(fx, c->wm1, _CMP_LT_OQ));
+        inter = _mm256_and_ps(inter, _mm256_cmp_ps(fy, c->hm1, _CMP_LT_OQ));
         inter = _mm256_and_ps(inter, need);
-        if (_mm256_testz_ps(inter, inter)) {
-            dS = zero;
-            done = zero;
-        } else {
-            /* interior footprint: floor = truncation, a = frac */
-            const __m256i i0 = _mm256_cvttps_epi32(fx), j0 = _mm256_cvttps_epi32(fy);
-            const __m256 a = _mm256_sub_ps(fx, _mm256_cvtepi32_ps(i0)), b = _mm256_sub_ps(fy, _mm256_cvtepi32_ps(j0));
-            __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(j0, stride), i0);
-            idx = _mm256_and_si256(idx, _mm256_castps_si256(inter)); /* unused lanes read texel 0 */
-            /* (T00, T10) and (T01, T11) are adjacent: gather them as 64-bit pairs, lanes
-             * {0, 1, 4, 5} and {2, 3, 6, 7}, so that the even/odd split comes out in lane order */
-            const __m256i ip = _mm256_permutevar8x32_epi32(idx, _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7));
-            const __m128i ilo = _mm256_castsi256_si128(ip), ihi = _mm256_extracti128_si256(ip, 1);
-            const double *row0 = (const double *)(const void *)G->data;
-            const double *row1 = (const double *)(const void *)(G->data + G->stride);
-            const __m256 p0lo = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ilo, 4));
-            const __m256 p0hi = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ihi, 4));
-            const __m256 p1lo = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ilo, 4));
-            const __m256 p1hi = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ihi, 4));
-            const __m256 t00 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(2, 0, 2, 0));
-            const __m256 t10 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(3, 1, 3, 1));
-            const __m256 t01 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(2, 0, 2, 0));
-            const __m256 t11 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(3, 1, 3, 1));
-            /* is_surface of the four: as integers, bits - 1 < 0x7f7fffff unsigned exactly for
-             * 0 < t < +inf (+0 wraps, -0 and negatives have the sign bit, NaN is above +inf) */
-            const __m256i m1 = _mm256_set1_epi32(1);
-            __m256i um = _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t00), m1),
-                                          _mm256_sub_epi32(_mm256_castps_si256(t10), m1));
-            um = _mm256_max_epu32(um, _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t01), m1),
-                                                       _mm256_sub_epi32(_mm256_castps_si256(t11), m1)));
-            const __m256i lim = _mm256_set1_epi32(0x7f7ffffe);
-            const __m256 ok = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_min_epu32(um, lim), um));
-            done = _mm256_and_ps(inter, ok);
-            /* lerp(lerp(T00, T10, a), lerp(T01, T11, a), b) */
-            const __m256 r0v = _mm256_add_ps(t00, _mm256_mul_ps(a, _mm256_sub_ps(t10, t00)));
-            const __m256 r1v = _mm256_add_ps(t01, _mm256_mul_ps(a, _mm256_sub_ps(t11, t01)));
-            dS = _mm256_add_ps(r0v, _mm256_mul_ps(b, _mm256_sub_ps(r1v, r0v)));
-            /* touching background: the nearest texel (trunc(sx), trunc(sy)), inside the buffer
-             * here (fx in [0, W - 1) gives sx in [0.5, W - 0.5]) */
-            const __m256 near = _mm256_andnot_ps(ok, inter);
-            if (!_mm256_testz_ps(near, near)) {
-                __m256i in_ = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(sy), stride), _mm256_cvttps_epi32(sx));
-                in_ = _mm256_and_si256(in_, _mm256_castps_si256(near));
-                dS = _mm256_mask_i32gather_ps(dS, G->data, in_, near, 4);
-                done = inter;
-            }
+        /* interior footprint: floor = truncation, a = frac */
+        const __m256i i0 = _mm256_cvttps_epi32(fx), j0 = _mm256_cvttps_epi32(fy);
+        const __m256 a = _mm256_sub_ps(fx, _mm256_cvtepi32_ps(i0)), b = _mm256_sub_ps(fy, _mm256_cvtepi32_ps(j0));
+        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(j0, c->stride), i0);
+        idx = _mm256_and_si256(idx, _mm256_castps_si256(inter)); /* unused lanes read texel 0 */
+        /* (T00, T10) and (T01, T11) are adjacent: gather them as 64-bit pairs, lanes
+         * {0, 1, 4, 5} and {2, 3, 6, 7}, so that the even/odd split comes out in lane order */
+        const __m256i ip = _mm256_permutevar8x32_epi32(idx, c->perm);
+        const __m128i ilo = _mm256_castsi256_si128(ip), ihi = _mm256_extracti128_si256(ip, 1);
+        const double *row0 = (const double *)(const void *)G->data;
+        const double *row1 = (const double *)(const void *)(G->data + G->stride);
+        const __m256 p0lo = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ilo, 4));
+        const __m256 p0hi = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ihi, 4));
+        const __m256 p1lo = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ilo, 4));
+        const __m256 p1hi = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ihi, 4));
+        const __m256 t00 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(2, 0, 2, 0));
+        const __m256 t10 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(3, 1, 3, 1));
+        const __m256 t01 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(2, 0, 2, 0));
+        const __m256 t11 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(3, 1, 3, 1));
+        /* is_surface of the four: as integers, bits - 1 < 0x7f7fffff unsigned exactly for
+         * 0 < t < +inf (+0 wraps, -0 and negatives have the sign bit, NaN is above +inf) */
+        __m256i um = _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t00), c->m1),
+                                      _mm256_sub_epi32(_mm256_castps_si256(t10), c->m1));
+        um = _mm256_max_epu32(um, _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t01), c->m1),
+                                                   _mm256_sub_epi32(_mm256_castps_si256(t11), c->m1)));
+        const __m256 ok = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_min_epu32(um, c->lim), um));
+        done = _mm256_and_ps(inter, ok);
+        /* lerp(lerp(T00, T10, a), lerp(T01, T11, a), b) */
+        const __m256 r0v = _mm256_add_ps(t00, _mm256_mul_ps(a, _mm256_sub_ps(t10, t00)));
+        const __m256 r1v = _mm256_add_ps(t01, _mm256_mul_ps(a, _mm256_sub_ps(t11, t01)));
+        dS = _mm256_add_ps(r0v, _mm256_mul_ps(b, _mm256_sub_ps(r1v, r0v)));
+        /* touching background: the nearest texel (trunc(sx), trunc(sy)), inside the buffer
+         * here (fx in [0, W - 1) gives sx in [0.5, W - 0.5]) */
+        const __m256 near = _mm256_andnot_ps(ok, inter);
+        if (!_mm256_testz_ps(near, near)) {
+            __m256i in_ = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(sy), c->stride), _mm256_cvttps_epi32(sx));
+            in_ = _mm256_and_si256(in_, _mm256_castps_si256(near));
+            dS = _mm256_mask_i32gather_ps(dS, G->data, in_, near, 4);
+            done = inter;
         }
     } else {
         /* nearest inside the buffer: texel (trunc(sx), trunc(sy)) */
-        __m256 inside = _mm256_and_ps(_mm256_cmp_ps(sx, zero, _CMP_GE_OQ), _mm256_cmp_ps(sy, zero, _CMP_GE_OQ));
-        inside = _mm256_and_ps(inside, _mm256_cmp_ps(sx, _mm256_set1_ps((float)W), _CMP_LT_OQ));
-        inside = _mm256_and_ps(inside, _mm256_cmp_ps(sy, _mm256_set1_ps((float)H), _CMP_LT_OQ));
+        __m256 inside = _mm256_and_ps(_mm256_cmp_ps(sx, c->zero, _CMP_GE_OQ), _mm256_cmp_ps(sy, c->zero, _CMP_GE_OQ));
+        inside = _mm256_and_ps(inside, _mm256_cmp_ps(sx, c->w, _CMP_LT_OQ));
+        inside = _mm256_and_ps(inside, _mm256_cmp_ps(sy, c->h, _CMP_LT_OQ));
         done = _mm256_and_ps(inside, need);
-        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(sy), stride), _mm256_cvttps_epi32(sx));
+        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(sy), c->stride), _mm256_cvttps_epi32(sx));
         idx = _mm256_and_si256(idx, _mm256_castps_si256(done));
         dS = _mm256_i32gather_ps(G->data, idx, 4);
     }
-    /* ---- The rest, lane by lane, through the scalar fetch ---- */
+    /* ---- The rest (edges, NaN or huge positions), lane by lane, through the scalar fetch ---- */
     int rest = _mm256_movemask_ps(_mm256_andnot_ps(done, need));
-    if (rest) {
+    if (__builtin_expect(rest != 0, 0)) {
         float fsx[8], fsy[8], fd[8];
         _mm256_storeu_ps(fsx, sx);
         _mm256_storeu_ps(fsy, sy);
         _mm256_storeu_ps(fd, dS);
-        const int linear = k->filter == AO_CRYTEK_FILTER_LINEAR;
+        const int W = J->k->full_width, H = J->k->full_height;
         while (rest) {
             const int l = __builtin_ctz((unsigned)rest);
             rest &= rest - 1;
@@ -517,71 +516,104 @@ __attribute__((target("avx2"))) static __m256 fetch8(const crytek_job *J, __m256
     return dS;
 }
 
+/* The taps of 8 pixels: pixel_ao's loop, lane-wise (persp and linear are compile-time constants). */
+CK_AVX2 __m256 taps8(const crytek_job *J, const crytek_v8 *c, const float *Rt, int N, __m256 dP, __m256 surf,
+                     __m256 u, __m256 v, __m256 kz, __m256 ax, __m256 ay, const int persp, const int linear)
+{
+    __m256 acc = c->zero;
+    for (int t = 0; t < N; t++) {
+        const __m256 R0 = _mm256_loadu_ps(Rt + 24 * t), R1 = _mm256_loadu_ps(Rt + 24 * t + 8),
+                     R2 = _mm256_loadu_ps(Rt + 24 * t + 16);
+        /* vSamplePos = float3(screenTC, dP) + float3(R.xy, R.z * kz) */
+        const __m256 Sz = _mm256_add_ps(dP, _mm256_mul_ps(R2, kz));
+        __m256 Sx, Sy, need = surf, behind = c->zero;
+        if (!persp) {
+            Sx = _mm256_add_ps(u, _mm256_mul_ps(R0, c->kx));
+            Sy = _mm256_add_ps(v, _mm256_mul_ps(R1, c->ky));
+        } else {
+            /* the exact projection; a tap behind the eye (!(S.z > 0)) is visible */
+            behind = _mm256_cmp_ps(Sz, c->zero, _CMP_NGT_UQ);
+            need = _mm256_andnot_ps(behind, surf);
+            Sx = _mm256_add_ps(u, _mm256_div_ps(_mm256_mul_ps(c->kx, _mm256_sub_ps(R0, _mm256_mul_ps(ax, R2))), Sz));
+            Sy = _mm256_add_ps(v, _mm256_div_ps(_mm256_mul_ps(c->ky, _mm256_sub_ps(R1, _mm256_mul_ps(ay, R2))), Sz));
+        }
+        const __m256 dS = fetch8(J, c, _mm256_mul_ps(Sx, c->size0), _mm256_mul_ps(Sy, c->size1), need, linear);
+        const __m256 sdS = _mm256_and_ps(_mm256_cmp_ps(dS, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(dS, c->inf, _CMP_LT_OQ));
+        /* r = saturate((dP - dS) / dS); acc += a + r (0.5 - a), a = dS > S.z ? 1 : 0 */
+        __m256 r = _mm256_div_ps(_mm256_sub_ps(dP, dS), dS);
+        r = _mm256_min_ps(_mm256_max_ps(r, c->zero), c->one);
+        const __m256 a = _mm256_and_ps(_mm256_cmp_ps(dS, Sz, _CMP_GT_OQ), c->one);
+        __m256 add = _mm256_add_ps(a, _mm256_mul_ps(r, _mm256_sub_ps(c->half, a)));
+        add = _mm256_blendv_ps(c->sky_value, add, sdS); /* background tap: 1 (visible) or 0 (skip) */
+        if (persp)
+            add = _mm256_blendv_ps(add, c->one, behind);
+        acc = _mm256_add_ps(acc, add);
+    }
+    return acc;
+}
+
 /* 8 pixels starting at region column i (x0 = rx0 + i, a multiple of 4). Returns the background count. */
 __attribute__((target("avx2"))) static int block_avx2(const crytek_job *J, int task, int i)
 {
     const ao_crytek_constants *k = J->k;
-    const int H = k->full_height, N = k->num_samples;
+    const int W = k->full_width, H = k->full_height, N = k->num_samples;
     const int y = J->ry0 + task, y_gl = H - 1 - y, x0 = J->rx0 + i;
     const float *drow = obs_image_f32_row(J->in->depth, y);
     float *out = obs_image_f32_row(J->ao, task) + i;
-    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f), inf = _mm256_set1_ps(INFINITY);
+    crytek_v8 c;
+    c.zero = _mm256_setzero_ps();
+    c.one = _mm256_set1_ps(1.0f);
+    c.inf = _mm256_set1_ps(INFINITY);
     /* ---- Centre depth; background -> 1 ---- */
     const __m256 dP = _mm256_loadu_ps(drow + x0);
-    const __m256 surf = _mm256_and_ps(_mm256_cmp_ps(dP, zero, _CMP_GT_OQ), _mm256_cmp_ps(dP, inf, _CMP_LT_OQ));
+    const __m256 surf = _mm256_and_ps(_mm256_cmp_ps(dP, c.zero, _CMP_GT_OQ), _mm256_cmp_ps(dP, c.inf, _CMP_LT_OQ));
     const int smask = _mm256_movemask_ps(surf);
     if (!smask) {
-        _mm256_storeu_ps(out, one);
+        _mm256_storeu_ps(out, c.one);
         return 8;
     }
+    c.half = _mm256_set1_ps(0.5f);
+    c.sky_value = _mm256_set1_ps(k->sky == AO_CRYTEK_SKY_VISIBLE ? 1.0f : 0.0f);
+    c.kx = _mm256_set1_ps(k->kxy[0]);
+    c.ky = _mm256_set1_ps(k->kxy[1]);
+    c.size0 = _mm256_set1_ps(k->size[0]);
+    c.size1 = _mm256_set1_ps(k->size[1]);
+    c.wm1 = _mm256_set1_ps((float)(W - 1));
+    c.hm1 = _mm256_set1_ps((float)(H - 1));
+    c.w = _mm256_set1_ps((float)W);
+    c.h = _mm256_set1_ps((float)H);
+    c.stride = _mm256_set1_epi32((int)J->dgl->stride);
+    c.perm = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
+    c.m1 = _mm256_set1_epi32(1);
+    c.lim = _mm256_set1_epi32(0x7f7ffffe);
     const int world = k->space == AO_CRYTEK_SPACE_WORLD, persp = world && !k->orthographic;
-    const __m256 sky_value = _mm256_set1_ps(k->sky == AO_CRYTEK_SKY_VISIBLE ? 1.0f : 0.0f);
+    const int linear = k->filter == AO_CRYTEK_FILTER_LINEAR;
+    /* u = (x + 0.5) / W, v = (y_gl + 0.5) / H; the pixel's ray slopes; kz (screen: kz dP) */
     const __m256 xf = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
-    const __m256 u = _mm256_mul_ps(_mm256_add_ps(xf, _mm256_set1_ps(0.5f)), _mm256_set1_ps(k->inv_size[0]));
+    const __m256 u = _mm256_mul_ps(_mm256_add_ps(xf, c.half), _mm256_set1_ps(k->inv_size[0]));
     const __m256 v = _mm256_set1_ps(((float)y_gl + 0.5f) * k->inv_size[1]);
     const float *Rt = J->rtab8 + (size_t)(y_gl & 3) * 24 * (size_t)N;
-    const __m256 kx = _mm256_set1_ps(k->kxy[0]), ky = _mm256_set1_ps(k->kxy[1]);
     __m256 kz = _mm256_set1_ps(k->kz);
     if (!world)
         kz = _mm256_mul_ps(kz, dP);
     const __m256 ax = _mm256_add_ps(_mm256_set1_ps(k->ray[0]), _mm256_mul_ps(xf, _mm256_set1_ps(k->ray[2])));
     const __m256 ay = _mm256_set1_ps(k->ray[1] + (float)y_gl * k->ray[3]);
-    const __m256 size0 = _mm256_set1_ps(k->size[0]), size1 = _mm256_set1_ps(k->size[1]);
-    const __m256 half = _mm256_set1_ps(0.5f);
     /* ---- Taps ---- */
-    __m256 acc = zero;
-    for (int t = 0; t < N; t++) {
-        const __m256 R0 = _mm256_loadu_ps(Rt + 24 * t), R1 = _mm256_loadu_ps(Rt + 24 * t + 8),
-                     R2 = _mm256_loadu_ps(Rt + 24 * t + 16);
-        const __m256 Sz = _mm256_add_ps(dP, _mm256_mul_ps(R2, kz));
-        __m256 Sx, Sy, need = surf, behind = zero;
-        if (!persp) {
-            Sx = _mm256_add_ps(u, _mm256_mul_ps(R0, kx));
-            Sy = _mm256_add_ps(v, _mm256_mul_ps(R1, ky));
-        } else {
-            behind = _mm256_cmp_ps(Sz, zero, _CMP_NGT_UQ); /* !(Sz > 0) */
-            need = _mm256_andnot_ps(behind, surf);
-            Sx = _mm256_add_ps(u, _mm256_div_ps(_mm256_mul_ps(kx, _mm256_sub_ps(R0, _mm256_mul_ps(ax, R2))), Sz));
-            Sy = _mm256_add_ps(v, _mm256_div_ps(_mm256_mul_ps(ky, _mm256_sub_ps(R1, _mm256_mul_ps(ay, R2))), Sz));
-        }
-        const __m256 dS = fetch8(J, _mm256_mul_ps(Sx, size0), _mm256_mul_ps(Sy, size1), need);
-        const __m256 sdS = _mm256_and_ps(_mm256_cmp_ps(dS, zero, _CMP_GT_OQ), _mm256_cmp_ps(dS, inf, _CMP_LT_OQ));
-        /* r = saturate((dP - dS) / dS); acc += a + r (0.5 - a), a = dS > S.z */
-        __m256 r = _mm256_div_ps(_mm256_sub_ps(dP, dS), dS);
-        r = _mm256_min_ps(_mm256_max_ps(r, zero), one);
-        const __m256 a = _mm256_and_ps(_mm256_cmp_ps(dS, Sz, _CMP_GT_OQ), one);
-        __m256 c = _mm256_add_ps(a, _mm256_mul_ps(r, _mm256_sub_ps(half, a)));
-        c = _mm256_blendv_ps(sky_value, c, sdS);
-        if (persp)
-            c = _mm256_blendv_ps(c, one, behind);
-        acc = _mm256_add_ps(acc, c);
-    }
+    __m256 acc;
+    if (persp)
+        acc = linear ? taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 1, 1)
+                     : taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 1, 0);
+    else
+        acc = linear ? taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 0, 1)
+                     : taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 0, 0);
+    /* Accessibility / nSamplesNum; saturate(A * A + A) */
     const __m256 A = _mm256_div_ps(acc, _mm256_set1_ps(k->num_samples_f));
     __m256 res = k->output == AO_CRYTEK_OUTPUT_REMAP ? _mm256_add_ps(_mm256_mul_ps(A, A), A) : A;
-    res = _mm256_min_ps(_mm256_max_ps(res, zero), one);
-    _mm256_storeu_ps(out, _mm256_blendv_ps(one, res, surf));
+    res = _mm256_min_ps(_mm256_max_ps(res, c.zero), c.one);
+    _mm256_storeu_ps(out, _mm256_blendv_ps(c.one, res, surf));
     return 8 - __builtin_popcount((unsigned)smask);
 }
+#undef CK_AVX2
 
 static int avx2_available(void) { return __builtin_cpu_supports("avx2") ? 1 : 0; }
 #else
