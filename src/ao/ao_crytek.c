@@ -431,7 +431,7 @@ static int64_t row_scalar(const crytek_job *J, int task, int i0, int i1)
 /* Per-pass vector constants of the AVX2 path, set once per block (kept out of the tap loop). */
 typedef struct crytek_v8 {
     __m256 zero, one, half, inf, sky_value, kx, ky, size0, size1, wm1, hm1, w, h;
-    __m256i stride, perm, m1, lim;
+    __m256i stride, perm;
 } crytek_v8;
 
 #define CK_AVX2 __attribute__((target("avx2"), always_inline)) static inline
@@ -467,13 +467,12 @@ CK_AVX2 __m256 fetch8(const crytek_job *J, const crytek_v8 *c, __m256 sx, __m256
         const __m256 t10 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(3, 1, 3, 1));
         const __m256 t01 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(2, 0, 2, 0));
         const __m256 t11 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(3, 1, 3, 1));
-        /* is_surface of the four: as integers, bits - 1 < 0x7f7fffff unsigned exactly for
-         * 0 < t < +inf (+0 wraps, -0 and negatives have the sign bit, NaN is above +inf) */
-        __m256i um = _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t00), c->m1),
-                                      _mm256_sub_epi32(_mm256_castps_si256(t10), c->m1));
-        um = _mm256_max_epu32(um, _mm256_max_epu32(_mm256_sub_epi32(_mm256_castps_si256(t01), c->m1),
-                                                   _mm256_sub_epi32(_mm256_castps_si256(t11), c->m1)));
-        const __m256 ok = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_min_epu32(um, c->lim), um));
+        /* is_surface of the four, as float compares (ordered: NaN fails; the same classification
+         * as the scalar path under any MXCSR, DAZ included) */
+        __m256 ok = _mm256_and_ps(_mm256_cmp_ps(t00, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t00, c->inf, _CMP_LT_OQ));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t10, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t10, c->inf, _CMP_LT_OQ)));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t01, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t01, c->inf, _CMP_LT_OQ)));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t11, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t11, c->inf, _CMP_LT_OQ)));
         done = _mm256_and_ps(inter, ok);
         /* lerp(lerp(T00, T10, a), lerp(T01, T11, a), b) */
         const __m256 r0v = _mm256_add_ps(t00, _mm256_mul_ps(a, _mm256_sub_ps(t10, t00)));
@@ -584,8 +583,6 @@ __attribute__((target("avx2"))) static int block_avx2(const crytek_job *J, int t
     c.h = _mm256_set1_ps((float)H);
     c.stride = _mm256_set1_epi32((int)J->dgl->stride);
     c.perm = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
-    c.m1 = _mm256_set1_epi32(1);
-    c.lim = _mm256_set1_epi32(0x7f7ffffe);
     const int world = k->space == AO_CRYTEK_SPACE_WORLD, persp = world && !k->orthographic;
     const int linear = k->filter == AO_CRYTEK_FILTER_LINEAR;
     /* u = (x + 0.5) / W, v = (y_gl + 0.5) / H; the pixel's ray slopes; kz (screen: kz dP) */
