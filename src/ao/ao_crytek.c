@@ -280,10 +280,11 @@ static inline int texel(float v, int n)
  * on most hardware), so a port matches the linear filter to about 1/256 of a texel's depth step. */
 static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float sy, int linear)
 {
+    const float Wm1 = (float)(W - 1), Hm1 = (float)(H - 1); /* exact: W, H < 2^24 */
     if (linear) {
         const float fx = sx - 0.5f, fy = sy - 0.5f;
         float t00, t10, t01, t11, a, b;
-        if (fx >= 0.0f && fy >= 0.0f && fx < (float)(W - 1) && fy < (float)(H - 1)) {
+        if (fx >= 0.0f && fy >= 0.0f && fx < Wm1 && fy < Hm1) {
             /* interior footprint (the common case): no clamps, floor = truncation */
             const int i0 = (int)fx, j0 = (int)fy;
             a = fx - (float)i0;
@@ -316,8 +317,9 @@ static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float 
         } else {
             return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)]; /* NaN: the nearest path */
         }
-        /* a branch-free test of the four for background (NaN, <= 0, +inf) */
-        if (is_surface(t00) & is_surface(t10) & is_surface(t01) & is_surface(t11)) {
+        /* a branch-free test of the four for background (NaN, <= 0, +inf): is_surface of each */
+        if ((t00 > 0.0f) & (t10 > 0.0f) & (t01 > 0.0f) & (t11 > 0.0f) & (t00 < INFINITY) & (t10 < INFINITY) &
+            (t01 < INFINITY) & (t11 < INFINITY)) {
             const float r0v = t00 + a * (t10 - t00), r1v = t01 + a * (t11 - t01);
             return r0v + b * (r1v - r0v);
         }
@@ -326,13 +328,27 @@ static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float 
     return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)];
 }
 
-/* One surface pixel (x, y_gl) of centre depth dP, v = uv.y: the scalar reference of the pass. */
+/* The scalar reference of the pass: the AO of one surface pixel. */
+__attribute__((always_inline)) static inline float pixel_ao_body(const crytek_job *J, int x, int y_gl, float v, float dP,
+                                                                 const int persp, const int linear);
+
+/* One surface pixel (x, y_gl) of centre depth dP, v = uv.y: pixel_ao_body with its loop
+ * specialised on the projection and the filter (compile-time constants there). */
 static inline float pixel_ao(const crytek_job *J, int x, int y_gl, float v, float dP)
 {
     const ao_crytek_constants *k = J->k;
+    const int persp = k->space == AO_CRYTEK_SPACE_WORLD && !k->orthographic;
+    if (k->filter == AO_CRYTEK_FILTER_LINEAR)
+        return persp ? pixel_ao_body(J, x, y_gl, v, dP, 1, 1) : pixel_ao_body(J, x, y_gl, v, dP, 0, 1);
+    return persp ? pixel_ao_body(J, x, y_gl, v, dP, 1, 0) : pixel_ao_body(J, x, y_gl, v, dP, 0, 0);
+}
+
+__attribute__((always_inline)) static inline float pixel_ao_body(const crytek_job *J, int x, int y_gl, float v, float dP,
+                                                                 const int persp, const int linear)
+{
+    const ao_crytek_constants *k = J->k;
     const int W = k->full_width, H = k->full_height, N = k->num_samples;
-    const int world = k->space == AO_CRYTEK_SPACE_WORLD, persp = world && !k->orthographic;
-    const int linear = k->filter == AO_CRYTEK_FILTER_LINEAR;
+    const int world = k->space == AO_CRYTEK_SPACE_WORLD;
     const float sky_value = k->sky == AO_CRYTEK_SKY_VISIBLE ? 1.0f : 0.0f;
     const float u = ((float)x + 0.5f) * k->inv_size[0];
     /* ---- Per-pixel rotation: rotationTC = screenTC * screenSize / 4 on a 4x4 texture = texel
@@ -345,6 +361,8 @@ static inline float pixel_ao(const crytek_job *J, int x, int y_gl, float v, floa
         kz = kz * dP; /* listing: vRotatedOffset.z * fSceneDepthP * 2 == R.z * (2 dP) exactly */
     /* world, perspective: the pixel's ray slopes a = (x + 0.5 - cx)/fx, (y_gl + 0.5 - (H - cy))/fy */
     const float ax = k->ray[0] + (float)x * k->ray[2], ay = k->ray[1] + (float)y_gl * k->ray[3];
+    const obs_image_f32 G = *J->dgl; /* a local copy: its fields stay in registers across the taps */
+    const float size0 = k->size[0], size1 = k->size[1];
     /* ---- Taps ---- */
     float acc = 0.0f;
     for (int t = 0; t < N; t++) {
@@ -369,7 +387,7 @@ static inline float pixel_ao(const crytek_job *J, int x, int y_gl, float v, floa
             Sy = v + ky * (R1 - ay * R2) / Sz;
         }
         /* fSceneDepthS = tex2D(depth, S.xy), clamp to edge (GL rows up) */
-        const float dS = fetch(J->dgl, W, H, Sx * k->size[0], Sy * k->size[1], linear);
+        const float dS = fetch(&G, W, H, Sx * size0, Sy * size1, linear);
         if (!is_surface(dS)) {
             /* Deviation from the listing (which has no sky test): sky taps are visible (1) or
              * skipped (0), ao.h ao_crytek_sky */
