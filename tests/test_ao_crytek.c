@@ -523,6 +523,49 @@ TEST(crytek_window_equals_the_crop_of_the_whole_buffer)
     obs_context_destroy(ctx);
 }
 
+TEST(crytek_output_planes_do_not_change_the_result)
+{
+    /* Over the whole buffer the passes write the caller's planes directly (AO into out_raw or out,
+     * the blur into out): with and without out_raw, with and without the blur, the bytes are those
+     * of the windowed path (a 1 px guard band, which allocates and crops). */
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 64, 48, 0, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 0, &in), ctx);
+    for (int blur = 0; blur < 2; blur++) {
+        ao_crytek_params p = ao_crytek_params_default();
+        p.blur = blur;
+        obs_image_f32 o1, r1, o2;
+        CHECK_OK(run_crytek(ctx, NULL, &in, &p, &o1, &r1), ctx);
+        CHECK_OK(run_crytek(ctx, NULL, &in, &p, &o2, NULL), ctx);
+        CHECK_MSG(tu_same_plane(&o1, &o2), "blur %d: out depends on out_raw", blur);
+        if (!blur)
+            CHECK(tu_same_plane(&o1, &r1));
+        /* the inner 62 x 46 window (region = window + reach, allocated and cropped) */
+        ao_input w = in;
+        w.x0 = w.y0 = 1;
+        w.w = in.width - 2;
+        w.h = in.height - 2;
+        obs_image_f32 wo, wr;
+        CHECK_OK(run_crytek(ctx, NULL, &w, &p, &wo, &wr), ctx);
+        for (int y = 0; y < w.h; y++) {
+            CHECK(!memcmp(obs_image_f32_row(&wo, y), obs_image_f32_row(&o1, y + 1) + 1, 4 * (size_t)w.w));
+            CHECK(!memcmp(obs_image_f32_row(&wr, y), obs_image_f32_row(&r1, y + 1) + 1, 4 * (size_t)w.w));
+        }
+        obs_image_f32_free(&o1);
+        obs_image_f32_free(&r1);
+        obs_image_f32_free(&o2);
+        obs_image_f32_free(&wo);
+        obs_image_f32_free(&wr);
+    }
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
 /* ---- hard cases ---------------------------------------------------------------------------------- */
 
 static int unit_finite(const obs_image_f32 *a)

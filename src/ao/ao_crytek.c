@@ -758,13 +758,25 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
     ao_blur_reach(in, k->blur ? AO_GAUSS21_RADIUS : 0, rect);
     const int rx0 = rect[0], ry0 = rect[1], rw = rect[2], rh = rect[3];
     obs_image_f32 raw = {0}, blurred = {0};
+    /* Where the region is the window (no guard band, or no blur), the passes write the caller's
+     * planes directly: the AO into out_raw (or into out without the blur), the blur into out; only
+     * what is missing is allocated (saves zeroing and copying up to two planes per call) */
+    const int direct = rx0 == in->x0 && ry0 == in->y0 && rw == in->w && rh == in->h;
+    const int raw_is_out_raw = direct && out_raw && out_raw->data != out->data;
+    const int raw_is_out = direct && !k->blur && !raw_is_out_raw;
+    const int blur_into_out = direct && k->blur;
+    if (raw_is_out_raw)
+        raw = *out_raw;
+    else if (raw_is_out)
+        raw = *out;
     /* the depth texture as the shader sees it: GL row order (row j = our row H - 1 - j) */
     const obs_image_f32 dgl = {obs_image_f32_row(in->depth, in->height - 1), in->width, in->height, -in->depth->stride};
     int64_t *bg = NULL;
     double t0 = obs_time_now();
     float *rtab = (float *)malloc(sizeof(float) * 3 * AO_CRYTEK_ROT_TILE * AO_CRYTEK_ROT_TILE * (size_t)k->num_samples);
     float *rtab8 = NULL;
-    st = rtab ? obs_image_f32_alloc(ctx, rw, rh, &raw) : obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
+    st = !rtab ? obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory")
+         : raw_is_out_raw || raw_is_out ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, rw, rh, &raw);
     /* the AVX2 path gathers with int32 texel indices j stride + i (+ stride + 1), stride < 0 */
     if (st == OBS_STATUS_OK && isa == AO_CRYTEK_ISA_AVX2 && (int64_t)(in->height + 1) * in->depth->stride < INT32_MAX) {
         rtab8 = (float *)malloc(sizeof(float) * 3 * 8 * AO_CRYTEK_ROT_TILE * (size_t)k->num_samples);
@@ -789,10 +801,10 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
      * buffer, the region's edge is the buffer's) ---- */
     const obs_image_f32 *final = &raw;
     if (st == OBS_STATUS_OK && k->blur) {
-        st = obs_image_f32_alloc(ctx, rw, rh, &blurred);
+        st = blur_into_out ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, rw, rh, &blurred);
         if (st == OBS_STATUS_OK)
-            st = ao_blur_gaussian21(ctx, pool, &raw, &blurred);
-        final = &blurred;
+            st = ao_blur_gaussian21(ctx, pool, &raw, blur_into_out ? out : &blurred);
+        final = blur_into_out ? out : &blurred;
     }
     double t2 = obs_time_now();
     /* ---- 4. Crop the window; background stays 1 through the blur ---- */
@@ -800,7 +812,8 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
         for (int y = 0; y < in->h; y++) {
             const int ry = in->y0 + y - ry0;
             float *o = obs_image_f32_row(out, y);
-            memcpy(o, obs_image_f32_row(final, ry) + (in->x0 - rx0), sizeof(float) * in->w);
+            if (!blur_into_out && !raw_is_out)
+                memcpy(o, obs_image_f32_row(final, ry) + (in->x0 - rx0), sizeof(float) * in->w);
             if (k->blur) {
                 /* Deviation from the seed (which blurs the whole AO texture): background pixels
                  * keep visibility 1 (ao.h input rule), as SAO's blur passes its sky through */
@@ -809,7 +822,7 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
                     if (!is_surface(d[x]))
                         o[x] = 1.0f;
             }
-            if (out_raw)
+            if (out_raw && out_raw->data != raw.data)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, ry) + (in->x0 - rx0),
                        sizeof(float) * in->w);
         }
@@ -825,7 +838,8 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
     free(rtab8);
     free(rtab);
     obs_image_f32_free(&blurred);
-    obs_image_f32_free(&raw);
+    if (!raw_is_out_raw && !raw_is_out)
+        obs_image_f32_free(&raw);
     return st;
 }
 
