@@ -14,6 +14,9 @@
  *
  * Float32 in the listing's operation order (the build uses -ffp-contract=off). Every difference
  * from the listing is marked "Deviation" here and listed in docs/ao/crytek.md.
+ *
+ * Two paths, the same bytes: the scalar reference (pixel_ao) and, where the CPU and build have it,
+ * an AVX2 path of 8 pixels per vector (block_avx2; lanes described there). docs/ao/crytek.md, "Speed".
  */
 #include "ao.h"
 #include "ao_internal.h"
@@ -818,9 +821,8 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
                 /* Deviation from the seed (which blurs the whole AO texture): background pixels
                  * keep visibility 1 (ao.h input rule), as SAO's blur passes its sky through */
                 const float *d = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
-                for (int x = 0; x < in->w; x++)
-                    if (!is_surface(d[x]))
-                        o[x] = 1.0f;
+                for (int x = 0; x < in->w; x++) /* a select, not a branch: the loop vectorises */
+                    o[x] = d[x] > 0.0f && d[x] < INFINITY ? o[x] : 1.0f;
             }
             if (out_raw && out_raw->data != raw.data)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, ry) + (in->x0 - rx0),
