@@ -9,6 +9,9 @@
 #include "truth/truth.h"
 
 #include <math.h>
+#if defined(__SSE__) || defined(__x86_64__)
+#include <xmmintrin.h>
+#endif
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -520,6 +523,49 @@ TEST(crytek_window_equals_the_crop_of_the_whole_buffer)
     obs_context_destroy(ctx);
 }
 
+TEST(crytek_output_planes_do_not_change_the_result)
+{
+    /* Over the whole buffer the passes write the caller's planes directly (AO into out_raw or out,
+     * the blur into out): with and without out_raw, with and without the blur, the bytes are those
+     * of the windowed path (a 1 px guard band, which allocates and crops). */
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 64, 48, 0, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 0, &in), ctx);
+    for (int blur = 0; blur < 2; blur++) {
+        ao_crytek_params p = ao_crytek_params_default();
+        p.blur = blur;
+        obs_image_f32 o1, r1, o2;
+        CHECK_OK(run_crytek(ctx, NULL, &in, &p, &o1, &r1), ctx);
+        CHECK_OK(run_crytek(ctx, NULL, &in, &p, &o2, NULL), ctx);
+        CHECK_MSG(tu_same_plane(&o1, &o2), "blur %d: out depends on out_raw", blur);
+        if (!blur)
+            CHECK(tu_same_plane(&o1, &r1));
+        /* the inner 62 x 46 window (region = window + reach, allocated and cropped) */
+        ao_input w = in;
+        w.x0 = w.y0 = 1;
+        w.w = in.width - 2;
+        w.h = in.height - 2;
+        obs_image_f32 wo, wr;
+        CHECK_OK(run_crytek(ctx, NULL, &w, &p, &wo, &wr), ctx);
+        for (int y = 0; y < w.h; y++) {
+            CHECK(!memcmp(obs_image_f32_row(&wo, y), obs_image_f32_row(&o1, y + 1) + 1, 4 * (size_t)w.w));
+            CHECK(!memcmp(obs_image_f32_row(&wr, y), obs_image_f32_row(&r1, y + 1) + 1, 4 * (size_t)w.w));
+        }
+        obs_image_f32_free(&o1);
+        obs_image_f32_free(&r1);
+        obs_image_f32_free(&o2);
+        obs_image_f32_free(&wo);
+        obs_image_f32_free(&wr);
+    }
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
 /* ---- hard cases ---------------------------------------------------------------------------------- */
 
 static int unit_finite(const obs_image_f32 *a)
@@ -592,6 +638,141 @@ TEST(crytek_hard_cases_stay_finite_and_in_unit_range)
     }
     obs_image_f32_free(&one);
     obs_image_f32_free(&d);
+    obs_context_destroy(ctx);
+}
+
+/* ---- scalar == AVX2 ------------------------------------------------------------------------------ */
+
+TEST(crytek_avx2_equals_scalar_byte_for_byte)
+{
+    /* The AVX2 path (8 pixels per vector, gathered bilinear footprints, scalar fetches at edges and
+     * background) against the scalar reference on the analytic scene with its sky, plus NaN, +inf,
+     * 0, negative, huge (3e38) and far (1e30) depths scattered over it; a window whose region does
+     * not start on a multiple of 4; every space, filter, sky, output, N, tiny/default/huge radii
+     * (taps behind the eye), perspective and orthographic, with and without blur, 1 and 2 threads. */
+    if (!ao_crytek_isa_available(AO_CRYTEK_ISA_AVX2)) {
+        printf("    (no AVX2 in this CPU or build: only AUTO == SCALAR is checked)\n");
+    }
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 117, 71, 13, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 0, &in), ctx);
+    obs_image_f32 *depth = (obs_image_f32 *)in.depth;
+    for (int y = 0; y < depth->height; y++)
+        for (int x = 0; x < depth->width; x++) {
+            const int h = (x * 7 + y * 13) % 53;
+            float *d = obs_image_f32_row(depth, y) + x;
+            if (h == 0)
+                *d = NAN;
+            else if (h == 1)
+                *d = INFINITY;
+            else if (h == 2)
+                *d = 0.0f;
+            else if (h == 3)
+                *d = -1.0f;
+            else if (h == 4)
+                *d = 3e38f;
+            else if (h == 5)
+                *d = 1e30f;
+            else if (h == 6)
+                *d = 1e-40f; /* denormal: a surface, or background under DAZ (below) */
+        }
+    const ao_crytek_isa isas[3] = {AO_CRYTEK_ISA_SCALAR, AO_CRYTEK_ISA_AVX2, AO_CRYTEK_ISA_AUTO};
+    const int nisa = ao_crytek_isa_available(AO_CRYTEK_ISA_AVX2) ? 3 : 1;
+    obs_pool *pool2 = obs_pool_create(2);
+    static const float radii[] = {1e-6f, 0.5f, 3.0f, 1e6f};
+    static const int samples[] = {4, 8, 16, 32};
+    int cases = 0;
+    for (int pr = 0; pr < 2; pr++)
+        for (int space = 0; space < 2; space++)
+            for (int filter = 0; filter < 2; filter++)
+                for (int sky = 0; sky < 2; sky++)
+                    for (int ri = 0; ri < 4; ri++)
+                        for (int ni = 0; ni < 4; ni++) {
+                            if (ni != 2 && ri != 1)
+                                continue; /* N varies at the default radius only */
+                            in.projection = pr ? OBS_PROJECTION_ORTHOGRAPHIC : OBS_PROJECTION_PERSPECTIVE;
+                            ao_crytek_params p = ao_crytek_params_default();
+                            p.space = (ao_crytek_space)space;
+                            p.filter = (ao_crytek_filter)filter;
+                            p.sky = (ao_crytek_sky)sky;
+                            p.radius = radii[ri];
+                            p.offset_scale = ri == 3 ? 0.3f : 0.01f;
+                            p.samples = samples[ni];
+                            p.output = (ao_crytek_output)((ri + ni) & 1);
+                            p.blur = (sky + ni) & 1;
+                            ao_crytek_constants *k = (ao_crytek_constants *)malloc(sizeof *k);
+                            ao_crytek_constants_from_params(&p, &in, k);
+                            obs_image_f32 ref, ref_raw;
+                            CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &ref), ctx);
+                            CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &ref_raw), ctx);
+                            CHECK_OK(ao_crytek_compute_constants_isa(ctx, NULL, &in, k, AO_CRYTEK_ISA_SCALAR, &ref,
+                                                                     &ref_raw, NULL),
+                                     ctx);
+                            for (int ii = 0; ii < nisa; ii++)
+                                for (int th = 0; th < 2; th++) {
+                                    obs_image_f32 o, r;
+                                    CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &o), ctx);
+                                    CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &r), ctx);
+                                    CHECK_OK(ao_crytek_compute_constants_isa(ctx, th ? pool2 : NULL, &in, k, isas[ii],
+                                                                             &o, &r, NULL),
+                                             ctx);
+                                    CHECK_MSG(tu_same_plane(&o, &ref) && tu_same_plane(&r, &ref_raw),
+                                              "isa %d threads %d: ortho %d space %d filter %d sky %d r %g N %d differ",
+                                              (int)isas[ii], th + 1, pr, space, filter, sky, (double)radii[ri],
+                                              samples[ni]);
+                                    obs_image_f32_free(&o);
+                                    obs_image_f32_free(&r);
+                                }
+                            obs_image_f32_free(&ref);
+                            obs_image_f32_free(&ref_raw);
+                            free(k);
+                            cases++;
+                        }
+    CHECK(cases == 2 * 2 * 2 * 2 * 7);
+#if defined(__SSE__) || defined(__x86_64__)
+    /* with denormals-are-zero and flush-to-zero set (as Embree asks of its threads), both paths
+     * classify the denormal depths alike */
+    if (nisa > 1) {
+        const unsigned csr = _mm_getcsr();
+        _mm_setcsr(csr | 0x8040u); /* FTZ | DAZ */
+        for (int filter = 0; filter < 2; filter++) {
+            in.projection = OBS_PROJECTION_PERSPECTIVE;
+            ao_crytek_params p = ao_crytek_params_default();
+            p.filter = (ao_crytek_filter)filter;
+            ao_crytek_constants *k = (ao_crytek_constants *)malloc(sizeof *k);
+            ao_crytek_constants_from_params(&p, &in, k);
+            obs_image_f32 a, b;
+            CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &a), ctx);
+            CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &b), ctx);
+            CHECK_OK(ao_crytek_compute_constants_isa(ctx, NULL, &in, k, AO_CRYTEK_ISA_SCALAR, &a, NULL, NULL), ctx);
+            CHECK_OK(ao_crytek_compute_constants_isa(ctx, NULL, &in, k, AO_CRYTEK_ISA_AVX2, &b, NULL, NULL), ctx);
+            CHECK_MSG(tu_same_plane(&a, &b), "DAZ, filter %d: AVX2 differs from scalar", filter);
+            obs_image_f32_free(&a);
+            obs_image_f32_free(&b);
+            free(k);
+        }
+        _mm_setcsr(csr);
+    }
+#endif
+    /* an ISA this build or CPU lacks is an error, not a silent fallback */
+    if (!ao_crytek_isa_available(AO_CRYTEK_ISA_AVX2)) {
+        ao_crytek_params p = ao_crytek_params_default();
+        ao_crytek_constants *k = (ao_crytek_constants *)malloc(sizeof *k);
+        ao_crytek_constants_from_params(&p, &in, k);
+        obs_image_f32 o;
+        CHECK_OK(obs_image_f32_alloc(ctx, in.w, in.h, &o), ctx);
+        CHECK(ao_crytek_compute_constants_isa(ctx, NULL, &in, k, AO_CRYTEK_ISA_AVX2, &o, NULL, NULL) ==
+              OBS_STATUS_UNSUPPORTED_ISA);
+        obs_image_f32_free(&o);
+        free(k);
+    }
+    obs_pool_destroy(pool2);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
     obs_context_destroy(ctx);
 }
 

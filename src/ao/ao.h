@@ -578,6 +578,25 @@ obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const a
                                        const ao_crytek_constants *k, obs_image_f32 *out, obs_image_f32 *out_raw,
                                        ao_stats *stats);
 
+/* The instruction set of the AO pass: AUTO (AVX2 where the CPU and build have it, unless the
+ * environment sets OBS_ISA=scalar), the scalar reference, or AVX2 (8 pixels of a row per vector).
+ * Every ISA gives the same bytes (docs/ao/crytek.md, "Speed"). */
+typedef enum ao_crytek_isa {
+    AO_CRYTEK_ISA_AUTO = 0,
+    AO_CRYTEK_ISA_SCALAR,
+    AO_CRYTEK_ISA_AVX2,
+    AO_CRYTEK_ISA_COUNT
+} ao_crytek_isa;
+
+/* 1 if this CPU and build can run isa (AUTO and SCALAR always), else 0. */
+int ao_crytek_isa_available(ao_crytek_isa isa);
+
+/* As ao_crytek_compute_constants on a chosen ISA. Returns as ao_crytek_compute_constants, and
+ * UNSUPPORTED_ISA when isa is not available (ao_crytek_isa_available). */
+obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, const ao_input *in,
+                                           const ao_crytek_constants *k, ao_crytek_isa isa, obs_image_f32 *out,
+                                           obs_image_f32 *out_raw, ao_stats *stats);
+
 /* (end of Crytek SSAO) */
 
 

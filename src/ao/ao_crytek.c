@@ -14,12 +14,16 @@
  *
  * Float32 in the listing's operation order (the build uses -ffp-contract=off). Every difference
  * from the listing is marked "Deviation" here and listed in docs/ao/crytek.md.
+ *
+ * Two paths, the same bytes: the scalar reference (pixel_ao) and, where the CPU and build have it,
+ * an AVX2 path of 8 pixels per vector (block_avx2; lanes described there). docs/ao/crytek.md, "Speed".
  */
 #include "ao.h"
 #include "ao_internal.h"
 
 #include <math.h>
 #include <stdarg.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -244,7 +248,10 @@ void ao_crytek_constants_from_params(const ao_crytek_params *p, const ao_input *
 typedef struct crytek_job {
     const ao_crytek_constants *k;
     const float *rtab;             /* [16][N][3]: the rotated taps R = o_t * M per texel */
-    const obs_image_f32 *dgl;      /* the depth in GL row order, every non-surface value +inf */
+    const float *rtab8;            /* NULL (scalar), or [4][N][3][8]: rtab lane-expanded for the
+                                      AVX2 path, lane l of texel row j = texel 4 j + (l & 3) */
+    const obs_image_f32 *dgl;      /* the depth in GL row order: a view of in->depth with rows
+                                      reversed (data = row H - 1, stride negated), no copy */
     const ao_input *in;
     int rx0, ry0;                  /* region origin, our row order */
     obs_image_f32 *ao;             /* region-sized, our row order */
@@ -276,10 +283,11 @@ static inline int texel(float v, int n)
  * on most hardware), so a port matches the linear filter to about 1/256 of a texel's depth step. */
 static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float sy, int linear)
 {
+    const float Wm1 = (float)(W - 1), Hm1 = (float)(H - 1); /* exact: W, H < 2^24 */
     if (linear) {
         const float fx = sx - 0.5f, fy = sy - 0.5f;
         float t00, t10, t01, t11, a, b;
-        if (fx >= 0.0f && fy >= 0.0f && fx < (float)(W - 1) && fy < (float)(H - 1)) {
+        if (fx >= 0.0f && fy >= 0.0f && fx < Wm1 && fy < Hm1) {
             /* interior footprint (the common case): no clamps, floor = truncation */
             const int i0 = (int)fx, j0 = (int)fy;
             a = fx - (float)i0;
@@ -312,8 +320,9 @@ static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float 
         } else {
             return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)]; /* NaN: the nearest path */
         }
-        /* every non-surface depth is +inf in G (never NaN): a branch-free test of the four */
-        if ((t00 < INFINITY) & (t10 < INFINITY) & (t01 < INFINITY) & (t11 < INFINITY)) {
+        /* a branch-free test of the four for background (NaN, <= 0, +inf): is_surface of each */
+        if ((t00 > 0.0f) & (t10 > 0.0f) & (t01 > 0.0f) & (t11 > 0.0f) & (t00 < INFINITY) & (t10 < INFINITY) &
+            (t01 < INFINITY) & (t11 < INFINITY)) {
             const float r0v = t00 + a * (t10 - t00), r1v = t01 + a * (t11 - t01);
             return r0v + b * (r1v - r0v);
         }
@@ -322,24 +331,97 @@ static inline float fetch(const obs_image_f32 *G, int W, int H, float sx, float 
     return obs_image_f32_row(G, texel(sy, H))[texel(sx, W)];
 }
 
-static void crytek_row(void *user, int64_t task, int thread)
+/* The scalar reference of the pass: the AO of one surface pixel. */
+__attribute__((always_inline)) static inline float pixel_ao_body(const crytek_job *J, int x, int y_gl, float v, float dP,
+                                                                 const int persp, const int linear);
+
+/* One surface pixel (x, y_gl) of centre depth dP, v = uv.y: pixel_ao_body with its loop
+ * specialised on the projection and the filter (compile-time constants there). */
+static inline float pixel_ao(const crytek_job *J, int x, int y_gl, float v, float dP)
 {
-    (void)thread;
-    const crytek_job *J = (const crytek_job *)user;
     const ao_crytek_constants *k = J->k;
-    const ao_input *in = J->in;
+    const int persp = k->space == AO_CRYTEK_SPACE_WORLD && !k->orthographic;
+    if (k->filter == AO_CRYTEK_FILTER_LINEAR)
+        return persp ? pixel_ao_body(J, x, y_gl, v, dP, 1, 1) : pixel_ao_body(J, x, y_gl, v, dP, 0, 1);
+    return persp ? pixel_ao_body(J, x, y_gl, v, dP, 1, 0) : pixel_ao_body(J, x, y_gl, v, dP, 0, 0);
+}
+
+__attribute__((always_inline)) static inline float pixel_ao_body(const crytek_job *J, int x, int y_gl, float v, float dP,
+                                                                 const int persp, const int linear)
+{
+    const ao_crytek_constants *k = J->k;
     const int W = k->full_width, H = k->full_height, N = k->num_samples;
-    const int y = J->ry0 + (int)task, y_gl = H - 1 - y;
-    const float *drow = obs_image_f32_row(in->depth, y);
-    float *out = obs_image_f32_row(J->ao, (int)task);
-    const int world = k->space == AO_CRYTEK_SPACE_WORLD, persp = world && !k->orthographic;
-    const int linear = k->filter == AO_CRYTEK_FILTER_LINEAR;
+    const int world = k->space == AO_CRYTEK_SPACE_WORLD;
     const float sky_value = k->sky == AO_CRYTEK_SKY_VISIBLE ? 1.0f : 0.0f;
+    const float u = ((float)x + 0.5f) * k->inv_size[0];
+    /* ---- Per-pixel rotation: rotationTC = screenTC * screenSize / 4 on a 4x4 texture = texel
+     * (p & 3); the matrix depends on the texel only, so it is precomputed (same floats) ---- */
+    const float *Rt = J->rtab + (size_t)(4 * (y_gl & 3) + (x & 3)) * 3 * (size_t)N;
+    /* ---- Screen mapping of this pixel ---- */
+    const float kx = k->kxy[0], ky = k->kxy[1];
+    float kz = k->kz;
+    if (!world)
+        kz = kz * dP; /* listing: vRotatedOffset.z * fSceneDepthP * 2 == R.z * (2 dP) exactly */
+    /* world, perspective: the pixel's ray slopes a = (x + 0.5 - cx)/fx, (y_gl + 0.5 - (H - cy))/fy */
+    const float ax = k->ray[0] + (float)x * k->ray[2], ay = k->ray[1] + (float)y_gl * k->ray[3];
+    const obs_image_f32 G = *J->dgl; /* a local copy: its fields stay in registers across the taps */
+    const float size0 = k->size[0], size1 = k->size[1];
+    /* ---- Taps ---- */
+    float acc = 0.0f;
+    for (int t = 0; t < N; t++) {
+        /* vRotatedOffset = mul(vOffset, rotMat): R_j = o.x M0j + o.y M1j + o.z M2j */
+        /* (precomputed per texel by rotate_taps, the same floats) */
+        const float R0 = Rt[3 * t], R1 = Rt[3 * t + 1], R2 = Rt[3 * t + 2];
+        /* vSamplePos = float3(screenTC, dP) + float3(R.xy, R.z * dP * 2) */
+        const float Sz = dP + R2 * kz;
+        float Sx, Sy;
+        if (!persp) {
+            Sx = u + R0 * kx;
+            Sy = v + R1 * ky;
+        } else {
+            /* Deviation (space world, perspective): the tap is the view-space point
+             * P + R r / s_N, projected exactly: uv' = uv + kxy (R.xy - a R.z) / (dP + R.z kz),
+             * kxy = (r / s_N)(fx / W, fy / H). A tap behind the eye (S.z <= 0) is visible. */
+            if (!(Sz > 0.0f)) {
+                acc += 1.0f;
+                continue;
+            }
+            Sx = u + kx * (R0 - ax * R2) / Sz;
+            Sy = v + ky * (R1 - ay * R2) / Sz;
+        }
+        /* fSceneDepthS = tex2D(depth, S.xy), clamp to edge (GL rows up) */
+        const float dS = fetch(&G, W, H, Sx * size0, Sy * size1, linear);
+        if (!is_surface(dS)) {
+            /* Deviation from the listing (which has no sky test): sky taps are visible (1) or
+             * skipped (0), ao.h ao_crytek_sky */
+            acc += sky_value;
+            continue;
+        }
+        /* fRangeIsInvalid = saturate((dP - dS) / dS);
+         * Accessibility += lerp(dS > S.z ? 1 : 0, 0.5, fRangeIsInvalid), lerp(a, b, s) = a + s (b - a) */
+        float r = (dP - dS) / dS;
+        r = r > 0.0f ? (r < 1.0f ? r : 1.0f) : 0.0f;
+        const float a = dS > Sz ? 1.0f : 0.0f;
+        acc += a + r * (0.5f - a);
+    }
+    /* Accessibility = Accessibility / nSamplesNum; return saturate(A * A + A) */
+    const float A = acc / k->num_samples_f;
+    float res = k->output == AO_CRYTEK_OUTPUT_REMAP ? A * A + A : A;
+    return res > 0.0f ? (res < 1.0f ? res : 1.0f) : 0.0f;
+}
+
+/* Pixels [i0, i1) of region row `task` (our row order), scalar. Returns the background count. */
+static int64_t row_scalar(const crytek_job *J, int task, int i0, int i1)
+{
+    const ao_crytek_constants *k = J->k;
+    const int H = k->full_height;
+    const int y = J->ry0 + task, y_gl = H - 1 - y;
+    const float *drow = obs_image_f32_row(J->in->depth, y);
+    float *out = obs_image_f32_row(J->ao, task);
     /* uv.y = (y_gl + 0.5) / H, the fragment's interpolated texture coordinate */
     const float v = ((float)y_gl + 0.5f) * k->inv_size[1];
     int64_t n_bg = 0;
-
-    for (int i = 0; i < J->ao->width; i++) {
+    for (int i = i0; i < i1; i++) {
         const int x = J->rx0 + i;
         /* ---- Centre depth; background -> 1 (the listing has no test: we keep NaN out) ---- */
         const float dP = drow[x];
@@ -348,61 +430,235 @@ static void crytek_row(void *user, int64_t task, int thread)
             n_bg++;
             continue;
         }
-        const float u = ((float)x + 0.5f) * k->inv_size[0];
-        /* ---- Per-pixel rotation: rotationTC = screenTC * screenSize / 4 on a 4x4 texture = texel
-         * (p & 3); the matrix depends on the texel only, so it is precomputed (same floats) ---- */
-        const float *Rt = J->rtab + (size_t)(4 * (y_gl & 3) + (x & 3)) * 3 * (size_t)N;
-        /* ---- Screen mapping of this pixel ---- */
-        const float kx = k->kxy[0], ky = k->kxy[1];
-        float kz = k->kz;
-        if (!world)
-            kz = kz * dP; /* listing: vRotatedOffset.z * fSceneDepthP * 2 == R.z * (2 dP) exactly */
-        /* world, perspective: the pixel's ray slopes a = (x + 0.5 - cx)/fx, (y_gl + 0.5 - (H - cy))/fy */
-        const float ax = k->ray[0] + (float)x * k->ray[2], ay = k->ray[1] + (float)y_gl * k->ray[3];
-        /* ---- Taps ---- */
-        float acc = 0.0f;
-        for (int t = 0; t < N; t++) {
-            /* vRotatedOffset = mul(vOffset, rotMat): R_j = o.x M0j + o.y M1j + o.z M2j */
-            /* (precomputed per texel by rotate_taps, the same floats) */
-            const float R0 = Rt[3 * t], R1 = Rt[3 * t + 1], R2 = Rt[3 * t + 2];
-            /* vSamplePos = float3(screenTC, dP) + float3(R.xy, R.z * dP * 2) */
-            const float Sz = dP + R2 * kz;
-            float Sx, Sy;
-            if (!persp) {
-                Sx = u + R0 * kx;
-                Sy = v + R1 * ky;
-            } else {
-                /* Deviation (space world, perspective): the tap is the view-space point
-                 * P + R r / s_N, projected exactly: uv' = uv + kxy (R.xy - a R.z) / (dP + R.z kz),
-                 * kxy = (r / s_N)(fx / W, fy / H). A tap behind the eye (S.z <= 0) is visible. */
-                if (!(Sz > 0.0f)) {
-                    acc += 1.0f;
-                    continue;
-                }
-                Sx = u + kx * (R0 - ax * R2) / Sz;
-                Sy = v + ky * (R1 - ay * R2) / Sz;
-            }
-            /* fSceneDepthS = tex2D(depth, S.xy), clamp to edge (GL rows up) */
-            const float dS = fetch(J->dgl, W, H, Sx * k->size[0], Sy * k->size[1], linear);
-            if (!is_surface(dS)) {
-                /* Deviation from the listing (which has no sky test): sky taps are visible (1) or
-                 * skipped (0), ao.h ao_crytek_sky */
-                acc += sky_value;
-                continue;
-            }
-            /* fRangeIsInvalid = saturate((dP - dS) / dS);
-             * Accessibility += lerp(dS > S.z ? 1 : 0, 0.5, fRangeIsInvalid), lerp(a, b, s) = a + s (b - a) */
-            float r = (dP - dS) / dS;
-            r = r > 0.0f ? (r < 1.0f ? r : 1.0f) : 0.0f;
-            const float a = dS > Sz ? 1.0f : 0.0f;
-            acc += a + r * (0.5f - a);
-        }
-        /* Accessibility = Accessibility / nSamplesNum; return saturate(A * A + A) */
-        const float A = acc / k->num_samples_f;
-        float res = k->output == AO_CRYTEK_OUTPUT_REMAP ? A * A + A : A;
-        res = res > 0.0f ? (res < 1.0f ? res : 1.0f) : 0.0f;
-        out[i] = res;
+        out[i] = pixel_ao(J, x, y_gl, v, dP);
     }
+    return n_bg;
+}
+
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#define CRYTEK_AVX2 1
+#include <immintrin.h>
+
+/* ---- The AVX2 path ----
+ * Lanes: 8 horizontally adjacent pixels x0 .. x0 + 7 of one row, x0 a multiple of 4, so that lane
+ * l uses rotation texel (l & 3) of the row's texel row (J->rtab8: [4][N][3][8], lane-expanded
+ * copies of rtab, the same floats). Every lane evaluates pixel_ao's operations in its order, with
+ * the same IEEE operations (-mavx2 without FMA, vdivps is the correctly rounded division, the
+ * min/max pair is the scalar saturate including r = NaN -> 0); each lane's accumulator adds the
+ * taps in tap order, so the sums are bit-identical. Fetches: a footprint inside the buffer away
+ * from the edges and free of background is gathered (4 texels); every other tap (edges, NaN or
+ * huge positions, background in the footprint, nearest fetches outside the buffer) is fetched by
+ * the scalar fetch() lane by lane. test_ao_crytek.c checks scalar == AVX2 byte for byte. */
+/* Per-pass vector constants of the AVX2 path, set once per block (kept out of the tap loop). */
+typedef struct crytek_v8 {
+    __m256 zero, one, half, inf, sky_value, kx, ky, size0, size1, wm1, hm1, w, h;
+    __m256i stride, perm;
+} crytek_v8;
+
+#define CK_AVX2 __attribute__((target("avx2"), always_inline)) static inline
+
+/* fetch() for 8 lanes; lanes outside `need` are don't-care. linear is a compile-time constant at
+ * every call. */
+CK_AVX2 __m256 fetch8(const crytek_job *J, const crytek_v8 *c, __m256 sx, __m256 sy, __m256 need, const int linear)
+{
+    const obs_image_f32 *G = J->dgl;
+    __m256 dS, done;
+    if (linear) {
+        const __m256 fx = _mm256_sub_ps(sx, c->half), fy = _mm256_sub_ps(sy, c->half);
+        __m256 inter = _mm256_and_ps(_mm256_cmp_ps(fx, c->zero, _CMP_GE_OQ), _mm256_cmp_ps(fy, c->zero, _CMP_GE_OQ));
+        inter = _mm256_and_ps(inter, _mm256_cmp_ps(fx, c->wm1, _CMP_LT_OQ));
+        inter = _mm256_and_ps(inter, _mm256_cmp_ps(fy, c->hm1, _CMP_LT_OQ));
+        inter = _mm256_and_ps(inter, need);
+        /* interior footprint: floor = truncation, a = frac */
+        const __m256i i0 = _mm256_cvttps_epi32(fx), j0 = _mm256_cvttps_epi32(fy);
+        const __m256 a = _mm256_sub_ps(fx, _mm256_cvtepi32_ps(i0)), b = _mm256_sub_ps(fy, _mm256_cvtepi32_ps(j0));
+        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(j0, c->stride), i0);
+        idx = _mm256_and_si256(idx, _mm256_castps_si256(inter)); /* unused lanes read texel 0 */
+        /* (T00, T10) and (T01, T11) are adjacent: gather them as 64-bit pairs, lanes
+         * {0, 1, 4, 5} and {2, 3, 6, 7}, so that the even/odd split comes out in lane order */
+        const __m256i ip = _mm256_permutevar8x32_epi32(idx, c->perm);
+        const __m128i ilo = _mm256_castsi256_si128(ip), ihi = _mm256_extracti128_si256(ip, 1);
+        const double *row0 = (const double *)(const void *)G->data;
+        const double *row1 = (const double *)(const void *)(G->data + G->stride);
+        const __m256 p0lo = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ilo, 4));
+        const __m256 p0hi = _mm256_castpd_ps(_mm256_i32gather_pd(row0, ihi, 4));
+        const __m256 p1lo = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ilo, 4));
+        const __m256 p1hi = _mm256_castpd_ps(_mm256_i32gather_pd(row1, ihi, 4));
+        const __m256 t00 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(2, 0, 2, 0));
+        const __m256 t10 = _mm256_shuffle_ps(p0lo, p0hi, _MM_SHUFFLE(3, 1, 3, 1));
+        const __m256 t01 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(2, 0, 2, 0));
+        const __m256 t11 = _mm256_shuffle_ps(p1lo, p1hi, _MM_SHUFFLE(3, 1, 3, 1));
+        /* is_surface of the four, as float compares (ordered: NaN fails; the same classification
+         * as the scalar path under any MXCSR, DAZ included) */
+        __m256 ok = _mm256_and_ps(_mm256_cmp_ps(t00, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t00, c->inf, _CMP_LT_OQ));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t10, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t10, c->inf, _CMP_LT_OQ)));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t01, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t01, c->inf, _CMP_LT_OQ)));
+        ok = _mm256_and_ps(ok, _mm256_and_ps(_mm256_cmp_ps(t11, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(t11, c->inf, _CMP_LT_OQ)));
+        done = _mm256_and_ps(inter, ok);
+        /* lerp(lerp(T00, T10, a), lerp(T01, T11, a), b) */
+        const __m256 r0v = _mm256_add_ps(t00, _mm256_mul_ps(a, _mm256_sub_ps(t10, t00)));
+        const __m256 r1v = _mm256_add_ps(t01, _mm256_mul_ps(a, _mm256_sub_ps(t11, t01)));
+        dS = _mm256_add_ps(r0v, _mm256_mul_ps(b, _mm256_sub_ps(r1v, r0v)));
+        /* touching background: the nearest texel (trunc(sx), trunc(sy)), inside the buffer
+         * here (fx in [0, W - 1) gives sx in [0.5, W - 0.5]) */
+        const __m256 near = _mm256_andnot_ps(ok, inter);
+        if (!_mm256_testz_ps(near, near)) {
+            __m256i in_ = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(sy), c->stride), _mm256_cvttps_epi32(sx));
+            in_ = _mm256_and_si256(in_, _mm256_castps_si256(near));
+            dS = _mm256_mask_i32gather_ps(dS, G->data, in_, near, 4);
+            done = inter;
+        }
+    } else {
+        /* nearest inside the buffer: texel (trunc(sx), trunc(sy)) */
+        __m256 inside = _mm256_and_ps(_mm256_cmp_ps(sx, c->zero, _CMP_GE_OQ), _mm256_cmp_ps(sy, c->zero, _CMP_GE_OQ));
+        inside = _mm256_and_ps(inside, _mm256_cmp_ps(sx, c->w, _CMP_LT_OQ));
+        inside = _mm256_and_ps(inside, _mm256_cmp_ps(sy, c->h, _CMP_LT_OQ));
+        done = _mm256_and_ps(inside, need);
+        __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(sy), c->stride), _mm256_cvttps_epi32(sx));
+        idx = _mm256_and_si256(idx, _mm256_castps_si256(done));
+        dS = _mm256_i32gather_ps(G->data, idx, 4);
+    }
+    /* ---- The rest (edges, NaN or huge positions), lane by lane, through the scalar fetch ---- */
+    int rest = _mm256_movemask_ps(_mm256_andnot_ps(done, need));
+    if (__builtin_expect(rest != 0, 0)) {
+        float fsx[8], fsy[8], fd[8];
+        _mm256_storeu_ps(fsx, sx);
+        _mm256_storeu_ps(fsy, sy);
+        _mm256_storeu_ps(fd, dS);
+        const int W = J->k->full_width, H = J->k->full_height;
+        while (rest) {
+            const int l = __builtin_ctz((unsigned)rest);
+            rest &= rest - 1;
+            fd[l] = fetch(G, W, H, fsx[l], fsy[l], linear);
+        }
+        dS = _mm256_loadu_ps(fd);
+    }
+    return dS;
+}
+
+/* The taps of 8 pixels: pixel_ao's loop, lane-wise (persp and linear are compile-time constants). */
+CK_AVX2 __m256 taps8(const crytek_job *J, const crytek_v8 *c, const float *Rt, int N, __m256 dP, __m256 surf,
+                     __m256 u, __m256 v, __m256 kz, __m256 ax, __m256 ay, const int persp, const int linear)
+{
+    __m256 acc = c->zero;
+    for (int t = 0; t < N; t++) {
+        const __m256 R0 = _mm256_loadu_ps(Rt + 24 * t), R1 = _mm256_loadu_ps(Rt + 24 * t + 8),
+                     R2 = _mm256_loadu_ps(Rt + 24 * t + 16);
+        /* vSamplePos = float3(screenTC, dP) + float3(R.xy, R.z * kz) */
+        const __m256 Sz = _mm256_add_ps(dP, _mm256_mul_ps(R2, kz));
+        __m256 Sx, Sy, need = surf, behind = c->zero;
+        if (!persp) {
+            Sx = _mm256_add_ps(u, _mm256_mul_ps(R0, c->kx));
+            Sy = _mm256_add_ps(v, _mm256_mul_ps(R1, c->ky));
+        } else {
+            /* the exact projection; a tap behind the eye (!(S.z > 0)) is visible */
+            behind = _mm256_cmp_ps(Sz, c->zero, _CMP_NGT_UQ);
+            need = _mm256_andnot_ps(behind, surf);
+            Sx = _mm256_add_ps(u, _mm256_div_ps(_mm256_mul_ps(c->kx, _mm256_sub_ps(R0, _mm256_mul_ps(ax, R2))), Sz));
+            Sy = _mm256_add_ps(v, _mm256_div_ps(_mm256_mul_ps(c->ky, _mm256_sub_ps(R1, _mm256_mul_ps(ay, R2))), Sz));
+        }
+        const __m256 dS = fetch8(J, c, _mm256_mul_ps(Sx, c->size0), _mm256_mul_ps(Sy, c->size1), need, linear);
+        const __m256 sdS = _mm256_and_ps(_mm256_cmp_ps(dS, c->zero, _CMP_GT_OQ), _mm256_cmp_ps(dS, c->inf, _CMP_LT_OQ));
+        /* r = saturate((dP - dS) / dS); acc += a + r (0.5 - a), a = dS > S.z ? 1 : 0 */
+        __m256 r = _mm256_div_ps(_mm256_sub_ps(dP, dS), dS);
+        r = _mm256_min_ps(_mm256_max_ps(r, c->zero), c->one);
+        const __m256 a = _mm256_and_ps(_mm256_cmp_ps(dS, Sz, _CMP_GT_OQ), c->one);
+        __m256 add = _mm256_add_ps(a, _mm256_mul_ps(r, _mm256_sub_ps(c->half, a)));
+        add = _mm256_blendv_ps(c->sky_value, add, sdS); /* background tap: 1 (visible) or 0 (skip) */
+        if (persp)
+            add = _mm256_blendv_ps(add, c->one, behind);
+        acc = _mm256_add_ps(acc, add);
+    }
+    return acc;
+}
+
+/* 8 pixels starting at region column i (x0 = rx0 + i, a multiple of 4). Returns the background count. */
+__attribute__((target("avx2"))) static int block_avx2(const crytek_job *J, int task, int i)
+{
+    const ao_crytek_constants *k = J->k;
+    const int W = k->full_width, H = k->full_height, N = k->num_samples;
+    const int y = J->ry0 + task, y_gl = H - 1 - y, x0 = J->rx0 + i;
+    const float *drow = obs_image_f32_row(J->in->depth, y);
+    float *out = obs_image_f32_row(J->ao, task) + i;
+    crytek_v8 c;
+    c.zero = _mm256_setzero_ps();
+    c.one = _mm256_set1_ps(1.0f);
+    c.inf = _mm256_set1_ps(INFINITY);
+    /* ---- Centre depth; background -> 1 ---- */
+    const __m256 dP = _mm256_loadu_ps(drow + x0);
+    const __m256 surf = _mm256_and_ps(_mm256_cmp_ps(dP, c.zero, _CMP_GT_OQ), _mm256_cmp_ps(dP, c.inf, _CMP_LT_OQ));
+    const int smask = _mm256_movemask_ps(surf);
+    if (!smask) {
+        _mm256_storeu_ps(out, c.one);
+        return 8;
+    }
+    c.half = _mm256_set1_ps(0.5f);
+    c.sky_value = _mm256_set1_ps(k->sky == AO_CRYTEK_SKY_VISIBLE ? 1.0f : 0.0f);
+    c.kx = _mm256_set1_ps(k->kxy[0]);
+    c.ky = _mm256_set1_ps(k->kxy[1]);
+    c.size0 = _mm256_set1_ps(k->size[0]);
+    c.size1 = _mm256_set1_ps(k->size[1]);
+    c.wm1 = _mm256_set1_ps((float)(W - 1));
+    c.hm1 = _mm256_set1_ps((float)(H - 1));
+    c.w = _mm256_set1_ps((float)W);
+    c.h = _mm256_set1_ps((float)H);
+    c.stride = _mm256_set1_epi32((int)J->dgl->stride);
+    c.perm = _mm256_setr_epi32(0, 1, 4, 5, 2, 3, 6, 7);
+    const int world = k->space == AO_CRYTEK_SPACE_WORLD, persp = world && !k->orthographic;
+    const int linear = k->filter == AO_CRYTEK_FILTER_LINEAR;
+    /* u = (x + 0.5) / W, v = (y_gl + 0.5) / H; the pixel's ray slopes; kz (screen: kz dP) */
+    const __m256 xf = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(x0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+    const __m256 u = _mm256_mul_ps(_mm256_add_ps(xf, c.half), _mm256_set1_ps(k->inv_size[0]));
+    const __m256 v = _mm256_set1_ps(((float)y_gl + 0.5f) * k->inv_size[1]);
+    const float *Rt = J->rtab8 + (size_t)(y_gl & 3) * 24 * (size_t)N;
+    __m256 kz = _mm256_set1_ps(k->kz);
+    if (!world)
+        kz = _mm256_mul_ps(kz, dP);
+    const __m256 ax = _mm256_add_ps(_mm256_set1_ps(k->ray[0]), _mm256_mul_ps(xf, _mm256_set1_ps(k->ray[2])));
+    const __m256 ay = _mm256_set1_ps(k->ray[1] + (float)y_gl * k->ray[3]);
+    /* ---- Taps ---- */
+    __m256 acc;
+    if (persp)
+        acc = linear ? taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 1, 1)
+                     : taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 1, 0);
+    else
+        acc = linear ? taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 0, 1)
+                     : taps8(J, &c, Rt, N, dP, surf, u, v, kz, ax, ay, 0, 0);
+    /* Accessibility / nSamplesNum; saturate(A * A + A) */
+    const __m256 A = _mm256_div_ps(acc, _mm256_set1_ps(k->num_samples_f));
+    __m256 res = k->output == AO_CRYTEK_OUTPUT_REMAP ? _mm256_add_ps(_mm256_mul_ps(A, A), A) : A;
+    res = _mm256_min_ps(_mm256_max_ps(res, c.zero), c.one);
+    _mm256_storeu_ps(out, _mm256_blendv_ps(c.one, res, surf));
+    return 8 - __builtin_popcount((unsigned)smask);
+}
+#undef CK_AVX2
+
+static int avx2_available(void) { return __builtin_cpu_supports("avx2") ? 1 : 0; }
+#else
+static int avx2_available(void) { return 0; }
+#endif
+
+static void crytek_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const crytek_job *J = (const crytek_job *)user;
+    const int w = J->ao->width;
+    int64_t n_bg = 0;
+#if defined(CRYTEK_AVX2)
+    if (J->rtab8) {
+        /* scalar up to the first x that is a multiple of 4, then blocks of 8, then scalar */
+        int i = (4 - (J->rx0 & 3)) & 3;
+        if (i > w)
+            i = w;
+        n_bg += row_scalar(J, (int)task, 0, i);
+        for (; i + 8 <= w; i += 8)
+            n_bg += block_avx2(J, (int)task, i);
+        n_bg += row_scalar(J, (int)task, i, w);
+        J->background[task] = n_bg;
+        return;
+    }
+#endif
+    n_bg = row_scalar(J, (int)task, 0, w);
     J->background[task] = n_bg;
 }
 
@@ -427,21 +683,17 @@ static void rotate_taps(const ao_crytek_constants *k, float *rtab)
     }
 }
 
-/* The depth texture as the shader sees it: GL row order, background (+inf, NaN, <= 0) as +inf. */
-typedef struct dgl_job {
-    const ao_input *in;
-    obs_image_f32 *out;
-} dgl_job;
-
-static void dgl_row(void *user, int64_t task, int thread)
+/* rtab lane-expanded for the AVX2 path: rtab8[((j N + t) 3 + c) 8 + l] = R_c of tap t, texel
+ * 4 j + (l & 3) (copies, the same floats). */
+static void expand_taps(const ao_crytek_constants *k, const float *rtab, float *rtab8)
 {
-    (void)thread;
-    const dgl_job *J = (const dgl_job *)user;
-    const int H = J->in->height, W = J->in->width, r = (int)task;
-    const float *d = obs_image_f32_row(J->in->depth, H - 1 - r);
-    float *o = obs_image_f32_row(J->out, r);
-    for (int x = 0; x < W; x++)
-        o[x] = is_surface(d[x]) ? d[x] : INFINITY;
+    const int N = k->num_samples;
+    for (int j = 0; j < AO_CRYTEK_ROT_TILE; j++)
+        for (int t = 0; t < N; t++)
+            for (int c = 0; c < 3; c++)
+                for (int l = 0; l < 8; l++)
+                    rtab8[(((size_t)j * N + t) * 3 + c) * 8 + l] =
+                        rtab[((size_t)(4 * j + (l & 3)) * N + t) * 3 + c];
 }
 
 static obs_status check_constants(obs_context *ctx, const ao_input *in, const ao_crytek_constants *k)
@@ -461,10 +713,36 @@ static obs_status check_constants(obs_context *ctx, const ao_input *in, const ao
     return OBS_STATUS_OK;
 }
 
+int ao_crytek_isa_available(ao_crytek_isa isa)
+{
+    switch (isa) {
+    case AO_CRYTEK_ISA_AUTO:
+    case AO_CRYTEK_ISA_SCALAR: return 1;
+    case AO_CRYTEK_ISA_AVX2: return avx2_available();
+    default: return 0;
+    }
+}
+
 obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const ao_input *in,
                                        const ao_crytek_constants *k, obs_image_f32 *out, obs_image_f32 *out_raw,
                                        ao_stats *stats)
 {
+    return ao_crytek_compute_constants_isa(ctx, pool, in, k, AO_CRYTEK_ISA_AUTO, out, out_raw, stats);
+}
+
+obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, const ao_input *in,
+                                           const ao_crytek_constants *k, ao_crytek_isa isa, obs_image_f32 *out,
+                                           obs_image_f32 *out_raw, ao_stats *stats)
+{
+    if ((unsigned)isa >= AO_CRYTEK_ISA_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "crytek: unknown isa %d", (int)isa);
+    if (!ao_crytek_isa_available(isa))
+        return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "crytek: AVX2 requested, not in this CPU or build");
+    if (isa == AO_CRYTEK_ISA_AUTO) {
+        /* AVX2 where the CPU and build have it, unless OBS_ISA=scalar (as the rasterizer) */
+        const char *env = getenv("OBS_ISA");
+        isa = (env && !strcmp(env, "scalar")) || !avx2_available() ? AO_CRYTEK_ISA_SCALAR : AO_CRYTEK_ISA_AVX2;
+    }
     obs_status st = ao_input_validate(ctx, in);
     if (st != OBS_STATUS_OK)
         return st;
@@ -482,24 +760,43 @@ obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const a
     int rect[4];
     ao_blur_reach(in, k->blur ? AO_GAUSS21_RADIUS : 0, rect);
     const int rx0 = rect[0], ry0 = rect[1], rw = rect[2], rh = rect[3];
-    obs_image_f32 raw = {0}, blurred = {0}, dgl = {0};
+    obs_image_f32 raw = {0}, blurred = {0};
+    /* Where the region is the window (no guard band, or no blur), the passes write the caller's
+     * planes directly: the AO into out_raw (or into out without the blur), the blur into out; only
+     * what is missing is allocated (saves zeroing and copying up to two planes per call) */
+    const int direct = rx0 == in->x0 && ry0 == in->y0 && rw == in->w && rh == in->h;
+    const int raw_is_out_raw = direct && out_raw && out_raw->data != out->data;
+    const int raw_is_out = direct && !k->blur && !raw_is_out_raw;
+    const int blur_into_out = direct && k->blur;
+    if (raw_is_out_raw)
+        raw = *out_raw;
+    else if (raw_is_out)
+        raw = *out;
+    /* the depth texture as the shader sees it: GL row order (row j = our row H - 1 - j) */
+    const obs_image_f32 dgl = {obs_image_f32_row(in->depth, in->height - 1), in->width, in->height, -in->depth->stride};
     int64_t *bg = NULL;
     double t0 = obs_time_now();
     float *rtab = (float *)malloc(sizeof(float) * 3 * AO_CRYTEK_ROT_TILE * AO_CRYTEK_ROT_TILE * (size_t)k->num_samples);
-    st = rtab ? obs_image_f32_alloc(ctx, rw, rh, &raw) : obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, in->width, in->height, &dgl);
+    float *rtab8 = NULL;
+    st = !rtab ? obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory")
+         : raw_is_out_raw || raw_is_out ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, rw, rh, &raw);
+    /* the AVX2 path gathers with int32 texel indices j stride + i (+ stride + 1), stride < 0 */
+    if (st == OBS_STATUS_OK && isa == AO_CRYTEK_ISA_AVX2 && (int64_t)(in->height + 1) * in->depth->stride < INT32_MAX) {
+        rtab8 = (float *)malloc(sizeof(float) * 3 * 8 * AO_CRYTEK_ROT_TILE * (size_t)k->num_samples);
+        if (!rtab8)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
+    }
     if (st == OBS_STATUS_OK) {
-        dgl_job D = {in, &dgl};
-        obs_pool_run(pool, in->height, dgl_row, &D);
         rotate_taps(k, rtab);
+        if (rtab8)
+            expand_taps(k, rtab, rtab8);
         bg = (int64_t *)calloc((size_t)rh, sizeof *bg);
         if (!bg)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "crytek: out of memory");
     }
     /* ---- 2. The AO pass over the region ---- */
     if (st == OBS_STATUS_OK) {
-        crytek_job J = {k, rtab, &dgl, in, rx0, ry0, &raw, bg};
+        crytek_job J = {k, rtab, rtab8, &dgl, in, rx0, ry0, &raw, bg};
         obs_pool_run(pool, rh, crytek_row, &J);
     }
     double t1 = obs_time_now();
@@ -507,10 +804,10 @@ obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const a
      * buffer, the region's edge is the buffer's) ---- */
     const obs_image_f32 *final = &raw;
     if (st == OBS_STATUS_OK && k->blur) {
-        st = obs_image_f32_alloc(ctx, rw, rh, &blurred);
+        st = blur_into_out ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, rw, rh, &blurred);
         if (st == OBS_STATUS_OK)
-            st = ao_blur_gaussian21(ctx, pool, &raw, &blurred);
-        final = &blurred;
+            st = ao_blur_gaussian21(ctx, pool, &raw, blur_into_out ? out : &blurred);
+        final = blur_into_out ? out : &blurred;
     }
     double t2 = obs_time_now();
     /* ---- 4. Crop the window; background stays 1 through the blur ---- */
@@ -518,16 +815,16 @@ obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const a
         for (int y = 0; y < in->h; y++) {
             const int ry = in->y0 + y - ry0;
             float *o = obs_image_f32_row(out, y);
-            memcpy(o, obs_image_f32_row(final, ry) + (in->x0 - rx0), sizeof(float) * in->w);
+            if (!blur_into_out && !raw_is_out)
+                memcpy(o, obs_image_f32_row(final, ry) + (in->x0 - rx0), sizeof(float) * in->w);
             if (k->blur) {
                 /* Deviation from the seed (which blurs the whole AO texture): background pixels
                  * keep visibility 1 (ao.h input rule), as SAO's blur passes its sky through */
                 const float *d = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
-                for (int x = 0; x < in->w; x++)
-                    if (!is_surface(d[x]))
-                        o[x] = 1.0f;
+                for (int x = 0; x < in->w; x++) /* a select, not a branch: the loop vectorises */
+                    o[x] = d[x] > 0.0f && d[x] < INFINITY ? o[x] : 1.0f;
             }
-            if (out_raw)
+            if (out_raw && out_raw->data != raw.data)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, ry) + (in->x0 - rx0),
                        sizeof(float) * in->w);
         }
@@ -540,10 +837,11 @@ obs_status ao_crytek_compute_constants(obs_context *ctx, obs_pool *pool, const a
         }
     }
     free(bg);
+    free(rtab8);
     free(rtab);
-    obs_image_f32_free(&dgl);
     obs_image_f32_free(&blurred);
-    obs_image_f32_free(&raw);
+    if (!raw_is_out_raw && !raw_is_out)
+        obs_image_f32_free(&raw);
     return st;
 }
 
