@@ -226,6 +226,18 @@ static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h,
 }
 
 static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? hi : v; }
+
+/* Speed: the build has no fast-math and targets baseline x86-64, so fminf, fmaxf and floorf are libm
+ * calls. These inline forms return exactly what glibc's x86-64 fminf / fmaxf return (minss / maxss
+ * with the NaN operand dropped; on equal operands, signed zeros included, the second one), and
+ * ifloor is (int)floorf(x) for |x| < 2^31 (every caller's range). docs/ao/mssao.md, "Speed". */
+static inline float ms_fminf(float a, float b) { return (a < b || b != b) ? a : b; }
+static inline float ms_fmaxf(float a, float b) { return (a > b || b != b) ? a : b; }
+static inline int ifloor(float x)
+{
+    const int t = (int)x;
+    return (float)t > x ? t - 1 : t;
+}
 static inline float at(const obs_image_f32 *im, int x, int y) { return obs_image_f32_row(im, y)[x]; }
 static inline float pow8(float x)
 {
@@ -343,8 +355,8 @@ static void ds_row(void *user, int64_t task, int thread)
         int a, b, avg;
         if (J->rule == AO_MSSAO_DOWNSAMPLE_HOANG) {
             /* downsample.frag: min and max z, the last index wins a tie */
-            const float maxZ = fmaxf(fmaxf(v[0][2], v[1][2]), fmaxf(v[2][2], v[3][2]));
-            const float minZ = fminf(fminf(v[0][2], v[1][2]), fminf(v[2][2], v[3][2]));
+            const float maxZ = ms_fmaxf(ms_fmaxf(v[0][2], v[1][2]), ms_fmaxf(v[2][2], v[3][2]));
+            const float minZ = ms_fminf(ms_fminf(v[0][2], v[1][2]), ms_fminf(v[2][2], v[3][2]));
             int minPos = 0, maxPos = 0;
             for (int k = 0; k < 4; k++) {
                 if (v[k][2] == minZ)
@@ -407,7 +419,7 @@ static inline void occlusion_tap(const packed_level *L, int tx, int ty, const fl
     const float v0 = q[0] - p[0], v1 = q[1] - p[1], v2 = q[2] - p[2];
     const float vv = v0 * v0 + v1 * v1 + v2 * v2;
     const float d = sqrtf(vv);                           /* distance(p.xyz, samplePos.xyz) */
-    float t = fminf(1.0f, (d * d) / d_max2);              /* min(1.0, (d * d) / (dMax * dMax)) */
+    float t = ms_fminf(1.0f, (d * d) / d_max2);             /* min(1.0, (d * d) / (dMax * dMax)) */
     t = 1.0f - t;                                         /* rho = 1 - min(1, d^2 / dMax^2) */
     float cosTheta = 0.0f;
     if (vv > 0.0f) {
@@ -415,7 +427,7 @@ static inline void occlusion_tap(const packed_level *L, int tx, int ty, const fl
          * on a GPU, which max(., 0.0) turns into 0 under IEEE maxNum: we take 0 explicitly */
         const float inv = 1.0f / d;
         const float c = n[0] * (v0 * inv) + n[1] * (v1 * inv) + n[2] * (v2 * inv);
-        cosTheta = fmaxf(c, 0.0f);
+        cosTheta = ms_fmaxf(c, 0.0f);
     }
     *occ += t * cosTheta * q[3]; /* occlusion += t * cosTheta * sampleNorm.w */
     *cnt += 1.0f;
@@ -455,8 +467,9 @@ static inline int upsample(const ao_mssao_level *C, const obs_image_f32 *cao, in
     float wsum = 0.0f, acc[3] = {0.0f, 0.0f, 0.0f}, bl[4], vals[4][3];
     for (int k = 0; k < 4; k++) {
         /* loResCoord = floor((gl_FragCoord.xy + off) / 2.0) + vec2(0.5, 0.5) */
-        const float lx = floorf((fcx + off[k][0]) / 2.0f) + 0.5f, ly = floorf((fcy + off[k][1]) / 2.0f) + 0.5f;
-        const int tx = clampi((int)floorf(lx), 0, C->width - 1), ty = clampi((int)floorf(ly), 0, C->height - 1);
+        const int fx = ifloor((fcx + off[k][0]) / 2.0f), fy = ifloor((fcy + off[k][1]) / 2.0f);
+        const float lx = (float)fx + 0.5f, ly = (float)fy + 0.5f;   /* floor(lx) = fx */
+        const int tx = clampi(fx, 0, C->width - 1), ty = clampi(fy, 0, C->height - 1);
         const float ln0 = at(&C->normal[0], tx, ty), ln1 = at(&C->normal[1], tx, ty), ln2 = at(&C->normal[2], tx, ty);
         const float lz = at(&C->pos[2], tx, ty);
         for (int c = 0; c < 3; c++)
@@ -515,8 +528,20 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
         const float p[3] = {at(&L->pos[0], i, j), at(&L->pos[1], i, j), at(&L->pos[2], i, j)};
         const float n[3] = {at(&L->normal[0], i, j), at(&L->normal[1], i, j), at(&L->normal[2], i, j)};
         /* rangeMax = min(r / abs(p.z), rMax); background p.z = 0 gives r / 0 = inf -> rMax */
-        const float rangeMax = K->orthographic ? fminf(r, rMax) : fminf(r / fabsf(p[2]), rMax);
+        const float rangeMax = K->orthographic ? ms_fminf(r, rMax) : ms_fminf(r / fabsf(p[2]), rMax);
         float occ = 0.0f, cnt = 0.0001f; /* aoFirst.frag / ao.frag: "float sampleCount = 0.0001" */
+        if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
+            /* Speed: a zero normal (the background, cleared to 0) makes every tap's cosTheta
+             * max(0 or NaN, 0) = +0 and its term t * (+0) * w = +0 (t in [0, 1], w in [0, 1]), so
+             * occlusion stays +0: only sampleCount is accumulated, in the shader's order. */
+            for (float x = 1.0f; x <= rangeMax; x += 2.0f)
+                for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
+                    cnt += 1.0f;
+                    cnt += 1.0f;
+                    cnt += 1.0f;
+                    cnt += 1.0f;
+                }
+        } else
         for (float x = 1.0f; x <= rangeMax; x += 2.0f)
             for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
                 const int ix = (int)x, iy = (int)y;
@@ -536,7 +561,7 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
             /* ao.frag: (max(upsample.x, occlusion / sampleCount), upsample.y + occlusion, upsample.z + sampleCount) */
             float up[3];
             fb += upsample(J->C, J->cao, i, j, p[2], n, up);
-            o[0] = fmaxf(up[0], own);
+            o[0] = ms_fmaxf(up[0], own);
             o[1] = up[1] + occ;
             o[2] = up[2] + cnt;
         }
@@ -612,20 +637,20 @@ static void last_row(void *user, int64_t task, int thread)
         if (w > 0.0f) {
             const float p[3] = {at(&L->pos[0], i, j), at(&L->pos[1], i, j), at(&L->pos[2], i, j)};
             const float n[3] = {at(&L->normal[0], i, j), at(&L->normal[1], i, j), at(&L->normal[2], i, j)};
-            const float rangeMax = K->orthographic ? fminf(r, rMax) : fminf(r / fabsf(p[2]), rMax);
+            const float rangeMax = K->orthographic ? ms_fminf(r, rMax) : ms_fminf(r / fabsf(p[2]), rMax);
             const float fcx = (float)i + 0.5f, fcy = (float)j + 0.5f;
             float occ = 0.0f, cnt = 0.0f; /* aoLast.frag: "float sampleCount = 0.0" */
             for (int k = 0; k < K->samples; k++) {
                 /* gl_FragCoord.xy + vec2(poissonDisk[i], poissonDisk[i + 1]) * rangeMax, NEAREST */
                 const float sx = fcx + K->taps[2 * k] * rangeMax, sy = fcy + K->taps[2 * k + 1] * rangeMax;
-                occlusion_tap(J->T, (int)floorf(sx), (int)floorf(sy), p, n, d_max2, &occ, &cnt);
+                occlusion_tap(J->T, ifloor(sx), ifloor(sy), p, n, d_max2, &occ, &cnt);
             }
             own = occ / cnt;
             float aoMax, aoAverage;
             if (J->C) {
                 float up[3];
                 fb += upsample(J->C, J->cao, i, j, p[2], n, up);
-                aoMax = fmaxf(up[0], own);                    /* max(upsample.x, occlusion / sampleCount) */
+                aoMax = ms_fmaxf(up[0], own);                   /* max(upsample.x, occlusion / sampleCount) */
                 aoAverage = (up[1] + occ) / (up[2] + cnt);    /* (upsample.y + occlusion) / (upsample.z + sampleCount) */
                 o[0] = aoMax;
                 o[1] = up[1] + occ;
