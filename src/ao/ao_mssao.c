@@ -503,6 +503,89 @@ static inline int upsample(const ao_mssao_level *C, const obs_image_f32 *cao, in
     return 1;
 }
 
+/* ---- The AVX2 vocabulary (docs/ao/mssao.md, "Speed") ----
+ *
+ * The AVX2 paths run 8 horizontally adjacent texels of one row, lane k = texel i + k, and do per lane
+ * the scalar code's float operations in its order (no FMA: -ffp-contract=off, and no FMA target), so
+ * their results are bit-identical to it (tested: test_ao_mssao.c, "avx2_matches_scalar"). The mins
+ * and maxes map exactly: _mm256_min_ps(a, b) is (a < b ? a : b) = ms_fminf(a, b) for b not NaN, and
+ * _mm256_max_ps(c, 0) is ms_fmaxf(c, 0). The upsampling and the per-pixel tails stay scalar. */
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#define MS_AVX2 1
+#include <immintrin.h>
+#define MS_TARGET __attribute__((target("avx2")))
+
+/* 8 texels (x, y, z, w) of a packed level at float offsets idx[0..7] -> 4 vectors, lane k = idx[k] */
+MS_TARGET static inline void ms_load8x4(const float *t, const int *idx, __m256 *X, __m256 *Y, __m256 *Z,
+                                        __m256 *W)
+{
+    const __m256 r0 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(t + idx[0])), _mm_loadu_ps(t + idx[4]), 1);
+    const __m256 r1 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(t + idx[1])), _mm_loadu_ps(t + idx[5]), 1);
+    const __m256 r2 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(t + idx[2])), _mm_loadu_ps(t + idx[6]), 1);
+    const __m256 r3 = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(t + idx[3])), _mm_loadu_ps(t + idx[7]), 1);
+    const __m256 t0 = _mm256_unpacklo_ps(r0, r1), t1 = _mm256_unpackhi_ps(r0, r1); /* x0 x1 y0 y1, z0 z1 w0 w1 */
+    const __m256 t2 = _mm256_unpacklo_ps(r2, r3), t3 = _mm256_unpackhi_ps(r2, r3);
+    *X = _mm256_shuffle_ps(t0, t2, 0x44);
+    *Y = _mm256_shuffle_ps(t0, t2, 0xEE);
+    *Z = _mm256_shuffle_ps(t1, t3, 0x44);
+    *W = _mm256_shuffle_ps(t1, t3, 0xEE);
+}
+
+/* occlusion_tap for 8 lanes at texel offsets idx (already * 4), accumulated where active */
+MS_TARGET static inline void ms_tap8(const float *t, const int *idx, const __m256 p[3], const __m256 n[3], __m256 d_max2,
+                                     __m256 active, __m256 *occ, __m256 *cnt)
+{
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps();
+    __m256 X, Y, Z, W;
+    ms_load8x4(t, idx, &X, &Y, &Z, &W);
+    const __m256 v0 = _mm256_sub_ps(X, p[0]), v1 = _mm256_sub_ps(Y, p[1]), v2 = _mm256_sub_ps(Z, p[2]);
+    const __m256 vv = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, v0), _mm256_mul_ps(v1, v1)), _mm256_mul_ps(v2, v2));
+    const __m256 d = _mm256_sqrt_ps(vv);
+    const __m256 tt = _mm256_sub_ps(one, _mm256_min_ps(_mm256_div_ps(_mm256_mul_ps(d, d), d_max2), one));
+    const __m256 inv = _mm256_div_ps(one, d);
+    const __m256 c = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n[0], _mm256_mul_ps(v0, inv)),
+                                                 _mm256_mul_ps(n[1], _mm256_mul_ps(v1, inv))),
+                                   _mm256_mul_ps(n[2], _mm256_mul_ps(v2, inv)));
+    const __m256 cosTheta = _mm256_and_ps(_mm256_max_ps(c, zero), _mm256_cmp_ps(vv, zero, _CMP_GT_OQ));
+    const __m256 term = _mm256_mul_ps(_mm256_mul_ps(tt, cosTheta), W);
+    *occ = _mm256_blendv_ps(*occ, _mm256_add_ps(*occ, term), active);
+    *cnt = _mm256_blendv_ps(*cnt, _mm256_add_ps(*cnt, one), active);
+}
+
+MS_TARGET static inline __m256 ms_pow8(__m256 x)
+{
+    const __m256 x2 = _mm256_mul_ps(x, x), x4 = _mm256_mul_ps(x2, x2);
+    return _mm256_mul_ps(x4, x4);
+}
+
+MS_TARGET static inline __m256 ms_range_max(const ao_mssao_constants *K, float r, __m256 pz)
+{
+    const __m256 rMax = _mm256_set1_ps(K->r_max);
+    if (K->orthographic)
+        return _mm256_set1_ps(ms_fminf(r, K->r_max));
+    const __m256 az = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), pz); /* fabsf */
+    return _mm256_min_ps(_mm256_div_ps(_mm256_set1_ps(r), az), rMax);
+}
+#endif
+
+/* Whether this run may take the AVX2 paths: the build and the CPU have AVX2, OBS_ISA is not
+ * "scalar", and level 0's packed float offsets fit an int. */
+static int ms_use_avx2(int w, int h)
+{
+#if defined(MS_AVX2)
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    if ((double)w * (double)h * 4.0 >= 2147483647.0)
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    (void)w;
+    (void)h;
+    return 0;
+#endif
+}
+
 /* ---- Coarse and middle levels (aoFirst.frag, ao.frag) ---- */
 
 typedef struct ao_job {
@@ -513,35 +596,38 @@ typedef struct ao_job {
     const ao_mssao_level *C;          /* coarser level, NULL for the coarsest */
     const obs_image_f32 *cao;         /* its (blurred) AO planes */
     int64_t *fallback;                /* per row */
+    int avx2;
 } ao_job;
 
-static void ao_coarse_row(void *user, int64_t task, int thread)
+static inline void coarse_load(const ao_mssao_level *L, int i, int j, float p[3], float n[3])
 {
-    (void)thread;
-    const ao_job *J = (const ao_job *)user;
+    for (int c = 0; c < 3; c++) {
+        p[c] = at(&L->pos[c], i, j);
+        n[c] = at(&L->normal[c], i, j);
+    }
+}
+
+/* The grid taps of texel (i, j): occlusion and sampleCount */
+static inline void coarse_taps(const ao_job *J, int i, int j, const float p[3], const float n[3], float *occ_out,
+                               float *cnt_out)
+{
     const ao_mssao_constants *K = J->K;
-    ao_mssao_level *L = J->L;
-    const int j = (int)task;
     const float r = K->r[J->l], rMax = K->r_max, d_max2 = K->d_max2;
-    int64_t fb = 0;
-    for (int i = 0; i < L->width; i++) {
-        const float p[3] = {at(&L->pos[0], i, j), at(&L->pos[1], i, j), at(&L->pos[2], i, j)};
-        const float n[3] = {at(&L->normal[0], i, j), at(&L->normal[1], i, j), at(&L->normal[2], i, j)};
-        /* rangeMax = min(r / abs(p.z), rMax); background p.z = 0 gives r / 0 = inf -> rMax */
-        const float rangeMax = K->orthographic ? ms_fminf(r, rMax) : ms_fminf(r / fabsf(p[2]), rMax);
-        float occ = 0.0f, cnt = 0.0001f; /* aoFirst.frag / ao.frag: "float sampleCount = 0.0001" */
-        if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
-            /* Speed: a zero normal (the background, cleared to 0) makes every tap's cosTheta
-             * max(0 or NaN, 0) = +0 and its term t * (+0) * w = +0 (t in [0, 1], w in [0, 1]), so
-             * occlusion stays +0: only sampleCount is accumulated, in the shader's order. */
-            for (float x = 1.0f; x <= rangeMax; x += 2.0f)
-                for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
-                    cnt += 1.0f;
-                    cnt += 1.0f;
-                    cnt += 1.0f;
-                    cnt += 1.0f;
-                }
-        } else
+    /* rangeMax = min(r / abs(p.z), rMax); background p.z = 0 gives r / 0 = inf -> rMax */
+    const float rangeMax = K->orthographic ? ms_fminf(r, rMax) : ms_fminf(r / fabsf(p[2]), rMax);
+    float occ = 0.0f, cnt = 0.0001f; /* aoFirst.frag / ao.frag: "float sampleCount = 0.0001" */
+    if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
+        /* Speed: a zero normal (the background, cleared to 0) makes every tap's cosTheta
+         * max(0 or NaN, 0) = +0 and its term t * (+0) * w = +0 (t in [0, 1], w in [0, 1]), so
+         * occlusion stays +0: only sampleCount is accumulated, in the shader's order. */
+        for (float x = 1.0f; x <= rangeMax; x += 2.0f)
+            for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
+                cnt += 1.0f;
+                cnt += 1.0f;
+                cnt += 1.0f;
+                cnt += 1.0f;
+            }
+    } else {
         for (float x = 1.0f; x <= rangeMax; x += 2.0f)
             for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
                 const int ix = (int)x, iy = (int)y;
@@ -550,24 +636,125 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
                 occlusion_tap(J->T, i - ix, j - iy, p, n, d_max2, &occ, &cnt);
                 occlusion_tap(J->T, i + ix, j - iy, p, n, d_max2, &occ, &cnt);
             }
-        const float own = occ / cnt;
-        float o[3];
-        if (!J->C) {
-            /* aoFirst.frag: AO = vec4(occlusion / sampleCount, occlusion, sampleCount, 0) */
-            o[0] = own;
-            o[1] = occ;
-            o[2] = cnt;
-        } else {
-            /* ao.frag: (max(upsample.x, occlusion / sampleCount), upsample.y + occlusion, upsample.z + sampleCount) */
-            float up[3];
-            fb += upsample(J->C, J->cao, i, j, p[2], n, up);
-            o[0] = ms_fmaxf(up[0], own);
-            o[1] = up[1] + occ;
-            o[2] = up[2] + cnt;
+    }
+    *occ_out = occ;
+    *cnt_out = cnt;
+}
+
+/* The rest of texel (i, j) once its taps are summed: upsampling and the outputs. Returns the
+ * upsampling fallback flag. */
+static inline int coarse_finish(const ao_job *J, int i, int j, const float p[3], const float n[3], float occ, float cnt)
+{
+    ao_mssao_level *L = J->L;
+    const float own = occ / cnt;
+    float o[3];
+    int fb = 0;
+    if (!J->C) {
+        /* aoFirst.frag: AO = vec4(occlusion / sampleCount, occlusion, sampleCount, 0) */
+        o[0] = own;
+        o[1] = occ;
+        o[2] = cnt;
+    } else {
+        /* ao.frag: (max(upsample.x, occlusion / sampleCount), upsample.y + occlusion, upsample.z + sampleCount) */
+        float up[3];
+        fb = upsample(J->C, J->cao, i, j, p[2], n, up);
+        o[0] = ms_fmaxf(up[0], own);
+        o[1] = up[1] + occ;
+        o[2] = up[2] + cnt;
+    }
+    obs_image_f32_row(&L->own, j)[i] = own;
+    for (int c = 0; c < 3; c++)
+        obs_image_f32_row(&L->ao[c], j)[i] = o[c];
+    return fb;
+}
+
+#if defined(MS_AVX2)
+/* coarse_taps for texels i..i+7 (all inside the row). Returns 0 when all 8 normals are zero (the
+ * scalar shortcut is then cheaper), else 1 with occ and cnt filled. */
+MS_TARGET static int coarse_taps8(const ao_job *J, int i, int j, float *occ_out, float *cnt_out)
+{
+    const ao_mssao_constants *K = J->K;
+    const ao_mssao_level *L = J->L;
+    const packed_level *T = J->T;
+    __m256 p[3], n[3];
+    for (int c = 0; c < 3; c++) {
+        p[c] = _mm256_loadu_ps(obs_image_f32_row(&L->pos[c], j) + i);
+        n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
+    }
+    const __m256 zero = _mm256_setzero_ps();
+    const __m256 nz = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(n[0], zero, _CMP_EQ_OQ), _mm256_cmp_ps(n[1], zero, _CMP_EQ_OQ)),
+                                    _mm256_cmp_ps(n[2], zero, _CMP_EQ_OQ));
+    if (_mm256_movemask_ps(nz) == 0xFF)
+        return 0;
+    const __m256 rm = ms_range_max(K, K->r[J->l], p[2]);
+    float rml[8];
+    _mm256_storeu_ps(rml, rm);
+    float maxr = rml[0];
+    for (int k = 1; k < 8; k++)
+        maxr = rml[k] > maxr ? rml[k] : maxr;
+    const __m256 d_max2 = _mm256_set1_ps(K->d_max2);
+    __m256 occ = zero, cnt = _mm256_set1_ps(0.0001f);
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i base = _mm256_add_epi32(_mm256_set1_epi32(i), lane);
+    const __m256i xmax = _mm256_set1_epi32(T->width - 1), izero = _mm256_setzero_si256();
+    for (float x = 1.0f; x <= maxr; x += 2.0f) {
+        const __m256 ax = _mm256_cmp_ps(_mm256_set1_ps(x), rm, _CMP_LE_OQ);
+        const int ix = (int)x;
+        /* the 4 taps' columns (clamped), * 4 */
+        const __m256i cp = _mm256_slli_epi32(_mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(base, _mm256_set1_epi32(ix)), izero), xmax), 2);
+        const __m256i cm = _mm256_slli_epi32(_mm256_min_epi32(_mm256_max_epi32(_mm256_sub_epi32(base, _mm256_set1_epi32(ix)), izero), xmax), 2);
+        for (float y = 1.0f; y <= maxr; y += 2.0f) {
+            const __m256 act = _mm256_and_ps(ax, _mm256_cmp_ps(_mm256_set1_ps(y), rm, _CMP_LE_OQ));
+            if (_mm256_movemask_ps(act) == 0)
+                continue;
+            const int iy = (int)y;
+            const __m256i rp = _mm256_set1_epi32(4 * clampi(j + iy, 0, T->height - 1) * T->width);
+            const __m256i rn = _mm256_set1_epi32(4 * clampi(j - iy, 0, T->height - 1) * T->width);
+            int idx[4][8];
+            _mm256_storeu_si256((__m256i *)idx[0], _mm256_add_epi32(rp, cp));   /* (i + x, j + y) */
+            _mm256_storeu_si256((__m256i *)idx[1], _mm256_add_epi32(rp, cm));   /* (i - x, j + y) */
+            _mm256_storeu_si256((__m256i *)idx[2], _mm256_add_epi32(rn, cm));   /* (i - x, j - y) */
+            _mm256_storeu_si256((__m256i *)idx[3], _mm256_add_epi32(rn, cp));   /* (i + x, j - y) */
+            for (int q = 0; q < 4; q++)
+                ms_tap8(T->t, idx[q], p, n, d_max2, act, &occ, &cnt);
         }
-        obs_image_f32_row(&L->own, j)[i] = own;
-        for (int c = 0; c < 3; c++)
-            obs_image_f32_row(&L->ao[c], j)[i] = o[c];
+    }
+    _mm256_storeu_ps(occ_out, occ);
+    _mm256_storeu_ps(cnt_out, cnt);
+    return 1;
+}
+#endif
+
+static void ao_coarse_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const ao_job *J = (const ao_job *)user;
+    ao_mssao_level *L = J->L;
+    const int j = (int)task;
+    int64_t fb = 0;
+    int i = 0;
+    float p[3], n[3], occ, cnt;
+#if defined(MS_AVX2)
+    if (J->avx2)
+        for (; i + 8 <= L->width; i += 8) {
+            float occ8[8], cnt8[8];
+            const int simd = coarse_taps8(J, i, j, occ8, cnt8);
+            for (int k = 0; k < 8; k++) {
+                coarse_load(L, i + k, j, p, n);
+                if (simd) {
+                    occ = occ8[k];
+                    cnt = cnt8[k];
+                } else {
+                    coarse_taps(J, i + k, j, p, n, &occ, &cnt);
+                }
+                fb += coarse_finish(J, i + k, j, p, n, occ, cnt);
+            }
+        }
+#endif
+    for (; i < L->width; i++) {
+        coarse_load(L, i, j, p, n);
+        coarse_taps(J, i, j, p, n, &occ, &cnt);
+        fb += coarse_finish(J, i, j, p, n, occ, cnt);
     }
     J->fallback[task] = fb;
 }
@@ -576,33 +763,83 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
 
 typedef struct blur_job {
     ao_mssao_level *L;
+    int avx2;
 } blur_job;
+
+static inline void blur_pixel(ao_mssao_level *L, int i, int j)
+{
+    const float n0 = at(&L->normal[0], i, j), n1 = at(&L->normal[1], i, j), n2 = at(&L->normal[2], i, j);
+    const float pz = at(&L->pos[2], i, j);
+    float ss[3] = {0.0f, 0.0f, 0.0f}, weight = 0.0f;
+    for (int di = -1; di <= 1; di++)      /* for (float i = -1.0; i <= 1.0; i += 1.0) */
+        for (int dj = -1; dj <= 1; dj++) { /*   for (float j = -1.0; j <= 1.0; j += 1.0) */
+            const int tx = clampi(i + di, 0, L->width - 1), ty = clampi(j + dj, 0, L->height - 1);
+            const float nw = pow8((at(&L->normal[0], tx, ty) * n0 + at(&L->normal[1], tx, ty) * n1 +
+                                   at(&L->normal[2], tx, ty) * n2 + 1.2f) / 2.2f); /* ((n.n' + 1.2)/2.2)^8 */
+            const float dw8 = pow8(1.0f / (1.0f + fabsf(pz - at(&L->pos[2], tx, ty)) * 0.2f));
+            const float dw = dw8 * dw8;
+            const float gw = 1.0f / (((float)abs(di) + 1.0f) * ((float)abs(dj) + 1.0f)); /* 1/((|i|+1)(|j|+1)) */
+            weight += nw * dw * gw;
+            for (int c = 0; c < 3; c++)
+                ss[c] += at(&L->ao[c], tx, ty) * nw * dw * gw;
+        }
+    /* the centre tap has weight nw * 1 * 1 > 0, so weight > 0 */
+    for (int c = 0; c < 3; c++)
+        obs_image_f32_row(&L->ao_blur[c], j)[i] = ss[c] / weight;
+}
+
+#if defined(MS_AVX2)
+/* blur_pixel for texels i..i+7, all with both horizontal neighbours inside the row (1 <= i, i + 8 < width) */
+MS_TARGET static void blur8(ao_mssao_level *L, int i, int j)
+{
+    const __m256 n0 = _mm256_loadu_ps(obs_image_f32_row(&L->normal[0], j) + i);
+    const __m256 n1 = _mm256_loadu_ps(obs_image_f32_row(&L->normal[1], j) + i);
+    const __m256 n2 = _mm256_loadu_ps(obs_image_f32_row(&L->normal[2], j) + i);
+    const __m256 pz = _mm256_loadu_ps(obs_image_f32_row(&L->pos[2], j) + i);
+    const __m256 one = _mm256_set1_ps(1.0f), sgn = _mm256_set1_ps(-0.0f);
+    __m256 ss[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()}, weight = _mm256_setzero_ps();
+    for (int di = -1; di <= 1; di++)
+        for (int dj = -1; dj <= 1; dj++) {
+            const int tx = i + di, ty = clampi(j + dj, 0, L->height - 1);
+            const __m256 m0 = _mm256_loadu_ps(obs_image_f32_row(&L->normal[0], ty) + tx);
+            const __m256 m1 = _mm256_loadu_ps(obs_image_f32_row(&L->normal[1], ty) + tx);
+            const __m256 m2 = _mm256_loadu_ps(obs_image_f32_row(&L->normal[2], ty) + tx);
+            const __m256 z = _mm256_loadu_ps(obs_image_f32_row(&L->pos[2], ty) + tx);
+            const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(m0, n0), _mm256_mul_ps(m1, n1)),
+                                                           _mm256_mul_ps(m2, n2)),
+                                             _mm256_set1_ps(1.2f));
+            const __m256 nw = ms_pow8(_mm256_div_ps(dot, _mm256_set1_ps(2.2f)));
+            const __m256 adz = _mm256_andnot_ps(sgn, _mm256_sub_ps(pz, z));
+            const __m256 dw8 = ms_pow8(_mm256_div_ps(one, _mm256_add_ps(one, _mm256_mul_ps(adz, _mm256_set1_ps(0.2f)))));
+            const __m256 dw = _mm256_mul_ps(dw8, dw8);
+            const __m256 gw = _mm256_set1_ps(1.0f / (((float)abs(di) + 1.0f) * ((float)abs(dj) + 1.0f)));
+            weight = _mm256_add_ps(weight, _mm256_mul_ps(_mm256_mul_ps(nw, dw), gw));
+            for (int c = 0; c < 3; c++) {
+                const __m256 a = _mm256_loadu_ps(obs_image_f32_row(&L->ao[c], ty) + tx);
+                ss[c] = _mm256_add_ps(ss[c], _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(a, nw), dw), gw));
+            }
+        }
+    for (int c = 0; c < 3; c++)
+        _mm256_storeu_ps(obs_image_f32_row(&L->ao_blur[c], j) + i, _mm256_div_ps(ss[c], weight));
+}
+#endif
 
 static void blur_row(void *user, int64_t task, int thread)
 {
     (void)thread;
-    ao_mssao_level *L = ((const blur_job *)user)->L;
+    const blur_job *B = (const blur_job *)user;
+    ao_mssao_level *L = B->L;
     const int j = (int)task;
-    for (int i = 0; i < L->width; i++) {
-        const float n0 = at(&L->normal[0], i, j), n1 = at(&L->normal[1], i, j), n2 = at(&L->normal[2], i, j);
-        const float pz = at(&L->pos[2], i, j);
-        float ss[3] = {0.0f, 0.0f, 0.0f}, weight = 0.0f;
-        for (int di = -1; di <= 1; di++)      /* for (float i = -1.0; i <= 1.0; i += 1.0) */
-            for (int dj = -1; dj <= 1; dj++) { /*   for (float j = -1.0; j <= 1.0; j += 1.0) */
-                const int tx = clampi(i + di, 0, L->width - 1), ty = clampi(j + dj, 0, L->height - 1);
-                const float nw = pow8((at(&L->normal[0], tx, ty) * n0 + at(&L->normal[1], tx, ty) * n1 +
-                                       at(&L->normal[2], tx, ty) * n2 + 1.2f) / 2.2f); /* ((n.n' + 1.2)/2.2)^8 */
-                const float dw8 = pow8(1.0f / (1.0f + fabsf(pz - at(&L->pos[2], tx, ty)) * 0.2f));
-                const float dw = dw8 * dw8;
-                const float gw = 1.0f / (((float)abs(di) + 1.0f) * ((float)abs(dj) + 1.0f)); /* 1/((|i|+1)(|j|+1)) */
-                weight += nw * dw * gw;
-                for (int c = 0; c < 3; c++)
-                    ss[c] += at(&L->ao[c], tx, ty) * nw * dw * gw;
-            }
-        /* the centre tap has weight nw * 1 * 1 > 0, so weight > 0 */
-        for (int c = 0; c < 3; c++)
-            obs_image_f32_row(&L->ao_blur[c], j)[i] = ss[c] / weight;
+    int i = 0;
+#if defined(MS_AVX2)
+    if (B->avx2 && L->width >= 10) {
+        blur_pixel(L, 0, j);
+        for (i = 1; i + 8 < L->width; i += 8)
+            blur8(L, i, j);
     }
+#endif
+    for (; i < L->width; i++)
+        blur_pixel(L, i, j);
 }
 
 /* ---- Level 0 (aoLast.frag) ---- */
@@ -618,7 +855,98 @@ typedef struct last_job {
     obs_image_f32 *vis;               /* region-sized, our row order */
     obs_image_f32 *vis_gl;            /* NULL, or the full-buffer visibility in GL rows */
     int64_t (*counts)[2];             /* per row: background, fallback */
+    int avx2;
 } last_job;
+
+/* The Poisson taps of a surface texel (i, j): occlusion (sampleCount is K->samples) */
+static inline float last_taps(const last_job *J, int i, int j, const float p[3], const float n[3])
+{
+    const ao_mssao_constants *K = J->K;
+    const float r = K->r[0], rMax = K->r_max, d_max2 = K->d_max2;
+    const float rangeMax = K->orthographic ? ms_fminf(r, rMax) : ms_fminf(r / fabsf(p[2]), rMax);
+    const float fcx = (float)i + 0.5f, fcy = (float)j + 0.5f;
+    float occ = 0.0f, cnt = 0.0f; /* aoLast.frag: "float sampleCount = 0.0" */
+    for (int k = 0; k < K->samples; k++) {
+        /* gl_FragCoord.xy + vec2(poissonDisk[i], poissonDisk[i + 1]) * rangeMax, NEAREST */
+        const float sx = fcx + K->taps[2 * k] * rangeMax, sy = fcy + K->taps[2 * k + 1] * rangeMax;
+        occlusion_tap(J->T, ifloor(sx), ifloor(sy), p, n, d_max2, &occ, &cnt);
+    }
+    return occ;
+}
+
+/* Texel (i, j) (region column xr) given its summed taps: upsampling, combine, outputs. */
+static inline void last_finish(const last_job *J, int i, int j, int xr, const float p[3], const float n[3], int surface,
+                               float occ, float *vrow, int64_t *bg, int64_t *fb)
+{
+    float vis = 1.0f, o[3] = {0.0f, 0.0f, 0.0f}, own = 0.0f;
+    if (surface) {
+        const float cnt = (float)J->K->samples; /* 0 + 1 + ... + 1, exact */
+        own = occ / cnt;
+        float aoMax, aoAverage;
+        if (J->C) {
+            float up[3];
+            *fb += upsample(J->C, J->cao, i, j, p[2], n, up);
+            aoMax = ms_fmaxf(up[0], own);                 /* max(upsample.x, occlusion / sampleCount) */
+            aoAverage = (up[1] + occ) / (up[2] + cnt);    /* (upsample.y + occlusion) / (upsample.z + sampleCount) */
+            o[0] = aoMax;
+            o[1] = up[1] + occ;
+            o[2] = up[2] + cnt;
+        } else {
+            aoMax = aoAverage = own; /* one level: nothing to upsample (main.cpp's LEVEL_COUNT 1 reads a missing level) */
+            o[0] = own;
+            o[1] = occ;
+            o[2] = cnt;
+        }
+        vis = (1.0f - aoMax) * (1.0f - aoAverage); /* currentFrameAO = (1 - aoMax) * (1 - aoAverage) */
+        /* in [0, 1] up to the rounding of normals of length 1 + ulps; clamp that away */
+        vis = vis < 0.0f ? 0.0f : vis > 1.0f ? 1.0f : vis;
+    } else {
+        (*bg)++; /* background (w = 0): visibility 1, as every obscura kernel (ao.h) */
+    }
+    vrow[xr] = vis;
+    if (J->Lout) {
+        obs_image_f32_row(&J->Lout->own, j)[i] = own;
+        for (int c = 0; c < 3; c++)
+            obs_image_f32_row(&J->Lout->ao[c], j)[i] = o[c];
+    }
+    if (J->vis_gl)
+        obs_image_f32_row(J->vis_gl, j)[i] = vis;
+}
+
+#if defined(MS_AVX2)
+/* last_taps for texels i..i+7 (lanes whose valid w <= 0 compute values that are not used) */
+MS_TARGET static void last_taps8(const last_job *J, int i, int j, float *occ_out)
+{
+    const ao_mssao_constants *K = J->K;
+    const ao_mssao_level *L = J->L;
+    const packed_level *T = J->T;
+    __m256 p[3], n[3];
+    for (int c = 0; c < 3; c++) {
+        p[c] = _mm256_loadu_ps(obs_image_f32_row(&L->pos[c], j) + i);
+        n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
+    }
+    const __m256 rm = ms_range_max(K, K->r[0], p[2]);
+    const __m256 fcx = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))),
+                                     _mm256_set1_ps(0.5f));
+    const __m256 fcy = _mm256_set1_ps((float)j + 0.5f);
+    const __m256 d_max2 = _mm256_set1_ps(K->d_max2);
+    const __m256i xmax = _mm256_set1_epi32(T->width - 1), ymax = _mm256_set1_epi32(T->height - 1);
+    const __m256i izero = _mm256_setzero_si256(), wv = _mm256_set1_epi32(T->width);
+    const __m256 all = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    __m256 occ = _mm256_setzero_ps(), cnt = _mm256_setzero_ps();
+    for (int k = 0; k < K->samples; k++) {
+        const __m256 sx = _mm256_add_ps(fcx, _mm256_mul_ps(_mm256_set1_ps(K->taps[2 * k]), rm));
+        const __m256 sy = _mm256_add_ps(fcy, _mm256_mul_ps(_mm256_set1_ps(K->taps[2 * k + 1]), rm));
+        __m256i tx = _mm256_cvttps_epi32(_mm256_floor_ps(sx)), ty = _mm256_cvttps_epi32(_mm256_floor_ps(sy));
+        tx = _mm256_min_epi32(_mm256_max_epi32(tx, izero), xmax);
+        ty = _mm256_min_epi32(_mm256_max_epi32(ty, izero), ymax);
+        int idx[8];
+        _mm256_storeu_si256((__m256i *)idx, _mm256_slli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(ty, wv), tx), 2));
+        ms_tap8(T->t, idx, p, n, d_max2, all, &occ, &cnt);
+    }
+    _mm256_storeu_ps(occ_out, occ);
+}
+#endif
 
 static void last_row(void *user, int64_t task, int thread)
 {
@@ -628,53 +956,36 @@ static void last_row(void *user, int64_t task, int thread)
     const ao_mssao_level *L = J->L;
     const int y = J->ry0 + (int)task, j = K->full_height - 1 - y;
     float *vrow = obs_image_f32_row(J->vis, (int)task);
-    const float r = K->r[0], rMax = K->r_max, d_max2 = K->d_max2;
+    const float *V = obs_image_f32_row(&L->valid, j);
     int64_t bg = 0, fb = 0;
-    for (int xr = 0; xr < J->vis->width; xr++) {
-        const int i = J->rx0 + xr;
-        const float w = at(&L->valid, i, j);
-        float vis = 1.0f, o[3] = {0.0f, 0.0f, 0.0f}, own = 0.0f;
-        if (w > 0.0f) {
-            const float p[3] = {at(&L->pos[0], i, j), at(&L->pos[1], i, j), at(&L->pos[2], i, j)};
-            const float n[3] = {at(&L->normal[0], i, j), at(&L->normal[1], i, j), at(&L->normal[2], i, j)};
-            const float rangeMax = K->orthographic ? ms_fminf(r, rMax) : ms_fminf(r / fabsf(p[2]), rMax);
-            const float fcx = (float)i + 0.5f, fcy = (float)j + 0.5f;
-            float occ = 0.0f, cnt = 0.0f; /* aoLast.frag: "float sampleCount = 0.0" */
-            for (int k = 0; k < K->samples; k++) {
-                /* gl_FragCoord.xy + vec2(poissonDisk[i], poissonDisk[i + 1]) * rangeMax, NEAREST */
-                const float sx = fcx + K->taps[2 * k] * rangeMax, sy = fcy + K->taps[2 * k + 1] * rangeMax;
-                occlusion_tap(J->T, ifloor(sx), ifloor(sy), p, n, d_max2, &occ, &cnt);
+    float p[3] = {0.0f, 0.0f, 0.0f}, n[3] = {0.0f, 0.0f, 0.0f};
+    int xr = 0;
+#if defined(MS_AVX2)
+    if (J->avx2)
+        for (; xr + 8 <= J->vis->width; xr += 8) {
+            const int i0 = J->rx0 + xr;
+            int any = 0;
+            for (int k = 0; k < 8; k++)
+                any |= V[i0 + k] > 0.0f;
+            float occ8[8] = {0};
+            if (any)
+                last_taps8(J, i0, j, occ8);
+            for (int k = 0; k < 8; k++) {
+                const int i = i0 + k, surface = V[i] > 0.0f;
+                if (surface)
+                    coarse_load(L, i, j, p, n);
+                last_finish(J, i, j, xr + k, p, n, surface, occ8[k], vrow, &bg, &fb);
             }
-            own = occ / cnt;
-            float aoMax, aoAverage;
-            if (J->C) {
-                float up[3];
-                fb += upsample(J->C, J->cao, i, j, p[2], n, up);
-                aoMax = ms_fmaxf(up[0], own);                   /* max(upsample.x, occlusion / sampleCount) */
-                aoAverage = (up[1] + occ) / (up[2] + cnt);    /* (upsample.y + occlusion) / (upsample.z + sampleCount) */
-                o[0] = aoMax;
-                o[1] = up[1] + occ;
-                o[2] = up[2] + cnt;
-            } else {
-                aoMax = aoAverage = own; /* one level: nothing to upsample (main.cpp's LEVEL_COUNT 1 reads a missing level) */
-                o[0] = own;
-                o[1] = occ;
-                o[2] = cnt;
-            }
-            vis = (1.0f - aoMax) * (1.0f - aoAverage); /* currentFrameAO = (1 - aoMax) * (1 - aoAverage) */
-            /* in [0, 1] up to the rounding of normals of length 1 + ulps; clamp that away */
-            vis = vis < 0.0f ? 0.0f : vis > 1.0f ? 1.0f : vis;
-        } else {
-            bg++; /* background (w = 0): visibility 1, as every obscura kernel (ao.h) */
         }
-        vrow[xr] = vis;
-        if (J->Lout) {
-            obs_image_f32_row(&J->Lout->own, j)[i] = own;
-            for (int c = 0; c < 3; c++)
-                obs_image_f32_row(&J->Lout->ao[c], j)[i] = o[c];
+#endif
+    for (; xr < J->vis->width; xr++) {
+        const int i = J->rx0 + xr, surface = V[i] > 0.0f;
+        float occ = 0.0f;
+        if (surface) {
+            coarse_load(L, i, j, p, n);
+            occ = last_taps(J, i, j, p, n);
         }
-        if (J->vis_gl)
-            obs_image_f32_row(J->vis_gl, j)[i] = vis;
+        last_finish(J, i, j, xr, p, n, surface, occ, vrow, &bg, &fb);
     }
     J->counts[task][0] = bg;
     J->counts[task][1] = fb;
@@ -699,6 +1010,7 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
                             ao_mssao_stats *stats)
 {
     const int W = in->width, H = in->height, NL = K->levels;
+    const int avx2 = ms_use_avx2(W, H);
     obs_status st = OBS_STATUS_OK;
     obs_image_f32 nrm[3] = {{0}};
     int own_nrm = 0;
@@ -763,11 +1075,11 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
         double ta = obs_time_now();
         ao_mssao_level *L = &lv->level[l];
         const ao_mssao_level *C = l + 1 < NL ? &lv->level[l + 1] : NULL;
-        ao_job J = {K, l, L, &T[l], C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL, rows};
+        ao_job J = {K, l, L, &T[l], C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL, rows, avx2};
         obs_pool_run(pool, L->height, ao_coarse_row, &J);
         fallback += sum_rows(rows, L->height);
         if (K->level_blur) {
-            blur_job B = {L};
+            blur_job B = {L, avx2};
             obs_pool_run(pool, L->height, blur_row, &B);
         }
         if (stats)
@@ -786,7 +1098,8 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
                       ry0,
                       vis,
                       lv->count < 0 ? &lv->visibility : NULL,
-                      counts};
+                      counts,
+                      avx2};
         obs_pool_run(pool, vis->height, last_row, &J);
         int64_t bg = 0;
         for (int r = 0; r < vis->height; r++) {
