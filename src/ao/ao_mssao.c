@@ -596,7 +596,7 @@ typedef struct ao_job {
     const ao_mssao_level *C;          /* coarser level, NULL for the coarsest */
     const obs_image_f32 *cao;         /* its (blurred) AO planes */
     int64_t *fallback;                /* per row */
-    int avx2;
+    int avx2, up8;                    /* the AVX2 taps; the AVX2 upsampling (ms_up8_ok) */
 } ao_job;
 
 static inline void coarse_load(const ao_mssao_level *L, int i, int j, float p[3], float n[3])
@@ -725,40 +725,6 @@ MS_TARGET static int coarse_taps8(const ao_job *J, int i, int j, float *occ_out,
 }
 #endif
 
-static void ao_coarse_row(void *user, int64_t task, int thread)
-{
-    (void)thread;
-    const ao_job *J = (const ao_job *)user;
-    ao_mssao_level *L = J->L;
-    const int j = (int)task;
-    int64_t fb = 0;
-    int i = 0;
-    float p[3], n[3], occ, cnt;
-#if defined(MS_AVX2)
-    if (J->avx2)
-        for (; i + 8 <= L->width; i += 8) {
-            float occ8[8], cnt8[8];
-            const int simd = coarse_taps8(J, i, j, occ8, cnt8);
-            for (int k = 0; k < 8; k++) {
-                coarse_load(L, i + k, j, p, n);
-                if (simd) {
-                    occ = occ8[k];
-                    cnt = cnt8[k];
-                } else {
-                    coarse_taps(J, i + k, j, p, n, &occ, &cnt);
-                }
-                fb += coarse_finish(J, i + k, j, p, n, occ, cnt);
-            }
-        }
-#endif
-    for (; i < L->width; i++) {
-        coarse_load(L, i, j, p, n);
-        coarse_taps(J, i, j, p, n, &occ, &cnt);
-        fb += coarse_finish(J, i, j, p, n, occ, cnt);
-    }
-    J->fallback[task] = fb;
-}
-
 /* ---- The per-level blur (blur.frag): 3x3 cross-bilateral ---- */
 
 typedef struct blur_job {
@@ -855,7 +821,7 @@ typedef struct last_job {
     obs_image_f32 *vis;               /* region-sized, our row order */
     obs_image_f32 *vis_gl;            /* NULL, or the full-buffer visibility in GL rows */
     int64_t (*counts)[2];             /* per row: background, fallback */
-    int avx2;
+    int avx2, up8;
 } last_job;
 
 /* The Poisson taps of a surface texel (i, j): occlusion (sampleCount is K->samples) */
@@ -948,6 +914,200 @@ MS_TARGET static void last_taps8(const last_job *J, int i, int j, float *occ_out
 }
 #endif
 
+#if defined(MS_AVX2)
+/* upsample() for fine texels i..i+7 of row j, lane-wise in its operation order; pz and n are the
+ * fine texels' z and normals. All 7 coarse planes must share one stride (ms_up8_ok). Returns the
+ * lanes that took the bilinear fallback as a bit mask. */
+MS_TARGET static int ms_upsample8(const ao_mssao_level *C, const obs_image_f32 *cao, int i, int j, __m256 pz,
+                                  const __m256 n[3], __m256 out[3])
+{
+    static const float off[4][2] = {{-1.0f, 1.0f}, {1.0f, 1.0f}, {-1.0f, -1.0f}, {1.0f, -1.0f}};
+    const __m256 fcx = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))),
+                                     _mm256_set1_ps(0.5f));
+    const float fcy = (float)j + 0.5f;
+    const __m256 half = _mm256_set1_ps(0.5f), sgn = _mm256_set1_ps(-0.0f), one = _mm256_set1_ps(1.0f);
+    const __m256i xmax = _mm256_set1_epi32(C->width - 1), izero = _mm256_setzero_si256();
+    const int stride = (int)C->normal[0].stride;
+    __m256 wsum = _mm256_setzero_ps(), acc[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+    __m256 bl[4], vals[4][3];
+    for (int k = 0; k < 4; k++) {
+        /* loResCoord = floor((gl_FragCoord.xy + off) / 2.0) + vec2(0.5, 0.5) */
+        const __m256 fx = _mm256_floor_ps(_mm256_div_ps(_mm256_add_ps(fcx, _mm256_set1_ps(off[k][0])), _mm256_set1_ps(2.0f)));
+        const int fy = ifloor((fcy + off[k][1]) / 2.0f);
+        const __m256 lx = _mm256_add_ps(fx, half);
+        const float ly = (float)fy + 0.5f;
+        const __m256i tx = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(fx), izero), xmax);
+        const int ty = clampi(fy, 0, C->height - 1);
+        const __m256i idx = _mm256_add_epi32(tx, _mm256_set1_epi32(ty * stride));
+        const __m256 ln0 = _mm256_i32gather_ps(C->normal[0].data, idx, 4);
+        const __m256 ln1 = _mm256_i32gather_ps(C->normal[1].data, idx, 4);
+        const __m256 ln2 = _mm256_i32gather_ps(C->normal[2].data, idx, 4);
+        const __m256 lz = _mm256_i32gather_ps(C->pos[2].data, idx, 4);
+        for (int c = 0; c < 3; c++)
+            vals[k][c] = _mm256_i32gather_ps(cao[c].data, idx, 4);
+        const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ln0, n[0]), _mm256_mul_ps(ln1, n[1])),
+                                                       _mm256_mul_ps(ln2, n[2])),
+                                         _mm256_set1_ps(1.1f));
+        const __m256 nw = ms_pow8(_mm256_div_ps(dot, _mm256_set1_ps(2.1f)));
+        const __m256 adz = _mm256_andnot_ps(sgn, _mm256_sub_ps(pz, lz));
+        const __m256 dw8 = ms_pow8(_mm256_div_ps(one, _mm256_add_ps(one, _mm256_mul_ps(adz, _mm256_set1_ps(0.2f)))));
+        const __m256 dw = _mm256_mul_ps(dw8, dw8);
+        const __m256 den = _mm256_mul_ps(_mm256_andnot_ps(sgn, _mm256_mul_ps(_mm256_sub_ps(fcx, _mm256_mul_ps(lx, _mm256_set1_ps(2.0f))),
+                                                                           _mm256_set1_ps(fcy - ly * 2.0f))),
+                                         _mm256_set1_ps(4.0f));
+        bl[k] = _mm256_div_ps(_mm256_set1_ps(9.0f / 16.0f), den);
+        const __m256 w = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(nw, dw), _mm256_set1_ps(9.0f / 16.0f)), den);
+        wsum = _mm256_add_ps(wsum, w);
+        for (int c = 0; c < 3; c++)
+            acc[c] = _mm256_add_ps(acc[c], _mm256_mul_ps(vals[k][c], w));
+    }
+    const __m256 ok = _mm256_cmp_ps(wsum, _mm256_setzero_ps(), _CMP_GT_OQ);
+    for (int c = 0; c < 3; c++)
+        out[c] = _mm256_div_ps(acc[c], wsum);
+    const int fb = ~_mm256_movemask_ps(ok) & 0xFF;
+    if (fb) {
+        /* all four weights underflowed in some lane: the plain bilinear weights there */
+        __m256 bsum = _mm256_setzero_ps(), bacc[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
+        for (int k = 0; k < 4; k++) {
+            bsum = _mm256_add_ps(bsum, bl[k]);
+            for (int c = 0; c < 3; c++)
+                bacc[c] = _mm256_add_ps(bacc[c], _mm256_mul_ps(vals[k][c], bl[k]));
+        }
+        for (int c = 0; c < 3; c++)
+            out[c] = _mm256_blendv_ps(_mm256_div_ps(bacc[c], bsum), out[c], ok);
+    }
+    return fb;
+}
+
+/* ms_fmaxf(a, b) lane-wise: (a > b || b is NaN) ? a : b */
+MS_TARGET static inline __m256 ms_fmax8(__m256 a, __m256 b)
+{
+    const __m256 m = _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_GT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q));
+    return _mm256_blendv_ps(b, a, m);
+}
+
+/* coarse_finish for texels i..i+7 */
+MS_TARGET static int coarse_finish8(const ao_job *J, int i, int j, const float *occ8, const float *cnt8)
+{
+    ao_mssao_level *L = J->L;
+    const __m256 occ = _mm256_loadu_ps(occ8), cnt = _mm256_loadu_ps(cnt8);
+    const __m256 own = _mm256_div_ps(occ, cnt);
+    __m256 o[3];
+    int fb = 0;
+    if (!J->C) {
+        o[0] = own;
+        o[1] = occ;
+        o[2] = cnt;
+    } else {
+        __m256 n[3], up[3];
+        for (int c = 0; c < 3; c++)
+            n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
+        const __m256 pz = _mm256_loadu_ps(obs_image_f32_row(&L->pos[2], j) + i);
+        fb = __builtin_popcount((unsigned)ms_upsample8(J->C, J->cao, i, j, pz, n, up));
+        o[0] = ms_fmax8(up[0], own);
+        o[1] = _mm256_add_ps(up[1], occ);
+        o[2] = _mm256_add_ps(up[2], cnt);
+    }
+    _mm256_storeu_ps(obs_image_f32_row(&L->own, j) + i, own);
+    for (int c = 0; c < 3; c++)
+        _mm256_storeu_ps(obs_image_f32_row(&L->ao[c], j) + i, o[c]);
+    return fb;
+}
+
+/* last_finish for texels i..i+7 (region columns xr..xr+7), surface lanes from the valid plane */
+MS_TARGET static void last_finish8(const last_job *J, int i, int j, int xr, const float *occ8, float *vrow, int64_t *bg,
+                                   int64_t *fb)
+{
+    const ao_mssao_level *L = J->L;
+    const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
+    const __m256 surf = _mm256_cmp_ps(_mm256_loadu_ps(obs_image_f32_row(&L->valid, j) + i), zero, _CMP_GT_OQ);
+    const int sm = _mm256_movemask_ps(surf);
+    const __m256 occ = _mm256_loadu_ps(occ8), cnt = _mm256_set1_ps((float)J->K->samples);
+    const __m256 own = _mm256_div_ps(occ, cnt);
+    __m256 o[3], aoMax, aoAverage;
+    if (J->C) {
+        __m256 n[3], up[3];
+        for (int c = 0; c < 3; c++)
+            n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
+        const __m256 pz = _mm256_loadu_ps(obs_image_f32_row(&L->pos[2], j) + i);
+        *fb += __builtin_popcount((unsigned)(ms_upsample8(J->C, J->cao, i, j, pz, n, up) & sm));
+        aoMax = ms_fmax8(up[0], own);
+        o[1] = _mm256_add_ps(up[1], occ);
+        o[2] = _mm256_add_ps(up[2], cnt);
+        aoAverage = _mm256_div_ps(o[1], o[2]);
+        o[0] = aoMax;
+    } else {
+        aoMax = aoAverage = o[0] = own;
+        o[1] = occ;
+        o[2] = cnt;
+    }
+    __m256 vis = _mm256_mul_ps(_mm256_sub_ps(one, aoMax), _mm256_sub_ps(one, aoAverage));
+    /* vis < 0 ? 0 : vis > 1 ? 1 : vis */
+    vis = _mm256_blendv_ps(vis, one, _mm256_cmp_ps(vis, one, _CMP_GT_OQ));
+    vis = _mm256_blendv_ps(vis, zero, _mm256_cmp_ps(vis, zero, _CMP_LT_OQ));
+    vis = _mm256_blendv_ps(one, vis, surf);
+    *bg += 8 - __builtin_popcount((unsigned)sm);
+    _mm256_storeu_ps(vrow + xr, vis);
+    if (J->Lout) {
+        _mm256_storeu_ps(obs_image_f32_row(&J->Lout->own, j) + i, _mm256_and_ps(own, surf));
+        for (int c = 0; c < 3; c++)
+            _mm256_storeu_ps(obs_image_f32_row(&J->Lout->ao[c], j) + i, _mm256_and_ps(o[c], surf));
+    }
+    if (J->vis_gl)
+        _mm256_storeu_ps(obs_image_f32_row(J->vis_gl, j) + i, vis);
+}
+#endif
+
+/* Whether the AVX2 upsampling may read level C: its 7 planes share one stride and its offsets fit an int */
+static int ms_up8_ok(const ao_mssao_level *C, const obs_image_f32 *cao)
+{
+    if (!C)
+        return 1;
+    const ptrdiff_t s = C->normal[0].stride;
+    if (C->normal[1].stride != s || C->normal[2].stride != s || C->pos[2].stride != s)
+        return 0;
+    for (int c = 0; c < 3; c++)
+        if (cao[c].stride != s)
+            return 0;
+    return (double)s * (double)C->height < 2147483647.0;
+}
+
+static void ao_coarse_row(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const ao_job *J = (const ao_job *)user;
+    ao_mssao_level *L = J->L;
+    const int j = (int)task;
+    int64_t fb = 0;
+    int i = 0;
+    float p[3], n[3], occ, cnt;
+#if defined(MS_AVX2)
+    if (J->avx2)
+        for (; i + 8 <= L->width; i += 8) {
+            float occ8[8], cnt8[8];
+            if (!coarse_taps8(J, i, j, occ8, cnt8))
+                for (int k = 0; k < 8; k++) {
+                    coarse_load(L, i + k, j, p, n);
+                    coarse_taps(J, i + k, j, p, n, &occ8[k], &cnt8[k]);
+                }
+            if (J->up8) {
+                fb += coarse_finish8(J, i, j, occ8, cnt8);
+            } else {
+                for (int k = 0; k < 8; k++) {
+                    coarse_load(L, i + k, j, p, n);
+                    fb += coarse_finish(J, i + k, j, p, n, occ8[k], cnt8[k]);
+                }
+            }
+        }
+#endif
+    for (; i < L->width; i++) {
+        coarse_load(L, i, j, p, n);
+        coarse_taps(J, i, j, p, n, &occ, &cnt);
+        fb += coarse_finish(J, i, j, p, n, occ, cnt);
+    }
+    J->fallback[task] = fb;
+}
+
 static void last_row(void *user, int64_t task, int thread)
 {
     (void)thread;
@@ -970,6 +1130,10 @@ static void last_row(void *user, int64_t task, int thread)
             float occ8[8] = {0};
             if (any)
                 last_taps8(J, i0, j, occ8);
+            if (J->up8) {
+                last_finish8(J, i0, j, xr, occ8, vrow, &bg, &fb);
+                continue;
+            }
             for (int k = 0; k < 8; k++) {
                 const int i = i0 + k, surface = V[i] > 0.0f;
                 if (surface)
@@ -1075,7 +1239,8 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
         double ta = obs_time_now();
         ao_mssao_level *L = &lv->level[l];
         const ao_mssao_level *C = l + 1 < NL ? &lv->level[l + 1] : NULL;
-        ao_job J = {K, l, L, &T[l], C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL, rows, avx2};
+        const obs_image_f32 *cao = C ? (K->level_blur ? C->ao_blur : C->ao) : NULL;
+        ao_job J = {K, l, L, &T[l], C, cao, rows, avx2, avx2 && ms_up8_ok(C, cao)};
         obs_pool_run(pool, L->height, ao_coarse_row, &J);
         fallback += sum_rows(rows, L->height);
         if (K->level_blur) {
@@ -1099,7 +1264,8 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
                       vis,
                       lv->count < 0 ? &lv->visibility : NULL,
                       counts,
-                      avx2};
+                      avx2,
+                      avx2 && ms_up8_ok(C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL)};
         obs_pool_run(pool, vis->height, last_row, &J);
         int64_t bg = 0;
         for (int r = 0; r < vis->height; r++) {
