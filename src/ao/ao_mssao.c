@@ -341,17 +341,28 @@ static void ds_row(void *user, int64_t task, int thread)
      * (-0.5, -0.5), i.e. texels (2i, 2j+1), (2i+1, 2j+1), (2i+1, 2j), (2i, 2j), clamped. */
     const int cy[4] = {clampi(2 * j + 1, 0, F->height - 1), clampi(2 * j + 1, 0, F->height - 1),
                        clampi(2 * j, 0, F->height - 1), clampi(2 * j, 0, F->height - 1)};
+    /* the 7 planes' child rows, once per row */
+    const float *src[4][7];
+    float *dst[7];
+    for (int k = 0; k < 4; k++) {
+        for (int c = 0; c < 3; c++) {
+            src[k][c] = obs_image_f32_row(&F->pos[c], cy[k]);
+            src[k][3 + c] = obs_image_f32_row(&F->normal[c], cy[k]);
+        }
+        src[k][6] = obs_image_f32_row(&F->valid, cy[k]);
+    }
+    for (int c = 0; c < 3; c++) {
+        dst[c] = obs_image_f32_row(&C->pos[c], j);
+        dst[3 + c] = obs_image_f32_row(&C->normal[c], j);
+    }
+    dst[6] = obs_image_f32_row(&C->valid, j);
     for (int i = 0; i < C->width; i++) {
         const int cx[4] = {clampi(2 * i, 0, F->width - 1), clampi(2 * i + 1, 0, F->width - 1),
                            clampi(2 * i + 1, 0, F->width - 1), clampi(2 * i, 0, F->width - 1)};
         float v[4][7]; /* pos xyz, normal xyz, w */
-        for (int k = 0; k < 4; k++) {
-            for (int c = 0; c < 3; c++) {
-                v[k][c] = at(&F->pos[c], cx[k], cy[k]);
-                v[k][3 + c] = at(&F->normal[c], cx[k], cy[k]);
-            }
-            v[k][6] = at(&F->valid, cx[k], cy[k]);
-        }
+        for (int k = 0; k < 4; k++)
+            for (int c = 0; c < 7; c++)
+                v[k][c] = src[k][c][cx[k]];
         int a, b, avg;
         if (J->rule == AO_MSSAO_DOWNSAMPLE_HOANG) {
             /* downsample.frag: min and max z, the last index wins a tie */
@@ -393,11 +404,8 @@ static void ds_row(void *user, int64_t task, int thread)
         float o[7];
         for (int c = 0; c < 7; c++)
             o[c] = avg ? (v[a][c] + v[b][c]) / 2.0f : v[a][c]; /* "(pos[median.x] + pos[median.y]) / 2.0" */
-        for (int c = 0; c < 3; c++) {
-            obs_image_f32_row(&C->pos[c], j)[i] = o[c];
-            obs_image_f32_row(&C->normal[c], j)[i] = o[3 + c];
-        }
-        obs_image_f32_row(&C->valid, j)[i] = o[6];
+        for (int c = 0; c < 7; c++)
+            dst[c][i] = o[c];
     }
 }
 
@@ -938,13 +946,29 @@ MS_TARGET static int ms_upsample8(const ao_mssao_level *C, const obs_image_f32 *
         const float ly = (float)fy + 0.5f;
         const __m256i tx = _mm256_min_epi32(_mm256_max_epi32(_mm256_cvttps_epi32(fx), izero), xmax);
         const int ty = clampi(fy, 0, C->height - 1);
-        const __m256i idx = _mm256_add_epi32(tx, _mm256_set1_epi32(ty * stride));
-        const __m256 ln0 = _mm256_i32gather_ps(C->normal[0].data, idx, 4);
-        const __m256 ln1 = _mm256_i32gather_ps(C->normal[1].data, idx, 4);
-        const __m256 ln2 = _mm256_i32gather_ps(C->normal[2].data, idx, 4);
-        const __m256 lz = _mm256_i32gather_ps(C->pos[2].data, idx, 4);
-        for (int c = 0; c < 3; c++)
-            vals[k][c] = _mm256_i32gather_ps(cao[c].data, idx, 4);
+        /* The lanes' coarse columns are non-decreasing and span at most 5: one row load from the
+         * first lane's column and a permute when the 8 floats lie inside the row's allocation
+         * (stride >= width), else gathers. */
+        __m256 ln0, ln1, ln2, lz;
+        const int b = _mm256_cvtsi256_si32(tx);
+        if (b + 8 <= stride) {
+            const __m256i perm = _mm256_sub_epi32(tx, _mm256_set1_epi32(b));
+            const ptrdiff_t o = (ptrdiff_t)ty * stride + b;
+            ln0 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->normal[0].data + o), perm);
+            ln1 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->normal[1].data + o), perm);
+            ln2 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->normal[2].data + o), perm);
+            lz = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->pos[2].data + o), perm);
+            for (int c = 0; c < 3; c++)
+                vals[k][c] = _mm256_permutevar8x32_ps(_mm256_loadu_ps(cao[c].data + o), perm);
+        } else {
+            const __m256i idx = _mm256_add_epi32(tx, _mm256_set1_epi32(ty * stride));
+            ln0 = _mm256_i32gather_ps(C->normal[0].data, idx, 4);
+            ln1 = _mm256_i32gather_ps(C->normal[1].data, idx, 4);
+            ln2 = _mm256_i32gather_ps(C->normal[2].data, idx, 4);
+            lz = _mm256_i32gather_ps(C->pos[2].data, idx, 4);
+            for (int c = 0; c < 3; c++)
+                vals[k][c] = _mm256_i32gather_ps(cao[c].data, idx, 4);
+        }
         const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ln0, n[0]), _mm256_mul_ps(ln1, n[1])),
                                                        _mm256_mul_ps(ln2, n[2])),
                                          _mm256_set1_ps(1.1f));
