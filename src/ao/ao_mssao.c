@@ -203,14 +203,15 @@ void ao_mssao_levels_free(ao_mssao_levels *lv)
     memset(lv, 0, sizeof *lv);
 }
 
-/* Allocate the G-buffer planes (and, when ao, the AO planes) of one level. */
-static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h, int ao, int blur)
+/* Allocate the G-buffer planes (positions and validity only when pos) and, when ao, the AO planes of one level. */
+static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h, int pos, int ao, int blur)
 {
     obs_status st = OBS_STATUS_OK;
     L->width = w;
     L->height = h;
     for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++) {
-        st = obs_image_f32_alloc(ctx, w, h, &L->pos[c]);
+        if (pos)
+            st = obs_image_f32_alloc(ctx, w, h, &L->pos[c]);
         if (st == OBS_STATUS_OK)
             st = obs_image_f32_alloc(ctx, w, h, &L->normal[c]);
         if (st == OBS_STATUS_OK && ao)
@@ -218,7 +219,7 @@ static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h,
         if (st == OBS_STATUS_OK && blur)
             st = obs_image_f32_alloc(ctx, w, h, &L->ao_blur[c]);
     }
-    if (st == OBS_STATUS_OK)
+    if (st == OBS_STATUS_OK && pos)
         st = obs_image_f32_alloc(ctx, w, h, &L->valid);
     if (st == OBS_STATUS_OK && ao)
         st = obs_image_f32_alloc(ctx, w, h, &L->own);
@@ -282,7 +283,8 @@ obs_status ao_mssao_level_visibility(obs_context *ctx, const ao_mssao_levels *lv
 typedef struct g0_job {
     const ao_input *in;
     const obs_image_f32 *nrm;   /* 3 planes, our row order, full buffer */
-    ao_mssao_level *L;
+    ao_mssao_level *L;          /* pos and valid planes only when kept (else NULL data) */
+    float *pk;                  /* level 0's packed (x, y, z, w), GL rows */
 } g0_job;
 
 static void g0_row(void *user, int64_t task, int thread)
@@ -294,30 +296,42 @@ static void g0_row(void *user, int64_t task, int thread)
     const float *drow = obs_image_f32_row(in->depth, y);
     const float *nr[3] = {obs_image_f32_row(&J->nrm[0], y), obs_image_f32_row(&J->nrm[1], y),
                           obs_image_f32_row(&J->nrm[2], y)};
-    float *P[3], *N[3];
+    const int planes = J->L->valid.data != NULL;
+    float *P[3] = {NULL, NULL, NULL}, *N[3], *V = planes ? obs_image_f32_row(&J->L->valid, j) : NULL;
     for (int c = 0; c < 3; c++) {
-        P[c] = obs_image_f32_row(&J->L->pos[c], j);
+        if (planes)
+            P[c] = obs_image_f32_row(&J->L->pos[c], j);
         N[c] = obs_image_f32_row(&J->L->normal[c], j);
     }
-    float *V = obs_image_f32_row(&J->L->valid, j);
+    float *Q = J->pk + 4 * (size_t)j * (size_t)in->width;
     for (int x = 0; x < in->width; x++) {
         const float d = drow[x];
         if (!(isfinite(d) && d > 0.0f)) {
             /* Background: Hoang's G-buffer is cleared to (0, 0, 0, 0) (glClearColor 0, 0, 0, 0) */
-            P[0][x] = P[1][x] = P[2][x] = N[0][x] = N[1][x] = N[2][x] = V[x] = 0.0f;
+            N[0][x] = N[1][x] = N[2][x] = 0.0f;
+            Q[4 * x] = Q[4 * x + 1] = Q[4 * x + 2] = Q[4 * x + 3] = 0.0f;
+            if (planes)
+                P[0][x] = P[1][x] = P[2][x] = V[x] = 0.0f;
             continue;
         }
         const obs_vec3 p = ao_position(in, x, y, d);
         float n0 = nr[0][x], n1 = nr[1][x], n2 = nr[2][x];
         if (!(isfinite(n0) && isfinite(n1) && isfinite(n2)))
             n0 = n1 = n2 = 0.0f; /* a non-finite normal: zero (the pixel then occludes nothing itself) */
-        P[0][x] = p.x;
-        P[1][x] = p.y;
-        P[2][x] = p.z;
         N[0][x] = n0;
         N[1][x] = n1;
         N[2][x] = n2;
-        V[x] = 1.0f; /* normTex.w: the geometry pass writes 1 where it draws */
+        /* normTex.w: the geometry pass writes 1 where it draws */
+        Q[4 * x] = p.x;
+        Q[4 * x + 1] = p.y;
+        Q[4 * x + 2] = p.z;
+        Q[4 * x + 3] = 1.0f;
+        if (planes) {
+            P[0][x] = p.x;
+            P[1][x] = p.y;
+            P[2][x] = p.z;
+            V[x] = 1.0f;
+        }
     }
 }
 
@@ -326,6 +340,7 @@ static void g0_row(void *user, int64_t task, int thread)
 typedef struct ds_job {
     const ao_mssao_level *F;    /* finer */
     ao_mssao_level *C;          /* coarser */
+    const float *fpk;           /* the finer level's packed (x, y, z, w) */
     int rule;
     float thr;
 } ds_job;
@@ -342,14 +357,15 @@ static void ds_row(void *user, int64_t task, int thread)
     const int cy[4] = {clampi(2 * j + 1, 0, F->height - 1), clampi(2 * j + 1, 0, F->height - 1),
                        clampi(2 * j, 0, F->height - 1), clampi(2 * j, 0, F->height - 1)};
     /* the 7 planes' child rows, once per row */
-    const float *src[4][7];
+    const float *src[4][7];  /* pos xyz and w from the packed level (element step 4), normals from planes */
     float *dst[7];
     for (int k = 0; k < 4; k++) {
+        const float *q = J->fpk + 4 * (size_t)cy[k] * (size_t)F->width;
         for (int c = 0; c < 3; c++) {
-            src[k][c] = obs_image_f32_row(&F->pos[c], cy[k]);
+            src[k][c] = q + c;
             src[k][3 + c] = obs_image_f32_row(&F->normal[c], cy[k]);
         }
-        src[k][6] = obs_image_f32_row(&F->valid, cy[k]);
+        src[k][6] = q + 3;
     }
     for (int c = 0; c < 3; c++) {
         dst[c] = obs_image_f32_row(&C->pos[c], j);
@@ -360,9 +376,13 @@ static void ds_row(void *user, int64_t task, int thread)
         const int cx[4] = {clampi(2 * i, 0, F->width - 1), clampi(2 * i + 1, 0, F->width - 1),
                            clampi(2 * i + 1, 0, F->width - 1), clampi(2 * i, 0, F->width - 1)};
         float v[4][7]; /* pos xyz, normal xyz, w */
-        for (int k = 0; k < 4; k++)
-            for (int c = 0; c < 7; c++)
-                v[k][c] = src[k][c][cx[k]];
+        for (int k = 0; k < 4; k++) {
+            for (int c = 0; c < 3; c++) {
+                v[k][c] = src[k][c][4 * cx[k]];
+                v[k][3 + c] = src[k][3 + c][cx[k]];
+            }
+            v[k][6] = src[k][6][4 * cx[k]];
+        }
         int a, b, avg;
         if (J->rule == AO_MSSAO_DOWNSAMPLE_HOANG) {
             /* downsample.frag: min and max z, the last index wins a tie */
@@ -537,6 +557,14 @@ MS_TARGET static inline void ms_load8x4(const float *t, const int *idx, __m256 *
     *Y = _mm256_shuffle_ps(t0, t2, 0xEE);
     *Z = _mm256_shuffle_ps(t1, t3, 0x44);
     *W = _mm256_shuffle_ps(t1, t3, 0xEE);
+}
+
+/* texels i..i+7 of row j of a packed level */
+MS_TARGET static inline void ms_load8x4_row(const packed_level *T, int i, int j, __m256 *X, __m256 *Y, __m256 *Z, __m256 *W)
+{
+    const int b = 4 * (j * T->width + i);
+    const int idx[8] = {b, b + 4, b + 8, b + 12, b + 16, b + 20, b + 24, b + 28};
+    ms_load8x4(T->t, idx, X, Y, Z, W);
 }
 
 /* occlusion_tap for 8 lanes at texel offsets idx (already * 4), accumulated where active */
@@ -832,6 +860,16 @@ typedef struct last_job {
     int avx2, up8;
 } last_job;
 
+/* Level 0's position from its packed texel (level 0 has no position planes unless kept) */
+static inline void last_load(const last_job *J, int i, int j, float p[3], float n[3])
+{
+    const float *q = J->T->t + 4 * ((size_t)j * (size_t)J->T->width + (size_t)i);
+    for (int c = 0; c < 3; c++) {
+        p[c] = q[c];
+        n[c] = at(&J->L->normal[c], i, j);
+    }
+}
+
 /* The Poisson taps of a surface texel (i, j): occlusion (sampleCount is K->samples) */
 static inline float last_taps(const last_job *J, int i, int j, const float p[3], const float n[3])
 {
@@ -894,11 +932,10 @@ MS_TARGET static void last_taps8(const last_job *J, int i, int j, float *occ_out
     const ao_mssao_constants *K = J->K;
     const ao_mssao_level *L = J->L;
     const packed_level *T = J->T;
-    __m256 p[3], n[3];
-    for (int c = 0; c < 3; c++) {
-        p[c] = _mm256_loadu_ps(obs_image_f32_row(&L->pos[c], j) + i);
+    __m256 p[3], n[3], w;
+    ms_load8x4_row(T, i, j, &p[0], &p[1], &p[2], &w);
+    for (int c = 0; c < 3; c++)
         n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
-    }
     const __m256 rm = ms_range_max(K, K->r[0], p[2]);
     const __m256 fcx = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))),
                                      _mm256_set1_ps(0.5f));
@@ -1044,7 +1081,9 @@ MS_TARGET static void last_finish8(const last_job *J, int i, int j, int xr, cons
 {
     const ao_mssao_level *L = J->L;
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
-    const __m256 surf = _mm256_cmp_ps(_mm256_loadu_ps(obs_image_f32_row(&L->valid, j) + i), zero, _CMP_GT_OQ);
+    __m256 px, py, pz, pw;
+    ms_load8x4_row(J->T, i, j, &px, &py, &pz, &pw);
+    const __m256 surf = _mm256_cmp_ps(pw, zero, _CMP_GT_OQ);
     const int sm = _mm256_movemask_ps(surf);
     const __m256 occ = _mm256_loadu_ps(occ8), cnt = _mm256_set1_ps((float)J->K->samples);
     const __m256 own = _mm256_div_ps(occ, cnt);
@@ -1053,7 +1092,6 @@ MS_TARGET static void last_finish8(const last_job *J, int i, int j, int xr, cons
         __m256 n[3], up[3];
         for (int c = 0; c < 3; c++)
             n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
-        const __m256 pz = _mm256_loadu_ps(obs_image_f32_row(&L->pos[2], j) + i);
         *fb += __builtin_popcount((unsigned)(ms_upsample8(J->C, J->cao, i, j, pz, n, up) & sm));
         aoMax = ms_fmax8(up[0], own);
         o[1] = _mm256_add_ps(up[1], occ);
@@ -1137,10 +1175,9 @@ static void last_row(void *user, int64_t task, int thread)
     (void)thread;
     const last_job *J = (const last_job *)user;
     const ao_mssao_constants *K = J->K;
-    const ao_mssao_level *L = J->L;
     const int y = J->ry0 + (int)task, j = K->full_height - 1 - y;
     float *vrow = obs_image_f32_row(J->vis, (int)task);
-    const float *V = obs_image_f32_row(&L->valid, j);
+    const float *V = J->T->t + 4 * (size_t)j * (size_t)J->T->width + 3; /* V[4 i]: valid w of texel i */
     int64_t bg = 0, fb = 0;
     float p[3] = {0.0f, 0.0f, 0.0f}, n[3] = {0.0f, 0.0f, 0.0f};
     int xr = 0;
@@ -1150,7 +1187,7 @@ static void last_row(void *user, int64_t task, int thread)
             const int i0 = J->rx0 + xr;
             int any = 0;
             for (int k = 0; k < 8; k++)
-                any |= V[i0 + k] > 0.0f;
+                any |= V[4 * (i0 + k)] > 0.0f;
             float occ8[8] = {0};
             if (any)
                 last_taps8(J, i0, j, occ8);
@@ -1159,18 +1196,18 @@ static void last_row(void *user, int64_t task, int thread)
                 continue;
             }
             for (int k = 0; k < 8; k++) {
-                const int i = i0 + k, surface = V[i] > 0.0f;
+                const int i = i0 + k, surface = V[4 * i] > 0.0f;
                 if (surface)
-                    coarse_load(L, i, j, p, n);
+                    last_load(J, i, j, p, n);
                 last_finish(J, i, j, xr + k, p, n, surface, occ8[k], vrow, &bg, &fb);
             }
         }
 #endif
     for (; xr < J->vis->width; xr++) {
-        const int i = J->rx0 + xr, surface = V[i] > 0.0f;
+        const int i = J->rx0 + xr, surface = V[4 * i] > 0.0f;
         float occ = 0.0f;
         if (surface) {
-            coarse_load(L, i, j, p, n);
+            last_load(J, i, j, p, n);
             occ = last_taps(J, i, j, p, n);
         }
         last_finish(J, i, j, xr, p, n, surface, occ, vrow, &bg, &fb);
@@ -1233,23 +1270,27 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
     for (int l = 0; l < NL && st == OBS_STATUS_OK; l++) {
         double ta = obs_time_now();
         ao_mssao_level *L = &lv->level[l];
-        st = level_alloc(ctx, L, K->level_width[l], K->level_height[l], l > 0 || lv->count < 0, l > 0 && K->level_blur);
+        /* Speed: level 0's positions and validity live only in its packed texels (g0_row writes
+         * them there), unless every plane is kept: 4 full-size planes fewer to allocate and fill. */
+        const int keep = lv->count < 0;
+        st = level_alloc(ctx, L, K->level_width[l], K->level_height[l], l > 0 || keep, l > 0 || keep,
+                         l > 0 && K->level_blur);
         if (st != OBS_STATUS_OK)
             break;
-        if (l == 0) {
-            g0_job J = {in, nrm, L};
-            obs_pool_run(pool, H, g0_row, &J);
-        } else {
-            ds_job J = {&lv->level[l - 1], L, K->downsample, K->d_threshold};
-            obs_pool_run(pool, L->height, ds_row, &J);
-        }
         pk[l] = (float *)obs_aligned_alloc(sizeof(float) * 4 * (size_t)L->width * (size_t)L->height);
         if (!pk[l]) {
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
             break;
         }
-        pack_job PJ = {L, pk[l]};
-        obs_pool_run(pool, L->height, pack_row, &PJ);
+        if (l == 0) {
+            g0_job J = {in, nrm, L, pk[0]};
+            obs_pool_run(pool, H, g0_row, &J);
+        } else {
+            ds_job J = {&lv->level[l - 1], L, pk[l - 1], K->downsample, K->d_threshold};
+            obs_pool_run(pool, L->height, ds_row, &J);
+            pack_job PJ = {L, pk[l]};
+            obs_pool_run(pool, L->height, pack_row, &PJ);
+        }
         T[l].t = pk[l];
         T[l].width = L->width;
         T[l].height = L->height;
