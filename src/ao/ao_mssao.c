@@ -644,8 +644,12 @@ static inline void coarse_load(const ao_mssao_level *L, int i, int j, float p[3]
 }
 
 /* The grid taps of texel (i, j): occlusion and sampleCount */
+typedef struct cnt_memo {
+    float rangeMax, cnt;          /* the last zero-normal texel's rangeMax and its sampleCount */
+} cnt_memo;
+
 static inline void coarse_taps(const ao_job *J, int i, int j, const float p[3], const float n[3], float *occ_out,
-                               float *cnt_out)
+                               float *cnt_out, cnt_memo *memo)
 {
     const ao_mssao_constants *K = J->K;
     const float r = K->r[J->l], rMax = K->r_max, d_max2 = K->d_max2;
@@ -655,7 +659,13 @@ static inline void coarse_taps(const ao_job *J, int i, int j, const float p[3], 
     if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
         /* Speed: a zero normal (the background, cleared to 0) makes every tap's cosTheta
          * max(0 or NaN, 0) = +0 and its term t * (+0) * w = +0 (t in [0, 1], w in [0, 1]), so
-         * occlusion stays +0: only sampleCount is accumulated, in the shader's order. */
+         * occlusion stays +0: only sampleCount is accumulated, in the shader's order. It is a
+         * function of rangeMax alone, which is rMax on the whole background: memoised per row. */
+        if (rangeMax == memo->rangeMax) {
+            *occ_out = 0.0f;
+            *cnt_out = memo->cnt;
+            return;
+        }
         for (float x = 1.0f; x <= rangeMax; x += 2.0f)
             for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
                 cnt += 1.0f;
@@ -663,6 +673,8 @@ static inline void coarse_taps(const ao_job *J, int i, int j, const float p[3], 
                 cnt += 1.0f;
                 cnt += 1.0f;
             }
+        memo->rangeMax = rangeMax;
+        memo->cnt = cnt;
     } else {
         for (float x = 1.0f; x <= rangeMax; x += 2.0f)
             for (float y = 1.0f; y <= rangeMax; y += 2.0f) {
@@ -974,7 +986,7 @@ MS_TARGET static int ms_upsample8(const ao_mssao_level *C, const obs_image_f32 *
     const __m256i xmax = _mm256_set1_epi32(C->width - 1), izero = _mm256_setzero_si256();
     const int stride = (int)C->normal[0].stride;
     __m256 wsum = _mm256_setzero_ps(), acc[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
-    __m256 bl[4], vals[4][3];
+    __m256 dens[4], vals[4][3];
     for (int k = 0; k < 4; k++) {
         /* loResCoord = floor((gl_FragCoord.xy + off) / 2.0) + vec2(0.5, 0.5) */
         const __m256 fx = _mm256_floor_ps(_mm256_div_ps(_mm256_add_ps(fcx, _mm256_set1_ps(off[k][0])), _mm256_set1_ps(2.0f)));
@@ -1016,7 +1028,7 @@ MS_TARGET static int ms_upsample8(const ao_mssao_level *C, const obs_image_f32 *
         const __m256 den = _mm256_mul_ps(_mm256_andnot_ps(sgn, _mm256_mul_ps(_mm256_sub_ps(fcx, _mm256_mul_ps(lx, _mm256_set1_ps(2.0f))),
                                                                            _mm256_set1_ps(fcy - ly * 2.0f))),
                                          _mm256_set1_ps(4.0f));
-        bl[k] = _mm256_div_ps(_mm256_set1_ps(9.0f / 16.0f), den);
+        dens[k] = den;
         const __m256 w = _mm256_div_ps(_mm256_mul_ps(_mm256_mul_ps(nw, dw), _mm256_set1_ps(9.0f / 16.0f)), den);
         wsum = _mm256_add_ps(wsum, w);
         for (int c = 0; c < 3; c++)
@@ -1030,9 +1042,10 @@ MS_TARGET static int ms_upsample8(const ao_mssao_level *C, const obs_image_f32 *
         /* all four weights underflowed in some lane: the plain bilinear weights there */
         __m256 bsum = _mm256_setzero_ps(), bacc[3] = {_mm256_setzero_ps(), _mm256_setzero_ps(), _mm256_setzero_ps()};
         for (int k = 0; k < 4; k++) {
-            bsum = _mm256_add_ps(bsum, bl[k]);
+            const __m256 bl = _mm256_div_ps(_mm256_set1_ps(9.0f / 16.0f), dens[k]);
+            bsum = _mm256_add_ps(bsum, bl);
             for (int c = 0; c < 3; c++)
-                bacc[c] = _mm256_add_ps(bacc[c], _mm256_mul_ps(vals[k][c], bl[k]));
+                bacc[c] = _mm256_add_ps(bacc[c], _mm256_mul_ps(vals[k][c], bl));
         }
         for (int c = 0; c < 3; c++)
             out[c] = _mm256_blendv_ps(_mm256_div_ps(bacc[c], bsum), out[c], ok);
@@ -1143,6 +1156,7 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
     int64_t fb = 0;
     int i = 0;
     float p[3], n[3], occ, cnt;
+    cnt_memo memo = {-1.0f, 0.0f}; /* rangeMax >= 0 never equals -1 */
 #if defined(MS_AVX2)
     if (J->avx2)
         for (; i + 8 <= L->width; i += 8) {
@@ -1150,7 +1164,7 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
             if (!coarse_taps8(J, i, j, occ8, cnt8))
                 for (int k = 0; k < 8; k++) {
                     coarse_load(L, i + k, j, p, n);
-                    coarse_taps(J, i + k, j, p, n, &occ8[k], &cnt8[k]);
+                    coarse_taps(J, i + k, j, p, n, &occ8[k], &cnt8[k], &memo);
                 }
             if (J->up8) {
                 fb += coarse_finish8(J, i, j, occ8, cnt8);
@@ -1164,7 +1178,7 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
 #endif
     for (; i < L->width; i++) {
         coarse_load(L, i, j, p, n);
-        coarse_taps(J, i, j, p, n, &occ, &cnt);
+        coarse_taps(J, i, j, p, n, &occ, &cnt, &memo);
         fb += coarse_finish(J, i, j, p, n, occ, cnt);
     }
     J->fallback[task] = fb;
