@@ -203,7 +203,7 @@ void ao_mssao_levels_free(ao_mssao_levels *lv)
     memset(lv, 0, sizeof *lv);
 }
 
-/* Allocate the G-buffer planes (positions and validity only when pos) and, when ao, the AO planes of one level. */
+/* Allocate the G-buffer planes (when pos) and, when ao, the AO planes of one level. */
 static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h, int pos, int ao, int blur)
 {
     obs_status st = OBS_STATUS_OK;
@@ -212,7 +212,7 @@ static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h,
     for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++) {
         if (pos)
             st = obs_image_f32_alloc(ctx, w, h, &L->pos[c]);
-        if (st == OBS_STATUS_OK)
+        if (st == OBS_STATUS_OK && pos)
             st = obs_image_f32_alloc(ctx, w, h, &L->normal[c]);
         if (st == OBS_STATUS_OK && ao)
             st = obs_image_f32_alloc(ctx, w, h, &L->ao[c]);
@@ -278,7 +278,19 @@ obs_status ao_mssao_level_visibility(obs_context *ctx, const ao_mssao_levels *lv
     return OBS_STATUS_OK;
 }
 
-/* ---- Level 0 G-buffer (GL rows): positions from depth, normals, validity ---- */
+/* ---- Level 0 G-buffer (GL rows): positions from depth, normals, validity ----
+ *
+ * Speed: unless the levels are kept, level 0 has no planes. Its positions and validity are in its
+ * packed texels, and its normals are read from the input's (or the reconstructed) normal planes,
+ * our row order, through nrm0_fix, which gives what the G-buffer holds: */
+
+/* Level 0's normal of a texel from the source normal n: zero on the background (w = 0, Hoang's
+ * cleared G-buffer) and where n is not finite (the pixel then occludes nothing itself). */
+static inline void nrm0_fix(float n[3], int surface)
+{
+    if (!surface || !(isfinite(n[0]) && isfinite(n[1]) && isfinite(n[2])))
+        n[0] = n[1] = n[2] = 0.0f;
+}
 
 typedef struct g0_job {
     const ao_input *in;
@@ -297,10 +309,9 @@ static void g0_row(void *user, int64_t task, int thread)
     const float *nr[3] = {obs_image_f32_row(&J->nrm[0], y), obs_image_f32_row(&J->nrm[1], y),
                           obs_image_f32_row(&J->nrm[2], y)};
     const int planes = J->L->valid.data != NULL;
-    float *P[3] = {NULL, NULL, NULL}, *N[3], *V = planes ? obs_image_f32_row(&J->L->valid, j) : NULL;
-    for (int c = 0; c < 3; c++) {
-        if (planes)
-            P[c] = obs_image_f32_row(&J->L->pos[c], j);
+    float *P[3] = {NULL, NULL, NULL}, *N[3] = {NULL, NULL, NULL}, *V = planes ? obs_image_f32_row(&J->L->valid, j) : NULL;
+    for (int c = 0; c < 3 && planes; c++) {
+        P[c] = obs_image_f32_row(&J->L->pos[c], j);
         N[c] = obs_image_f32_row(&J->L->normal[c], j);
     }
     float *Q = J->pk + 4 * (size_t)j * (size_t)in->width;
@@ -308,28 +319,26 @@ static void g0_row(void *user, int64_t task, int thread)
         const float d = drow[x];
         if (!(isfinite(d) && d > 0.0f)) {
             /* Background: Hoang's G-buffer is cleared to (0, 0, 0, 0) (glClearColor 0, 0, 0, 0) */
-            N[0][x] = N[1][x] = N[2][x] = 0.0f;
             Q[4 * x] = Q[4 * x + 1] = Q[4 * x + 2] = Q[4 * x + 3] = 0.0f;
             if (planes)
-                P[0][x] = P[1][x] = P[2][x] = V[x] = 0.0f;
+                P[0][x] = P[1][x] = P[2][x] = N[0][x] = N[1][x] = N[2][x] = V[x] = 0.0f;
             continue;
         }
         const obs_vec3 p = ao_position(in, x, y, d);
-        float n0 = nr[0][x], n1 = nr[1][x], n2 = nr[2][x];
-        if (!(isfinite(n0) && isfinite(n1) && isfinite(n2)))
-            n0 = n1 = n2 = 0.0f; /* a non-finite normal: zero (the pixel then occludes nothing itself) */
-        N[0][x] = n0;
-        N[1][x] = n1;
-        N[2][x] = n2;
         /* normTex.w: the geometry pass writes 1 where it draws */
         Q[4 * x] = p.x;
         Q[4 * x + 1] = p.y;
         Q[4 * x + 2] = p.z;
         Q[4 * x + 3] = 1.0f;
         if (planes) {
+            float n[3] = {nr[0][x], nr[1][x], nr[2][x]};
+            nrm0_fix(n, 1);
             P[0][x] = p.x;
             P[1][x] = p.y;
             P[2][x] = p.z;
+            N[0][x] = n[0];
+            N[1][x] = n[1];
+            N[2][x] = n[2];
             V[x] = 1.0f;
         }
     }
@@ -341,6 +350,7 @@ typedef struct ds_job {
     const ao_mssao_level *F;    /* finer */
     ao_mssao_level *C;          /* coarser */
     const float *fpk;           /* the finer level's packed (x, y, z, w) */
+    const obs_image_f32 *fnrm;  /* level 0 as the finer level: its source normals (our rows), else NULL */
     int rule;
     float thr;
 } ds_job;
@@ -363,7 +373,8 @@ static void ds_row(void *user, int64_t task, int thread)
         const float *q = J->fpk + 4 * (size_t)cy[k] * (size_t)F->width;
         for (int c = 0; c < 3; c++) {
             src[k][c] = q + c;
-            src[k][3 + c] = obs_image_f32_row(&F->normal[c], cy[k]);
+            src[k][3 + c] = J->fnrm ? obs_image_f32_row(&J->fnrm[c], F->height - 1 - cy[k])
+                                    : obs_image_f32_row(&F->normal[c], cy[k]);
         }
         src[k][6] = q + 3;
     }
@@ -382,6 +393,8 @@ static void ds_row(void *user, int64_t task, int thread)
                 v[k][3 + c] = src[k][3 + c][cx[k]];
             }
             v[k][6] = src[k][6][4 * cx[k]];
+            if (J->fnrm)
+                nrm0_fix(&v[k][3], v[k][6] > 0.0f);
         }
         int a, b, avg;
         if (J->rule == AO_MSSAO_DOWNSAMPLE_HOANG) {
@@ -870,16 +883,19 @@ typedef struct last_job {
     obs_image_f32 *vis_gl;            /* NULL, or the full-buffer visibility in GL rows */
     int64_t (*counts)[2];             /* per row: background, fallback */
     int avx2, up8;
+    const obs_image_f32 *nrm;         /* level 0's source normals (our rows), read through nrm0_fix */
 } last_job;
 
 /* Level 0's position from its packed texel (level 0 has no position planes unless kept) */
 static inline void last_load(const last_job *J, int i, int j, float p[3], float n[3])
 {
     const float *q = J->T->t + 4 * ((size_t)j * (size_t)J->T->width + (size_t)i);
+    const int y = J->K->full_height - 1 - j;
     for (int c = 0; c < 3; c++) {
         p[c] = q[c];
-        n[c] = at(&J->L->normal[c], i, j);
+        n[c] = obs_image_f32_row(&J->nrm[c], y)[i];
     }
+    nrm0_fix(n, 1);
 }
 
 /* The Poisson taps of a surface texel (i, j): occlusion (sampleCount is K->samples) */
@@ -938,16 +954,28 @@ static inline void last_finish(const last_job *J, int i, int j, int xr, const fl
 }
 
 #if defined(MS_AVX2)
+/* last_load's normals (nrm0_fix on surface texels) for texels i..i+7 */
+MS_TARGET static inline void ms_nrm0_load8(const last_job *J, int i, int j, __m256 n[3])
+{
+    const int y = J->K->full_height - 1 - j;
+    const __m256 zero = _mm256_setzero_ps();
+    __m256 finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
+    for (int c = 0; c < 3; c++) {
+        n[c] = _mm256_loadu_ps(obs_image_f32_row(&J->nrm[c], y) + i);
+        finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_sub_ps(n[c], n[c]), zero, _CMP_EQ_OQ)); /* x - x = 0 */
+    }
+    for (int c = 0; c < 3; c++)
+        n[c] = _mm256_and_ps(n[c], finite);
+}
+
 /* last_taps for texels i..i+7 (lanes whose valid w <= 0 compute values that are not used) */
 MS_TARGET static void last_taps8(const last_job *J, int i, int j, float *occ_out)
 {
     const ao_mssao_constants *K = J->K;
-    const ao_mssao_level *L = J->L;
     const packed_level *T = J->T;
     __m256 p[3], n[3], w;
     ms_load8x4_row(T, i, j, &p[0], &p[1], &p[2], &w);
-    for (int c = 0; c < 3; c++)
-        n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
+    ms_nrm0_load8(J, i, j, n);
     const __m256 rm = ms_range_max(K, K->r[0], p[2]);
     const __m256 fcx = _mm256_add_ps(_mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(i), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))),
                                      _mm256_set1_ps(0.5f));
@@ -1092,7 +1120,6 @@ MS_TARGET static int coarse_finish8(const ao_job *J, int i, int j, const float *
 MS_TARGET static void last_finish8(const last_job *J, int i, int j, int xr, const float *occ8, float *vrow, int64_t *bg,
                                    int64_t *fb)
 {
-    const ao_mssao_level *L = J->L;
     const __m256 zero = _mm256_setzero_ps(), one = _mm256_set1_ps(1.0f);
     __m256 px, py, pz, pw;
     ms_load8x4_row(J->T, i, j, &px, &py, &pz, &pw);
@@ -1103,8 +1130,7 @@ MS_TARGET static void last_finish8(const last_job *J, int i, int j, int xr, cons
     __m256 o[3], aoMax, aoAverage;
     if (J->C) {
         __m256 n[3], up[3];
-        for (int c = 0; c < 3; c++)
-            n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
+        ms_nrm0_load8(J, i, j, n);
         *fb += __builtin_popcount((unsigned)(ms_upsample8(J->C, J->cao, i, j, pz, n, up) & sm));
         aoMax = ms_fmax8(up[0], own);
         o[1] = _mm256_add_ps(up[1], occ);
@@ -1300,7 +1326,7 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
             g0_job J = {in, nrm, L, pk[0]};
             obs_pool_run(pool, H, g0_row, &J);
         } else {
-            ds_job J = {&lv->level[l - 1], L, pk[l - 1], K->downsample, K->d_threshold};
+            ds_job J = {&lv->level[l - 1], L, pk[l - 1], l == 1 ? nrm : NULL, K->downsample, K->d_threshold};
             obs_pool_run(pool, L->height, ds_row, &J);
             pack_job PJ = {L, pk[l]};
             obs_pool_run(pool, L->height, pack_row, &PJ);
@@ -1344,7 +1370,8 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
                       lv->count < 0 ? &lv->visibility : NULL,
                       counts,
                       avx2,
-                      avx2 && ms_up8_ok(C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL)};
+                      avx2 && ms_up8_ok(C, C ? (K->level_blur ? C->ao_blur : C->ao) : NULL),
+                      nrm};
         obs_pool_run(pool, vis->height, last_row, &J);
         int64_t bg = 0;
         for (int r = 0; r < vis->height; r++) {
@@ -1429,14 +1456,17 @@ obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
     ao_mssao_levels *lv = (ao_mssao_levels *)calloc(1, sizeof *lv);
     if (!lv)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
-    st = obs_image_f32_alloc(ctx, rect[2], rect[3], &raw);
+    /* Speed: without the final blur the region is the window, and level 0 writes straight into out */
+    obs_image_f32 *level0 = K.blur ? &raw : out;
+    if (K.blur)
+        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &raw);
     if (st == OBS_STATUS_OK)
-        st = mssao_run(ctx, pool, in, params, &K, rect[0], rect[1], &raw, lv, stats);
+        st = mssao_run(ctx, pool, in, params, &K, rect[0], rect[1], level0, lv, stats);
     ao_mssao_levels_free(lv);
     free(lv);
 
     /* ---- 4. The optional final blur (the seed's 21-tap Gaussian), then the window ---- */
-    const obs_image_f32 *final = &raw;
+    const obs_image_f32 *final = level0;
     double t0 = obs_time_now();
     if (st == OBS_STATUS_OK && K.blur) {
         st = obs_image_f32_alloc(ctx, rect[2], rect[3], &blurred);
@@ -1449,9 +1479,10 @@ obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
     if (st == OBS_STATUS_OK) {
         const int ox = in->x0 - rect[0], oy = in->y0 - rect[1];
         for (int y = 0; y < in->h; y++) {
-            memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, y + oy) + ox, sizeof(float) * (size_t)in->w);
+            if (final != out)
+                memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, y + oy) + ox, sizeof(float) * (size_t)in->w);
             if (out_raw)
-                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, y + oy) + ox,
+                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(level0, y + oy) + ox,
                        sizeof(float) * (size_t)in->w);
         }
     }
