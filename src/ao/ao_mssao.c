@@ -203,25 +203,27 @@ void ao_mssao_levels_free(ao_mssao_levels *lv)
     memset(lv, 0, sizeof *lv);
 }
 
-/* Allocate the G-buffer planes (when pos) and, when ao, the AO planes of one level. */
-static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h, int pos, int ao, int blur)
+/* Allocate the planes of one level: gbuf, position z and the normals (what the blur and the
+ * upsampling read); full (the kept levels), also position x, y, the validity and own (the packed
+ * texels hold x, y, z, w for the kernels); ao, the AO planes; blur, the blurred ones. */
+static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h, int gbuf, int full, int ao, int blur)
 {
     obs_status st = OBS_STATUS_OK;
     L->width = w;
     L->height = h;
     for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++) {
-        if (pos)
+        if (full || (gbuf && c == 2))
             st = obs_image_f32_alloc(ctx, w, h, &L->pos[c]);
-        if (st == OBS_STATUS_OK && pos)
+        if (st == OBS_STATUS_OK && (gbuf || full))
             st = obs_image_f32_alloc(ctx, w, h, &L->normal[c]);
         if (st == OBS_STATUS_OK && ao)
             st = obs_image_f32_alloc(ctx, w, h, &L->ao[c]);
         if (st == OBS_STATUS_OK && blur)
             st = obs_image_f32_alloc(ctx, w, h, &L->ao_blur[c]);
     }
-    if (st == OBS_STATUS_OK && pos)
+    if (st == OBS_STATUS_OK && full)
         st = obs_image_f32_alloc(ctx, w, h, &L->valid);
-    if (st == OBS_STATUS_OK && ao)
+    if (st == OBS_STATUS_OK && ao && full)
         st = obs_image_f32_alloc(ctx, w, h, &L->own);
     return st;
 }
@@ -349,6 +351,7 @@ static void g0_row(void *user, int64_t task, int thread)
 typedef struct ds_job {
     const ao_mssao_level *F;    /* finer */
     ao_mssao_level *C;          /* coarser */
+    float *cpk;                 /* the coarser level's packed texels, written here */
     const float *fpk;           /* the finer level's packed (x, y, z, w) */
     const obs_image_f32 *fnrm;  /* level 0 as the finer level: its source normals (our rows), else NULL */
     int rule;
@@ -378,11 +381,13 @@ static void ds_row(void *user, int64_t task, int thread)
         }
         src[k][6] = q + 3;
     }
+    const int full = C->valid.data != NULL;
     for (int c = 0; c < 3; c++) {
-        dst[c] = obs_image_f32_row(&C->pos[c], j);
+        dst[c] = full || c == 2 ? obs_image_f32_row(&C->pos[c], j) : NULL;
         dst[3 + c] = obs_image_f32_row(&C->normal[c], j);
     }
-    dst[6] = obs_image_f32_row(&C->valid, j);
+    dst[6] = full ? obs_image_f32_row(&C->valid, j) : NULL;
+    float *Q = J->cpk + 4 * (size_t)j * (size_t)C->width;
     for (int i = 0; i < C->width; i++) {
         const int cx[4] = {clampi(2 * i, 0, F->width - 1), clampi(2 * i + 1, 0, F->width - 1),
                            clampi(2 * i + 1, 0, F->width - 1), clampi(2 * i, 0, F->width - 1)};
@@ -438,14 +443,20 @@ static void ds_row(void *user, int64_t task, int thread)
         for (int c = 0; c < 7; c++)
             o[c] = avg ? (v[a][c] + v[b][c]) / 2.0f : v[a][c]; /* "(pos[median.x] + pos[median.y]) / 2.0" */
         for (int c = 0; c < 7; c++)
-            dst[c][i] = o[c];
+            if (dst[c])
+                dst[c][i] = o[c];
+        Q[4 * i] = o[0];
+        Q[4 * i + 1] = o[1];
+        Q[4 * i + 2] = o[2];
+        Q[4 * i + 3] = o[6];
     }
 }
 
 /* ---- The per-sample term (ComputeOcclusion in ao*.frag) ---- */
 
 /* Each level's taps read one interleaved (x, y, z, w) texel (the posTex.xyz and normTex.w the
- * shader fetches), packed from the planes once per level: one cache line per tap. */
+ * shader fetches): one cache line per tap. g0_row and ds_row write them; the x, y and w planes exist
+ * only when the levels are kept. */
 typedef struct packed_level {
     const float *t;             /* width * height * 4 floats, GL rows */
     int width, height;
@@ -472,28 +483,6 @@ static inline void occlusion_tap(const packed_level *L, int tx, int ty, const fl
     }
     *occ += t * cosTheta * q[3]; /* occlusion += t * cosTheta * sampleNorm.w */
     *cnt += 1.0f;
-}
-
-typedef struct pack_job {
-    const ao_mssao_level *L;
-    float *t;
-} pack_job;
-
-static void pack_row(void *user, int64_t task, int thread)
-{
-    (void)thread;
-    const pack_job *J = (const pack_job *)user;
-    const ao_mssao_level *L = J->L;
-    const int j = (int)task;
-    float *o = J->t + 4 * (size_t)j * (size_t)L->width;
-    const float *P0 = obs_image_f32_row(&L->pos[0], j), *P1 = obs_image_f32_row(&L->pos[1], j),
-                *P2 = obs_image_f32_row(&L->pos[2], j), *V = obs_image_f32_row(&L->valid, j);
-    for (int i = 0; i < L->width; i++) {
-        o[4 * i] = P0[i];
-        o[4 * i + 1] = P1[i];
-        o[4 * i + 2] = P2[i];
-        o[4 * i + 3] = V[i];
-    }
 }
 
 /* ---- Bilateral upsampling (Upsample() in ao.frag / aoLast.frag) ---- */
@@ -648,11 +637,12 @@ typedef struct ao_job {
     int avx2, up8;                    /* the AVX2 taps; the AVX2 upsampling (ms_up8_ok) */
 } ao_job;
 
-static inline void coarse_load(const ao_mssao_level *L, int i, int j, float p[3], float n[3])
+static inline void coarse_load(const ao_job *J, int i, int j, float p[3], float n[3])
 {
+    const float *q = J->T->t + 4 * ((size_t)j * (size_t)J->T->width + (size_t)i);
     for (int c = 0; c < 3; c++) {
-        p[c] = at(&L->pos[c], i, j);
-        n[c] = at(&L->normal[c], i, j);
+        p[c] = q[c];
+        n[c] = at(&J->L->normal[c], i, j);
     }
 }
 
@@ -723,7 +713,8 @@ static inline int coarse_finish(const ao_job *J, int i, int j, const float p[3],
         o[1] = up[1] + occ;
         o[2] = up[2] + cnt;
     }
-    obs_image_f32_row(&L->own, j)[i] = own;
+    if (L->own.data)
+        obs_image_f32_row(&L->own, j)[i] = own;
     for (int c = 0; c < 3; c++)
         obs_image_f32_row(&L->ao[c], j)[i] = o[c];
     return fb;
@@ -737,11 +728,10 @@ MS_TARGET static int coarse_taps8(const ao_job *J, int i, int j, float *occ_out,
     const ao_mssao_constants *K = J->K;
     const ao_mssao_level *L = J->L;
     const packed_level *T = J->T;
-    __m256 p[3], n[3];
-    for (int c = 0; c < 3; c++) {
-        p[c] = _mm256_loadu_ps(obs_image_f32_row(&L->pos[c], j) + i);
+    __m256 p[3], n[3], w;
+    ms_load8x4_row(T, i, j, &p[0], &p[1], &p[2], &w);
+    for (int c = 0; c < 3; c++)
         n[c] = _mm256_loadu_ps(obs_image_f32_row(&L->normal[c], j) + i);
-    }
     const __m256 zero = _mm256_setzero_ps();
     const __m256 nz = _mm256_and_ps(_mm256_and_ps(_mm256_cmp_ps(n[0], zero, _CMP_EQ_OQ), _mm256_cmp_ps(n[1], zero, _CMP_EQ_OQ)),
                                     _mm256_cmp_ps(n[2], zero, _CMP_EQ_OQ));
@@ -1110,7 +1100,8 @@ MS_TARGET static int coarse_finish8(const ao_job *J, int i, int j, const float *
         o[1] = _mm256_add_ps(up[1], occ);
         o[2] = _mm256_add_ps(up[2], cnt);
     }
-    _mm256_storeu_ps(obs_image_f32_row(&L->own, j) + i, own);
+    if (L->own.data)
+        _mm256_storeu_ps(obs_image_f32_row(&L->own, j) + i, own);
     for (int c = 0; c < 3; c++)
         _mm256_storeu_ps(obs_image_f32_row(&L->ao[c], j) + i, o[c]);
     return fb;
@@ -1189,21 +1180,21 @@ static void ao_coarse_row(void *user, int64_t task, int thread)
             float occ8[8], cnt8[8];
             if (!coarse_taps8(J, i, j, occ8, cnt8))
                 for (int k = 0; k < 8; k++) {
-                    coarse_load(L, i + k, j, p, n);
+                    coarse_load(J, i + k, j, p, n);
                     coarse_taps(J, i + k, j, p, n, &occ8[k], &cnt8[k], &memo);
                 }
             if (J->up8) {
                 fb += coarse_finish8(J, i, j, occ8, cnt8);
             } else {
                 for (int k = 0; k < 8; k++) {
-                    coarse_load(L, i + k, j, p, n);
+                    coarse_load(J, i + k, j, p, n);
                     fb += coarse_finish(J, i + k, j, p, n, occ8[k], cnt8[k]);
                 }
             }
         }
 #endif
     for (; i < L->width; i++) {
-        coarse_load(L, i, j, p, n);
+        coarse_load(J, i, j, p, n);
         coarse_taps(J, i, j, p, n, &occ, &cnt, &memo);
         fb += coarse_finish(J, i, j, p, n, occ, cnt);
     }
@@ -1313,7 +1304,7 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
         /* Speed: level 0's positions and validity live only in its packed texels (g0_row writes
          * them there), unless every plane is kept: 4 full-size planes fewer to allocate and fill. */
         const int keep = lv->count < 0;
-        st = level_alloc(ctx, L, K->level_width[l], K->level_height[l], l > 0 || keep, l > 0 || keep,
+        st = level_alloc(ctx, L, K->level_width[l], K->level_height[l], l > 0 || keep, keep, l > 0 || keep,
                          l > 0 && K->level_blur);
         if (st != OBS_STATUS_OK)
             break;
@@ -1326,10 +1317,8 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
             g0_job J = {in, nrm, L, pk[0]};
             obs_pool_run(pool, H, g0_row, &J);
         } else {
-            ds_job J = {&lv->level[l - 1], L, pk[l - 1], l == 1 ? nrm : NULL, K->downsample, K->d_threshold};
+            ds_job J = {&lv->level[l - 1], L, pk[l], pk[l - 1], l == 1 ? nrm : NULL, K->downsample, K->d_threshold};
             obs_pool_run(pool, L->height, ds_row, &J);
-            pack_job PJ = {L, pk[l]};
-            obs_pool_run(pool, L->height, pack_row, &PJ);
         }
         T[l].t = pk[l];
         T[l].width = L->width;
