@@ -674,11 +674,13 @@ TEST(mssao_avx2_matches_scalar_bit_for_bit)
         for (int l = 0; l < la.count; l++) {
             for (int c = 0; c < 3; c++) {
                 CHECK_MSG(tu_same_plane(&la.level[l].pos[c], &lb.level[l].pos[c]), "level %d pos %d", l, c);
+                CHECK_MSG(tu_same_plane(&la.level[l].normal[c], &lb.level[l].normal[c]), "level %d normal %d", l, c);
                 CHECK_MSG(tu_same_plane(&la.level[l].ao[c], &lb.level[l].ao[c]), "level %d ao %d", l, c);
                 if (l > 0)
                     CHECK_MSG(tu_same_plane(&la.level[l].ao_blur[c], &lb.level[l].ao_blur[c]), "level %d blur %d", l, c);
             }
             CHECK_MSG(tu_same_plane(&la.level[l].own, &lb.level[l].own), "level %d own", l);
+            CHECK_MSG(tu_same_plane(&la.level[l].valid, &lb.level[l].valid), "level %d valid", l);
         }
         ao_mssao_levels_free(&la);
         ao_mssao_levels_free(&lb);

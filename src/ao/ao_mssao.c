@@ -356,7 +356,13 @@ typedef struct ds_job {
     const obs_image_f32 *fnrm;  /* level 0 as the finer level: its source normals (our rows), else NULL */
     int rule;
     float thr;
+    int avx2;
 } ds_job;
+
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+__attribute__((target("avx2"))) static void ds_hoang8(const ds_job *J, const float *const src[4][7],
+                                                      float *const dst[7], float *Q, int i);
+#endif
 
 static void ds_row(void *user, int64_t task, int thread)
 {
@@ -388,7 +394,13 @@ static void ds_row(void *user, int64_t task, int thread)
     }
     dst[6] = full ? obs_image_f32_row(&C->valid, j) : NULL;
     float *Q = J->cpk + 4 * (size_t)j * (size_t)C->width;
-    for (int i = 0; i < C->width; i++) {
+    int i = 0;
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+    if (J->avx2 && J->rule == AO_MSSAO_DOWNSAMPLE_HOANG)
+        for (; i + 8 <= C->width && 2 * i + 16 <= F->width; i += 8)
+            ds_hoang8(J, (const float *const(*)[7])src, dst, Q, i);
+#endif
+    for (; i < C->width; i++) {
         const int cx[4] = {clampi(2 * i, 0, F->width - 1), clampi(2 * i + 1, 0, F->width - 1),
                            clampi(2 * i + 1, 0, F->width - 1), clampi(2 * i, 0, F->width - 1)};
         float v[4][7]; /* pos xyz, normal xyz, w */
@@ -1150,6 +1162,92 @@ MS_TARGET static void last_finish8(const last_job *J, int i, int j, int xr, cons
 }
 #endif
 
+#if defined(MS_AVX2)
+/* ms_fminf(a, b) lane-wise: (a < b || b is NaN) ? a : b */
+MS_TARGET static inline __m256 ms_fmin8(__m256 a, __m256 b)
+{
+    const __m256 m = _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_LT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q));
+    return _mm256_blendv_ps(b, a, m);
+}
+
+/* lane-wise arr[pos] for pos in 0..3 */
+MS_TARGET static inline __m256 ms_sel4(__m256i pos, const __m256 arr[4])
+{
+    __m256 r = arr[0];
+    for (int k = 1; k < 4; k++)
+        r = _mm256_blendv_ps(r, arr[k], _mm256_castsi256_ps(_mm256_cmpeq_epi32(pos, _mm256_set1_epi32(k))));
+    return r;
+}
+
+/* ds_row's Hoang rule for coarse texels i..i+7, all children inside the finer row (2i + 16 <= width) */
+MS_TARGET static void ds_hoang8(const ds_job *J, const float *const src[4][7], float *const dst[7], float *Q, int i)
+{
+    __m256 v[7][4]; /* channel (pos xyz, normal xyz, w), child */
+    for (int k = 0; k < 4; k++) {
+        const int par = k == 1 || k == 2; /* children [1], [2] are in the odd column 2i + 1 */
+        int idx[8];
+        for (int m = 0; m < 8; m++)
+            idx[m] = 4 * (2 * (i + m) + par);
+        ms_load8x4(src[k][0], idx, &v[0][k], &v[1][k], &v[2][k], &v[6][k]);
+        __m256 finite = _mm256_cmp_ps(v[6][k], _mm256_setzero_ps(), _CMP_GT_OQ);
+        for (int c = 0; c < 3; c++) {
+            const float *s = src[k][3 + c] + 2 * i;
+            const __m256 lo = _mm256_loadu_ps(s), hi = _mm256_loadu_ps(s + 8);
+            const __m256 sh = par ? _mm256_shuffle_ps(lo, hi, 0xDD) : _mm256_shuffle_ps(lo, hi, 0x88); /* l0 l2 h0 h2 | l4 l6 h4 h6 */
+            v[3 + c][k] = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(sh), 0xD8));
+            finite = _mm256_and_ps(finite, _mm256_cmp_ps(_mm256_sub_ps(v[3 + c][k], v[3 + c][k]), _mm256_setzero_ps(), _CMP_EQ_OQ));
+        }
+        if (J->fnrm) /* nrm0_fix */
+            for (int c = 0; c < 3; c++)
+                v[3 + c][k] = _mm256_and_ps(v[3 + c][k], finite);
+    }
+    /* downsample.frag: min and max z, the last index wins a tie */
+    const __m256 *z = v[2];
+    const __m256 maxZ = ms_fmax8(ms_fmax8(z[0], z[1]), ms_fmax8(z[2], z[3]));
+    const __m256 minZ = ms_fmin8(ms_fmin8(z[0], z[1]), ms_fmin8(z[2], z[3]));
+    __m256i minPos = _mm256_setzero_si256(), maxPos = _mm256_setzero_si256();
+    for (int k = 0; k < 4; k++) {
+        const __m256i kk = _mm256_set1_epi32(k);
+        minPos = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(minPos), _mm256_castsi256_ps(kk),
+                                                      _mm256_cmp_ps(z[k], minZ, _CMP_EQ_OQ)));
+        maxPos = _mm256_castps_si256(_mm256_blendv_ps(_mm256_castsi256_ps(maxPos), _mm256_castsi256_ps(kk),
+                                                      _mm256_cmp_ps(z[k], maxZ, _CMP_EQ_OQ)));
+    }
+    /* d = distance(pos[minPos].xyz, pos[maxPos].xyz) */
+    const __m256 dx = _mm256_sub_ps(ms_sel4(minPos, v[0]), ms_sel4(maxPos, v[0]));
+    const __m256 dy = _mm256_sub_ps(ms_sel4(minPos, v[1]), ms_sel4(maxPos, v[1]));
+    const __m256 dz = _mm256_sub_ps(ms_sel4(minPos, v[2]), ms_sel4(maxPos, v[2]));
+    const __m256 d = _mm256_sqrt_ps(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz)));
+    /* the first two indices that are neither minPos nor maxPos */
+    __m256i a = _mm256_setzero_si256(), b = _mm256_setzero_si256(), found = _mm256_setzero_si256();
+    for (int k = 0; k < 4; k++) {
+        const __m256i kk = _mm256_set1_epi32(k);
+        const __m256i ok = _mm256_andnot_si256(_mm256_or_si256(_mm256_cmpeq_epi32(minPos, kk), _mm256_cmpeq_epi32(maxPos, kk)),
+                                               _mm256_set1_epi32(-1));
+        const __m256i first = _mm256_and_si256(ok, _mm256_cmpeq_epi32(found, _mm256_setzero_si256()));
+        const __m256i second = _mm256_and_si256(ok, _mm256_cmpeq_epi32(found, _mm256_set1_epi32(1)));
+        a = _mm256_blendv_epi8(a, kk, first);
+        b = _mm256_blendv_epi8(b, kk, second);
+        found = _mm256_sub_epi32(found, ok);
+    }
+    const __m256 avg = _mm256_cmp_ps(d, _mm256_set1_ps(J->thr), _CMP_LT_OQ); /* "if (d < 1.0)" */
+    float o[7][8];
+    for (int c = 0; c < 7; c++) {
+        const __m256 va = ms_sel4(a, v[c]), vb = ms_sel4(b, v[c]);
+        const __m256 r = _mm256_blendv_ps(va, _mm256_div_ps(_mm256_add_ps(va, vb), _mm256_set1_ps(2.0f)), avg);
+        _mm256_storeu_ps(o[c], r);
+        if (dst[c])
+            _mm256_storeu_ps(dst[c] + i, r);
+    }
+    for (int m = 0; m < 8; m++) {
+        Q[4 * (i + m)] = o[0][m];
+        Q[4 * (i + m) + 1] = o[1][m];
+        Q[4 * (i + m) + 2] = o[2][m];
+        Q[4 * (i + m) + 3] = o[6][m];
+    }
+}
+#endif
+
 /* Whether the AVX2 upsampling may read level C: its 7 planes share one stride and its offsets fit an int */
 static int ms_up8_ok(const ao_mssao_level *C, const obs_image_f32 *cao)
 {
@@ -1317,7 +1415,7 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
             g0_job J = {in, nrm, L, pk[0]};
             obs_pool_run(pool, H, g0_row, &J);
         } else {
-            ds_job J = {&lv->level[l - 1], L, pk[l], pk[l - 1], l == 1 ? nrm : NULL, K->downsample, K->d_threshold};
+            ds_job J = {&lv->level[l - 1], L, pk[l], pk[l - 1], l == 1 ? nrm : NULL, K->downsample, K->d_threshold, avx2};
             obs_pool_run(pool, L->height, ds_row, &J);
         }
         T[l].t = pk[l];
