@@ -571,6 +571,131 @@ TEST(mssao_threads_and_window_give_identical_output)
     obs_context_destroy(ctx);
 }
 
+/* ---- AVX2 = scalar ------------------------------------------------------------------------------ */
+
+/* One run with OBS_ISA forced to scalar (scalar = 1) or left to the CPU: out, out_raw, stats. */
+static obs_status run_isa(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *p, int scalar,
+                          obs_image_f32 out[2], ao_mssao_stats *st)
+{
+    if (scalar)
+        setenv("OBS_ISA", "scalar", 1);
+    obs_status s = obs_image_f32_alloc(ctx, in->w, in->h, &out[0]);
+    if (s == OBS_STATUS_OK)
+        s = obs_image_f32_alloc(ctx, in->w, in->h, &out[1]);
+    if (s == OBS_STATUS_OK)
+        s = ao_mssao_compute(ctx, pool, in, p, &out[0], &out[1], st);
+    if (scalar)
+        unsetenv("OBS_ISA");
+    return s;
+}
+
+TEST(mssao_avx2_matches_scalar_bit_for_bit)
+{
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+    if (!__builtin_cpu_supports("avx2"))
+        printf("  (no AVX2 on this CPU: both runs take the scalar path)\n");
+#else
+    printf("  (built without AVX2: both runs take the scalar path)\n");
+#endif
+    const char *was = getenv("OBS_ISA");
+    char saved[64] = "";
+    if (was)
+        snprintf(saved, sizeof saved, "%s", was);
+    unsetenv("OBS_ISA");
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    tu_ao_scene(&s);
+    rast_gbuffer gb;
+    /* odd sizes and an odd guard band: unaligned windows, odd level sizes, partial 8-texel groups */
+    CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), 203, 131, 9, &gb), ctx);
+    ao_input in;
+    CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+    /* The real scene with background, plus NaN, huge and tiny depths and non-finite normals */
+    obs_image_f32 depth, nrm[3];
+    CHECK_OK(obs_image_f32_alloc(ctx, in.width, in.height, &depth), ctx);
+    for (int c = 0; c < 3; c++)
+        CHECK_OK(obs_image_f32_alloc(ctx, in.width, in.height, &nrm[c]), ctx);
+    int64_t bg = 0;
+    for (int y = 0; y < in.height; y++)
+        for (int x = 0; x < in.width; x++) {
+            const unsigned h = (unsigned)(x * 73856093u) ^ (unsigned)(y * 19349663u);
+            float d = obs_image_f32_row(in.depth, y)[x];
+            bg += !isfinite(d);
+            if (h % 61 == 0) d = NAN;
+            else if (h % 67 == 0) d = 3e38f;
+            else if (h % 71 == 0) d = 1e30f;
+            else if (h % 73 == 0) d = 1e-4f;
+            else if (h % 79 == 0) d = -2.0f;
+            obs_image_f32_row(&depth, y)[x] = d;
+            for (int c = 0; c < 3; c++)
+                obs_image_f32_row(&nrm[c], y)[x] = h % 83 == 0 ? NAN : obs_image_f32_row(in.normal[c], y)[x];
+        }
+    CHECK(bg > 1000); /* the scene has background */
+    in.depth = &depth;
+    for (int c = 0; c < 3; c++)
+        in.normal[c] = &nrm[c];
+    obs_pool *pool = obs_pool_create(2);
+    int64_t fallbacks = 0;
+    for (int pi = 0; pi < 7; pi++) {
+        ao_mssao_params p = ao_mssao_params_default();
+        ao_input run_in = in;
+        if (pi == 1) CHECK(ao_mssao_params_preset("thesis", &p));       /* final blur, dMax 2 */
+        if (pi == 2) CHECK(ao_mssao_params_preset("kool", &p));         /* sorted downsampling */
+        if (pi == 3) { p.samples = 27; p.normals = AO_MSSAO_NORMALS_DEPTH; }
+        if (pi == 4) { p.r_max = 17.0f; p.d_max = 0.3f; p.level_blur = 0; }
+        if (pi == 5) { p.levels = 1; p.samples = 5; }
+        if (pi == 6) { run_in.projection = OBS_PROJECTION_ORTHOGRAPHIC; run_in.fx = run_in.fy = 40.0; }
+        obs_image_f32 a[2], b[2];
+        ao_mssao_stats sa, sb;
+        CHECK_OK(run_isa(ctx, pool, &run_in, &p, 1, a, &sa), ctx);
+        CHECK_OK(run_isa(ctx, pool, &run_in, &p, 0, b, &sb), ctx);
+        CHECK_MSG(tu_same_plane(&a[0], &b[0]) && tu_same_plane(&a[1], &b[1]), "params %d: AVX2 differs from scalar", pi);
+        CHECK_MSG(sa.pixels_background == sb.pixels_background &&
+                      sa.pixels_upsample_fallback == sb.pixels_upsample_fallback,
+                  "params %d: stats differ (background %lld / %lld, fallback %lld / %lld)", pi,
+                  (long long)sa.pixels_background, (long long)sb.pixels_background,
+                  (long long)sa.pixels_upsample_fallback, (long long)sb.pixels_upsample_fallback);
+        fallbacks += sa.pixels_upsample_fallback;
+        for (int k = 0; k < 2; k++) {
+            obs_image_f32_free(&a[k]);
+            obs_image_f32_free(&b[k]);
+        }
+    }
+    CHECK_MSG(fallbacks > 0, "the huge depths should exercise the bilinear fallback");
+    /* the kept levels (every plane, level 0's positions included) */
+    {
+        ao_mssao_params p = ao_mssao_params_default();
+        ao_mssao_levels la, lb;
+        setenv("OBS_ISA", "scalar", 1);
+        CHECK_OK(ao_mssao_compute_levels(ctx, pool, &in, &p, &la), ctx);
+        unsetenv("OBS_ISA");
+        CHECK_OK(ao_mssao_compute_levels(ctx, pool, &in, &p, &lb), ctx);
+        CHECK(tu_same_plane(&la.visibility, &lb.visibility));
+        for (int l = 0; l < la.count; l++) {
+            for (int c = 0; c < 3; c++) {
+                CHECK_MSG(tu_same_plane(&la.level[l].pos[c], &lb.level[l].pos[c]), "level %d pos %d", l, c);
+                CHECK_MSG(tu_same_plane(&la.level[l].normal[c], &lb.level[l].normal[c]), "level %d normal %d", l, c);
+                CHECK_MSG(tu_same_plane(&la.level[l].ao[c], &lb.level[l].ao[c]), "level %d ao %d", l, c);
+                if (l > 0)
+                    CHECK_MSG(tu_same_plane(&la.level[l].ao_blur[c], &lb.level[l].ao_blur[c]), "level %d blur %d", l, c);
+            }
+            CHECK_MSG(tu_same_plane(&la.level[l].own, &lb.level[l].own), "level %d own", l);
+            CHECK_MSG(tu_same_plane(&la.level[l].valid, &lb.level[l].valid), "level %d valid", l);
+        }
+        ao_mssao_levels_free(&la);
+        ao_mssao_levels_free(&lb);
+    }
+    obs_pool_destroy(pool);
+    obs_image_f32_free(&depth);
+    for (int c = 0; c < 3; c++)
+        obs_image_f32_free(&nrm[c]);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+    if (saved[0])
+        setenv("OBS_ISA", saved, 1);
+}
+
 /* ---- hard cases ------------------------------------------------------------------------------- */
 
 TEST(mssao_hard_cases_stay_finite_and_in_unit_range)
