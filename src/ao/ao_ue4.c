@@ -28,6 +28,7 @@
 #include "ao_internal.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -335,11 +336,14 @@ static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? 
 typedef struct level {
     int w, h;
     float s;              /* ScaleToFullRes: 1, 2, 4 */
+    float inv_s;          /* 1 / s: a power of two, so u * inv_s is u / s bit for bit */
     obs_image_f32 z;      /* depth in uu; background -> max_depth */
     obs_image_f32 n[3];   /* normalised UE view-space normals (0 = unusable); modes 1, 2 */
     obs_image_f32 e[3];   /* the setup's stored normal (n * 0.5 + 0.5, averaged); levels >= 1 */
     unsigned char *bg;    /* 1: background */
     obs_image_f32 ao;     /* levels >= 1: the level's AO (after its quad blur) */
+    float *spx, *spy;     /* ScreenPos.x of column x in [0, w], ScreenPos.y of row y in [0, h]
+                             (a quad's helper lane may be one past the edge) */
     float radius;         /* AORadiusInShader of the level */
     float samples[12];
     int sample_count;
@@ -350,28 +354,32 @@ typedef struct prep {
     const ao_input *in;
     level lv[AO_UE4_MAX_LEVELS];
     int levels;
+    int simd;             /* 1: the AVX2 row kernel (bit-identical to the scalar one) */
     float rand_vec[16][2];/* RandomVec / ActualAORadius = .rg * 2 - 1 */
     float cx, cy, half_w, half_h; /* principal point and half size of the full buffer */
+    float fov_fix[3], inv_fov_fix[3]; /* FovFix = (P00, P11, 1) and 1 / FovFix (per frame) */
 } prep;
 
-static inline int texel_x(const prep *P, const level *L, float sx)
+/* ScreenPosToHZBUV + point sampling on the level's depth: floor((sx * W/2 + cx) / s), clamped
+ * to the level. The position is first clamped to +-1e9 (NaN -> -1e9), so the truncation below is
+ * floorf exactly: (int)u rounds toward zero, one less where that was upwards. */
+static inline int texel_clamp_floor(float u, int n)
 {
-    /* ScreenPosToHZBUV + point sampling, on the level's depth: floor((sx * W/2 + cx) / s) */
-    float u = (sx * P->half_w + P->cx) / L->s;
     if (!(u > -1e9f))
         u = -1e9f;
     if (u > 1e9f)
         u = 1e9f;
-    return clampi((int)floorf(u), 0, L->w - 1);
+    int i = (int)u;
+    i -= (float)i > u;
+    return clampi(i, 0, n - 1);
+}
+static inline int texel_x(const prep *P, const level *L, float sx)
+{
+    return texel_clamp_floor((sx * P->half_w + P->cx) * L->inv_s, L->w);
 }
 static inline int texel_y(const prep *P, const level *L, float sy)
 {
-    float v = (P->cy - sy * P->half_h) / L->s; /* NDC y up -> our row (down) */
-    if (!(v > -1e9f))
-        v = -1e9f;
-    if (v > 1e9f)
-        v = 1e9f;
-    return clampi((int)floorf(v), 0, L->h - 1);
+    return texel_clamp_floor((P->cy - sy * P->half_h) * L->inv_s, L->h); /* NDC y up -> our row (down) */
 }
 static inline float depth_at(const prep *P, const level *L, float sx, float sy)
 {
@@ -408,16 +416,40 @@ static float upsample(const prep *P, int l, int x, int y, float SceneDepth, cons
     return Ret / WeightSum;
 }
 
+/* The end of MainPSandCS after the sample loop: r = Sum / WeightSum of the pixel, its upsampled
+ * blend (coarser levels present), and at level 0 the fade and the user adjustment. n is the
+ * pixel's normal (zero without normals), (tx, ty) its clamped texel. */
+static float ue4_finish(const prep *P, int l, int x, int y, int tx, int ty, float r, float SceneDepth,
+                        const float n[3])
+{
+    const ao_ue4_constants *k = P->k;
+    const level *L = &P->lv[l];
+    /* "recombined result from multiple resolutions": lerp(ao, upsampled, MipBlend) (USE_UPSAMPLE) */
+    if (l + 1 < P->levels) {
+        float cn[3] = {n[0], n[1], n[2]}; /* CenterWorldNormal: level 0 the G-buffer's, else the setup's */
+        if (l > 0 && k->normal_mode != AO_UE4_NORMALS_NONE)
+            for (int c = 0; c < 3; c++)
+                cn[c] = obs_image_f32_row(&L->e[c], ty)[tx] * 2.0f - 1.0f;
+        r = lerpf(r, upsample(P, l, x, y, SceneDepth, cn), k->mip_blend);
+    }
+    if (l > 0)
+        return r;
+    /* "soft fade out AO in the distance" */
+    r = lerpf(r, 1.0f, saturatef(SceneDepth * k->fade_mul + k->fade_add));
+    /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity */
+    return 1.0f - (1.0f - powf(fabsf(r), k->power)) * k->intensity;
+}
+
 /* One pixel of MainPSandCS at level l (x, y in the level, possibly one past its edge: a quad's
  * helper lane). *ao gets OutColor.r (level 0: after the fade and the user adjustment; coarser
  * levels: the raw AO, as USE_AO_SETUP_AS_INPUT skips them), before the quad blur; *depth the
  * SceneDepth (uu) and nxy normalize(ViewSpaceNormal).xy for the quad blur. Returns 1 for a
- * background pixel (ao = 1). */
+ * background pixel (ao = 1). The scalar reference: the AVX2 row kernel below computes the same
+ * operations in the same order, eight pixels at a time. */
 static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth, float nxy[2], int *bad_normal)
 {
     const ao_ue4_constants *k = P->k;
     const level *L = &P->lv[l];
-    const int W = k->full_width, H = k->full_height;
     const int tx = clampi(x, 0, L->w - 1), ty = clampi(y, 0, L->h - 1);
     nxy[0] = nxy[1] = 0.0f;
     *bad_normal = 0;
@@ -427,12 +459,10 @@ static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth
         *ao = 1.0f;
         return 1;
     }
-    /* ScreenPos (NDC, y up) of the pixel centre, from the principal point (computed in double) */
-    const double s = L->s;
-    const float sp_x = (float)((((double)x + 0.5) * s - P->in->cx) * 2.0 / W);
-    const float sp_y = (float)(-(((double)y + 0.5) * s - P->in->cy) * 2.0 / H);
-    const float FovFix[3] = {k->fov_fix[0], k->fov_fix[1], 1.0f};
-    const float InvFovFix[3] = {1.0f / FovFix[0], 1.0f / FovFix[1], 1.0f / FovFix[2]};
+    /* ScreenPos (NDC, y up) of the pixel centre, from the principal point (computed in double:
+     * the level's tables) */
+    const float sp_x = L->spx[x], sp_y = L->spy[y];
+    const float *FovFix = P->fov_fix, *InvFovFix = P->inv_fov_fix;
 
     /* ViewSpaceNormal = normalize(mul(WorldNormal, TranslatedWorldToView)) (prepared per pixel) */
     float n[3] = {0.0f, 0.0f, 0.0f};
@@ -553,24 +583,7 @@ static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth
             WA[1] += acc[2];
         }
     }
-    float r = WA[0] / WA[1];
-    /* "recombined result from multiple resolutions": lerp(ao, upsampled, MipBlend) (USE_UPSAMPLE) */
-    if (l + 1 < P->levels) {
-        float cn[3] = {n[0], n[1], n[2]}; /* CenterWorldNormal: level 0 the G-buffer's, else the setup's */
-        if (l > 0 && use_n)
-            for (int c = 0; c < 3; c++)
-                cn[c] = obs_image_f32_row(&L->e[c], ty)[tx] * 2.0f - 1.0f;
-        r = lerpf(r, upsample(P, l, x, y, SceneDepth, cn), k->mip_blend);
-    }
-    if (l > 0) {
-        *ao = r;
-        return 0;
-    }
-    /* "soft fade out AO in the distance" */
-    r = lerpf(r, 1.0f, saturatef(SceneDepth * k->fade_mul + k->fade_add));
-    /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity */
-    r = 1.0f - (1.0f - powf(fabsf(r), k->power)) * k->intensity;
-    *ao = r;
+    *ao = ue4_finish(P, l, x, y, tx, ty, WA[0] / WA[1], SceneDepth, n);
     return 0;
 }
 
@@ -582,18 +595,269 @@ typedef struct ao_job {
     int64_t (*counts)[2];  /* per row: background, zero normal */
 } ao_job;
 
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#define UE4_AVX2 1
+#include <immintrin.h>
+
+/* ================================================================================================
+ * The AVX2 row kernel: ue4_pixel for eight consecutive pixels of a row (lane i = pixel x0 + i),
+ * step for step. Every operation is the IEEE one of the scalar code (add, sub, mul, div, sqrt are
+ * correctly rounded in both; no FMA: this file has no -mfma and the build -ffp-contract=off), so
+ * the results are bit-identical (tests/test_ao_ue4.c, ue4_avx2_matches_scalar_bit_for_bit).
+ * Lanes are computed whole (background and zero-normal lanes too, on their clamped texels) and
+ * their results replaced afterwards, as ue4_pixel's early returns do. Multiplications by 1.0f
+ * (InvFovFix.z, the first Weight) are left out: they are exact.
+ * ============================================================================================== */
+
+#define UE4_AVX2_FN __attribute__((target("avx2")))
+
+/* saturate: v > 0 ? (v < 1 ? v : 1) : 0 (max_ps(a, b) is a > b ? a : b, NaN -> b = 0) */
+UE4_AVX2_FN static inline __m256 v_sat(__m256 v)
+{
+    return _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0f));
+}
+/* hmax(a, b) = a > b ? a : (b == b ? b : a) */
+UE4_AVX2_FN static inline __m256 v_hmax(__m256 a, __m256 b)
+{
+    const __m256 keep_a = _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_GT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q));
+    return _mm256_blendv_ps(b, a, keep_a);
+}
+/* lerp(a, b, t) = a + t * (b - a) */
+UE4_AVX2_FN static inline __m256 v_lerp(__m256 a, __m256 b, __m256 t)
+{
+    return _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
+}
+/* texel_clamp_floor of eight positions: clamp to +-1e9 (min/max_ps give the scalar's NaN rule),
+ * floor, convert, clamp to [0, n - 1] */
+UE4_AVX2_FN static inline __m256i v_texel(__m256 u, __m256i nm1)
+{
+    u = _mm256_max_ps(u, _mm256_set1_ps(-1e9f));
+    u = _mm256_min_ps(u, _mm256_set1_ps(1e9f));
+    const __m256i i = _mm256_cvttps_epi32(_mm256_floor_ps(u));
+    return _mm256_min_epi32(_mm256_max_epi32(i, _mm256_setzero_si256()), nm1);
+}
+
+/* Pixels x0 .. x0 + 7 of row y of level l (all inside the level: x0 + 7 < w). Writes the eight
+ * outputs of ue4_pixel and adds the background and zero-normal counts. */
+UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, float *ao, float *depth, float *nx, float *ny,
+                                    int64_t *nb, int64_t *nn)
+{
+    const ao_ue4_constants *k = P->k;
+    const level *L = &P->lv[l];
+    const int ty = clampi(y, 0, L->h - 1);
+    const __m256 one = _mm256_set1_ps(1.0f);
+    const __m256 SceneDepth = _mm256_loadu_ps(obs_image_f32_row(&L->z, ty) + x0);
+    const int use_n = k->normal_mode != AO_UE4_NORMALS_NONE, o1 = k->variant == AO_UE4_VARIANT_O1;
+    const int ortho = k->orthographic;
+    const __m256 U = _mm256_set1_ps(k->units_per_metre);
+    __m256 n0 = _mm256_setzero_ps(), n1 = n0, n2 = n0;
+    if (use_n) {
+        n0 = _mm256_loadu_ps(obs_image_f32_row(&L->n[0], ty) + x0);
+        n1 = _mm256_loadu_ps(obs_image_f32_row(&L->n[1], ty) + x0);
+        n2 = _mm256_loadu_ps(obs_image_f32_row(&L->n[2], ty) + x0);
+    }
+    const __m256 sp_x = _mm256_loadu_ps(L->spx + x0), sp_y = _mm256_set1_ps(L->spy[y]);
+    const __m256 FF0 = _mm256_set1_ps(P->fov_fix[0]), FF1 = _mm256_set1_ps(P->fov_fix[1]);
+    const __m256 IF0 = _mm256_set1_ps(P->inv_fov_fix[0]), IF1 = _mm256_set1_ps(P->inv_fov_fix[1]);
+
+    /* ReconstructCSPos, ActualAORadius, bias */
+    const __m256 cV = ortho ? U : SceneDepth;
+    __m256 V0 = _mm256_mul_ps(sp_x, cV), V1 = _mm256_mul_ps(sp_y, cV), V2 = SceneDepth;
+    const __m256 ActualAORadius = _mm256_mul_ps(_mm256_set1_ps(L->radius),
+                                                v_lerp(SceneDepth, one, _mm256_set1_ps(k->scale_radius_in_ws)));
+    if (use_n) {
+        const __m256 b = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(k->bias_over_1000), SceneDepth),
+                                       _mm256_set1_ps(L->s));
+        V0 = _mm256_add_ps(V0, _mm256_mul_ps(b, _mm256_mul_ps(n0, FF0)));
+        V1 = _mm256_add_ps(V1, _mm256_mul_ps(b, _mm256_mul_ps(n1, FF1)));
+        V2 = _mm256_add_ps(V2, _mm256_mul_ps(b, n2)); /* n.z * FovFix.z = n.z * 1 */
+    }
+    __m256 WA0 = _mm256_set1_ps(0.0001f), WA1 = WA0;
+
+    /* RandomVec from the 4x4 texture at pixel % 4 */
+    float rx[8], ry[8];
+    const int ry4 = 4 * (((y % 4) + 4) % 4);
+    for (int i = 0; i < 8; i++) {
+        const int ri = (((x0 + i) % 4 + 4) % 4) + ry4;
+        rx[i] = P->rand_vec[ri][0];
+        ry[i] = P->rand_vec[ri][1];
+    }
+    const __m256 RV0 = _mm256_mul_ps(_mm256_loadu_ps(rx), ActualAORadius);
+    const __m256 RV1 = _mm256_mul_ps(_mm256_loadu_ps(ry), ActualAORadius);
+    const __m256 csV = ortho ? U : V2;
+    const __m256 invz = _mm256_div_ps(one, csV);
+    const __m256 FFX0 = _mm256_mul_ps(FF0, invz), FFX1 = _mm256_mul_ps(FF1, invz);
+    const __m256 RB0 = _mm256_mul_ps(RV0, FFX0), RB1 = _mm256_mul_ps(RV1, FFX1);
+    const __m256 RB2 = _mm256_mul_ps(_mm256_xor_ps(RV1, _mm256_set1_ps(-0.0f)), FFX0); /* -RandomVec.y (sign flip) */
+    const __m256 RB3 = _mm256_mul_ps(RV0, FFX1);
+    const __m256 SSP0 = _mm256_div_ps(V0, csV), SSP1 = _mm256_div_ps(V1, csV);
+    const __m256 InvHaloSize = _mm256_div_ps(one, _mm256_mul_ps(ActualAORadius, _mm256_set1_ps(2.0f)));
+    __m256 Ns0 = n0, Ns1 = n1, Ns2 = n2;
+    if (o1) {
+        const __m256 sc = _mm256_mul_ps(_mm256_set1_ps(0.08f),
+                                        v_lerp(SceneDepth, _mm256_set1_ps(1000.0f), _mm256_set1_ps(k->scale_radius_in_ws)));
+        Ns0 = _mm256_mul_ps(Ns0, sc), Ns1 = _mm256_mul_ps(Ns1, sc), Ns2 = _mm256_mul_ps(Ns2, sc);
+    }
+    const __m256 InvD = _mm256_set1_ps(k->inv_distance);
+    const __m256 ViewDepthAdd = _mm256_sub_ps(one, _mm256_mul_ps(V2, InvD));
+
+    /* the taps: texel = floor((sp * W/2 + cx) / s) (x), floor((cy - sp.y * H/2) / s) (y) */
+    const __m256 half_w = _mm256_set1_ps(P->half_w), half_h = _mm256_set1_ps(P->half_h);
+    const __m256 pcx = _mm256_set1_ps(P->cx), pcy = _mm256_set1_ps(P->cy), inv_s = _mm256_set1_ps(L->inv_s);
+    const __m256i wm1 = _mm256_set1_epi32(L->w - 1), hm1 = _mm256_set1_epi32(L->h - 1);
+    const __m256i stride = _mm256_set1_epi32((int)L->z.stride);
+    const float *zbase = L->z.data;
+    for (int i = 0; i < L->sample_count; i++) {
+        const __m256 ux = _mm256_set1_ps(L->samples[2 * i]), uy = _mm256_set1_ps(L->samples[2 * i + 1]);
+        const __m256 LR0 = _mm256_add_ps(_mm256_mul_ps(ux, RB0), _mm256_mul_ps(uy, RB2));
+        const __m256 LR1 = _mm256_add_ps(_mm256_mul_ps(ux, RB1), _mm256_mul_ps(uy, RB3));
+        __m256 acc0 = _mm256_setzero_ps(), acc1 = acc0, acc2 = acc0;
+        for (int step = 0; step < k->steps; step++) {
+            const __m256 Scale = _mm256_set1_ps((float)(step + 1) / (float)k->steps);
+            const __m256 lr0 = _mm256_mul_ps(Scale, LR0), lr1 = _mm256_mul_ps(Scale, LR1);
+            const __m256 SL0 = _mm256_add_ps(SSP0, lr0), SL1 = _mm256_add_ps(SSP1, lr1);
+            const __m256 SR0 = _mm256_sub_ps(SSP0, lr0), SR1 = _mm256_sub_ps(SSP1, lr1);
+            const __m256i txL = v_texel(_mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(SL0, half_w), pcx), inv_s), wm1);
+            const __m256i tyL = v_texel(_mm256_mul_ps(_mm256_sub_ps(pcy, _mm256_mul_ps(SL1, half_h)), inv_s), hm1);
+            const __m256i txR = v_texel(_mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(SR0, half_w), pcx), inv_s), wm1);
+            const __m256i tyR = v_texel(_mm256_mul_ps(_mm256_sub_ps(pcy, _mm256_mul_ps(SR1, half_h)), inv_s), hm1);
+            const __m256 AbsL = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyL, stride), txL), 4);
+            const __m256 AbsR = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyR, stride), txR), 4);
+            const __m256 cL = ortho ? U : AbsL, cR = ortho ? U : AbsR;
+            const __m256 DL0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SL0, cL), V0), IF0);
+            const __m256 DL1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SL1, cL), V1), IF1);
+            const __m256 DL2 = _mm256_sub_ps(AbsL, V2);
+            const __m256 DR0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SR0, cR), V0), IF0);
+            const __m256 DR1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SR1, cR), V1), IF1);
+            const __m256 DR2 = _mm256_sub_ps(AbsR, V2);
+            const __m256 LL = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DL0, DL0), _mm256_mul_ps(DL1, DL1)),
+                                            _mm256_mul_ps(DL2, DL2));
+            const __m256 RR = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DR0, DR0), _mm256_mul_ps(DR1, DR1)),
+                                            _mm256_mul_ps(DR2, DR2));
+            if (use_n) {
+                /* WedgeWithNormal */
+                const __m256 dl = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DL0, Ns0), _mm256_mul_ps(DL1, Ns1)),
+                                                _mm256_mul_ps(DL2, Ns2));
+                const __m256 dr = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DR0, Ns0), _mm256_mul_ps(DR1, Ns1)),
+                                                _mm256_mul_ps(DR2, Ns2));
+                __m256 sL, sR, w;
+                if (o1) {
+                    sL = v_sat(_mm256_div_ps(dl, LL));
+                    sR = v_sat(_mm256_div_ps(dr, RR));
+                    w = one;
+                } else {
+                    const __m256 qL = _mm256_sqrt_ps(LL), qR = _mm256_sqrt_ps(RR);
+                    sL = v_sat(_mm256_mul_ps(dl, _mm256_div_ps(one, qL)));
+                    sR = v_sat(_mm256_mul_ps(dr, _mm256_div_ps(one, qR)));
+                    w = _mm256_mul_ps(v_sat(_mm256_sub_ps(one, _mm256_mul_ps(qL, InvHaloSize))),
+                                      v_sat(_mm256_sub_ps(one, _mm256_mul_ps(qR, InvHaloSize))));
+                }
+                acc0 = v_lerp(acc0, v_hmax(acc0, sL), w);
+                acc1 = v_lerp(acc1, v_hmax(acc1, sR), w);
+                acc2 = v_lerp(acc2, one, w);
+            } else {
+                /* WedgeNoNormal */
+                const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DL0, DR0), _mm256_mul_ps(DL1, DR1)),
+                                                 _mm256_mul_ps(DL2, DR2));
+                const __m256 cosLR = _mm256_div_ps(dot, _mm256_sqrt_ps(_mm256_mul_ps(LL, RR)));
+                __m256 NormAngle = v_sat(_mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(one, cosLR), _mm256_set1_ps(0.5f)),
+                                                       _mm256_set1_ps(AO_UE4_CONTRAST_TWEAK)));
+                const __m256 lr_sum = _mm256_add_ps(_mm256_sub_ps(V2, AbsL), _mm256_sub_ps(V2, AbsR));
+                NormAngle = _mm256_blendv_ps(NormAngle, one,
+                                             _mm256_cmp_ps(lr_sum, _mm256_set1_ps(AO_UE4_FLAT_SURFACE_BIAS), _CMP_LT_OQ));
+                const __m256 Weight = _mm256_mul_ps(v_sat(_mm256_add_ps(_mm256_mul_ps(AbsL, InvD), ViewDepthAdd)),
+                                                    v_sat(_mm256_add_ps(_mm256_mul_ps(AbsR, InvD), ViewDepthAdd)));
+                const __m256 sv = _mm256_div_ps(_mm256_sub_ps(one, NormAngle), _mm256_add_ps(Weight, _mm256_set1_ps(0.001f)));
+                acc0 = v_lerp(acc0, v_hmax(acc0, sv), Weight);
+                acc2 = v_lerp(acc2, one, Weight);
+            }
+        }
+        /* "Square()" */
+        const __m256 a0 = _mm256_sub_ps(one, acc0);
+        WA0 = _mm256_add_ps(WA0, _mm256_mul_ps(_mm256_mul_ps(a0, a0), acc2));
+        WA1 = _mm256_add_ps(WA1, acc2);
+        if (use_n) {
+            const __m256 a1 = _mm256_sub_ps(one, acc1);
+            WA0 = _mm256_add_ps(WA0, _mm256_mul_ps(_mm256_mul_ps(a1, a1), acc2));
+            WA1 = _mm256_add_ps(WA1, acc2);
+        }
+    }
+    float r[8], zd[8], nv[3][8];
+    _mm256_storeu_ps(r, _mm256_div_ps(WA0, WA1));
+    _mm256_storeu_ps(zd, SceneDepth);
+    _mm256_storeu_ps(nv[0], n0);
+    _mm256_storeu_ps(nv[1], n1);
+    _mm256_storeu_ps(nv[2], n2);
+    _mm256_storeu_ps(depth, SceneDepth);
+    const unsigned char *bg = L->bg + (size_t)ty * L->w + x0;
+    for (int i = 0; i < 8; i++) {
+        nx[i] = ny[i] = 0.0f;
+        if (bg[i]) {
+            ao[i] = 1.0f;
+            (*nb)++;
+            continue;
+        }
+        const float n[3] = {nv[0][i], nv[1][i], nv[2][i]};
+        if (use_n) {
+            if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
+                ao[i] = 1.0f;
+                (*nn)++;
+                continue;
+            }
+            nx[i] = n[0];
+            ny[i] = n[1];
+        }
+        ao[i] = ue4_finish(P, l, x0 + i, y, x0 + i, ty, r[i], zd[i], n);
+    }
+}
+
+/* Whether any of the eight pixels at x0 of row ty is not background (an all-background group
+ * skips the kernel). */
+static inline int any_surface8(const unsigned char *bg)
+{
+    uint64_t v;
+    memcpy(&v, bg, 8);
+    return v != 0x0101010101010101ull;
+}
+#endif
+
 static void ao_row(void *user, int64_t task, int thread)
 {
     (void)thread;
     const ao_job *J = (const ao_job *)user;
+    const prep *P = J->P;
+    const level *L = &P->lv[J->l];
     const int r = (int)task, y = J->qy0 + r;
     float *a = obs_image_f32_row(J->ao, r), *z = obs_image_f32_row(J->zq, r);
     float *nx = obs_image_f32_row(J->nx, r), *ny = obs_image_f32_row(J->ny, r);
     int64_t nb = 0, nn = 0;
-    for (int i = 0; i < J->ao->width; i++) {
+    int i = 0;
+#ifdef UE4_AVX2
+    if (P->simd && (int64_t)L->z.stride * L->h <= INT32_MAX) { /* gather indices are 32-bit */
+        const int ty = clampi(y, 0, L->h - 1);
+        const unsigned char *bgrow = L->bg + (size_t)ty * L->w;
+        const float *zrow = obs_image_f32_row(&L->z, ty);
+        for (; J->qx0 + i + 7 < L->w && i + 8 <= J->ao->width; i += 8) {
+            const int x = J->qx0 + i;
+            if (any_surface8(bgrow + x)) {
+                ue4_pixels8(P, J->l, x, y, a + i, z + i, nx + i, ny + i, &nb, &nn);
+            } else { /* eight background pixels: ue4_pixel's early return */
+                for (int j = 0; j < 8; j++) {
+                    a[i + j] = 1.0f;
+                    z[i + j] = zrow[x + j];
+                    nx[i + j] = ny[i + j] = 0.0f;
+                }
+                nb += 8;
+            }
+        }
+    }
+#else
+    (void)L;
+#endif
+    for (; i < J->ao->width; i++) {
         float nxy[2];
         int bad;
-        nb += ue4_pixel(J->P, J->l, J->qx0 + i, y, &a[i], &z[i], nxy, &bad);
+        nb += ue4_pixel(P, J->l, J->qx0 + i, y, &a[i], &z[i], nxy, &bad);
         nn += bad;
         nx[i] = nxy[0];
         ny[i] = nxy[1];
@@ -624,7 +888,12 @@ static void quad_row(void *user, int64_t task, int thread)
     const int y = J->ry0 + (int)task;
     const int ly = y - J->qy0, lyp = ly ^ 1; /* quad partner row (region origin is even) */
     float *o = obs_image_f32_row(J->out, (int)task);
+    const unsigned char *bg = J->bg + (size_t)y * J->bg_w + J->rx0;
     for (int i = 0; i < J->out->width; i++) {
+        if (bg[i]) {
+            o[i] = 1.0f; /* background stays 1 (the quad blur would mix in its neighbours) */
+            continue;
+        }
         const int x = J->rx0 + i, lx = x - J->qx0, lxp = lx ^ 1;
         const int modx = x & 1, mody = y & 1;
         /* CenterPixel = (ao, SceneDepth, nx, ny) */
@@ -658,10 +927,7 @@ static void quad_row(void *user, int64_t task, int thread)
         }
         const float inv = 1.0f / (wA + wB + wC);
         wA *= inv, wB *= inv, wC *= inv;
-        float v = wA * A[0] + wB * B[0] + wC * C[0];
-        if (J->bg[(size_t)y * J->bg_w + x])
-            v = 1.0f; /* background stays 1 (the quad blur would mix in its neighbours) */
-        o[i] = v;
+        o[i] = wA * A[0] + wB * B[0] + wC * C[0];
     }
 }
 
@@ -775,6 +1041,8 @@ static void level_free(level *L)
     obs_image_f32_free(&L->z);
     obs_image_f32_free(&L->ao);
     free(L->bg);
+    free(L->spx);
+    free(L->spy);
     memset(L, 0, sizeof *L);
 }
 
@@ -822,6 +1090,22 @@ static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int
     return st;
 }
 
+/* The AVX2 row kernel where the CPU has it, unless OBS_ISA=scalar (the scalar reference, as the
+ * rasterizer's switch). */
+static int ue4_use_avx2(const prep *P)
+{
+#ifdef UE4_AVX2
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    (void)P;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    (void)P;
+    return 0;
+#endif
+}
+
 obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats)
 {
@@ -848,6 +1132,12 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     P.cy = (float)in->cy;
     P.half_w = (float)(0.5 * W);
     P.half_h = (float)(0.5 * H);
+    P.fov_fix[0] = K.fov_fix[0];
+    P.fov_fix[1] = K.fov_fix[1];
+    P.fov_fix[2] = 1.0f;
+    for (int c = 0; c < 3; c++)
+        P.inv_fov_fix[c] = 1.0f / P.fov_fix[c];
+    P.simd = ue4_use_avx2(&P);
     obs_image_f32 recon[3] = {{0}, {0}, {0}};
     obs_image_f32 Q = {0}, G = {0};
     const obs_image_f32 *nsrc[3] = {NULL, NULL, NULL};
@@ -874,11 +1164,22 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         L->sample_count = l ? ao_ue4_sample_set(3, L->samples) : K.sample_count;
         if (!l)
             memcpy(L->samples, K.samples, sizeof L->samples);
+        L->inv_s = 1.0f / L->s;
         st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
         if (st == OBS_STATUS_OK) {
             L->bg = (unsigned char *)malloc((size_t)L->w * L->h);
-            if (!L->bg)
+            L->spx = (float *)malloc(sizeof(float) * ((size_t)L->w + 1));
+            L->spy = (float *)malloc(sizeof(float) * ((size_t)L->h + 1));
+            if (!L->bg || !L->spx || !L->spy)
                 st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+        }
+        if (st == OBS_STATUS_OK) {
+            /* ScreenPos (NDC, y up) of the texel centres, from the principal point (in double) */
+            const double s = L->s;
+            for (int x = 0; x <= L->w; x++)
+                L->spx[x] = (float)((((double)x + 0.5) * s - in->cx) * 2.0 / W);
+            for (int y = 0; y <= L->h; y++)
+                L->spy[y] = (float)(-(((double)y + 0.5) * s - in->cy) * 2.0 / H);
         }
         for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n; c++)
             st = obs_image_f32_alloc(ctx, L->w, L->h, &L->n[c]);
