@@ -358,7 +358,37 @@ typedef struct prep {
     float rand_vec[16][2];/* RandomVec / ActualAORadius = .rg * 2 - 1 */
     float cx, cy, half_w, half_h; /* principal point and half size of the full buffer */
     float fov_fix[3], inv_fov_fix[3]; /* FovFix = (P00, P11, 1) and 1 / FovFix (per frame) */
+    const obs_image_f32 *nsrc[3]; /* the source normals (ours: right-handed), NULL without */
 } prep;
+
+/* normalize(ViewSpaceNormal) from our view-space normal: right-handed, -Z forward, to UE's
+ * left-handed +Z forward (x, y, -z), as v * rsqrt(dot(v, v)); zero when unusable. */
+static inline void ue4_normal_from(float sx, float sy, float sz, float o[3])
+{
+    const float v[3] = {sx, sy, -sz};
+    const float dd = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if (!(dd > 0.0f) || !isfinite(dd)) {
+        o[0] = o[1] = o[2] = 0.0f;
+        return;
+    }
+    const float rs = 1.0f / sqrtf(dd); /* normalize = v * rsqrt(dot(v, v)) */
+    o[0] = v[0] * rs;
+    o[1] = v[1] * rs;
+    o[2] = v[2] * rs;
+}
+
+/* The normal of texel (tx, ty): the level's plane, or (level 0 of a one-level run, which keeps no
+ * plane) converted from the source normals on the spot. */
+static inline void ue4_normal_at(const prep *P, const level *L, int tx, int ty, float n[3])
+{
+    if (L->n[0].data) {
+        for (int c = 0; c < 3; c++)
+            n[c] = obs_image_f32_row(&L->n[c], ty)[tx];
+        return;
+    }
+    ue4_normal_from(obs_image_f32_row(P->nsrc[0], ty)[tx], obs_image_f32_row(P->nsrc[1], ty)[tx],
+                    obs_image_f32_row(P->nsrc[2], ty)[tx], n);
+}
 
 /* ScreenPosToHZBUV + point sampling on the level's depth: floor((sx * W/2 + cx) / s), clamped
  * to the level. The position is first clamped to +-1e9 (NaN -> -1e9), so the truncation below is
@@ -468,9 +498,7 @@ static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth
     float n[3] = {0.0f, 0.0f, 0.0f};
     const int use_n = k->normal_mode != AO_UE4_NORMALS_NONE;
     if (use_n) {
-        n[0] = obs_image_f32_row(&L->n[0], ty)[tx];
-        n[1] = obs_image_f32_row(&L->n[1], ty)[tx];
-        n[2] = obs_image_f32_row(&L->n[2], ty)[tx];
+        ue4_normal_at(P, L, tx, ty, n);
         if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
             *bad_normal = 1; /* UE would compute normalize(0) = NaN: we return visibility 1 */
             *ao = 1.0f;
@@ -587,14 +615,6 @@ static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth
     return 0;
 }
 
-typedef struct ao_job {
-    const prep *P;
-    int l;
-    int qx0, qy0;          /* region origin (level coordinates, may be one past the edge) */
-    obs_image_f32 *ao, *zq, *nx, *ny;
-    int64_t (*counts)[2];  /* per row: background, zero normal */
-} ao_job;
-
 #if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
 #define UE4_AVX2 1
 #include <immintrin.h>
@@ -652,9 +672,23 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, float *
     const __m256 U = _mm256_set1_ps(k->units_per_metre);
     __m256 n0 = _mm256_setzero_ps(), n1 = n0, n2 = n0;
     if (use_n) {
-        n0 = _mm256_loadu_ps(obs_image_f32_row(&L->n[0], ty) + x0);
-        n1 = _mm256_loadu_ps(obs_image_f32_row(&L->n[1], ty) + x0);
-        n2 = _mm256_loadu_ps(obs_image_f32_row(&L->n[2], ty) + x0);
+        if (L->n[0].data) {
+            n0 = _mm256_loadu_ps(obs_image_f32_row(&L->n[0], ty) + x0);
+            n1 = _mm256_loadu_ps(obs_image_f32_row(&L->n[1], ty) + x0);
+            n2 = _mm256_loadu_ps(obs_image_f32_row(&L->n[2], ty) + x0);
+        } else { /* ue4_normal_from */
+            n0 = _mm256_loadu_ps(obs_image_f32_row(P->nsrc[0], ty) + x0);
+            n1 = _mm256_loadu_ps(obs_image_f32_row(P->nsrc[1], ty) + x0);
+            n2 = _mm256_xor_ps(_mm256_loadu_ps(obs_image_f32_row(P->nsrc[2], ty) + x0), _mm256_set1_ps(-0.0f));
+            const __m256 dd = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n0, n0), _mm256_mul_ps(n1, n1)),
+                                            _mm256_mul_ps(n2, n2));
+            const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dd, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                            _mm256_cmp_ps(dd, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+            const __m256 rs = _mm256_div_ps(one, _mm256_sqrt_ps(dd));
+            n0 = _mm256_and_ps(_mm256_mul_ps(n0, rs), ok);
+            n1 = _mm256_and_ps(_mm256_mul_ps(n1, rs), ok);
+            n2 = _mm256_and_ps(_mm256_mul_ps(n2, rs), ok);
+        }
     }
     const __m256 sp_x = _mm256_loadu_ps(L->spx + x0), sp_y = _mm256_set1_ps(L->spy[y]);
     const __m256 FF0 = _mm256_set1_ps(P->fov_fix[0]), FF1 = _mm256_set1_ps(P->fov_fix[1]);
@@ -821,15 +855,12 @@ static inline int any_surface8(const unsigned char *bg)
 }
 #endif
 
-static void ao_row(void *user, int64_t task, int thread)
+/* Row y of level l's AO pass over the region columns qx0 .. qx0 + width - 1: ao, SceneDepth and
+ * the normal's xy of each pixel (ue4_pixel), and the row's background and zero-normal counts. */
+static void ao_row_compute(const prep *P, int l, int qx0, int y, int width, float *a, float *z, float *nx, float *ny,
+                           int64_t count[2])
 {
-    (void)thread;
-    const ao_job *J = (const ao_job *)user;
-    const prep *P = J->P;
-    const level *L = &P->lv[J->l];
-    const int r = (int)task, y = J->qy0 + r;
-    float *a = obs_image_f32_row(J->ao, r), *z = obs_image_f32_row(J->zq, r);
-    float *nx = obs_image_f32_row(J->nx, r), *ny = obs_image_f32_row(J->ny, r);
+    const level *L = &P->lv[l];
     int64_t nb = 0, nn = 0;
     int i = 0;
 #ifdef UE4_AVX2
@@ -837,10 +868,10 @@ static void ao_row(void *user, int64_t task, int thread)
         const int ty = clampi(y, 0, L->h - 1);
         const unsigned char *bgrow = L->bg + (size_t)ty * L->w;
         const float *zrow = obs_image_f32_row(&L->z, ty);
-        for (; J->qx0 + i + 7 < L->w && i + 8 <= J->ao->width; i += 8) {
-            const int x = J->qx0 + i;
+        for (; qx0 + i + 7 < L->w && i + 8 <= width; i += 8) {
+            const int x = qx0 + i;
             if (any_surface8(bgrow + x)) {
-                ue4_pixels8(P, J->l, x, y, a + i, z + i, nx + i, ny + i, &nb, &nn);
+                ue4_pixels8(P, l, x, y, a + i, z + i, nx + i, ny + i, &nb, &nn);
             } else { /* eight background pixels: ue4_pixel's early return */
                 for (int j = 0; j < 8; j++) {
                     a[i + j] = 1.0f;
@@ -854,55 +885,45 @@ static void ao_row(void *user, int64_t task, int thread)
 #else
     (void)L;
 #endif
-    for (; i < J->ao->width; i++) {
+    for (; i < width; i++) {
         float nxy[2];
         int bad;
-        nb += ue4_pixel(P, J->l, J->qx0 + i, y, &a[i], &z[i], nxy, &bad);
+        nb += ue4_pixel(P, l, qx0 + i, y, &a[i], &z[i], nxy, &bad);
         nn += bad;
         nx[i] = nxy[0];
         ny[i] = nxy[1];
     }
-    J->counts[r][0] = nb;
-    J->counts[r][1] = nn;
+    count[0] = nb;
+    count[1] = nn;
 }
 
 /* QUAD_MESSAGE_PASSING_BLUR: a 2x2-quad blur with ddx_fine/ddy_fine. Quads are aligned to even
  * (x, y) of the level (D3D SV_Position). For the output pixel, PixB is its horizontal quad partner
- * computed as Center - dX * (Mod.x * 2 - 1) (dX = right - left), PixC its vertical one. */
-typedef struct quad_job {
-    const ao_ue4_constants *k;
-    const obs_image_f32 *ao, *zq, *nx, *ny;
-    int qx0, qy0;          /* origin of the quad region (even) */
-    int rx0, ry0;          /* origin of the output rect */
-    const unsigned char *bg;
-    int bg_w;
-    obs_image_f32 *out;
-} quad_job;
-
+ * computed as Center - dX * (Mod.x * 2 - 1) (dX = right - left), PixC its vertical one.
+ * One output row y: the AO pass's planes (ao, SceneDepth, nx, ny) of row y are r[0] and of its
+ * quad partner row y ^ 1 are r[1], over region columns from qx0 (even); the output covers
+ * columns rx0 .. rx0 + width - 1; bg is the level's background row y. */
 static inline float recon_nz(float x, float y) { return sqrtf(1.0f - (x * x + y * y)); }
 
-static void quad_row(void *user, int64_t task, int thread)
+/* powf(x, 4) for x = saturate(.) in [0, 1] (never -0): pow(1, y) = 1 and pow(+0, y > 0) = +0 are
+ * exact (C11 F.10.4.4), so those skip the call. */
+static inline float pow4_sat(float x) { return x == 1.0f ? 1.0f : x == 0.0f ? 0.0f : powf(x, 4.0f); }
+
+static void quad_blur_row(const ao_ue4_constants *k, const float *const r[2][4], int qx0, int rx0, int y, int width,
+                          const unsigned char *bg, float *o, int saturate)
 {
-    (void)thread;
-    const quad_job *J = (const quad_job *)user;
-    const int y = J->ry0 + (int)task;
-    const int ly = y - J->qy0, lyp = ly ^ 1; /* quad partner row (region origin is even) */
-    float *o = obs_image_f32_row(J->out, (int)task);
-    const unsigned char *bg = J->bg + (size_t)y * J->bg_w + J->rx0;
-    for (int i = 0; i < J->out->width; i++) {
+    const int mody = y & 1;
+    for (int i = 0; i < width; i++) {
         if (bg[i]) {
             o[i] = 1.0f; /* background stays 1 (the quad blur would mix in its neighbours) */
             continue;
         }
-        const int x = J->rx0 + i, lx = x - J->qx0, lxp = lx ^ 1;
-        const int modx = x & 1, mody = y & 1;
+        const int x = rx0 + i, lx = x - qx0, lxp = lx ^ 1;
+        const int modx = x & 1;
         /* CenterPixel = (ao, SceneDepth, nx, ny) */
-        const float A[4] = {obs_image_f32_row(J->ao, ly)[lx], obs_image_f32_row(J->zq, ly)[lx],
-                            obs_image_f32_row(J->nx, ly)[lx], obs_image_f32_row(J->ny, ly)[lx]};
-        const float Bp[4] = {obs_image_f32_row(J->ao, ly)[lxp], obs_image_f32_row(J->zq, ly)[lxp],
-                             obs_image_f32_row(J->nx, ly)[lxp], obs_image_f32_row(J->ny, ly)[lxp]};
-        const float Cp[4] = {obs_image_f32_row(J->ao, lyp)[lx], obs_image_f32_row(J->zq, lyp)[lx],
-                             obs_image_f32_row(J->nx, lyp)[lx], obs_image_f32_row(J->ny, lyp)[lx]};
+        const float A[4] = {r[0][0][lx], r[0][1][lx], r[0][2][lx], r[0][3][lx]};
+        const float Bp[4] = {r[0][0][lxp], r[0][1][lxp], r[0][2][lxp], r[0][3][lxp]};
+        const float Cp[4] = {r[1][0][lx], r[1][1][lx], r[1][2][lx], r[1][3][lx]};
         float B[4], C[4];
         for (int c = 0; c < 4; c++) {
             const float dX = modx ? A[c] - Bp[c] : Bp[c] - A[c]; /* ddx_fine: right - left */
@@ -911,15 +932,15 @@ static void quad_row(void *user, int64_t task, int thread)
             C[c] = A[c] - dY * (float)(mody * 2 - 1);
         }
         float wA = 1.0f, wB = 1.0f, wC = 1.0f;
-        if (J->k->quad_blur >= 2) {
+        if (k->quad_blur >= 2) {
             /* QUAD_MESSAGE_PASSING_NORMAL: NormalTweak 4 */
             const float nA[3] = {A[2], A[3], recon_nz(A[2], A[3])};
             const float nB[3] = {B[2], B[3], recon_nz(B[2], B[3])};
             const float nC[3] = {C[2], C[3], recon_nz(C[2], C[3])};
-            wB *= saturatef(powf(saturatef(nA[0] * nB[0] + nA[1] * nB[1] + nA[2] * nB[2]), 4.0f));
-            wC *= saturatef(powf(saturatef(nA[0] * nC[0] + nA[1] * nC[1] + nA[2] * nC[2]), 4.0f));
+            wB *= saturatef(pow4_sat(saturatef(nA[0] * nB[0] + nA[1] * nB[1] + nA[2] * nB[2])));
+            wC *= saturatef(pow4_sat(saturatef(nA[0] * nC[0] + nA[1] * nC[1] + nA[2] * nC[2])));
         }
-        if (J->k->quad_blur >= 3) {
+        if (k->quad_blur >= 3) {
             /* QUAD_MESSAGE_PASSING_DEPTH: DepthTweak 1 */
             const float InvDepth = 1.0f / A[1];
             wB *= 1.0f - saturatef(fabsf(1.0f - B[1] * InvDepth) * 1.0f);
@@ -927,9 +948,127 @@ static void quad_row(void *user, int64_t task, int thread)
         }
         const float inv = 1.0f / (wA + wB + wC);
         wA *= inv, wB *= inv, wC *= inv;
-        o[i] = wA * A[0] + wB * B[0] + wC * C[0];
+        const float v = wA * A[0] + wB * B[0] + wC * C[0];
+        o[i] = saturate ? saturatef(v) : v;
     }
 }
+
+#ifdef UE4_AVX2
+/* quad_blur_row for both rows of a quad row (y0 even, y0 + 1), AVX2, eight region columns at a
+ * time from lx = 0 (lane i: lx0 + i; the horizontal partner is the neighbour lane i ^ 1, the
+ * vertical one the other row's lane i). Same operations as the scalar row; multiplications by
+ * wA = 1 are left out (exact). powf goes lane by lane, and a pair whose two inputs are the same
+ * bits (horizontal partners, or vertical partners of the two rows: the usual case, as
+ * A + (B - A) is B when B - A is exact) calls it once: a function of the same input gives the same
+ * output. o[0], o[1]: the output rows, NULL when outside the rect; bg[0], bg[1]: the level's
+ * background rows at column rx0. Returns the first output column left to the scalar row. */
+UE4_AVX2_FN static int quad_blur_pair_avx2(const ao_ue4_constants *k, float *const rows[2][4], int qw, int qx0, int rx0,
+                                           int width, int y0, const unsigned char *const bg[2], float *const o[2],
+                                           int saturate)
+{
+    const int off = rx0 - qx0; /* 0 or 1: output column i is region column i + off */
+    const __m256 one = _mm256_set1_ps(1.0f), sgn = _mm256_set1_ps(-0.0f);
+    const __m256 odd = _mm256_castsi256_ps(_mm256_setr_epi32(0, -1, 0, -1, 0, -1, 0, -1)); /* modx = 1 */
+    const __m256 sx = _mm256_setr_ps(-1, 1, -1, 1, -1, 1, -1, 1);                     /* modx * 2 - 1 */
+    int lx0 = 0;
+    for (; lx0 + 8 <= qw && lx0 - off < width; lx0 += 8) {
+        /* the lanes that are output pixels, and which of them are surface pixels */
+        int surf[2][8], any = 0;
+        for (int rr = 0; rr < 2; rr++)
+            for (int i = 0; i < 8; i++) {
+                const int oi = lx0 + i - off;
+                surf[rr][i] = o[rr] && oi >= 0 && oi < width && !bg[rr][oi];
+                any |= surf[rr][i];
+            }
+        float res[2][8];
+        if (any) {
+            __m256 A[2][4], B[2][4], C[2][4], dB[2], dC[2];
+            for (int rr = 0; rr < 2; rr++) {
+                const float sy = (float)(((y0 + rr) & 1) * 2 - 1);
+                for (int c = 0; c < 4; c++) {
+                    A[rr][c] = _mm256_loadu_ps(rows[rr][c] + lx0);
+                    const __m256 Bp = _mm256_permute_ps(A[rr][c], 0xB1); /* lanes i ^ 1 */
+                    const __m256 Cp = _mm256_loadu_ps(rows[rr ^ 1][c] + lx0);
+                    const __m256 dX = _mm256_blendv_ps(_mm256_sub_ps(Bp, A[rr][c]), _mm256_sub_ps(A[rr][c], Bp), odd);
+                    const __m256 dY = rr ? _mm256_sub_ps(A[rr][c], Cp) : _mm256_sub_ps(Cp, A[rr][c]);
+                    B[rr][c] = _mm256_sub_ps(A[rr][c], _mm256_mul_ps(dX, sx));
+                    C[rr][c] = _mm256_sub_ps(A[rr][c], _mm256_mul_ps(dY, _mm256_set1_ps(sy)));
+                }
+                if (k->quad_blur >= 2) {
+#define UE4_NZ(X, Y) _mm256_sqrt_ps(_mm256_sub_ps(one, _mm256_add_ps(_mm256_mul_ps(X, X), _mm256_mul_ps(Y, Y))))
+                    const __m256 nA = UE4_NZ(A[rr][2], A[rr][3]), nB = UE4_NZ(B[rr][2], B[rr][3]),
+                                 nC = UE4_NZ(C[rr][2], C[rr][3]);
+#undef UE4_NZ
+                    dB[rr] = v_sat(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(A[rr][2], B[rr][2]),
+                                                               _mm256_mul_ps(A[rr][3], B[rr][3])),
+                                                 _mm256_mul_ps(nA, nB)));
+                    dC[rr] = v_sat(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(A[rr][2], C[rr][2]),
+                                                               _mm256_mul_ps(A[rr][3], C[rr][3])),
+                                                 _mm256_mul_ps(nA, nC)));
+                }
+            }
+            __m256 wB[2] = {one, one}, wC[2] = {one, one};
+            if (k->quad_blur >= 2) {
+                /* powf(., 4) per surface lane, once per pair of equal inputs */
+                float db[2][8], dc[2][8], pb[2][8], pc[2][8];
+                uint32_t ub[2][8], uc[2][8];
+                for (int rr = 0; rr < 2; rr++) {
+                    _mm256_storeu_ps(db[rr], dB[rr]);
+                    _mm256_storeu_ps(dc[rr], dC[rr]);
+                    memcpy(ub[rr], db[rr], sizeof ub[rr]);
+                    memcpy(uc[rr], dc[rr], sizeof uc[rr]);
+                }
+                for (int rr = 0; rr < 2; rr++)
+                    for (int i = 0; i < 8; i++) {
+                        pb[rr][i] = pc[rr][i] = 0.0f;
+                        if (!surf[rr][i])
+                            continue;
+                        const int j = i ^ 1; /* horizontal partner: done already when j < i */
+                        if (j < i && surf[rr][j] && ub[rr][j] == ub[rr][i])
+                            pb[rr][i] = pb[rr][j];
+                        else
+                            pb[rr][i] = pow4_sat(db[rr][i]);
+                        if (rr == 1 && surf[0][i] && uc[0][i] == uc[1][i])
+                            pc[1][i] = pc[0][i];
+                        else
+                            pc[rr][i] = pow4_sat(dc[rr][i]);
+                    }
+                for (int rr = 0; rr < 2; rr++) {
+                    wB[rr] = v_sat(_mm256_loadu_ps(pb[rr]));
+                    wC[rr] = v_sat(_mm256_loadu_ps(pc[rr]));
+                }
+            }
+            for (int rr = 0; rr < 2; rr++) {
+                if (!o[rr])
+                    continue;
+                if (k->quad_blur >= 3) {
+                    const __m256 InvDepth = _mm256_div_ps(one, A[rr][1]);
+                    wB[rr] = _mm256_mul_ps(wB[rr], _mm256_sub_ps(one, v_sat(_mm256_andnot_ps(sgn, _mm256_sub_ps(one, _mm256_mul_ps(B[rr][1], InvDepth))))));
+                    wC[rr] = _mm256_mul_ps(wC[rr], _mm256_sub_ps(one, v_sat(_mm256_andnot_ps(sgn, _mm256_sub_ps(one, _mm256_mul_ps(C[rr][1], InvDepth))))));
+                }
+                const __m256 inv = _mm256_div_ps(one, _mm256_add_ps(_mm256_add_ps(one, wB[rr]), wC[rr]));
+                const __m256 b = _mm256_mul_ps(wB[rr], inv), c = _mm256_mul_ps(wC[rr], inv);
+                __m256 v = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(inv, A[rr][0]), _mm256_mul_ps(b, B[rr][0])),
+                                         _mm256_mul_ps(c, C[rr][0]));
+                if (saturate)
+                    v = v_sat(v);
+                _mm256_storeu_ps(res[rr], v);
+            }
+        }
+        for (int rr = 0; rr < 2; rr++) {
+            if (!o[rr])
+                continue;
+            for (int i = 0; i < 8; i++) {
+                const int oi = lx0 + i - off;
+                if (oi >= 0 && oi < width)
+                    o[rr][oi] = surf[rr][i] ? res[rr][i] : 1.0f; /* background stays 1 */
+            }
+        }
+    }
+    const int done = lx0 - off;
+    return done < 0 ? 0 : done > width ? width : done;
+}
+#endif
 
 typedef struct prep_job {
     prep *P;
@@ -954,23 +1093,15 @@ static void prep_row(void *user, int64_t task, int thread)
         float v = b ? zmax : dm * U;
         z[x] = v < zmax ? v : zmax; /* sky and huge depths read as 100 km */
     }
-    if (!J->nsrc[0])
+    if (!J->nsrc[0] || !L->n[0].data)
         return;
     float *o[3] = {obs_image_f32_row(&L->n[0], y), obs_image_f32_row(&L->n[1], y), obs_image_f32_row(&L->n[2], y)};
     const float *s[3] = {obs_image_f32_row(J->nsrc[0], y), obs_image_f32_row(J->nsrc[1], y),
                          obs_image_f32_row(J->nsrc[2], y)};
     for (int x = 0; x < W; x++) {
-        /* ours: right-handed, -Z forward; UE view space: left-handed, +Z forward: (x, y, -z) */
-        const float v[3] = {s[0][x], s[1][x], -s[2][x]};
-        const float dd = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-        if (!(dd > 0.0f) || !isfinite(dd)) {
-            o[0][x] = o[1][x] = o[2][x] = 0.0f;
-            continue;
-        }
-        const float rs = 1.0f / sqrtf(dd); /* normalize = v * rsqrt(dot(v, v)) */
-        o[0][x] = v[0] * rs;
-        o[1][x] = v[1] * rs;
-        o[2][x] = v[2] * rs;
+        float v[3];
+        ue4_normal_from(s[0][x], s[1][x], s[2][x], v);
+        o[0][x] = v[0], o[1][x] = v[1], o[2][x] = v[2];
     }
 }
 
@@ -1047,46 +1178,90 @@ static void level_free(level *L)
 }
 
 /* The AO pass of level l over [qx0, qx1) x [qy0, qy1) (quad-aligned when the quad blur is on),
- * then the quad blur (or a copy) into out over the rect (rx0, ry0, out->width, out->height). */
-static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int l, int qx0, int qy0, int qx1, int qy1,
-                            int rx0, int ry0, obs_image_f32 *out, int64_t *background)
+ * then the quad blur (or a copy) into out over the rect (rx0, ry0, out->width, out->height),
+ * saturated when `saturate` (level 0: the UNORM target). One task per pair of region rows (a row
+ * of quads): its AO rows go to the thread's scratch and its output rows are written at once, so
+ * no full-size intermediate planes are needed; each output pixel depends only on its quad. */
+typedef struct level_job {
+    const prep *P;
+    int l;
+    int qx0, qy0, qw, qh;  /* region (level coordinates; may be one past the edge) */
+    int rx0, ry0;          /* origin of the output rect */
+    int saturate;
+    obs_image_f32 *out;
+    float *scratch;        /* per thread: 2 rows x 4 planes (ao, SceneDepth, nx, ny) of qw floats */
+    int64_t (*counts)[2];  /* per region row: background, zero normal */
+} level_job;
+
+static void level_task(void *user, int64_t task, int thread)
 {
-    const ao_ue4_constants *K = P->k;
-    const int qw = qx1 - qx0, qh = qy1 - qy0;
-    obs_image_f32 A = {0}, Zq = {0}, NX = {0}, NY = {0};
-    int64_t(*counts)[2] = NULL;
-    obs_status st = obs_image_f32_alloc(ctx, qw, qh, &A);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &Zq);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &NX);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &NY);
-    if (st == OBS_STATUS_OK) {
-        counts = (int64_t(*)[2])calloc((size_t)qh, sizeof *counts);
-        if (!counts)
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+    const level_job *J = (const level_job *)user;
+    const prep *P = J->P;
+    const level *L = &P->lv[J->l];
+    const int qw = J->qw;
+    float *sc = J->scratch + (size_t)thread * 8 * (size_t)qw;
+    float *rows[2][4];
+    const int g0 = 2 * (int)task, g1 = g0 + 2 < J->qh ? g0 + 2 : J->qh; /* region rows [g0, g1) */
+    for (int g = g0; g < g1; g++) {
+        float *const *rp = rows[g - g0];
+        for (int c = 0; c < 4; c++)
+            rows[g - g0][c] = sc + (size_t)(4 * (g - g0) + c) * qw;
+        ao_row_compute(P, J->l, J->qx0, J->qy0 + g, qw, rp[0], rp[1], rp[2], rp[3], J->counts[g]);
     }
-    if (st == OBS_STATUS_OK) {
-        ao_job J = {P, l, qx0, qy0, &A, &Zq, &NX, &NY, counts};
-        obs_pool_run(pool, qh, ao_row, &J);
-        if (K->quad_blur) {
-            quad_job QJ = {K, &A, &Zq, &NX, &NY, qx0, qy0, rx0, ry0, P->lv[l].bg, P->lv[l].w, out};
-            obs_pool_run(pool, out->height, quad_row, &QJ);
+    int start = 0; /* output columns [0, start) of the pair's rows are done */
+    float *orow[2] = {NULL, NULL};
+    for (int g = g0; g < g1; g++) {
+        const int oy = J->qy0 + g - J->ry0;
+        if (oy >= 0 && oy < J->out->height)
+            orow[g - g0] = obs_image_f32_row(J->out, oy);
+    }
+#ifdef UE4_AVX2
+    if (P->simd && P->k->quad_blur && g1 - g0 == 2 && (orow[0] || orow[1])) {
+        const unsigned char *bgr[2] = {L->bg + (size_t)clampi(J->qy0 + g0, 0, L->h - 1) * L->w + J->rx0,
+                                       L->bg + (size_t)clampi(J->qy0 + g0 + 1, 0, L->h - 1) * L->w + J->rx0};
+        start = quad_blur_pair_avx2(P->k, rows, qw, J->qx0, J->rx0, J->out->width, J->qy0 + g0, bgr, orow,
+                                    J->saturate);
+    }
+#endif
+    for (int g = g0; g < g1; g++) {
+        const int y = J->qy0 + g;
+        float *o = orow[g - g0];
+        if (!o)
+            continue;
+        if (P->k->quad_blur) {
+            const float *const r[2][4] = {{rows[g - g0][0], rows[g - g0][1], rows[g - g0][2], rows[g - g0][3]},
+                                          {rows[(g - g0) ^ 1][0], rows[(g - g0) ^ 1][1], rows[(g - g0) ^ 1][2],
+                                           rows[(g - g0) ^ 1][3]}};
+            quad_blur_row(P->k, r, J->qx0, J->rx0 + start, y, J->out->width - start,
+                          L->bg + (size_t)y * L->w + J->rx0 + start, o + start, J->saturate);
         } else {
-            for (int y = 0; y < out->height; y++)
-                memcpy(obs_image_f32_row(out, y), obs_image_f32_row(&A, y + ry0 - qy0) + (rx0 - qx0),
-                       sizeof(float) * out->width);
+            memcpy(o, rows[g - g0][0] + (J->rx0 - J->qx0), sizeof(float) * J->out->width);
+            if (J->saturate)
+                for (int i = 0; i < J->out->width; i++)
+                    o[i] = saturatef(o[i]);
         }
+    }
+}
+
+static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int l, int qx0, int qy0, int qx1, int qy1,
+                            int rx0, int ry0, int saturate, obs_image_f32 *out, int64_t *background)
+{
+    const int qw = qx1 - qx0, qh = qy1 - qy0;
+    const int threads = obs_pool_threads(pool);
+    obs_status st = OBS_STATUS_OK;
+    int64_t(*counts)[2] = (int64_t(*)[2])calloc((size_t)qh, sizeof *counts);
+    float *scratch = (float *)malloc(sizeof(float) * 8 * (size_t)qw * (size_t)threads);
+    if (!counts || !scratch)
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+    if (st == OBS_STATUS_OK) {
+        level_job J = {P, l, qx0, qy0, qw, qh, rx0, ry0, saturate, out, scratch, counts};
+        obs_pool_run(pool, (qh + 1) / 2, level_task, &J);
         if (background)
             for (int r = 0; r < qh; r++)
                 *background += counts[r][0];
     }
+    free(scratch);
     free(counts);
-    obs_image_f32_free(&NY);
-    obs_image_f32_free(&NX);
-    obs_image_f32_free(&Zq);
-    obs_image_f32_free(&A);
     return st;
 }
 
@@ -1181,7 +1356,9 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
             for (int y = 0; y <= L->h; y++)
                 L->spy[y] = (float)(-(((double)y + 0.5) * s - in->cy) * 2.0 / H);
         }
-        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n; c++)
+        /* level 0 keeps a normal plane only for the setup of level 1; otherwise the kernel converts
+         * the source normals itself (ue4_normal_at) */
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n && (l > 0 || P.levels > 1); c++)
             st = obs_image_f32_alloc(ctx, L->w, L->h, &L->n[c]);
         for (int c = 0; c < 3 && st == OBS_STATUS_OK && l; c++)
             st = obs_image_f32_alloc(ctx, L->w, L->h, &L->e[c]);
@@ -1202,6 +1379,8 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         }
     }
     if (st == OBS_STATUS_OK) {
+        for (int c = 0; c < 3; c++)
+            P.nsrc[c] = nsrc[c];
         prep_job PJ = {&P, {nsrc[0], nsrc[1], nsrc[2]}};
         obs_pool_run(pool, H, prep_row, &PJ);
         for (int l = 1; l < P.levels; l++) {
@@ -1215,12 +1394,13 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     for (int l = P.levels - 1; l >= 1 && st == OBS_STATUS_OK; l--) {
         level *L = &P.lv[l];
         const int qx1 = K.quad_blur ? L->w + (L->w & 1) : L->w, qy1 = K.quad_blur ? L->h + (L->h & 1) : L->h;
-        st = run_level(ctx, pool, &P, l, 0, 0, qx1, qy1, 0, 0, &L->ao, NULL);
+        st = run_level(ctx, pool, &P, l, 0, 0, qx1, qy1, 0, 0, 0, &L->ao, NULL);
         computed += (int64_t)qx1 * qy1;
     }
 
     /* ---- 3. the full-resolution pass over the window plus the Gaussian's reach, aligned to 2x2
-     *         quads, then its quad blur ---- */
+     *         quads, then its quad blur, saturated (the UNORM render target). Without the Gaussian
+     *         the rect is the window, written straight into out. ---- */
     int rect[4];
     ao_blur_reach(in, K.blur ? AO_GAUSS21_RADIUS : 0, rect);
     int qx0 = rect[0], qy0 = rect[1], qx1 = rect[0] + rect[2], qy1 = rect[1] + rect[3]; /* exclusive */
@@ -1228,24 +1408,17 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         qx0 &= ~1, qy0 &= ~1;
         qx1 += qx1 & 1, qy1 += qy1 & 1; /* may be one past the buffer: a helper lane */
     }
-    if (st == OBS_STATUS_OK)
+    const int direct = !K.blur && rect[0] == in->x0 && rect[1] == in->y0 && rect[2] == in->w && rect[3] == in->h;
+    if (st == OBS_STATUS_OK && !direct)
         st = obs_image_f32_alloc(ctx, rect[2], rect[3], &Q);
     if (st == OBS_STATUS_OK) {
-        st = run_level(ctx, pool, &P, 0, qx0, qy0, qx1, qy1, rect[0], rect[1], &Q, &background);
+        st = run_level(ctx, pool, &P, 0, qx0, qy0, qx1, qy1, rect[0], rect[1], 1, direct ? out : &Q, &background);
         computed += (int64_t)(qx1 - qx0) * (qy1 - qy0);
-    }
-    if (st == OBS_STATUS_OK) {
-        /* the UNORM render target saturates */
-        for (int y = 0; y < rect[3]; y++) {
-            float *q = obs_image_f32_row(&Q, y);
-            for (int x = 0; x < rect[2]; x++)
-                q[x] = saturatef(q[x]);
-        }
     }
     const double t2 = obs_time_now();
 
     /* ---- 4. the seed thesis' Gaussian ---- */
-    const obs_image_f32 *final = &Q;
+    const obs_image_f32 *final = direct ? out : &Q;
     if (st == OBS_STATUS_OK && K.blur) {
         st = obs_image_f32_alloc(ctx, rect[2], rect[3], &G);
         if (st == OBS_STATUS_OK)
@@ -1256,11 +1429,14 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
 
     /* ---- 5. crop the window ---- */
     if (st == OBS_STATUS_OK) {
+        const obs_image_f32 *raw = direct ? out : &Q;
         for (int y = 0; y < in->h; y++) {
             const int ry = in->y0 + y - rect[1];
-            memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, ry) + (in->x0 - rect[0]), sizeof(float) * in->w);
+            if (!direct)
+                memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, ry) + (in->x0 - rect[0]),
+                       sizeof(float) * in->w);
             if (out_raw)
-                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&Q, ry) + (in->x0 - rect[0]),
+                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(raw, ry) + (in->x0 - rect[0]),
                        sizeof(float) * in->w);
         }
         if (stats) {
