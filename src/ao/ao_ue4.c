@@ -390,6 +390,44 @@ static inline void ue4_normal_at(const prep *P, const level *L, int tx, int ty, 
                     obs_image_f32_row(P->nsrc[2], ty)[tx], n);
 }
 
+/* Level 0 keeps no planes of its own (no per-call full-size allocation, whose page faults cost
+ * more than the conversion): SceneDepth in uu and the background flag come straight from the
+ * input depth. Background is a depth that is not finite or <= 0; background and huge depths read
+ * max_depth ("sky and huge depths read as 100 km"). */
+static inline int depth_is_bg(float dm) { return !(isfinite(dm) && dm > 0.0f); }
+static inline float depth_uu(const prep *P, float dm)
+{
+    const float zmax = P->k->max_depth;
+    const float v = depth_is_bg(dm) ? zmax : dm * P->k->units_per_metre;
+    return v < zmax ? v : zmax;
+}
+static inline float level_depth(const prep *P, const level *L, int tx, int ty)
+{
+    if (L->z.data)
+        return obs_image_f32_row(&L->z, ty)[tx];
+    return depth_uu(P, obs_image_f32_row(P->in->depth, ty)[tx]);
+}
+/* The background flags of row ty, columns [x0, x1), at dst[x0 .. x1 - 1] (level 0), or a pointer
+ * into the level's plane (indexed by x as well). */
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+static int bg_row_avx2(const float *d, int x0, int x1, unsigned char *dst);
+#endif
+static inline const unsigned char *level_bg_row(const prep *P, const level *L, int ty, int x0, int x1,
+                                                unsigned char *dst)
+{
+    if (L->bg)
+        return L->bg + (size_t)ty * L->w;
+    const float *d = obs_image_f32_row(P->in->depth, ty);
+    int x = x0;
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+    if (P->simd)
+        x = bg_row_avx2(d, x0, x1, dst);
+#endif
+    for (; x < x1; x++)
+        dst[x] = (unsigned char)depth_is_bg(d[x]);
+    return dst;
+}
+
 /* ScreenPosToHZBUV + point sampling on the level's depth: floor((sx * W/2 + cx) / s), clamped
  * to the level. The position is first clamped to +-1e9 (NaN -> -1e9), so the truncation below is
  * floorf exactly: (int)u rounds toward zero, one less where that was upwards. */
@@ -413,7 +451,7 @@ static inline int texel_y(const prep *P, const level *L, float sy)
 }
 static inline float depth_at(const prep *P, const level *L, float sx, float sy)
 {
-    return obs_image_f32_row(&L->z, texel_y(P, L, sy))[texel_x(P, L, sx)];
+    return level_depth(P, L, texel_x(P, L, sx), texel_y(P, L, sy));
 }
 
 /* ComputeUpsampleContribution (AO_UPSAMPLE_QUALITY 0: 4 taps at +-0.5 coarse texel at full
@@ -466,8 +504,10 @@ static float ue4_finish(const prep *P, int l, int x, int y, int tx, int ty, floa
         return r;
     /* "soft fade out AO in the distance" */
     r = lerpf(r, 1.0f, saturatef(SceneDepth * k->fade_mul + k->fade_add));
-    /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity */
-    return 1.0f - (1.0f - powf(fabsf(r), k->power)) * k->intensity;
+    /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity; pow(1, y) = 1 exactly (C11
+     * F.10.4.4), the unoccluded pixels skip the call */
+    const float ar = fabsf(r);
+    return 1.0f - (1.0f - (ar == 1.0f ? 1.0f : powf(ar, k->power))) * k->intensity;
 }
 
 /* One pixel of MainPSandCS at level l (x, y in the level, possibly one past its edge: a quad's
@@ -476,16 +516,17 @@ static float ue4_finish(const prep *P, int l, int x, int y, int tx, int ty, floa
  * SceneDepth (uu) and nxy normalize(ViewSpaceNormal).xy for the quad blur. Returns 1 for a
  * background pixel (ao = 1). The scalar reference: the AVX2 row kernel below computes the same
  * operations in the same order, eight pixels at a time. */
-static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth, float nxy[2], int *bad_normal)
+static int ue4_pixel(const prep *P, int l, int x, int y, const unsigned char *bgrow, float *ao, float *depth,
+                     float nxy[2], int *bad_normal)
 {
     const ao_ue4_constants *k = P->k;
     const level *L = &P->lv[l];
     const int tx = clampi(x, 0, L->w - 1), ty = clampi(y, 0, L->h - 1);
     nxy[0] = nxy[1] = 0.0f;
     *bad_normal = 0;
-    const float SceneDepth = obs_image_f32_row(&L->z, ty)[tx];
+    const float SceneDepth = level_depth(P, L, tx, ty);
     *depth = SceneDepth;
-    if (L->bg[(size_t)ty * L->w + tx]) {
+    if (bgrow[tx]) {
         *ao = 1.0f;
         return 1;
     }
@@ -659,17 +700,48 @@ UE4_AVX2_FN static inline __m256i v_texel(__m256 u, __m256i nm1)
 
 /* Pixels x0 .. x0 + 7 of row y of level l (all inside the level: x0 + 7 < w). Writes the eight
  * outputs of ue4_pixel and adds the background and zero-normal counts. */
-UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, float *ao, float *depth, float *nx, float *ny,
-                                    int64_t *nb, int64_t *nn)
+/* depth_uu of eight input depths: background (not dm > 0 && dm < inf) and huge -> max_depth */
+UE4_AVX2_FN static inline __m256 v_depth_uu(__m256 dm, __m256 U, __m256 zmax)
+{
+    const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dm, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(dm, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    return _mm256_blendv_ps(zmax, _mm256_min_ps(_mm256_mul_ps(dm, U), zmax), ok);
+}
+
+/* level_bg_row's flags eight at a time (depth_is_bg: not (dm > 0 && dm < inf)); returns the
+ * first column left */
+UE4_AVX2_FN static int bg_row_avx2(const float *d, int x0, int x1, unsigned char *dst)
+{
+    int x = x0;
+    for (; x + 8 <= x1; x += 8) {
+        const __m256 dm = _mm256_loadu_ps(d + x);
+        const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dm, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                        _mm256_cmp_ps(dm, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+        const __m256i b = _mm256_andnot_si256(_mm256_castps_si256(ok), _mm256_set1_epi32(1)); /* 1 = background */
+        const __m256i p16 = _mm256_packus_epi32(b, b), p8 = _mm256_packus_epi16(p16, p16);
+        const uint32_t lo = (uint32_t)_mm_cvtsi128_si32(_mm256_castsi256_si128(p8));
+        const uint32_t hi = (uint32_t)_mm_cvtsi128_si32(_mm256_extracti128_si256(p8, 1));
+        memcpy(dst + x, &lo, 4);
+        memcpy(dst + x + 4, &hi, 4);
+    }
+    return x;
+}
+
+UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const unsigned char *bgrow, float *ao,
+                                    float *depth, float *nx, float *ny, int64_t *nb, int64_t *nn)
 {
     const ao_ue4_constants *k = P->k;
     const level *L = &P->lv[l];
     const int ty = clampi(y, 0, L->h - 1);
     const __m256 one = _mm256_set1_ps(1.0f);
-    const __m256 SceneDepth = _mm256_loadu_ps(obs_image_f32_row(&L->z, ty) + x0);
     const int use_n = k->normal_mode != AO_UE4_NORMALS_NONE, o1 = k->variant == AO_UE4_VARIANT_O1;
     const int ortho = k->orthographic;
-    const __m256 U = _mm256_set1_ps(k->units_per_metre);
+    const __m256 U = _mm256_set1_ps(k->units_per_metre), zmax = _mm256_set1_ps(k->max_depth);
+    const int conv = !L->z.data; /* level 0: the input depth, converted */
+    const obs_image_f32 *zimg = conv ? P->in->depth : &L->z;
+    __m256 SceneDepth = _mm256_loadu_ps(obs_image_f32_row(zimg, ty) + x0);
+    if (conv)
+        SceneDepth = v_depth_uu(SceneDepth, U, zmax);
     __m256 n0 = _mm256_setzero_ps(), n1 = n0, n2 = n0;
     if (use_n) {
         if (L->n[0].data) {
@@ -739,8 +811,8 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, float *
     const __m256 half_w = _mm256_set1_ps(P->half_w), half_h = _mm256_set1_ps(P->half_h);
     const __m256 pcx = _mm256_set1_ps(P->cx), pcy = _mm256_set1_ps(P->cy), inv_s = _mm256_set1_ps(L->inv_s);
     const __m256i wm1 = _mm256_set1_epi32(L->w - 1), hm1 = _mm256_set1_epi32(L->h - 1);
-    const __m256i stride = _mm256_set1_epi32((int)L->z.stride);
-    const float *zbase = L->z.data;
+    const __m256i stride = _mm256_set1_epi32((int)zimg->stride);
+    const float *zbase = zimg->data;
     for (int i = 0; i < L->sample_count; i++) {
         const __m256 ux = _mm256_set1_ps(L->samples[2 * i]), uy = _mm256_set1_ps(L->samples[2 * i + 1]);
         const __m256 LR0 = _mm256_add_ps(_mm256_mul_ps(ux, RB0), _mm256_mul_ps(uy, RB2));
@@ -755,8 +827,12 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, float *
             const __m256i tyL = v_texel(_mm256_mul_ps(_mm256_sub_ps(pcy, _mm256_mul_ps(SL1, half_h)), inv_s), hm1);
             const __m256i txR = v_texel(_mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(SR0, half_w), pcx), inv_s), wm1);
             const __m256i tyR = v_texel(_mm256_mul_ps(_mm256_sub_ps(pcy, _mm256_mul_ps(SR1, half_h)), inv_s), hm1);
-            const __m256 AbsL = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyL, stride), txL), 4);
-            const __m256 AbsR = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyR, stride), txR), 4);
+            __m256 AbsL = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyL, stride), txL), 4);
+            __m256 AbsR = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyR, stride), txR), 4);
+            if (conv) {
+                AbsL = v_depth_uu(AbsL, U, zmax);
+                AbsR = v_depth_uu(AbsR, U, zmax);
+            }
             const __m256 cL = ortho ? U : AbsL, cR = ortho ? U : AbsR;
             const __m256 DL0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SL0, cL), V0), IF0);
             const __m256 DL1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SL1, cL), V1), IF1);
@@ -823,7 +899,7 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, float *
     _mm256_storeu_ps(nv[1], n1);
     _mm256_storeu_ps(nv[2], n2);
     _mm256_storeu_ps(depth, SceneDepth);
-    const unsigned char *bg = L->bg + (size_t)ty * L->w + x0;
+    const unsigned char *bg = bgrow + x0;
     for (int i = 0; i < 8; i++) {
         nx[i] = ny[i] = 0.0f;
         if (bg[i]) {
@@ -845,6 +921,22 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, float *
     }
 }
 
+/* ue4_pixel's outputs for eight background pixels at x0 of row ty: ao 1, SceneDepth, no normal */
+UE4_AVX2_FN static void background8(const prep *P, const level *L, int x0, int ty, float *a, float *z, float *nx,
+                                    float *ny)
+{
+    __m256 d;
+    if (L->z.data)
+        d = _mm256_loadu_ps(obs_image_f32_row(&L->z, ty) + x0);
+    else
+        d = v_depth_uu(_mm256_loadu_ps(obs_image_f32_row(P->in->depth, ty) + x0), _mm256_set1_ps(P->k->units_per_metre),
+                       _mm256_set1_ps(P->k->max_depth));
+    _mm256_storeu_ps(a, _mm256_set1_ps(1.0f));
+    _mm256_storeu_ps(z, d);
+    _mm256_storeu_ps(nx, _mm256_setzero_ps());
+    _mm256_storeu_ps(ny, _mm256_setzero_ps());
+}
+
 /* Whether any of the eight pixels at x0 of row ty is not background (an all-background group
  * skips the kernel). */
 static inline int any_surface8(const unsigned char *bg)
@@ -857,27 +949,22 @@ static inline int any_surface8(const unsigned char *bg)
 
 /* Row y of level l's AO pass over the region columns qx0 .. qx0 + width - 1: ao, SceneDepth and
  * the normal's xy of each pixel (ue4_pixel), and the row's background and zero-normal counts. */
-static void ao_row_compute(const prep *P, int l, int qx0, int y, int width, float *a, float *z, float *nx, float *ny,
-                           int64_t count[2])
+static void ao_row_compute(const prep *P, int l, int qx0, int y, int width, const unsigned char *bgrow, float *a,
+                           float *z, float *nx, float *ny, int64_t count[2])
 {
     const level *L = &P->lv[l];
     int64_t nb = 0, nn = 0;
     int i = 0;
 #ifdef UE4_AVX2
-    if (P->simd && (int64_t)L->z.stride * L->h <= INT32_MAX) { /* gather indices are 32-bit */
+    const obs_image_f32 *zimg = L->z.data ? &L->z : P->in->depth;
+    if (P->simd && (int64_t)zimg->stride * L->h <= INT32_MAX) { /* gather indices are 32-bit */
         const int ty = clampi(y, 0, L->h - 1);
-        const unsigned char *bgrow = L->bg + (size_t)ty * L->w;
-        const float *zrow = obs_image_f32_row(&L->z, ty);
         for (; qx0 + i + 7 < L->w && i + 8 <= width; i += 8) {
             const int x = qx0 + i;
             if (any_surface8(bgrow + x)) {
-                ue4_pixels8(P, l, x, y, a + i, z + i, nx + i, ny + i, &nb, &nn);
+                ue4_pixels8(P, l, x, y, bgrow, a + i, z + i, nx + i, ny + i, &nb, &nn);
             } else { /* eight background pixels: ue4_pixel's early return */
-                for (int j = 0; j < 8; j++) {
-                    a[i + j] = 1.0f;
-                    z[i + j] = zrow[x + j];
-                    nx[i + j] = ny[i + j] = 0.0f;
-                }
+                background8(P, L, x, ty, a + i, z + i, nx + i, ny + i);
                 nb += 8;
             }
         }
@@ -888,7 +975,7 @@ static void ao_row_compute(const prep *P, int l, int qx0, int y, int width, floa
     for (; i < width; i++) {
         float nxy[2];
         int bad;
-        nb += ue4_pixel(P, l, qx0 + i, y, &a[i], &z[i], nxy, &bad);
+        nb += ue4_pixel(P, l, qx0 + i, y, bgrow, &a[i], &z[i], nxy, &bad);
         nn += bad;
         nx[i] = nxy[0];
         ny[i] = nxy[1];
@@ -972,6 +1059,18 @@ UE4_AVX2_FN static int quad_blur_pair_avx2(const ao_ue4_constants *k, float *con
     const __m256 sx = _mm256_setr_ps(-1, 1, -1, 1, -1, 1, -1, 1);                     /* modx * 2 - 1 */
     int lx0 = 0;
     for (; lx0 + 8 <= qw && lx0 - off < width; lx0 += 8) {
+        if (lx0 - off >= 0 && lx0 - off + 8 <= width) {
+            /* eight output columns: all background in both rows (or the row not output) -> 1 */
+            int all_bg = 1;
+            for (int rr = 0; rr < 2; rr++)
+                all_bg &= !o[rr] || !any_surface8(bg[rr] + (lx0 - off));
+            if (all_bg) {
+                for (int rr = 0; rr < 2; rr++)
+                    if (o[rr])
+                        _mm256_storeu_ps(o[rr] + (lx0 - off), one);
+                continue;
+            }
+        }
         /* the lanes that are output pixels, and which of them are surface pixels */
         int surf[2][8], any = 0;
         for (int rr = 0; rr < 2; rr++)
@@ -1070,41 +1169,6 @@ UE4_AVX2_FN static int quad_blur_pair_avx2(const ao_ue4_constants *k, float *con
 }
 #endif
 
-typedef struct prep_job {
-    prep *P;
-    const obs_image_f32 *nsrc[3];
-} prep_job;
-
-static void prep_row(void *user, int64_t task, int thread)
-{
-    (void)thread;
-    const prep_job *J = (const prep_job *)user;
-    prep *P = J->P;
-    level *L = &P->lv[0];
-    const int y = (int)task, W = L->w;
-    const float *d = obs_image_f32_row(P->in->depth, y);
-    float *z = obs_image_f32_row(&L->z, y);
-    unsigned char *bg = L->bg + (size_t)y * W;
-    const float U = P->k->units_per_metre, zmax = P->k->max_depth;
-    for (int x = 0; x < W; x++) {
-        const float dm = d[x];
-        const int b = !(isfinite(dm) && dm > 0.0f);
-        bg[x] = (unsigned char)b;
-        float v = b ? zmax : dm * U;
-        z[x] = v < zmax ? v : zmax; /* sky and huge depths read as 100 km */
-    }
-    if (!J->nsrc[0] || !L->n[0].data)
-        return;
-    float *o[3] = {obs_image_f32_row(&L->n[0], y), obs_image_f32_row(&L->n[1], y), obs_image_f32_row(&L->n[2], y)};
-    const float *s[3] = {obs_image_f32_row(J->nsrc[0], y), obs_image_f32_row(J->nsrc[1], y),
-                         obs_image_f32_row(J->nsrc[2], y)};
-    for (int x = 0; x < W; x++) {
-        float v[3];
-        ue4_normal_from(s[0][x], s[1][x], s[2][x], v);
-        o[0][x] = v[0], o[1][x] = v[1], o[2][x] = v[2];
-    }
-}
-
 /* MainSetupPS: level l from level l - 1. The four source texels (2x, 2y) .. (2x+1, 2y+1) (the
  * bilinear taps at +-0.5 source texel land on texel centres; clamped): MaxZ = max of the depths;
  * the normal = (0.0001 + sum (n * 0.5 + 0.5) w) / (0.0001 + sum w), w = saturate(1 - |z - MaxZ| *
@@ -1128,19 +1192,23 @@ static void setup_row(void *user, int64_t task, int thread)
             sx[i] = clampi(2 * x + (i & 1), 0, S->w - 1);
             sy[i] = clampi(2 * y + (i >> 1), 0, S->h - 1);
         }
-        float z[4], e[4][3];
+        float z[4], e[4][3], n0[4][3];
         for (int i = 0; i < 4; i++) {
-            z[i] = obs_image_f32_row(&S->z, sy[i])[sx[i]];
+            z[i] = level_depth(J->P, S, sx[i], sy[i]);
+            if (J->use_n && J->l == 1)
+                ue4_normal_at(J->P, S, sx[i], sy[i], n0[i]); /* level 0: from the source normals */
             for (int c = 0; c < 3; c++) {
                 if (!J->use_n)
                     e[i][c] = 0.5f;
                 else if (J->l == 1)
-                    e[i][c] = obs_image_f32_row(&S->n[c], sy[i])[sx[i]] * 0.5f + 0.5f;
+                    e[i][c] = n0[i][c] * 0.5f + 0.5f;
                 else
                     e[i][c] = obs_image_f32_row(&S->e[c], sy[i])[sx[i]];
             }
         }
-        const float MaxZ = fmaxf(fmaxf(z[0], z[1]), fmaxf(z[2], z[3]));
+        /* fmaxf: the depths are never NaN nor zero, so a > b ? a : b is the same */
+        const float m01 = z[0] > z[1] ? z[0] : z[1], m23 = z[2] > z[3] ? z[2] : z[3];
+        const float MaxZ = m01 > m23 ? m01 : m23;
         float acc[4] = {0.0001f, 0.0001f, 0.0001f, 0.0001f};
         for (int i = 0; i < 4; i++) {
             const float w = saturatef(1.0f - fabsf(z[i] - MaxZ) * InvThreshold); /* ComputeDepthSimilarity */
@@ -1179,18 +1247,29 @@ static void level_free(level *L)
 
 /* The AO pass of level l over [qx0, qx1) x [qy0, qy1) (quad-aligned when the quad blur is on),
  * then the quad blur (or a copy) into out over the rect (rx0, ry0, out->width, out->height),
- * saturated when `saturate` (level 0: the UNORM target). One task per pair of region rows (a row
- * of quads): its AO rows go to the thread's scratch and its output rows are written at once, so
- * no full-size intermediate planes are needed; each output pixel depends only on its quad. */
+ * saturated when `saturate` (level 0: the UNORM target). One task per tile of UE4_TILE_W x
+ * UE4_TILE_H region pixels (even sizes from the region's even origin: whole quads), row pair by
+ * row pair: the pair's AO rows go to the thread's scratch and its output pixels are written at
+ * once, so no full-size intermediate planes are needed; each output pixel depends only on its
+ * quad. Tiles rather than rows keep the taps' reads (up to ~160 px away at 1080p with UE's
+ * default radius) in the core's L2: a tile reads about (128 + 2r) x (32 + 2r) depths. */
+#ifndef UE4_TILE_W
+#define UE4_TILE_W 128
+#endif
+#ifndef UE4_TILE_H
+#define UE4_TILE_H 32
+#endif
 typedef struct level_job {
     const prep *P;
     int l;
     int qx0, qy0, qw, qh;  /* region (level coordinates; may be one past the edge) */
     int rx0, ry0;          /* origin of the output rect */
     int saturate;
+    int tiles_x;
     obs_image_f32 *out;
-    float *scratch;        /* per thread: 2 rows x 4 planes (ao, SceneDepth, nx, ny) of qw floats */
-    int64_t (*counts)[2];  /* per region row: background, zero normal */
+    float *scratch;        /* per thread: 2 rows x 4 planes (ao, SceneDepth, nx, ny) of UE4_TILE_W floats */
+    unsigned char *bg_scratch; /* per thread: 2 background rows of the level's width (level 0) */
+    int64_t (*counts)[2];  /* per tile: background, zero normal */
 } level_job;
 
 static void level_task(void *user, int64_t task, int thread)
@@ -1198,49 +1277,67 @@ static void level_task(void *user, int64_t task, int thread)
     const level_job *J = (const level_job *)user;
     const prep *P = J->P;
     const level *L = &P->lv[J->l];
-    const int qw = J->qw;
-    float *sc = J->scratch + (size_t)thread * 8 * (size_t)qw;
+    float *sc = J->scratch + (size_t)thread * 8 * UE4_TILE_W;
+    unsigned char *bsc = J->bg_scratch + (size_t)thread * 2 * (size_t)L->w;
+    const int tile_x = (int)(task % J->tiles_x), tile_y = (int)(task / J->tiles_x);
+    /* the tile: region columns from tqx0 (level x), tqw wide; region rows [ga, gb) */
+    const int lx0 = tile_x * UE4_TILE_W, tqw = J->qw - lx0 < UE4_TILE_W ? J->qw - lx0 : UE4_TILE_W;
+    const int tqx0 = J->qx0 + lx0;
+    const int ga = tile_y * UE4_TILE_H, gb = J->qh - ga < UE4_TILE_H ? J->qh : ga + UE4_TILE_H;
+    /* its output columns [ox0, ox1) (level x), possibly none (a helper column alone) */
+    const int ow = J->out->width;
+    const int ox0 = J->rx0 > tqx0 ? J->rx0 : tqx0;
+    const int ox1 = J->rx0 + ow < tqx0 + tqw ? J->rx0 + ow : tqx0 + tqw;
+    const int bx0 = clampi(tqx0, 0, L->w - 1), bx1 = clampi(tqx0 + tqw, bx0 + 1, L->w);
+    int64_t count[2] = {0, 0};
     float *rows[2][4];
-    const int g0 = 2 * (int)task, g1 = g0 + 2 < J->qh ? g0 + 2 : J->qh; /* region rows [g0, g1) */
-    for (int g = g0; g < g1; g++) {
-        float *const *rp = rows[g - g0];
+    for (int rr = 0; rr < 2; rr++)
         for (int c = 0; c < 4; c++)
-            rows[g - g0][c] = sc + (size_t)(4 * (g - g0) + c) * qw;
-        ao_row_compute(P, J->l, J->qx0, J->qy0 + g, qw, rp[0], rp[1], rp[2], rp[3], J->counts[g]);
-    }
-    int start = 0; /* output columns [0, start) of the pair's rows are done */
-    float *orow[2] = {NULL, NULL};
-    for (int g = g0; g < g1; g++) {
-        const int oy = J->qy0 + g - J->ry0;
-        if (oy >= 0 && oy < J->out->height)
-            orow[g - g0] = obs_image_f32_row(J->out, oy);
-    }
+            rows[rr][c] = sc + (size_t)(4 * rr + c) * UE4_TILE_W;
+    for (int g0 = ga; g0 < gb; g0 += 2) {
+        const int g1 = g0 + 2 < gb ? g0 + 2 : gb;
+        const unsigned char *bgrows[2] = {NULL, NULL}; /* background rows (clamped), indexed by x */
+        float *orow[2] = {NULL, NULL};
+        for (int g = g0; g < g1; g++) {
+            float *const *rp = rows[g - g0];
+            int64_t c2[2];
+            const int ty = clampi(J->qy0 + g, 0, L->h - 1);
+            bgrows[g - g0] = level_bg_row(P, L, ty, bx0, bx1, bsc + (size_t)(g - g0) * L->w);
+            ao_row_compute(P, J->l, tqx0, J->qy0 + g, tqw, bgrows[g - g0], rp[0], rp[1], rp[2], rp[3], c2);
+            count[0] += c2[0];
+            count[1] += c2[1];
+            const int oy = J->qy0 + g - J->ry0;
+            if (oy >= 0 && oy < J->out->height && ox1 > ox0)
+                orow[g - g0] = obs_image_f32_row(J->out, oy) + (ox0 - J->rx0);
+        }
+        int start = 0; /* output columns [ox0, ox0 + start) of the pair's rows are done */
 #ifdef UE4_AVX2
-    if (P->simd && P->k->quad_blur && g1 - g0 == 2 && (orow[0] || orow[1])) {
-        const unsigned char *bgr[2] = {L->bg + (size_t)clampi(J->qy0 + g0, 0, L->h - 1) * L->w + J->rx0,
-                                       L->bg + (size_t)clampi(J->qy0 + g0 + 1, 0, L->h - 1) * L->w + J->rx0};
-        start = quad_blur_pair_avx2(P->k, rows, qw, J->qx0, J->rx0, J->out->width, J->qy0 + g0, bgr, orow,
-                                    J->saturate);
-    }
+        if (P->simd && P->k->quad_blur && g1 - g0 == 2 && (orow[0] || orow[1])) {
+            const unsigned char *bgr[2] = {bgrows[0] + ox0, bgrows[1] + ox0};
+            start = quad_blur_pair_avx2(P->k, rows, tqw, tqx0, ox0, ox1 - ox0, J->qy0 + g0, bgr, orow, J->saturate);
+        }
 #endif
-    for (int g = g0; g < g1; g++) {
-        const int y = J->qy0 + g;
-        float *o = orow[g - g0];
-        if (!o)
-            continue;
-        if (P->k->quad_blur) {
-            const float *const r[2][4] = {{rows[g - g0][0], rows[g - g0][1], rows[g - g0][2], rows[g - g0][3]},
-                                          {rows[(g - g0) ^ 1][0], rows[(g - g0) ^ 1][1], rows[(g - g0) ^ 1][2],
-                                           rows[(g - g0) ^ 1][3]}};
-            quad_blur_row(P->k, r, J->qx0, J->rx0 + start, y, J->out->width - start,
-                          L->bg + (size_t)y * L->w + J->rx0 + start, o + start, J->saturate);
-        } else {
-            memcpy(o, rows[g - g0][0] + (J->rx0 - J->qx0), sizeof(float) * J->out->width);
-            if (J->saturate)
-                for (int i = 0; i < J->out->width; i++)
-                    o[i] = saturatef(o[i]);
+        for (int g = g0; g < g1; g++) {
+            const int y = J->qy0 + g;
+            float *o = orow[g - g0];
+            if (!o)
+                continue;
+            if (P->k->quad_blur) {
+                const float *const r[2][4] = {{rows[g - g0][0], rows[g - g0][1], rows[g - g0][2], rows[g - g0][3]},
+                                              {rows[(g - g0) ^ 1][0], rows[(g - g0) ^ 1][1], rows[(g - g0) ^ 1][2],
+                                               rows[(g - g0) ^ 1][3]}};
+                quad_blur_row(P->k, r, tqx0, ox0 + start, y, ox1 - ox0 - start, bgrows[g - g0] + ox0 + start,
+                              o + start, J->saturate);
+            } else {
+                memcpy(o, rows[g - g0][0] + (ox0 - tqx0), sizeof(float) * (size_t)(ox1 - ox0));
+                if (J->saturate)
+                    for (int i = 0; i < ox1 - ox0; i++)
+                        o[i] = saturatef(o[i]);
+            }
         }
     }
+    J->counts[task][0] = count[0];
+    J->counts[task][1] = count[1];
 }
 
 static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int l, int qx0, int qy0, int qx1, int qy1,
@@ -1248,18 +1345,22 @@ static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int
 {
     const int qw = qx1 - qx0, qh = qy1 - qy0;
     const int threads = obs_pool_threads(pool);
+    const int tiles_x = (qw + UE4_TILE_W - 1) / UE4_TILE_W, tiles_y = (qh + UE4_TILE_H - 1) / UE4_TILE_H;
+    const int64_t tiles = (int64_t)tiles_x * tiles_y;
     obs_status st = OBS_STATUS_OK;
-    int64_t(*counts)[2] = (int64_t(*)[2])calloc((size_t)qh, sizeof *counts);
-    float *scratch = (float *)malloc(sizeof(float) * 8 * (size_t)qw * (size_t)threads);
-    if (!counts || !scratch)
+    int64_t(*counts)[2] = (int64_t(*)[2])calloc((size_t)tiles, sizeof *counts);
+    float *scratch = (float *)malloc(sizeof(float) * 8 * UE4_TILE_W * (size_t)threads);
+    unsigned char *bg_scratch = (unsigned char *)malloc(2 * (size_t)P->lv[l].w * (size_t)threads);
+    if (!counts || !scratch || !bg_scratch)
         st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
     if (st == OBS_STATUS_OK) {
-        level_job J = {P, l, qx0, qy0, qw, qh, rx0, ry0, saturate, out, scratch, counts};
-        obs_pool_run(pool, (qh + 1) / 2, level_task, &J);
+        level_job J = {P, l, qx0, qy0, qw, qh, rx0, ry0, saturate, tiles_x, out, scratch, bg_scratch, counts};
+        obs_pool_run(pool, tiles, level_task, &J);
         if (background)
-            for (int r = 0; r < qh; r++)
-                *background += counts[r][0];
+            for (int64_t t = 0; t < tiles; t++)
+                *background += counts[t][0];
     }
+    free(bg_scratch);
     free(scratch);
     free(counts);
     return st;
@@ -1319,8 +1420,9 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     const int use_n = K.normal_mode != AO_UE4_NORMALS_NONE;
     int64_t background = 0, computed = 0;
 
-    /* ---- 1. prepare: depth in uu, background mask, UE view-space normals, the random vectors,
-     *         and the AO setup levels (multi-resolution option) ---- */
+    /* ---- 1. prepare: the random vectors, the ScreenPos tables, normals from depth (mode 2), and
+     *         the AO setup levels (multi-resolution option); level 0 converts the input's depth
+     *         (uu, background) and normals (UE view space) where it reads them ---- */
     const double t0 = obs_time_now();
     unsigned char tex[16][4];
     ao_ue4_random_texture(tex);
@@ -1340,12 +1442,15 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         if (!l)
             memcpy(L->samples, K.samples, sizeof L->samples);
         L->inv_s = 1.0f / L->s;
-        st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
+        /* level 0 reads the input's depth and normals as they are (level_depth, level_bg_row,
+         * ue4_normal_at): no full-size planes, whose fresh pages cost more than the conversion */
+        if (l)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
         if (st == OBS_STATUS_OK) {
-            L->bg = (unsigned char *)malloc((size_t)L->w * L->h);
+            L->bg = l ? (unsigned char *)malloc((size_t)L->w * L->h) : NULL;
             L->spx = (float *)malloc(sizeof(float) * ((size_t)L->w + 1));
             L->spy = (float *)malloc(sizeof(float) * ((size_t)L->h + 1));
-            if (!L->bg || !L->spx || !L->spy)
+            if ((l && !L->bg) || !L->spx || !L->spy)
                 st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
         }
         if (st == OBS_STATUS_OK) {
@@ -1356,9 +1461,7 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
             for (int y = 0; y <= L->h; y++)
                 L->spy[y] = (float)(-(((double)y + 0.5) * s - in->cy) * 2.0 / H);
         }
-        /* level 0 keeps a normal plane only for the setup of level 1; otherwise the kernel converts
-         * the source normals itself (ue4_normal_at) */
-        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n && (l > 0 || P.levels > 1); c++)
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n && l; c++)
             st = obs_image_f32_alloc(ctx, L->w, L->h, &L->n[c]);
         for (int c = 0; c < 3 && st == OBS_STATUS_OK && l; c++)
             st = obs_image_f32_alloc(ctx, L->w, L->h, &L->e[c]);
@@ -1381,8 +1484,6 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     if (st == OBS_STATUS_OK) {
         for (int c = 0; c < 3; c++)
             P.nsrc[c] = nsrc[c];
-        prep_job PJ = {&P, {nsrc[0], nsrc[1], nsrc[2]}};
-        obs_pool_run(pool, H, prep_row, &PJ);
         for (int l = 1; l < P.levels; l++) {
             setup_job SJ = {&P, l, use_n};
             obs_pool_run(pool, P.lv[l].h, setup_row, &SJ);
