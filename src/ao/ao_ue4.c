@@ -23,6 +23,11 @@
  *     coarse AO) and builds each setup level from the previous one;
  *   - background, zero normals and depths beyond AO_UE4_MAX_DEPTH_M are handled explicitly;
  *   - the result is saturated (UE writes a UNORM target) but not quantised to 8 bits.
+ *
+ * Speed (docs/ao/ue4.md, "Speed"): level 0 reads the input's depth and normals in place; the AO
+ * pass and the quad blur run fused per row pair of 128 x 32 tiles; ue4_pixel is the scalar
+ * reference, ue4_pixels8 / quad_blur_pair_avx2 the AVX2 paths (8 pixels of a row per vector,
+ * bit-identical, chosen at run time; OBS_ISA=scalar forces the scalar one).
  */
 #include "ao.h"
 #include "ao_internal.h"
