@@ -898,7 +898,16 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const u
         }
     }
     float r[8], zd[8], nv[3][8];
-    _mm256_storeu_ps(r, _mm256_div_ps(WA0, WA1));
+    __m256 rv = _mm256_div_ps(WA0, WA1);
+    const int vec_finish = l == 0 && P->levels == 1; /* ue4_finish without the upsample */
+    if (vec_finish) {
+        /* "soft fade out AO in the distance": lerp(r, 1, saturate(z * Mul + Add)); then |r|, whose
+         * powf goes lane by lane below */
+        rv = v_lerp(rv, one, v_sat(_mm256_add_ps(_mm256_mul_ps(SceneDepth, _mm256_set1_ps(k->fade_mul)),
+                                                 _mm256_set1_ps(k->fade_add))));
+        rv = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), rv);
+    }
+    _mm256_storeu_ps(r, rv);
     _mm256_storeu_ps(zd, SceneDepth);
     _mm256_storeu_ps(nv[0], n0);
     _mm256_storeu_ps(nv[1], n1);
@@ -922,7 +931,10 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const u
             nx[i] = n[0];
             ny[i] = n[1];
         }
-        ao[i] = ue4_finish(P, l, x0 + i, y, x0 + i, ty, r[i], zd[i], n);
+        if (vec_finish) /* "user adjust AO": 1 - (1 - pow(|r|, Power)) * Intensity, as ue4_finish */
+            ao[i] = 1.0f - (1.0f - (r[i] == 1.0f ? 1.0f : powf(r[i], k->power))) * k->intensity;
+        else
+            ao[i] = ue4_finish(P, l, x0 + i, y, x0 + i, ty, r[i], zd[i], n);
     }
 }
 
