@@ -23,11 +23,17 @@
  *     coarse AO) and builds each setup level from the previous one;
  *   - background, zero normals and depths beyond AO_UE4_MAX_DEPTH_M are handled explicitly;
  *   - the result is saturated (UE writes a UNORM target) but not quantised to 8 bits.
+ *
+ * Speed (docs/ao/ue4.md, "Speed"): level 0 reads the input's depth and normals in place; the AO
+ * pass and the quad blur run fused per row pair of 128 x 32 tiles; ue4_pixel is the scalar
+ * reference, ue4_pixels8 / quad_blur_pair_avx2 the AVX2 paths (8 pixels of a row per vector,
+ * bit-identical, chosen at run time; OBS_ISA=scalar forces the scalar one).
  */
 #include "ao.h"
 #include "ao_internal.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -335,11 +341,14 @@ static inline int clampi(int v, int lo, int hi) { return v < lo ? lo : v > hi ? 
 typedef struct level {
     int w, h;
     float s;              /* ScaleToFullRes: 1, 2, 4 */
+    float inv_s;          /* 1 / s: a power of two, so u * inv_s is u / s bit for bit */
     obs_image_f32 z;      /* depth in uu; background -> max_depth */
     obs_image_f32 n[3];   /* normalised UE view-space normals (0 = unusable); modes 1, 2 */
     obs_image_f32 e[3];   /* the setup's stored normal (n * 0.5 + 0.5, averaged); levels >= 1 */
     unsigned char *bg;    /* 1: background */
     obs_image_f32 ao;     /* levels >= 1: the level's AO (after its quad blur) */
+    float *spx, *spy;     /* ScreenPos.x of column x in [0, w], ScreenPos.y of row y in [0, h]
+                             (a quad's helper lane may be one past the edge) */
     float radius;         /* AORadiusInShader of the level */
     float samples[12];
     int sample_count;
@@ -350,32 +359,104 @@ typedef struct prep {
     const ao_input *in;
     level lv[AO_UE4_MAX_LEVELS];
     int levels;
+    int simd;             /* 1: the AVX2 row kernel (bit-identical to the scalar one) */
     float rand_vec[16][2];/* RandomVec / ActualAORadius = .rg * 2 - 1 */
     float cx, cy, half_w, half_h; /* principal point and half size of the full buffer */
+    float fov_fix[3], inv_fov_fix[3]; /* FovFix = (P00, P11, 1) and 1 / FovFix (per frame) */
+    const obs_image_f32 *nsrc[3]; /* the source normals (ours: right-handed), NULL without */
 } prep;
 
-static inline int texel_x(const prep *P, const level *L, float sx)
+/* normalize(ViewSpaceNormal) from our view-space normal: right-handed, -Z forward, to UE's
+ * left-handed +Z forward (x, y, -z), as v * rsqrt(dot(v, v)); zero when unusable. */
+static inline void ue4_normal_from(float sx, float sy, float sz, float o[3])
 {
-    /* ScreenPosToHZBUV + point sampling, on the level's depth: floor((sx * W/2 + cx) / s) */
-    float u = (sx * P->half_w + P->cx) / L->s;
+    const float v[3] = {sx, sy, -sz};
+    const float dd = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+    if (!(dd > 0.0f) || !isfinite(dd)) {
+        o[0] = o[1] = o[2] = 0.0f;
+        return;
+    }
+    const float rs = 1.0f / sqrtf(dd); /* normalize = v * rsqrt(dot(v, v)) */
+    o[0] = v[0] * rs;
+    o[1] = v[1] * rs;
+    o[2] = v[2] * rs;
+}
+
+/* The normal of texel (tx, ty): the level's plane, or (level 0 of a one-level run, which keeps no
+ * plane) converted from the source normals on the spot. */
+static inline void ue4_normal_at(const prep *P, const level *L, int tx, int ty, float n[3])
+{
+    if (L->n[0].data) {
+        for (int c = 0; c < 3; c++)
+            n[c] = obs_image_f32_row(&L->n[c], ty)[tx];
+        return;
+    }
+    ue4_normal_from(obs_image_f32_row(P->nsrc[0], ty)[tx], obs_image_f32_row(P->nsrc[1], ty)[tx],
+                    obs_image_f32_row(P->nsrc[2], ty)[tx], n);
+}
+
+/* Level 0 keeps no planes of its own (no per-call full-size allocation, whose page faults cost
+ * more than the conversion): SceneDepth in uu and the background flag come straight from the
+ * input depth. Background is a depth that is not finite or <= 0; background and huge depths read
+ * max_depth ("sky and huge depths read as 100 km"). */
+static inline int depth_is_bg(float dm) { return !(isfinite(dm) && dm > 0.0f); }
+static inline float depth_uu(const prep *P, float dm)
+{
+    const float zmax = P->k->max_depth;
+    const float v = depth_is_bg(dm) ? zmax : dm * P->k->units_per_metre;
+    return v < zmax ? v : zmax;
+}
+static inline float level_depth(const prep *P, const level *L, int tx, int ty)
+{
+    if (L->z.data)
+        return obs_image_f32_row(&L->z, ty)[tx];
+    return depth_uu(P, obs_image_f32_row(P->in->depth, ty)[tx]);
+}
+/* The background flags of row ty, columns [x0, x1), at dst[x0 .. x1 - 1] (level 0), or a pointer
+ * into the level's plane (indexed by x as well). */
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+static int bg_row_avx2(const float *d, int x0, int x1, unsigned char *dst);
+#endif
+static inline const unsigned char *level_bg_row(const prep *P, const level *L, int ty, int x0, int x1,
+                                                unsigned char *dst)
+{
+    if (L->bg)
+        return L->bg + (size_t)ty * L->w;
+    const float *d = obs_image_f32_row(P->in->depth, ty);
+    int x = x0;
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+    if (P->simd)
+        x = bg_row_avx2(d, x0, x1, dst);
+#endif
+    for (; x < x1; x++)
+        dst[x] = (unsigned char)depth_is_bg(d[x]);
+    return dst;
+}
+
+/* ScreenPosToHZBUV + point sampling on the level's depth: floor((sx * W/2 + cx) / s), clamped
+ * to the level. The position is first clamped to +-1e9 (NaN -> -1e9), so the truncation below is
+ * floorf exactly: (int)u rounds toward zero, one less where that was upwards. */
+static inline int texel_clamp_floor(float u, int n)
+{
     if (!(u > -1e9f))
         u = -1e9f;
     if (u > 1e9f)
         u = 1e9f;
-    return clampi((int)floorf(u), 0, L->w - 1);
+    int i = (int)u;
+    i -= (float)i > u;
+    return clampi(i, 0, n - 1);
+}
+static inline int texel_x(const prep *P, const level *L, float sx)
+{
+    return texel_clamp_floor((sx * P->half_w + P->cx) * L->inv_s, L->w);
 }
 static inline int texel_y(const prep *P, const level *L, float sy)
 {
-    float v = (P->cy - sy * P->half_h) / L->s; /* NDC y up -> our row (down) */
-    if (!(v > -1e9f))
-        v = -1e9f;
-    if (v > 1e9f)
-        v = 1e9f;
-    return clampi((int)floorf(v), 0, L->h - 1);
+    return texel_clamp_floor((P->cy - sy * P->half_h) * L->inv_s, L->h); /* NDC y up -> our row (down) */
 }
 static inline float depth_at(const prep *P, const level *L, float sx, float sy)
 {
-    return obs_image_f32_row(&L->z, texel_y(P, L, sy))[texel_x(P, L, sx)];
+    return level_depth(P, L, texel_x(P, L, sx), texel_y(P, L, sy));
 }
 
 /* ComputeUpsampleContribution (AO_UPSAMPLE_QUALITY 0: 4 taps at +-0.5 coarse texel at full
@@ -408,39 +489,62 @@ static float upsample(const prep *P, int l, int x, int y, float SceneDepth, cons
     return Ret / WeightSum;
 }
 
+/* The end of MainPSandCS after the sample loop: r = Sum / WeightSum of the pixel, its upsampled
+ * blend (coarser levels present), and at level 0 the fade and the user adjustment. n is the
+ * pixel's normal (zero without normals), (tx, ty) its clamped texel. */
+static float ue4_finish(const prep *P, int l, int x, int y, int tx, int ty, float r, float SceneDepth,
+                        const float n[3])
+{
+    const ao_ue4_constants *k = P->k;
+    const level *L = &P->lv[l];
+    /* "recombined result from multiple resolutions": lerp(ao, upsampled, MipBlend) (USE_UPSAMPLE) */
+    if (l + 1 < P->levels) {
+        float cn[3] = {n[0], n[1], n[2]}; /* CenterWorldNormal: level 0 the G-buffer's, else the setup's */
+        if (l > 0 && k->normal_mode != AO_UE4_NORMALS_NONE)
+            for (int c = 0; c < 3; c++)
+                cn[c] = obs_image_f32_row(&L->e[c], ty)[tx] * 2.0f - 1.0f;
+        r = lerpf(r, upsample(P, l, x, y, SceneDepth, cn), k->mip_blend);
+    }
+    if (l > 0)
+        return r;
+    /* "soft fade out AO in the distance" */
+    r = lerpf(r, 1.0f, saturatef(SceneDepth * k->fade_mul + k->fade_add));
+    /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity; pow(1, y) = 1 exactly (C11
+     * F.10.4.4), the unoccluded pixels skip the call */
+    const float ar = fabsf(r);
+    return 1.0f - (1.0f - (ar == 1.0f ? 1.0f : powf(ar, k->power))) * k->intensity;
+}
+
 /* One pixel of MainPSandCS at level l (x, y in the level, possibly one past its edge: a quad's
  * helper lane). *ao gets OutColor.r (level 0: after the fade and the user adjustment; coarser
  * levels: the raw AO, as USE_AO_SETUP_AS_INPUT skips them), before the quad blur; *depth the
  * SceneDepth (uu) and nxy normalize(ViewSpaceNormal).xy for the quad blur. Returns 1 for a
- * background pixel (ao = 1). */
-static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth, float nxy[2], int *bad_normal)
+ * background pixel (ao = 1). The scalar reference: the AVX2 row kernel below computes the same
+ * operations in the same order, eight pixels at a time. */
+static int ue4_pixel(const prep *P, int l, int x, int y, const unsigned char *bgrow, float *ao, float *depth,
+                     float nxy[2], int *bad_normal)
 {
     const ao_ue4_constants *k = P->k;
     const level *L = &P->lv[l];
-    const int W = k->full_width, H = k->full_height;
     const int tx = clampi(x, 0, L->w - 1), ty = clampi(y, 0, L->h - 1);
     nxy[0] = nxy[1] = 0.0f;
     *bad_normal = 0;
-    const float SceneDepth = obs_image_f32_row(&L->z, ty)[tx];
+    const float SceneDepth = level_depth(P, L, tx, ty);
     *depth = SceneDepth;
-    if (L->bg[(size_t)ty * L->w + tx]) {
+    if (bgrow[tx]) {
         *ao = 1.0f;
         return 1;
     }
-    /* ScreenPos (NDC, y up) of the pixel centre, from the principal point (computed in double) */
-    const double s = L->s;
-    const float sp_x = (float)((((double)x + 0.5) * s - P->in->cx) * 2.0 / W);
-    const float sp_y = (float)(-(((double)y + 0.5) * s - P->in->cy) * 2.0 / H);
-    const float FovFix[3] = {k->fov_fix[0], k->fov_fix[1], 1.0f};
-    const float InvFovFix[3] = {1.0f / FovFix[0], 1.0f / FovFix[1], 1.0f / FovFix[2]};
+    /* ScreenPos (NDC, y up) of the pixel centre, from the principal point (computed in double:
+     * the level's tables) */
+    const float sp_x = L->spx[x], sp_y = L->spy[y];
+    const float *FovFix = P->fov_fix, *InvFovFix = P->inv_fov_fix;
 
     /* ViewSpaceNormal = normalize(mul(WorldNormal, TranslatedWorldToView)) (prepared per pixel) */
     float n[3] = {0.0f, 0.0f, 0.0f};
     const int use_n = k->normal_mode != AO_UE4_NORMALS_NONE;
     if (use_n) {
-        n[0] = obs_image_f32_row(&L->n[0], ty)[tx];
-        n[1] = obs_image_f32_row(&L->n[1], ty)[tx];
-        n[2] = obs_image_f32_row(&L->n[2], ty)[tx];
+        ue4_normal_at(P, L, tx, ty, n);
         if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
             *bad_normal = 1; /* UE would compute normalize(0) = NaN: we return visibility 1 */
             *ao = 1.0f;
@@ -553,87 +657,377 @@ static int ue4_pixel(const prep *P, int l, int x, int y, float *ao, float *depth
             WA[1] += acc[2];
         }
     }
-    float r = WA[0] / WA[1];
-    /* "recombined result from multiple resolutions": lerp(ao, upsampled, MipBlend) (USE_UPSAMPLE) */
-    if (l + 1 < P->levels) {
-        float cn[3] = {n[0], n[1], n[2]}; /* CenterWorldNormal: level 0 the G-buffer's, else the setup's */
-        if (l > 0 && use_n)
-            for (int c = 0; c < 3; c++)
-                cn[c] = obs_image_f32_row(&L->e[c], ty)[tx] * 2.0f - 1.0f;
-        r = lerpf(r, upsample(P, l, x, y, SceneDepth, cn), k->mip_blend);
-    }
-    if (l > 0) {
-        *ao = r;
-        return 0;
-    }
-    /* "soft fade out AO in the distance" */
-    r = lerpf(r, 1.0f, saturatef(SceneDepth * k->fade_mul + k->fade_add));
-    /* "user adjust AO": 1 - (1 - pow(abs(r), Power)) * Intensity */
-    r = 1.0f - (1.0f - powf(fabsf(r), k->power)) * k->intensity;
-    *ao = r;
+    *ao = ue4_finish(P, l, x, y, tx, ty, WA[0] / WA[1], SceneDepth, n);
     return 0;
 }
 
-typedef struct ao_job {
-    const prep *P;
-    int l;
-    int qx0, qy0;          /* region origin (level coordinates, may be one past the edge) */
-    obs_image_f32 *ao, *zq, *nx, *ny;
-    int64_t (*counts)[2];  /* per row: background, zero normal */
-} ao_job;
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
+#define UE4_AVX2 1
+#include <immintrin.h>
 
-static void ao_row(void *user, int64_t task, int thread)
+/* ================================================================================================
+ * The AVX2 row kernel: ue4_pixel for eight consecutive pixels of a row (lane i = pixel x0 + i),
+ * step for step. Every operation is the IEEE one of the scalar code (add, sub, mul, div, sqrt are
+ * correctly rounded in both; no FMA: this file has no -mfma and the build -ffp-contract=off), so
+ * the results are bit-identical (tests/test_ao_ue4.c, ue4_avx2_matches_scalar_bit_for_bit).
+ * Lanes are computed whole (background and zero-normal lanes too, on their clamped texels) and
+ * their results replaced afterwards, as ue4_pixel's early returns do. Multiplications by 1.0f
+ * (InvFovFix.z, the first Weight) are left out: they are exact.
+ * ============================================================================================== */
+
+#define UE4_AVX2_FN __attribute__((target("avx2")))
+
+/* saturate: v > 0 ? (v < 1 ? v : 1) : 0 (max_ps(a, b) is a > b ? a : b, NaN -> b = 0) */
+UE4_AVX2_FN static inline __m256 v_sat(__m256 v)
 {
-    (void)thread;
-    const ao_job *J = (const ao_job *)user;
-    const int r = (int)task, y = J->qy0 + r;
-    float *a = obs_image_f32_row(J->ao, r), *z = obs_image_f32_row(J->zq, r);
-    float *nx = obs_image_f32_row(J->nx, r), *ny = obs_image_f32_row(J->ny, r);
+    return _mm256_min_ps(_mm256_max_ps(v, _mm256_setzero_ps()), _mm256_set1_ps(1.0f));
+}
+/* hmax(a, b) = a > b ? a : (b == b ? b : a) */
+UE4_AVX2_FN static inline __m256 v_hmax(__m256 a, __m256 b)
+{
+    const __m256 keep_a = _mm256_or_ps(_mm256_cmp_ps(a, b, _CMP_GT_OQ), _mm256_cmp_ps(b, b, _CMP_UNORD_Q));
+    return _mm256_blendv_ps(b, a, keep_a);
+}
+/* lerp(a, b, t) = a + t * (b - a) */
+UE4_AVX2_FN static inline __m256 v_lerp(__m256 a, __m256 b, __m256 t)
+{
+    return _mm256_add_ps(a, _mm256_mul_ps(t, _mm256_sub_ps(b, a)));
+}
+/* texel_clamp_floor of eight positions: clamp to +-1e9 (min/max_ps give the scalar's NaN rule),
+ * floor, convert, clamp to [0, n - 1] */
+UE4_AVX2_FN static inline __m256i v_texel(__m256 u, __m256i nm1)
+{
+    u = _mm256_max_ps(u, _mm256_set1_ps(-1e9f));
+    u = _mm256_min_ps(u, _mm256_set1_ps(1e9f));
+    const __m256i i = _mm256_cvttps_epi32(_mm256_floor_ps(u));
+    return _mm256_min_epi32(_mm256_max_epi32(i, _mm256_setzero_si256()), nm1);
+}
+
+/* Pixels x0 .. x0 + 7 of row y of level l (all inside the level: x0 + 7 < w). Writes the eight
+ * outputs of ue4_pixel and adds the background and zero-normal counts. */
+/* depth_uu of eight input depths: background (not dm > 0 && dm < inf) and huge -> max_depth */
+UE4_AVX2_FN static inline __m256 v_depth_uu(__m256 dm, __m256 U, __m256 zmax)
+{
+    const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dm, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(dm, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    return _mm256_blendv_ps(zmax, _mm256_min_ps(_mm256_mul_ps(dm, U), zmax), ok);
+}
+
+/* level_bg_row's flags eight at a time (depth_is_bg: not (dm > 0 && dm < inf)); returns the
+ * first column left */
+UE4_AVX2_FN static int bg_row_avx2(const float *d, int x0, int x1, unsigned char *dst)
+{
+    int x = x0;
+    for (; x + 8 <= x1; x += 8) {
+        const __m256 dm = _mm256_loadu_ps(d + x);
+        const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dm, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                        _mm256_cmp_ps(dm, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+        const __m256i b = _mm256_andnot_si256(_mm256_castps_si256(ok), _mm256_set1_epi32(1)); /* 1 = background */
+        const __m256i p16 = _mm256_packus_epi32(b, b), p8 = _mm256_packus_epi16(p16, p16);
+        const uint32_t lo = (uint32_t)_mm_cvtsi128_si32(_mm256_castsi256_si128(p8));
+        const uint32_t hi = (uint32_t)_mm_cvtsi128_si32(_mm256_extracti128_si256(p8, 1));
+        memcpy(dst + x, &lo, 4);
+        memcpy(dst + x + 4, &hi, 4);
+    }
+    return x;
+}
+
+UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const unsigned char *bgrow, float *ao,
+                                    float *depth, float *nx, float *ny, int64_t *nb, int64_t *nn)
+{
+    const ao_ue4_constants *k = P->k;
+    const level *L = &P->lv[l];
+    const int ty = clampi(y, 0, L->h - 1);
+    const __m256 one = _mm256_set1_ps(1.0f);
+    const int use_n = k->normal_mode != AO_UE4_NORMALS_NONE, o1 = k->variant == AO_UE4_VARIANT_O1;
+    const int ortho = k->orthographic;
+    const __m256 U = _mm256_set1_ps(k->units_per_metre), zmax = _mm256_set1_ps(k->max_depth);
+    const int conv = !L->z.data; /* level 0: the input depth, converted */
+    const obs_image_f32 *zimg = conv ? P->in->depth : &L->z;
+    __m256 SceneDepth = _mm256_loadu_ps(obs_image_f32_row(zimg, ty) + x0);
+    if (conv)
+        SceneDepth = v_depth_uu(SceneDepth, U, zmax);
+    __m256 n0 = _mm256_setzero_ps(), n1 = n0, n2 = n0;
+    if (use_n) {
+        if (L->n[0].data) {
+            n0 = _mm256_loadu_ps(obs_image_f32_row(&L->n[0], ty) + x0);
+            n1 = _mm256_loadu_ps(obs_image_f32_row(&L->n[1], ty) + x0);
+            n2 = _mm256_loadu_ps(obs_image_f32_row(&L->n[2], ty) + x0);
+        } else { /* ue4_normal_from */
+            n0 = _mm256_loadu_ps(obs_image_f32_row(P->nsrc[0], ty) + x0);
+            n1 = _mm256_loadu_ps(obs_image_f32_row(P->nsrc[1], ty) + x0);
+            n2 = _mm256_xor_ps(_mm256_loadu_ps(obs_image_f32_row(P->nsrc[2], ty) + x0), _mm256_set1_ps(-0.0f));
+            const __m256 dd = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n0, n0), _mm256_mul_ps(n1, n1)),
+                                            _mm256_mul_ps(n2, n2));
+            const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dd, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                            _mm256_cmp_ps(dd, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+            const __m256 rs = _mm256_div_ps(one, _mm256_sqrt_ps(dd));
+            n0 = _mm256_and_ps(_mm256_mul_ps(n0, rs), ok);
+            n1 = _mm256_and_ps(_mm256_mul_ps(n1, rs), ok);
+            n2 = _mm256_and_ps(_mm256_mul_ps(n2, rs), ok);
+        }
+    }
+    const __m256 sp_x = _mm256_loadu_ps(L->spx + x0), sp_y = _mm256_set1_ps(L->spy[y]);
+    const __m256 FF0 = _mm256_set1_ps(P->fov_fix[0]), FF1 = _mm256_set1_ps(P->fov_fix[1]);
+    const __m256 IF0 = _mm256_set1_ps(P->inv_fov_fix[0]), IF1 = _mm256_set1_ps(P->inv_fov_fix[1]);
+
+    /* ReconstructCSPos, ActualAORadius, bias */
+    const __m256 cV = ortho ? U : SceneDepth;
+    __m256 V0 = _mm256_mul_ps(sp_x, cV), V1 = _mm256_mul_ps(sp_y, cV), V2 = SceneDepth;
+    const __m256 ActualAORadius = _mm256_mul_ps(_mm256_set1_ps(L->radius),
+                                                v_lerp(SceneDepth, one, _mm256_set1_ps(k->scale_radius_in_ws)));
+    if (use_n) {
+        const __m256 b = _mm256_mul_ps(_mm256_mul_ps(_mm256_set1_ps(k->bias_over_1000), SceneDepth),
+                                       _mm256_set1_ps(L->s));
+        V0 = _mm256_add_ps(V0, _mm256_mul_ps(b, _mm256_mul_ps(n0, FF0)));
+        V1 = _mm256_add_ps(V1, _mm256_mul_ps(b, _mm256_mul_ps(n1, FF1)));
+        V2 = _mm256_add_ps(V2, _mm256_mul_ps(b, n2)); /* n.z * FovFix.z = n.z * 1 */
+    }
+    __m256 WA0 = _mm256_set1_ps(0.0001f), WA1 = WA0;
+
+    /* RandomVec from the 4x4 texture at pixel % 4 */
+    float rx[8], ry[8];
+    const int ry4 = 4 * (((y % 4) + 4) % 4);
+    for (int i = 0; i < 8; i++) {
+        const int ri = (((x0 + i) % 4 + 4) % 4) + ry4;
+        rx[i] = P->rand_vec[ri][0];
+        ry[i] = P->rand_vec[ri][1];
+    }
+    const __m256 RV0 = _mm256_mul_ps(_mm256_loadu_ps(rx), ActualAORadius);
+    const __m256 RV1 = _mm256_mul_ps(_mm256_loadu_ps(ry), ActualAORadius);
+    const __m256 csV = ortho ? U : V2;
+    const __m256 invz = _mm256_div_ps(one, csV);
+    const __m256 FFX0 = _mm256_mul_ps(FF0, invz), FFX1 = _mm256_mul_ps(FF1, invz);
+    const __m256 RB0 = _mm256_mul_ps(RV0, FFX0), RB1 = _mm256_mul_ps(RV1, FFX1);
+    const __m256 RB2 = _mm256_mul_ps(_mm256_xor_ps(RV1, _mm256_set1_ps(-0.0f)), FFX0); /* -RandomVec.y (sign flip) */
+    const __m256 RB3 = _mm256_mul_ps(RV0, FFX1);
+    const __m256 SSP0 = _mm256_div_ps(V0, csV), SSP1 = _mm256_div_ps(V1, csV);
+    const __m256 InvHaloSize = _mm256_div_ps(one, _mm256_mul_ps(ActualAORadius, _mm256_set1_ps(2.0f)));
+    __m256 Ns0 = n0, Ns1 = n1, Ns2 = n2;
+    if (o1) {
+        const __m256 sc = _mm256_mul_ps(_mm256_set1_ps(0.08f),
+                                        v_lerp(SceneDepth, _mm256_set1_ps(1000.0f), _mm256_set1_ps(k->scale_radius_in_ws)));
+        Ns0 = _mm256_mul_ps(Ns0, sc), Ns1 = _mm256_mul_ps(Ns1, sc), Ns2 = _mm256_mul_ps(Ns2, sc);
+    }
+    const __m256 InvD = _mm256_set1_ps(k->inv_distance);
+    const __m256 ViewDepthAdd = _mm256_sub_ps(one, _mm256_mul_ps(V2, InvD));
+
+    /* the taps: texel = floor((sp * W/2 + cx) / s) (x), floor((cy - sp.y * H/2) / s) (y) */
+    const __m256 half_w = _mm256_set1_ps(P->half_w), half_h = _mm256_set1_ps(P->half_h);
+    const __m256 pcx = _mm256_set1_ps(P->cx), pcy = _mm256_set1_ps(P->cy), inv_s = _mm256_set1_ps(L->inv_s);
+    const __m256i wm1 = _mm256_set1_epi32(L->w - 1), hm1 = _mm256_set1_epi32(L->h - 1);
+    const __m256i stride = _mm256_set1_epi32((int)zimg->stride);
+    const float *zbase = zimg->data;
+    for (int i = 0; i < L->sample_count; i++) {
+        const __m256 ux = _mm256_set1_ps(L->samples[2 * i]), uy = _mm256_set1_ps(L->samples[2 * i + 1]);
+        const __m256 LR0 = _mm256_add_ps(_mm256_mul_ps(ux, RB0), _mm256_mul_ps(uy, RB2));
+        const __m256 LR1 = _mm256_add_ps(_mm256_mul_ps(ux, RB1), _mm256_mul_ps(uy, RB3));
+        __m256 acc0 = _mm256_setzero_ps(), acc1 = acc0, acc2 = acc0;
+        for (int step = 0; step < k->steps; step++) {
+            const __m256 Scale = _mm256_set1_ps((float)(step + 1) / (float)k->steps);
+            const __m256 lr0 = _mm256_mul_ps(Scale, LR0), lr1 = _mm256_mul_ps(Scale, LR1);
+            const __m256 SL0 = _mm256_add_ps(SSP0, lr0), SL1 = _mm256_add_ps(SSP1, lr1);
+            const __m256 SR0 = _mm256_sub_ps(SSP0, lr0), SR1 = _mm256_sub_ps(SSP1, lr1);
+            const __m256i txL = v_texel(_mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(SL0, half_w), pcx), inv_s), wm1);
+            const __m256i tyL = v_texel(_mm256_mul_ps(_mm256_sub_ps(pcy, _mm256_mul_ps(SL1, half_h)), inv_s), hm1);
+            const __m256i txR = v_texel(_mm256_mul_ps(_mm256_add_ps(_mm256_mul_ps(SR0, half_w), pcx), inv_s), wm1);
+            const __m256i tyR = v_texel(_mm256_mul_ps(_mm256_sub_ps(pcy, _mm256_mul_ps(SR1, half_h)), inv_s), hm1);
+            __m256 AbsL = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyL, stride), txL), 4);
+            __m256 AbsR = _mm256_i32gather_ps(zbase, _mm256_add_epi32(_mm256_mullo_epi32(tyR, stride), txR), 4);
+            if (conv) {
+                AbsL = v_depth_uu(AbsL, U, zmax);
+                AbsR = v_depth_uu(AbsR, U, zmax);
+            }
+            const __m256 cL = ortho ? U : AbsL, cR = ortho ? U : AbsR;
+            const __m256 DL0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SL0, cL), V0), IF0);
+            const __m256 DL1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SL1, cL), V1), IF1);
+            const __m256 DL2 = _mm256_sub_ps(AbsL, V2);
+            const __m256 DR0 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SR0, cR), V0), IF0);
+            const __m256 DR1 = _mm256_mul_ps(_mm256_sub_ps(_mm256_mul_ps(SR1, cR), V1), IF1);
+            const __m256 DR2 = _mm256_sub_ps(AbsR, V2);
+            const __m256 LL = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DL0, DL0), _mm256_mul_ps(DL1, DL1)),
+                                            _mm256_mul_ps(DL2, DL2));
+            const __m256 RR = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DR0, DR0), _mm256_mul_ps(DR1, DR1)),
+                                            _mm256_mul_ps(DR2, DR2));
+            if (use_n) {
+                /* WedgeWithNormal */
+                const __m256 dl = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DL0, Ns0), _mm256_mul_ps(DL1, Ns1)),
+                                                _mm256_mul_ps(DL2, Ns2));
+                const __m256 dr = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DR0, Ns0), _mm256_mul_ps(DR1, Ns1)),
+                                                _mm256_mul_ps(DR2, Ns2));
+                __m256 sL, sR, w;
+                if (o1) {
+                    sL = v_sat(_mm256_div_ps(dl, LL));
+                    sR = v_sat(_mm256_div_ps(dr, RR));
+                    w = one;
+                } else {
+                    const __m256 qL = _mm256_sqrt_ps(LL), qR = _mm256_sqrt_ps(RR);
+                    sL = v_sat(_mm256_mul_ps(dl, _mm256_div_ps(one, qL)));
+                    sR = v_sat(_mm256_mul_ps(dr, _mm256_div_ps(one, qR)));
+                    w = _mm256_mul_ps(v_sat(_mm256_sub_ps(one, _mm256_mul_ps(qL, InvHaloSize))),
+                                      v_sat(_mm256_sub_ps(one, _mm256_mul_ps(qR, InvHaloSize))));
+                }
+                acc0 = v_lerp(acc0, v_hmax(acc0, sL), w);
+                acc1 = v_lerp(acc1, v_hmax(acc1, sR), w);
+                acc2 = v_lerp(acc2, one, w);
+            } else {
+                /* WedgeNoNormal */
+                const __m256 dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(DL0, DR0), _mm256_mul_ps(DL1, DR1)),
+                                                 _mm256_mul_ps(DL2, DR2));
+                const __m256 cosLR = _mm256_div_ps(dot, _mm256_sqrt_ps(_mm256_mul_ps(LL, RR)));
+                __m256 NormAngle = v_sat(_mm256_mul_ps(_mm256_mul_ps(_mm256_sub_ps(one, cosLR), _mm256_set1_ps(0.5f)),
+                                                       _mm256_set1_ps(AO_UE4_CONTRAST_TWEAK)));
+                const __m256 lr_sum = _mm256_add_ps(_mm256_sub_ps(V2, AbsL), _mm256_sub_ps(V2, AbsR));
+                NormAngle = _mm256_blendv_ps(NormAngle, one,
+                                             _mm256_cmp_ps(lr_sum, _mm256_set1_ps(AO_UE4_FLAT_SURFACE_BIAS), _CMP_LT_OQ));
+                const __m256 Weight = _mm256_mul_ps(v_sat(_mm256_add_ps(_mm256_mul_ps(AbsL, InvD), ViewDepthAdd)),
+                                                    v_sat(_mm256_add_ps(_mm256_mul_ps(AbsR, InvD), ViewDepthAdd)));
+                const __m256 sv = _mm256_div_ps(_mm256_sub_ps(one, NormAngle), _mm256_add_ps(Weight, _mm256_set1_ps(0.001f)));
+                acc0 = v_lerp(acc0, v_hmax(acc0, sv), Weight);
+                acc2 = v_lerp(acc2, one, Weight);
+            }
+        }
+        /* "Square()" */
+        const __m256 a0 = _mm256_sub_ps(one, acc0);
+        WA0 = _mm256_add_ps(WA0, _mm256_mul_ps(_mm256_mul_ps(a0, a0), acc2));
+        WA1 = _mm256_add_ps(WA1, acc2);
+        if (use_n) {
+            const __m256 a1 = _mm256_sub_ps(one, acc1);
+            WA0 = _mm256_add_ps(WA0, _mm256_mul_ps(_mm256_mul_ps(a1, a1), acc2));
+            WA1 = _mm256_add_ps(WA1, acc2);
+        }
+    }
+    float r[8], zd[8], nv[3][8];
+    __m256 rv = _mm256_div_ps(WA0, WA1);
+    const int vec_finish = l == 0 && P->levels == 1; /* ue4_finish without the upsample */
+    if (vec_finish) {
+        /* "soft fade out AO in the distance": lerp(r, 1, saturate(z * Mul + Add)); then |r|, whose
+         * powf goes lane by lane below */
+        rv = v_lerp(rv, one, v_sat(_mm256_add_ps(_mm256_mul_ps(SceneDepth, _mm256_set1_ps(k->fade_mul)),
+                                                 _mm256_set1_ps(k->fade_add))));
+        rv = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), rv);
+    }
+    _mm256_storeu_ps(r, rv);
+    _mm256_storeu_ps(zd, SceneDepth);
+    _mm256_storeu_ps(nv[0], n0);
+    _mm256_storeu_ps(nv[1], n1);
+    _mm256_storeu_ps(nv[2], n2);
+    _mm256_storeu_ps(depth, SceneDepth);
+    const unsigned char *bg = bgrow + x0;
+    for (int i = 0; i < 8; i++) {
+        nx[i] = ny[i] = 0.0f;
+        if (bg[i]) {
+            ao[i] = 1.0f;
+            (*nb)++;
+            continue;
+        }
+        const float n[3] = {nv[0][i], nv[1][i], nv[2][i]};
+        if (use_n) {
+            if (n[0] == 0.0f && n[1] == 0.0f && n[2] == 0.0f) {
+                ao[i] = 1.0f;
+                (*nn)++;
+                continue;
+            }
+            nx[i] = n[0];
+            ny[i] = n[1];
+        }
+        if (vec_finish) /* "user adjust AO": 1 - (1 - pow(|r|, Power)) * Intensity, as ue4_finish */
+            ao[i] = 1.0f - (1.0f - (r[i] == 1.0f ? 1.0f : powf(r[i], k->power))) * k->intensity;
+        else
+            ao[i] = ue4_finish(P, l, x0 + i, y, x0 + i, ty, r[i], zd[i], n);
+    }
+}
+
+/* ue4_pixel's outputs for eight background pixels at x0 of row ty: ao 1, SceneDepth, no normal */
+UE4_AVX2_FN static void background8(const prep *P, const level *L, int x0, int ty, float *a, float *z, float *nx,
+                                    float *ny)
+{
+    __m256 d;
+    if (L->z.data)
+        d = _mm256_loadu_ps(obs_image_f32_row(&L->z, ty) + x0);
+    else
+        d = v_depth_uu(_mm256_loadu_ps(obs_image_f32_row(P->in->depth, ty) + x0), _mm256_set1_ps(P->k->units_per_metre),
+                       _mm256_set1_ps(P->k->max_depth));
+    _mm256_storeu_ps(a, _mm256_set1_ps(1.0f));
+    _mm256_storeu_ps(z, d);
+    _mm256_storeu_ps(nx, _mm256_setzero_ps());
+    _mm256_storeu_ps(ny, _mm256_setzero_ps());
+}
+
+/* Whether any of the eight pixels at x0 of row ty is not background (an all-background group
+ * skips the kernel). */
+static inline int any_surface8(const unsigned char *bg)
+{
+    uint64_t v;
+    memcpy(&v, bg, 8);
+    return v != 0x0101010101010101ull;
+}
+#endif
+
+/* Row y of level l's AO pass over the region columns qx0 .. qx0 + width - 1: ao, SceneDepth and
+ * the normal's xy of each pixel (ue4_pixel), and the row's background and zero-normal counts. */
+static void ao_row_compute(const prep *P, int l, int qx0, int y, int width, const unsigned char *bgrow, float *a,
+                           float *z, float *nx, float *ny, int64_t count[2])
+{
+    const level *L = &P->lv[l];
     int64_t nb = 0, nn = 0;
-    for (int i = 0; i < J->ao->width; i++) {
+    int i = 0;
+#ifdef UE4_AVX2
+    const obs_image_f32 *zimg = L->z.data ? &L->z : P->in->depth;
+    if (P->simd && (int64_t)zimg->stride * L->h <= INT32_MAX) { /* gather indices are 32-bit */
+        const int ty = clampi(y, 0, L->h - 1);
+        for (; qx0 + i + 7 < L->w && i + 8 <= width; i += 8) {
+            const int x = qx0 + i;
+            if (any_surface8(bgrow + x)) {
+                ue4_pixels8(P, l, x, y, bgrow, a + i, z + i, nx + i, ny + i, &nb, &nn);
+            } else { /* eight background pixels: ue4_pixel's early return */
+                background8(P, L, x, ty, a + i, z + i, nx + i, ny + i);
+                nb += 8;
+            }
+        }
+    }
+#else
+    (void)L;
+#endif
+    for (; i < width; i++) {
         float nxy[2];
         int bad;
-        nb += ue4_pixel(J->P, J->l, J->qx0 + i, y, &a[i], &z[i], nxy, &bad);
+        nb += ue4_pixel(P, l, qx0 + i, y, bgrow, &a[i], &z[i], nxy, &bad);
         nn += bad;
         nx[i] = nxy[0];
         ny[i] = nxy[1];
     }
-    J->counts[r][0] = nb;
-    J->counts[r][1] = nn;
+    count[0] = nb;
+    count[1] = nn;
 }
 
 /* QUAD_MESSAGE_PASSING_BLUR: a 2x2-quad blur with ddx_fine/ddy_fine. Quads are aligned to even
  * (x, y) of the level (D3D SV_Position). For the output pixel, PixB is its horizontal quad partner
- * computed as Center - dX * (Mod.x * 2 - 1) (dX = right - left), PixC its vertical one. */
-typedef struct quad_job {
-    const ao_ue4_constants *k;
-    const obs_image_f32 *ao, *zq, *nx, *ny;
-    int qx0, qy0;          /* origin of the quad region (even) */
-    int rx0, ry0;          /* origin of the output rect */
-    const unsigned char *bg;
-    int bg_w;
-    obs_image_f32 *out;
-} quad_job;
-
+ * computed as Center - dX * (Mod.x * 2 - 1) (dX = right - left), PixC its vertical one.
+ * One output row y: the AO pass's planes (ao, SceneDepth, nx, ny) of row y are r[0] and of its
+ * quad partner row y ^ 1 are r[1], over region columns from qx0 (even); the output covers
+ * columns rx0 .. rx0 + width - 1; bg is the level's background row y. */
 static inline float recon_nz(float x, float y) { return sqrtf(1.0f - (x * x + y * y)); }
 
-static void quad_row(void *user, int64_t task, int thread)
+/* powf(x, 4) for x = saturate(.) in [0, 1] (never -0): pow(1, y) = 1 and pow(+0, y > 0) = +0 are
+ * exact (C11 F.10.4.4), so those skip the call. */
+static inline float pow4_sat(float x) { return x == 1.0f ? 1.0f : x == 0.0f ? 0.0f : powf(x, 4.0f); }
+
+static void quad_blur_row(const ao_ue4_constants *k, const float *const r[2][4], int qx0, int rx0, int y, int width,
+                          const unsigned char *bg, float *o, int saturate)
 {
-    (void)thread;
-    const quad_job *J = (const quad_job *)user;
-    const int y = J->ry0 + (int)task;
-    const int ly = y - J->qy0, lyp = ly ^ 1; /* quad partner row (region origin is even) */
-    float *o = obs_image_f32_row(J->out, (int)task);
-    for (int i = 0; i < J->out->width; i++) {
-        const int x = J->rx0 + i, lx = x - J->qx0, lxp = lx ^ 1;
-        const int modx = x & 1, mody = y & 1;
+    const int mody = y & 1;
+    for (int i = 0; i < width; i++) {
+        if (bg[i]) {
+            o[i] = 1.0f; /* background stays 1 (the quad blur would mix in its neighbours) */
+            continue;
+        }
+        const int x = rx0 + i, lx = x - qx0, lxp = lx ^ 1;
+        const int modx = x & 1;
         /* CenterPixel = (ao, SceneDepth, nx, ny) */
-        const float A[4] = {obs_image_f32_row(J->ao, ly)[lx], obs_image_f32_row(J->zq, ly)[lx],
-                            obs_image_f32_row(J->nx, ly)[lx], obs_image_f32_row(J->ny, ly)[lx]};
-        const float Bp[4] = {obs_image_f32_row(J->ao, ly)[lxp], obs_image_f32_row(J->zq, ly)[lxp],
-                             obs_image_f32_row(J->nx, ly)[lxp], obs_image_f32_row(J->ny, ly)[lxp]};
-        const float Cp[4] = {obs_image_f32_row(J->ao, lyp)[lx], obs_image_f32_row(J->zq, lyp)[lx],
-                             obs_image_f32_row(J->nx, lyp)[lx], obs_image_f32_row(J->ny, lyp)[lx]};
+        const float A[4] = {r[0][0][lx], r[0][1][lx], r[0][2][lx], r[0][3][lx]};
+        const float Bp[4] = {r[0][0][lxp], r[0][1][lxp], r[0][2][lxp], r[0][3][lxp]};
+        const float Cp[4] = {r[1][0][lx], r[1][1][lx], r[1][2][lx], r[1][3][lx]};
         float B[4], C[4];
         for (int c = 0; c < 4; c++) {
             const float dX = modx ? A[c] - Bp[c] : Bp[c] - A[c]; /* ddx_fine: right - left */
@@ -642,15 +1036,15 @@ static void quad_row(void *user, int64_t task, int thread)
             C[c] = A[c] - dY * (float)(mody * 2 - 1);
         }
         float wA = 1.0f, wB = 1.0f, wC = 1.0f;
-        if (J->k->quad_blur >= 2) {
+        if (k->quad_blur >= 2) {
             /* QUAD_MESSAGE_PASSING_NORMAL: NormalTweak 4 */
             const float nA[3] = {A[2], A[3], recon_nz(A[2], A[3])};
             const float nB[3] = {B[2], B[3], recon_nz(B[2], B[3])};
             const float nC[3] = {C[2], C[3], recon_nz(C[2], C[3])};
-            wB *= saturatef(powf(saturatef(nA[0] * nB[0] + nA[1] * nB[1] + nA[2] * nB[2]), 4.0f));
-            wC *= saturatef(powf(saturatef(nA[0] * nC[0] + nA[1] * nC[1] + nA[2] * nC[2]), 4.0f));
+            wB *= saturatef(pow4_sat(saturatef(nA[0] * nB[0] + nA[1] * nB[1] + nA[2] * nB[2])));
+            wC *= saturatef(pow4_sat(saturatef(nA[0] * nC[0] + nA[1] * nC[1] + nA[2] * nC[2])));
         }
-        if (J->k->quad_blur >= 3) {
+        if (k->quad_blur >= 3) {
             /* QUAD_MESSAGE_PASSING_DEPTH: DepthTweak 1 */
             const float InvDepth = 1.0f / A[1];
             wB *= 1.0f - saturatef(fabsf(1.0f - B[1] * InvDepth) * 1.0f);
@@ -658,55 +1052,139 @@ static void quad_row(void *user, int64_t task, int thread)
         }
         const float inv = 1.0f / (wA + wB + wC);
         wA *= inv, wB *= inv, wC *= inv;
-        float v = wA * A[0] + wB * B[0] + wC * C[0];
-        if (J->bg[(size_t)y * J->bg_w + x])
-            v = 1.0f; /* background stays 1 (the quad blur would mix in its neighbours) */
-        o[i] = v;
+        const float v = wA * A[0] + wB * B[0] + wC * C[0];
+        o[i] = saturate ? saturatef(v) : v;
     }
 }
 
-typedef struct prep_job {
-    prep *P;
-    const obs_image_f32 *nsrc[3];
-} prep_job;
-
-static void prep_row(void *user, int64_t task, int thread)
+#ifdef UE4_AVX2
+/* quad_blur_row for both rows of a quad row (y0 even, y0 + 1), AVX2, eight region columns at a
+ * time from lx = 0 (lane i: lx0 + i; the horizontal partner is the neighbour lane i ^ 1, the
+ * vertical one the other row's lane i). Same operations as the scalar row; multiplications by
+ * wA = 1 are left out (exact). powf goes lane by lane, and a pair whose two inputs are the same
+ * bits (horizontal partners, or vertical partners of the two rows: the usual case, as
+ * A + (B - A) is B when B - A is exact) calls it once: a function of the same input gives the same
+ * output. o[0], o[1]: the output rows, NULL when outside the rect; bg[0], bg[1]: the level's
+ * background rows at column rx0. Returns the first output column left to the scalar row. */
+UE4_AVX2_FN static int quad_blur_pair_avx2(const ao_ue4_constants *k, float *const rows[2][4], int qw, int qx0, int rx0,
+                                           int width, int y0, const unsigned char *const bg[2], float *const o[2],
+                                           int saturate)
 {
-    (void)thread;
-    const prep_job *J = (const prep_job *)user;
-    prep *P = J->P;
-    level *L = &P->lv[0];
-    const int y = (int)task, W = L->w;
-    const float *d = obs_image_f32_row(P->in->depth, y);
-    float *z = obs_image_f32_row(&L->z, y);
-    unsigned char *bg = L->bg + (size_t)y * W;
-    const float U = P->k->units_per_metre, zmax = P->k->max_depth;
-    for (int x = 0; x < W; x++) {
-        const float dm = d[x];
-        const int b = !(isfinite(dm) && dm > 0.0f);
-        bg[x] = (unsigned char)b;
-        float v = b ? zmax : dm * U;
-        z[x] = v < zmax ? v : zmax; /* sky and huge depths read as 100 km */
-    }
-    if (!J->nsrc[0])
-        return;
-    float *o[3] = {obs_image_f32_row(&L->n[0], y), obs_image_f32_row(&L->n[1], y), obs_image_f32_row(&L->n[2], y)};
-    const float *s[3] = {obs_image_f32_row(J->nsrc[0], y), obs_image_f32_row(J->nsrc[1], y),
-                         obs_image_f32_row(J->nsrc[2], y)};
-    for (int x = 0; x < W; x++) {
-        /* ours: right-handed, -Z forward; UE view space: left-handed, +Z forward: (x, y, -z) */
-        const float v[3] = {s[0][x], s[1][x], -s[2][x]};
-        const float dd = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
-        if (!(dd > 0.0f) || !isfinite(dd)) {
-            o[0][x] = o[1][x] = o[2][x] = 0.0f;
-            continue;
+    const int off = rx0 - qx0; /* 0 or 1: output column i is region column i + off */
+    const __m256 one = _mm256_set1_ps(1.0f), sgn = _mm256_set1_ps(-0.0f);
+    const __m256 odd = _mm256_castsi256_ps(_mm256_setr_epi32(0, -1, 0, -1, 0, -1, 0, -1)); /* modx = 1 */
+    const __m256 sx = _mm256_setr_ps(-1, 1, -1, 1, -1, 1, -1, 1);                     /* modx * 2 - 1 */
+    int lx0 = 0;
+    for (; lx0 + 8 <= qw && lx0 - off < width; lx0 += 8) {
+        if (lx0 - off >= 0 && lx0 - off + 8 <= width) {
+            /* eight output columns: all background in both rows (or the row not output) -> 1 */
+            int all_bg = 1;
+            for (int rr = 0; rr < 2; rr++)
+                all_bg &= !o[rr] || !any_surface8(bg[rr] + (lx0 - off));
+            if (all_bg) {
+                for (int rr = 0; rr < 2; rr++)
+                    if (o[rr])
+                        _mm256_storeu_ps(o[rr] + (lx0 - off), one);
+                continue;
+            }
         }
-        const float rs = 1.0f / sqrtf(dd); /* normalize = v * rsqrt(dot(v, v)) */
-        o[0][x] = v[0] * rs;
-        o[1][x] = v[1] * rs;
-        o[2][x] = v[2] * rs;
+        /* the lanes that are output pixels, and which of them are surface pixels */
+        int surf[2][8], any = 0;
+        for (int rr = 0; rr < 2; rr++)
+            for (int i = 0; i < 8; i++) {
+                const int oi = lx0 + i - off;
+                surf[rr][i] = o[rr] && oi >= 0 && oi < width && !bg[rr][oi];
+                any |= surf[rr][i];
+            }
+        float res[2][8];
+        if (any) {
+            __m256 A[2][4], B[2][4], C[2][4], dB[2], dC[2];
+            for (int rr = 0; rr < 2; rr++) {
+                const float sy = (float)(((y0 + rr) & 1) * 2 - 1);
+                for (int c = 0; c < 4; c++) {
+                    A[rr][c] = _mm256_loadu_ps(rows[rr][c] + lx0);
+                    const __m256 Bp = _mm256_permute_ps(A[rr][c], 0xB1); /* lanes i ^ 1 */
+                    const __m256 Cp = _mm256_loadu_ps(rows[rr ^ 1][c] + lx0);
+                    const __m256 dX = _mm256_blendv_ps(_mm256_sub_ps(Bp, A[rr][c]), _mm256_sub_ps(A[rr][c], Bp), odd);
+                    const __m256 dY = rr ? _mm256_sub_ps(A[rr][c], Cp) : _mm256_sub_ps(Cp, A[rr][c]);
+                    B[rr][c] = _mm256_sub_ps(A[rr][c], _mm256_mul_ps(dX, sx));
+                    C[rr][c] = _mm256_sub_ps(A[rr][c], _mm256_mul_ps(dY, _mm256_set1_ps(sy)));
+                }
+                if (k->quad_blur >= 2) {
+#define UE4_NZ(X, Y) _mm256_sqrt_ps(_mm256_sub_ps(one, _mm256_add_ps(_mm256_mul_ps(X, X), _mm256_mul_ps(Y, Y))))
+                    const __m256 nA = UE4_NZ(A[rr][2], A[rr][3]), nB = UE4_NZ(B[rr][2], B[rr][3]),
+                                 nC = UE4_NZ(C[rr][2], C[rr][3]);
+#undef UE4_NZ
+                    dB[rr] = v_sat(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(A[rr][2], B[rr][2]),
+                                                               _mm256_mul_ps(A[rr][3], B[rr][3])),
+                                                 _mm256_mul_ps(nA, nB)));
+                    dC[rr] = v_sat(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(A[rr][2], C[rr][2]),
+                                                               _mm256_mul_ps(A[rr][3], C[rr][3])),
+                                                 _mm256_mul_ps(nA, nC)));
+                }
+            }
+            __m256 wB[2] = {one, one}, wC[2] = {one, one};
+            if (k->quad_blur >= 2) {
+                /* powf(., 4) per surface lane, once per pair of equal inputs */
+                float db[2][8], dc[2][8], pb[2][8], pc[2][8];
+                uint32_t ub[2][8], uc[2][8];
+                for (int rr = 0; rr < 2; rr++) {
+                    _mm256_storeu_ps(db[rr], dB[rr]);
+                    _mm256_storeu_ps(dc[rr], dC[rr]);
+                    memcpy(ub[rr], db[rr], sizeof ub[rr]);
+                    memcpy(uc[rr], dc[rr], sizeof uc[rr]);
+                }
+                for (int rr = 0; rr < 2; rr++)
+                    for (int i = 0; i < 8; i++) {
+                        pb[rr][i] = pc[rr][i] = 0.0f;
+                        if (!surf[rr][i])
+                            continue;
+                        const int j = i ^ 1; /* horizontal partner: done already when j < i */
+                        if (j < i && surf[rr][j] && ub[rr][j] == ub[rr][i])
+                            pb[rr][i] = pb[rr][j];
+                        else
+                            pb[rr][i] = pow4_sat(db[rr][i]);
+                        if (rr == 1 && surf[0][i] && uc[0][i] == uc[1][i])
+                            pc[1][i] = pc[0][i];
+                        else
+                            pc[rr][i] = pow4_sat(dc[rr][i]);
+                    }
+                for (int rr = 0; rr < 2; rr++) {
+                    wB[rr] = v_sat(_mm256_loadu_ps(pb[rr]));
+                    wC[rr] = v_sat(_mm256_loadu_ps(pc[rr]));
+                }
+            }
+            for (int rr = 0; rr < 2; rr++) {
+                if (!o[rr])
+                    continue;
+                if (k->quad_blur >= 3) {
+                    const __m256 InvDepth = _mm256_div_ps(one, A[rr][1]);
+                    wB[rr] = _mm256_mul_ps(wB[rr], _mm256_sub_ps(one, v_sat(_mm256_andnot_ps(sgn, _mm256_sub_ps(one, _mm256_mul_ps(B[rr][1], InvDepth))))));
+                    wC[rr] = _mm256_mul_ps(wC[rr], _mm256_sub_ps(one, v_sat(_mm256_andnot_ps(sgn, _mm256_sub_ps(one, _mm256_mul_ps(C[rr][1], InvDepth))))));
+                }
+                const __m256 inv = _mm256_div_ps(one, _mm256_add_ps(_mm256_add_ps(one, wB[rr]), wC[rr]));
+                const __m256 b = _mm256_mul_ps(wB[rr], inv), c = _mm256_mul_ps(wC[rr], inv);
+                __m256 v = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(inv, A[rr][0]), _mm256_mul_ps(b, B[rr][0])),
+                                         _mm256_mul_ps(c, C[rr][0]));
+                if (saturate)
+                    v = v_sat(v);
+                _mm256_storeu_ps(res[rr], v);
+            }
+        }
+        for (int rr = 0; rr < 2; rr++) {
+            if (!o[rr])
+                continue;
+            for (int i = 0; i < 8; i++) {
+                const int oi = lx0 + i - off;
+                if (oi >= 0 && oi < width)
+                    o[rr][oi] = surf[rr][i] ? res[rr][i] : 1.0f; /* background stays 1 */
+            }
+        }
     }
+    const int done = lx0 - off;
+    return done < 0 ? 0 : done > width ? width : done;
 }
+#endif
 
 /* MainSetupPS: level l from level l - 1. The four source texels (2x, 2y) .. (2x+1, 2y+1) (the
  * bilinear taps at +-0.5 source texel land on texel centres; clamped): MaxZ = max of the depths;
@@ -731,19 +1209,23 @@ static void setup_row(void *user, int64_t task, int thread)
             sx[i] = clampi(2 * x + (i & 1), 0, S->w - 1);
             sy[i] = clampi(2 * y + (i >> 1), 0, S->h - 1);
         }
-        float z[4], e[4][3];
+        float z[4], e[4][3], n0[4][3];
         for (int i = 0; i < 4; i++) {
-            z[i] = obs_image_f32_row(&S->z, sy[i])[sx[i]];
+            z[i] = level_depth(J->P, S, sx[i], sy[i]);
+            if (J->use_n && J->l == 1)
+                ue4_normal_at(J->P, S, sx[i], sy[i], n0[i]); /* level 0: from the source normals */
             for (int c = 0; c < 3; c++) {
                 if (!J->use_n)
                     e[i][c] = 0.5f;
                 else if (J->l == 1)
-                    e[i][c] = obs_image_f32_row(&S->n[c], sy[i])[sx[i]] * 0.5f + 0.5f;
+                    e[i][c] = n0[i][c] * 0.5f + 0.5f;
                 else
                     e[i][c] = obs_image_f32_row(&S->e[c], sy[i])[sx[i]];
             }
         }
-        const float MaxZ = fmaxf(fmaxf(z[0], z[1]), fmaxf(z[2], z[3]));
+        /* fmaxf: the depths are never NaN nor zero, so a > b ? a : b is the same */
+        const float m01 = z[0] > z[1] ? z[0] : z[1], m23 = z[2] > z[3] ? z[2] : z[3];
+        const float MaxZ = m01 > m23 ? m01 : m23;
         float acc[4] = {0.0001f, 0.0001f, 0.0001f, 0.0001f};
         for (int i = 0; i < 4; i++) {
             const float w = saturatef(1.0f - fabsf(z[i] - MaxZ) * InvThreshold); /* ComputeDepthSimilarity */
@@ -775,51 +1257,146 @@ static void level_free(level *L)
     obs_image_f32_free(&L->z);
     obs_image_f32_free(&L->ao);
     free(L->bg);
+    free(L->spx);
+    free(L->spy);
     memset(L, 0, sizeof *L);
 }
 
 /* The AO pass of level l over [qx0, qx1) x [qy0, qy1) (quad-aligned when the quad blur is on),
- * then the quad blur (or a copy) into out over the rect (rx0, ry0, out->width, out->height). */
-static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int l, int qx0, int qy0, int qx1, int qy1,
-                            int rx0, int ry0, obs_image_f32 *out, int64_t *background)
+ * then the quad blur (or a copy) into out over the rect (rx0, ry0, out->width, out->height),
+ * saturated when `saturate` (level 0: the UNORM target). One task per tile of UE4_TILE_W x
+ * UE4_TILE_H region pixels (even sizes from the region's even origin: whole quads), row pair by
+ * row pair: the pair's AO rows go to the thread's scratch and its output pixels are written at
+ * once, so no full-size intermediate planes are needed; each output pixel depends only on its
+ * quad. Tiles rather than rows keep the taps' reads (up to ~160 px away at 1080p with UE's
+ * default radius) in the core's L2: a tile reads about (128 + 2r) x (32 + 2r) depths. */
+#ifndef UE4_TILE_W
+#define UE4_TILE_W 128
+#endif
+#ifndef UE4_TILE_H
+#define UE4_TILE_H 32
+#endif
+typedef struct level_job {
+    const prep *P;
+    int l;
+    int qx0, qy0, qw, qh;  /* region (level coordinates; may be one past the edge) */
+    int rx0, ry0;          /* origin of the output rect */
+    int saturate;
+    int tiles_x;
+    obs_image_f32 *out;
+    float *scratch;        /* per thread: 2 rows x 4 planes (ao, SceneDepth, nx, ny) of UE4_TILE_W floats */
+    unsigned char *bg_scratch; /* per thread: 2 background rows of the level's width (level 0) */
+    int64_t (*counts)[2];  /* per tile: background, zero normal */
+} level_job;
+
+static void level_task(void *user, int64_t task, int thread)
 {
-    const ao_ue4_constants *K = P->k;
-    const int qw = qx1 - qx0, qh = qy1 - qy0;
-    obs_image_f32 A = {0}, Zq = {0}, NX = {0}, NY = {0};
-    int64_t(*counts)[2] = NULL;
-    obs_status st = obs_image_f32_alloc(ctx, qw, qh, &A);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &Zq);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &NX);
-    if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, qw, qh, &NY);
-    if (st == OBS_STATUS_OK) {
-        counts = (int64_t(*)[2])calloc((size_t)qh, sizeof *counts);
-        if (!counts)
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
-    }
-    if (st == OBS_STATUS_OK) {
-        ao_job J = {P, l, qx0, qy0, &A, &Zq, &NX, &NY, counts};
-        obs_pool_run(pool, qh, ao_row, &J);
-        if (K->quad_blur) {
-            quad_job QJ = {K, &A, &Zq, &NX, &NY, qx0, qy0, rx0, ry0, P->lv[l].bg, P->lv[l].w, out};
-            obs_pool_run(pool, out->height, quad_row, &QJ);
-        } else {
-            for (int y = 0; y < out->height; y++)
-                memcpy(obs_image_f32_row(out, y), obs_image_f32_row(&A, y + ry0 - qy0) + (rx0 - qx0),
-                       sizeof(float) * out->width);
+    const level_job *J = (const level_job *)user;
+    const prep *P = J->P;
+    const level *L = &P->lv[J->l];
+    float *sc = J->scratch + (size_t)thread * 8 * UE4_TILE_W;
+    unsigned char *bsc = J->bg_scratch + (size_t)thread * 2 * (size_t)L->w;
+    const int tile_x = (int)(task % J->tiles_x), tile_y = (int)(task / J->tiles_x);
+    /* the tile: region columns from tqx0 (level x), tqw wide; region rows [ga, gb) */
+    const int lx0 = tile_x * UE4_TILE_W, tqw = J->qw - lx0 < UE4_TILE_W ? J->qw - lx0 : UE4_TILE_W;
+    const int tqx0 = J->qx0 + lx0;
+    const int ga = tile_y * UE4_TILE_H, gb = J->qh - ga < UE4_TILE_H ? J->qh : ga + UE4_TILE_H;
+    /* its output columns [ox0, ox1) (level x), possibly none (a helper column alone) */
+    const int ow = J->out->width;
+    const int ox0 = J->rx0 > tqx0 ? J->rx0 : tqx0;
+    const int ox1 = J->rx0 + ow < tqx0 + tqw ? J->rx0 + ow : tqx0 + tqw;
+    const int bx0 = clampi(tqx0, 0, L->w - 1), bx1 = clampi(tqx0 + tqw, bx0 + 1, L->w);
+    int64_t count[2] = {0, 0};
+    float *rows[2][4];
+    for (int rr = 0; rr < 2; rr++)
+        for (int c = 0; c < 4; c++)
+            rows[rr][c] = sc + (size_t)(4 * rr + c) * UE4_TILE_W;
+    for (int g0 = ga; g0 < gb; g0 += 2) {
+        const int g1 = g0 + 2 < gb ? g0 + 2 : gb;
+        const unsigned char *bgrows[2] = {NULL, NULL}; /* background rows (clamped), indexed by x */
+        float *orow[2] = {NULL, NULL};
+        for (int g = g0; g < g1; g++) {
+            float *const *rp = rows[g - g0];
+            int64_t c2[2];
+            const int ty = clampi(J->qy0 + g, 0, L->h - 1);
+            bgrows[g - g0] = level_bg_row(P, L, ty, bx0, bx1, bsc + (size_t)(g - g0) * L->w);
+            ao_row_compute(P, J->l, tqx0, J->qy0 + g, tqw, bgrows[g - g0], rp[0], rp[1], rp[2], rp[3], c2);
+            count[0] += c2[0];
+            count[1] += c2[1];
+            const int oy = J->qy0 + g - J->ry0;
+            if (oy >= 0 && oy < J->out->height && ox1 > ox0)
+                orow[g - g0] = obs_image_f32_row(J->out, oy) + (ox0 - J->rx0);
         }
-        if (background)
-            for (int r = 0; r < qh; r++)
-                *background += counts[r][0];
+        int start = 0; /* output columns [ox0, ox0 + start) of the pair's rows are done */
+#ifdef UE4_AVX2
+        if (P->simd && P->k->quad_blur && g1 - g0 == 2 && (orow[0] || orow[1])) {
+            const unsigned char *bgr[2] = {bgrows[0] + ox0, bgrows[1] + ox0};
+            start = quad_blur_pair_avx2(P->k, rows, tqw, tqx0, ox0, ox1 - ox0, J->qy0 + g0, bgr, orow, J->saturate);
+        }
+#endif
+        for (int g = g0; g < g1; g++) {
+            const int y = J->qy0 + g;
+            float *o = orow[g - g0];
+            if (!o)
+                continue;
+            if (P->k->quad_blur) {
+                const float *const r[2][4] = {{rows[g - g0][0], rows[g - g0][1], rows[g - g0][2], rows[g - g0][3]},
+                                              {rows[(g - g0) ^ 1][0], rows[(g - g0) ^ 1][1], rows[(g - g0) ^ 1][2],
+                                               rows[(g - g0) ^ 1][3]}};
+                quad_blur_row(P->k, r, tqx0, ox0 + start, y, ox1 - ox0 - start, bgrows[g - g0] + ox0 + start,
+                              o + start, J->saturate);
+            } else {
+                memcpy(o, rows[g - g0][0] + (ox0 - tqx0), sizeof(float) * (size_t)(ox1 - ox0));
+                if (J->saturate)
+                    for (int i = 0; i < ox1 - ox0; i++)
+                        o[i] = saturatef(o[i]);
+            }
+        }
     }
+    J->counts[task][0] = count[0];
+    J->counts[task][1] = count[1];
+}
+
+static obs_status run_level(obs_context *ctx, obs_pool *pool, const prep *P, int l, int qx0, int qy0, int qx1, int qy1,
+                            int rx0, int ry0, int saturate, obs_image_f32 *out, int64_t *background)
+{
+    const int qw = qx1 - qx0, qh = qy1 - qy0;
+    const int threads = obs_pool_threads(pool);
+    const int tiles_x = (qw + UE4_TILE_W - 1) / UE4_TILE_W, tiles_y = (qh + UE4_TILE_H - 1) / UE4_TILE_H;
+    const int64_t tiles = (int64_t)tiles_x * tiles_y;
+    obs_status st = OBS_STATUS_OK;
+    int64_t(*counts)[2] = (int64_t(*)[2])calloc((size_t)tiles, sizeof *counts);
+    float *scratch = (float *)malloc(sizeof(float) * 8 * UE4_TILE_W * (size_t)threads);
+    unsigned char *bg_scratch = (unsigned char *)malloc(2 * (size_t)P->lv[l].w * (size_t)threads);
+    if (!counts || !scratch || !bg_scratch)
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+    if (st == OBS_STATUS_OK) {
+        level_job J = {P, l, qx0, qy0, qw, qh, rx0, ry0, saturate, tiles_x, out, scratch, bg_scratch, counts};
+        obs_pool_run(pool, tiles, level_task, &J);
+        if (background)
+            for (int64_t t = 0; t < tiles; t++)
+                *background += counts[t][0];
+    }
+    free(bg_scratch);
+    free(scratch);
     free(counts);
-    obs_image_f32_free(&NY);
-    obs_image_f32_free(&NX);
-    obs_image_f32_free(&Zq);
-    obs_image_f32_free(&A);
     return st;
+}
+
+/* The AVX2 row kernel where the CPU has it, unless OBS_ISA=scalar (the scalar reference, as the
+ * rasterizer's switch). */
+static int ue4_use_avx2(const prep *P)
+{
+#ifdef UE4_AVX2
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    (void)P;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    (void)P;
+    return 0;
+#endif
 }
 
 obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
@@ -848,14 +1425,21 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     P.cy = (float)in->cy;
     P.half_w = (float)(0.5 * W);
     P.half_h = (float)(0.5 * H);
+    P.fov_fix[0] = K.fov_fix[0];
+    P.fov_fix[1] = K.fov_fix[1];
+    P.fov_fix[2] = 1.0f;
+    for (int c = 0; c < 3; c++)
+        P.inv_fov_fix[c] = 1.0f / P.fov_fix[c];
+    P.simd = ue4_use_avx2(&P);
     obs_image_f32 recon[3] = {{0}, {0}, {0}};
     obs_image_f32 Q = {0}, G = {0};
     const obs_image_f32 *nsrc[3] = {NULL, NULL, NULL};
     const int use_n = K.normal_mode != AO_UE4_NORMALS_NONE;
     int64_t background = 0, computed = 0;
 
-    /* ---- 1. prepare: depth in uu, background mask, UE view-space normals, the random vectors,
-     *         and the AO setup levels (multi-resolution option) ---- */
+    /* ---- 1. prepare: the random vectors, the ScreenPos tables, normals from depth (mode 2), and
+     *         the AO setup levels (multi-resolution option); level 0 converts the input's depth
+     *         (uu, background) and normals (UE view space) where it reads them ---- */
     const double t0 = obs_time_now();
     unsigned char tex[16][4];
     ao_ue4_random_texture(tex);
@@ -874,13 +1458,27 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         L->sample_count = l ? ao_ue4_sample_set(3, L->samples) : K.sample_count;
         if (!l)
             memcpy(L->samples, K.samples, sizeof L->samples);
-        st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
+        L->inv_s = 1.0f / L->s;
+        /* level 0 reads the input's depth and normals as they are (level_depth, level_bg_row,
+         * ue4_normal_at): no full-size planes, whose fresh pages cost more than the conversion */
+        if (l)
+            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
         if (st == OBS_STATUS_OK) {
-            L->bg = (unsigned char *)malloc((size_t)L->w * L->h);
-            if (!L->bg)
+            L->bg = l ? (unsigned char *)malloc((size_t)L->w * L->h) : NULL;
+            L->spx = (float *)malloc(sizeof(float) * ((size_t)L->w + 1));
+            L->spy = (float *)malloc(sizeof(float) * ((size_t)L->h + 1));
+            if ((l && !L->bg) || !L->spx || !L->spy)
                 st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
         }
-        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n; c++)
+        if (st == OBS_STATUS_OK) {
+            /* ScreenPos (NDC, y up) of the texel centres, from the principal point (in double) */
+            const double s = L->s;
+            for (int x = 0; x <= L->w; x++)
+                L->spx[x] = (float)((((double)x + 0.5) * s - in->cx) * 2.0 / W);
+            for (int y = 0; y <= L->h; y++)
+                L->spy[y] = (float)(-(((double)y + 0.5) * s - in->cy) * 2.0 / H);
+        }
+        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n && l; c++)
             st = obs_image_f32_alloc(ctx, L->w, L->h, &L->n[c]);
         for (int c = 0; c < 3 && st == OBS_STATUS_OK && l; c++)
             st = obs_image_f32_alloc(ctx, L->w, L->h, &L->e[c]);
@@ -901,8 +1499,8 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         }
     }
     if (st == OBS_STATUS_OK) {
-        prep_job PJ = {&P, {nsrc[0], nsrc[1], nsrc[2]}};
-        obs_pool_run(pool, H, prep_row, &PJ);
+        for (int c = 0; c < 3; c++)
+            P.nsrc[c] = nsrc[c];
         for (int l = 1; l < P.levels; l++) {
             setup_job SJ = {&P, l, use_n};
             obs_pool_run(pool, P.lv[l].h, setup_row, &SJ);
@@ -914,12 +1512,13 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     for (int l = P.levels - 1; l >= 1 && st == OBS_STATUS_OK; l--) {
         level *L = &P.lv[l];
         const int qx1 = K.quad_blur ? L->w + (L->w & 1) : L->w, qy1 = K.quad_blur ? L->h + (L->h & 1) : L->h;
-        st = run_level(ctx, pool, &P, l, 0, 0, qx1, qy1, 0, 0, &L->ao, NULL);
+        st = run_level(ctx, pool, &P, l, 0, 0, qx1, qy1, 0, 0, 0, &L->ao, NULL);
         computed += (int64_t)qx1 * qy1;
     }
 
     /* ---- 3. the full-resolution pass over the window plus the Gaussian's reach, aligned to 2x2
-     *         quads, then its quad blur ---- */
+     *         quads, then its quad blur, saturated (the UNORM render target). Without the Gaussian
+     *         the rect is the window, written straight into out. ---- */
     int rect[4];
     ao_blur_reach(in, K.blur ? AO_GAUSS21_RADIUS : 0, rect);
     int qx0 = rect[0], qy0 = rect[1], qx1 = rect[0] + rect[2], qy1 = rect[1] + rect[3]; /* exclusive */
@@ -927,24 +1526,17 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         qx0 &= ~1, qy0 &= ~1;
         qx1 += qx1 & 1, qy1 += qy1 & 1; /* may be one past the buffer: a helper lane */
     }
-    if (st == OBS_STATUS_OK)
+    const int direct = !K.blur && rect[0] == in->x0 && rect[1] == in->y0 && rect[2] == in->w && rect[3] == in->h;
+    if (st == OBS_STATUS_OK && !direct)
         st = obs_image_f32_alloc(ctx, rect[2], rect[3], &Q);
     if (st == OBS_STATUS_OK) {
-        st = run_level(ctx, pool, &P, 0, qx0, qy0, qx1, qy1, rect[0], rect[1], &Q, &background);
+        st = run_level(ctx, pool, &P, 0, qx0, qy0, qx1, qy1, rect[0], rect[1], 1, direct ? out : &Q, &background);
         computed += (int64_t)(qx1 - qx0) * (qy1 - qy0);
-    }
-    if (st == OBS_STATUS_OK) {
-        /* the UNORM render target saturates */
-        for (int y = 0; y < rect[3]; y++) {
-            float *q = obs_image_f32_row(&Q, y);
-            for (int x = 0; x < rect[2]; x++)
-                q[x] = saturatef(q[x]);
-        }
     }
     const double t2 = obs_time_now();
 
     /* ---- 4. the seed thesis' Gaussian ---- */
-    const obs_image_f32 *final = &Q;
+    const obs_image_f32 *final = direct ? out : &Q;
     if (st == OBS_STATUS_OK && K.blur) {
         st = obs_image_f32_alloc(ctx, rect[2], rect[3], &G);
         if (st == OBS_STATUS_OK)
@@ -955,10 +1547,13 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
 
     /* ---- 5. crop the window ---- */
     if (st == OBS_STATUS_OK) {
+        const obs_image_f32 *raw = direct ? out : &Q;
         for (int y = 0; y < in->h; y++) {
             const int ry = in->y0 + y - rect[1];
-            memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, ry) + (in->x0 - rect[0]), sizeof(float) * in->w);
-            if (final != &Q) { /* the Gaussian mixes background with its neighbours: background stays 1 (blur.md) */
+            if (!direct)
+                memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, ry) + (in->x0 - rect[0]),
+                       sizeof(float) * in->w);
+            if (final != raw) { /* the Gaussian mixes background with its neighbours: background stays 1 (blur.md) */
                 const float *d = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
                 float *o = obs_image_f32_row(out, y);
                 for (int x = 0; x < in->w; x++)
@@ -966,7 +1561,7 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
                         o[x] = 1.0f;
             }
             if (out_raw)
-                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&Q, ry) + (in->x0 - rect[0]),
+                memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(raw, ry) + (in->x0 - rect[0]),
                        sizeof(float) * in->w);
         }
         if (stats) {
