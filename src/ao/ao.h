@@ -146,6 +146,8 @@ typedef struct ao_external {
     ao_depth_kind depth_kind;       /* the kind used (never AUTO) */
     char depth_channel[64];         /* the channel read */
     int64_t background_pixels;      /* depth +inf (linear) or the clear value (NDC) */
+    int64_t renormalized_normal_pixels; /* surface pixels whose normal was not of length [0.5, 2]:
+                                       renormalised (finite, nonzero) or set to 0 (no normal) */
     int64_t invalid_depth_pixels;   /* NaN, -inf, <= 0, or NDC values that map to no positive depth:
                                        set to +inf (background) and counted */
 } ao_external;

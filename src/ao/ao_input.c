@@ -590,9 +590,46 @@ obs_status ao_external_from_image(obs_context *ctx, const io_image *im, const ao
                 d[x] = (float)lin;
             }
         }
-        for (int c = 0; have_normals && c < 3; c++)
-            memcpy(obs_image_f32_row(&out->normal[c], y), obs_image_f32_row(&im->f32[nc[c]], y), sizeof(float) * W);
+        if (have_normals) {
+            /* ao_input promises unit normals. A file's normals within [0.5, 2] in length (unit up to
+             * storage precision, e.g. 16-bit or 10-bit encodings) are kept as they are, so kernels
+             * see the file's own values; others are renormalised in double when finite and nonzero,
+             * else set to the zero vector (no normal: the kernels treat it as degenerate), and
+             * counted. Found by fuzz_gbuffer: finite normals of length 1e36 overflowed MSSAO's
+             * normalisation to NaN (docs/reliability.md, F11). */
+            const float *sn[3] = {obs_image_f32_row(&im->f32[nc[0]], y), obs_image_f32_row(&im->f32[nc[1]], y),
+                                  obs_image_f32_row(&im->f32[nc[2]], y)};
+            float *dn[3] = {obs_image_f32_row(&out->normal[0], y), obs_image_f32_row(&out->normal[1], y),
+                            obs_image_f32_row(&out->normal[2], y)};
+            for (int x = 0; x < W; x++) {
+                const double a = sn[0][x], b = sn[1][x], c = sn[2][x];
+                const double len = sqrt(a * a + b * b + c * c);
+                if (len >= 0.5 && len <= 2.0) {
+                    dn[0][x] = sn[0][x];
+                    dn[1][x] = sn[1][x];
+                    dn[2][x] = sn[2][x];
+                    continue;
+                }
+                if (!(d[x] < INFINITY)) { /* background: its normal is not used */
+                    dn[0][x] = dn[1][x] = dn[2][x] = 0.0f;
+                    continue;
+                }
+                out->renormalized_normal_pixels++;
+                if (len > 0.0 && len < INFINITY) {
+                    dn[0][x] = (float)(a / len);
+                    dn[1][x] = (float)(b / len);
+                    dn[2][x] = (float)(c / len);
+                } else { /* NaN, inf (or a length overflowing double), zero */
+                    dn[0][x] = dn[1][x] = dn[2][x] = 0.0f;
+                }
+            }
+        }
     }
+    if (out->renormalized_normal_pixels > 0)
+        obs_log(ctx, OBS_LOG_WARN,
+                "external G-buffer: %lld surface pixels of the normal channels are not unit length (outside [0.5, 2]): "
+                "renormalised, or set to no normal where not finite or zero",
+                (long long)out->renormalized_normal_pixels);
     if (out->invalid_depth_pixels > 0)
         obs_log(ctx, OBS_LOG_WARN,
                 "external G-buffer: %lld pixels of '%s' hold no usable depth (NaN, -inf, <= 0 or outside the %s "

@@ -547,6 +547,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
         io_json_string(&j, "depth_kind", depth_kind_name(ext.depth_kind));
         io_json_int(&j, "background_pixels", ext.background_pixels);
         io_json_int(&j, "invalid_depth_pixels", ext.invalid_depth_pixels);
+        io_json_int(&j, "renormalized_normal_pixels", ext.renormalized_normal_pixels);
         if (intrinsics_path)
             io_json_string(&j, "intrinsics", intrinsics_path);
     }

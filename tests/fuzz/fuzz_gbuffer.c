@@ -22,20 +22,53 @@
 #include "io/io.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void check_unit_plane(const obs_image_f32 *a, const char *what)
+/* With OBS_FUZZ_DUMP=FILE in the environment, a broken invariant first writes the G-buffer the
+ * methods saw (sizes, window, intrinsics as doubles, depth and normals as floats) to FILE: an
+ * external image's pixels can come from OpenEXR's decompressor uninitialised (docs/reliability.md,
+ * L2), so the input file alone may not reproduce the values. */
+static const ao_input *g_dump_input;
+static void dump_input(void)
+{
+    const char *path = getenv("OBS_FUZZ_DUMP");
+    const ao_input *in = g_dump_input;
+    if (!path || !in)
+        return;
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return;
+    const int hdr[8] = {in->width, in->height, in->x0, in->y0, in->w, in->h, (int)in->projection, in->normal[0] != NULL};
+    const double k[6] = {in->fx, in->fy, in->cx, in->cy, in->znear, in->zfar};
+    fwrite(hdr, sizeof hdr, 1, f);
+    fwrite(k, sizeof k, 1, f);
+    for (int c = 0; c < (in->normal[0] ? 4 : 1); c++) {
+        const obs_image_f32 *p = c == 0 ? in->depth : in->normal[c - 1];
+        for (int y = 0; y < in->height; y++)
+            fwrite(obs_image_f32_row(p, y), sizeof(float), (size_t)in->width, f);
+    }
+    fclose(f);
+}
+
+static void check_unit_plane(const obs_image_f32 *a, const char *method, const char *what)
 {
     for (int y = 0; y < a->height; y++)
         for (int x = 0; x < a->width; x++) {
             const float v = obs_image_f32_row(a, y)[x];
-            fuzz_require(v >= 0.0f && v <= 1.0f, what);
+            if (!(v >= 0.0f && v <= 1.0f)) {
+                fprintf(stderr, "obscura fuzz: %s: pixel (%d,%d) of %dx%d = %.9g\n", method, x, y, a->width,
+                        a->height, (double)v);
+                dump_input();
+                fuzz_require(0, what);
+            }
         }
 }
 
 static void run_methods(obs_context *ctx, const ao_input *in)
 {
+    g_dump_input = in;
     obs_image_f32 out = {0}, raw = {0}, blend = {0};
     if (obs_image_f32_alloc(ctx, in->w, in->h, &out) != OBS_STATUS_OK ||
         obs_image_f32_alloc(ctx, in->w, in->h, &raw) != OBS_STATUS_OK ||
@@ -57,8 +90,8 @@ static void run_methods(obs_context *ctx, const ao_input *in)
             fuzz_require(obs_context_last_error(ctx)[0] != '\0', "an AO method's refusal says why");
             continue;
         }
-        check_unit_plane(&out, "AO is finite and in [0, 1] on any G-buffer");
-        check_unit_plane(&raw, "raw AO is finite and in [0, 1] on any G-buffer");
+        check_unit_plane(&out, m->name, "AO is finite and in [0, 1] on any G-buffer");
+        check_unit_plane(&raw, m->name, "raw AO is finite and in [0, 1] on any G-buffer");
     }
     /* the blend with reconstructed normals (the CLI's path when the file has none) */
     obs_image_f32 n[3] = {{0}, {0}, {0}};
@@ -68,7 +101,7 @@ static void run_methods(obs_context *ctx, const ao_input *in)
     if (ok && ao_normals_from_depth(ctx, NULL, in, n) == OBS_STATUS_OK) {
         const obs_image_f32 *np[3] = {&n[0], &n[1], &n[2]};
         if (ao_blend_lambert(ctx, NULL, in, &out, np, &blend) == OBS_STATUS_OK)
-            check_unit_plane(&blend, "the blend is in [0, 1]");
+            check_unit_plane(&blend, "blend", "the blend is in [0, 1]");
     }
     for (int c = 0; c < 3; c++)
         obs_image_f32_free(&n[c]);
