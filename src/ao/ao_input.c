@@ -274,6 +274,11 @@ obs_status ao_intrinsics_parse_json(obs_context *ctx, const char *text, ao_intri
         const char *v = json_find_value(text, num_keys[i]);
         if (v && !json_number_at(v, num_dst[i]))
             return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "intrinsics JSON: \"%s\" is not a number", num_keys[i]);
+        /* only zfar may be infinite; NaN (strtod accepts a bare "nan", JSON does not) never
+         * (found by fuzz_gbuffer, F12) */
+        if (v && (isnan(*num_dst[i]) || (i != 5 && isinf(*num_dst[i]))))
+            return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "intrinsics JSON: \"%s\" must be a finite number%s",
+                             num_keys[i], i == 5 ? " or \"infinity\"" : "");
     }
     const char *v = json_find_value(text, "projection_type");
     if (!v)

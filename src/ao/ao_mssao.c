@@ -319,14 +319,18 @@ static void g0_row(void *user, int64_t task, int thread)
     float *Q = J->pk + 4 * (size_t)j * (size_t)in->width;
     for (int x = 0; x < in->width; x++) {
         const float d = drow[x];
-        if (!(isfinite(d) && d > 0.0f)) {
+        const obs_vec3 p = ao_position(in, x, y, d);
+        /* DIFF (docs/ao/mssao.md): a pixel whose view-space position is beyond 1e18 m in any component
+         * is background. Differences and squared distances of such positions overflow float (inf -
+         * inf = NaN in normalize(q - p); found by fuzz_gbuffer, F13, with depths of 3.4e38); below
+         * 1e18 every |v|^2 stays under 1.2e37. A GPU would give NaN or inf there. */
+        if (!(isfinite(d) && d > 0.0f) || !(fabsf(p.x) <= 1e18f && fabsf(p.y) <= 1e18f && fabsf(p.z) <= 1e18f)) {
             /* Background: Hoang's G-buffer is cleared to (0, 0, 0, 0) (glClearColor 0, 0, 0, 0) */
             Q[4 * x] = Q[4 * x + 1] = Q[4 * x + 2] = Q[4 * x + 3] = 0.0f;
             if (planes)
                 P[0][x] = P[1][x] = P[2][x] = N[0][x] = N[1][x] = N[2][x] = V[x] = 0.0f;
             continue;
         }
-        const obs_vec3 p = ao_position(in, x, y, d);
         /* normTex.w: the geometry pass writes 1 where it draws */
         Q[4 * x] = p.x;
         Q[4 * x + 1] = p.y;
