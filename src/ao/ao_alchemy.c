@@ -721,11 +721,7 @@ obs_status ao_alchemy_compute(obs_context *ctx, obs_pool *pool, const ao_input *
             memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, y + oy) + ox, sizeof(float) * (size_t)in->w);
             /* background keeps visibility 1 exactly: the Gaussian (not depth-aware) would leave
              * 1 - 2.4e-7 or blurred-in AO there; no shading uses it (documented deviation) */
-            const float *drow = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
-            float *orow = obs_image_f32_row(out, y);
-            for (int x = 0; x < in->w; x++)
-                if (!is_surface(drow[x]))
-                    orow[x] = 1.0f;
+            ao_i_background_to_one(in, y, obs_image_f32_row(out, y));
             if (out_raw)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, y + oy) + ox,
                        sizeof(float) * (size_t)in->w);

@@ -5,7 +5,9 @@
  * over i = -10..10): w_i = exp(-i^2/16) / sum_{j=-10..10} exp(-j^2/16), a Gaussian with
  * sigma = 2*sqrt(2) px normalised over the 21 taps, written with 9 decimals. docs/ao/blur.md. */
 #include "ao.h"
+#include "ao_internal.h"
 
+#include <math.h>
 #include <string.h>
 
 /* The shader's constant array, kernel[0..20], as printed (float literals). kernel[index--] with
@@ -127,4 +129,11 @@ void ao_blur_reach(const ao_input *in, int reach, int rect[4])
     rect[1] = y0;
     rect[2] = x1 - x0;
     rect[3] = y1 - y0;
+}
+
+void ao_i_background_to_one(const ao_input *in, int y, float *row)
+{
+    const float *d = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
+    for (int x = 0; x < in->w; x++) /* a select, not a branch: the loop vectorises */
+        row[x] = d[x] > 0.0f && d[x] < INFINITY ? row[x] : 1.0f;
 }

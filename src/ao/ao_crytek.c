@@ -817,13 +817,9 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
             float *o = obs_image_f32_row(out, y);
             if (!blur_into_out && !raw_is_out)
                 memcpy(o, obs_image_f32_row(final, ry) + (in->x0 - rx0), sizeof(float) * in->w);
-            if (k->blur) {
-                /* Deviation from the seed (which blurs the whole AO texture): background pixels
-                 * keep visibility 1 (ao.h input rule), as SAO's blur passes its sky through */
-                const float *d = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
-                for (int x = 0; x < in->w; x++) /* a select, not a branch: the loop vectorises */
-                    o[x] = d[x] > 0.0f && d[x] < INFINITY ? o[x] : 1.0f;
-            }
+            if (k->blur) /* Deviation from the seed (which blurs the whole AO texture): background
+                          * pixels keep visibility 1 (ao.h input rule), as SAO's blur passes its sky */
+                ao_i_background_to_one(in, y, o);
             if (out_raw && out_raw->data != raw.data)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(&raw, ry) + (in->x0 - rx0),
                        sizeof(float) * in->w);

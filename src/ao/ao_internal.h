@@ -16,6 +16,12 @@ void ao_i_cos_sin(float angle, float *c, float *s);
  * +inf: INT32_MAX. */
 int ao_i_floor_log2f(float x);
 
+/* Window row y (0 .. in->h - 1) of an AO plane: background pixels (depth not finite and > 0) set to
+ * exactly 1, the others kept. For the methods that run the seed's Gaussian, which is not depth-aware
+ * and would leave 1 - 2.4e-7 or blurred-in AO on the sky (ao_blur.c, docs/ao/blur.md). */
+struct ao_input;
+void ao_i_background_to_one(const struct ao_input *in, int y, float *row);
+
 /* The method descriptors (ao.h, "The method registry"), one per technique file; ao_methods.c lists
  * them. */
 struct ao_method;

@@ -1553,13 +1553,8 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
             if (!direct)
                 memcpy(obs_image_f32_row(out, y), obs_image_f32_row(final, ry) + (in->x0 - rect[0]),
                        sizeof(float) * in->w);
-            if (final != raw) { /* the Gaussian mixes background with its neighbours: background stays 1 (blur.md) */
-                const float *d = obs_image_f32_row(in->depth, in->y0 + y) + in->x0;
-                float *o = obs_image_f32_row(out, y);
-                for (int x = 0; x < in->w; x++)
-                    if (!(d[x] > 0.0f && d[x] < INFINITY))
-                        o[x] = 1.0f;
-            }
+            if (final != raw) /* the Gaussian mixes background with its neighbours: background stays 1 (blur.md) */
+                ao_i_background_to_one(in, y, obs_image_f32_row(out, y));
             if (out_raw)
                 memcpy(obs_image_f32_row(out_raw, y), obs_image_f32_row(raw, ry) + (in->x0 - rect[0]),
                        sizeof(float) * in->w);
