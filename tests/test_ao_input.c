@@ -325,3 +325,63 @@ TEST(ao_normals_from_depth_recover_planes_and_skip_silhouettes)
     obs_scene_free(&s);
     obs_context_destroy(ctx);
 }
+
+/* fuzz_gbuffer's findings F11 and F12 as direct cases: non-finite intrinsics are refused by the
+ * JSON parser (only zfar may be infinite), and external normals that are not unit length are
+ * renormalised or become "no normal", counted, on surface pixels only. */
+TEST(ao_external_refuses_nonfinite_intrinsics_and_repairs_non_unit_normals)
+{
+    obs_context *ctx = obs_context_create();
+    ao_intrinsics k;
+    obs_context_clear_error(ctx);
+    CHECK(ao_intrinsics_parse_json(ctx, "{\"fx\": \"infinity\"}", &k) == OBS_STATUS_PARSE_ERROR);
+    CHECK(strstr(obs_context_last_error(ctx), "\"fx\"") != NULL);
+    CHECK(ao_intrinsics_parse_json(ctx, "{\"cy\": nan}", &k) == OBS_STATUS_PARSE_ERROR);
+    CHECK(ao_intrinsics_parse_json(ctx, "{\"zfar\": nan}", &k) == OBS_STATUS_PARSE_ERROR);
+    CHECK_OK(ao_intrinsics_parse_json(ctx, "{\"zfar\": \"infinity\", \"fx\": 5}", &k), ctx);
+    CHECK(isinf(k.zfar) && k.fx == 5.0);
+
+    const int W = 6, H = 1;
+    obs_image_f32 z = {0}, nx = {0}, ny = {0}, nz = {0};
+    CHECK_OK(obs_image_f32_alloc(ctx, W, H, &z), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, W, H, &nx), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, W, H, &ny), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, W, H, &nz), ctx);
+    /* unit; 0.9 long (kept as is); 1e36 long; NaN; zero; and a huge normal on background */
+    const float n3[6][3] = {{0, 0, 1}, {0, 0.9f, 0}, {5e36f, 0, 0}, {NAN, 0, 0}, {0, 0, 0}, {1e30f, 0, 0}};
+    for (int x = 0; x < W; x++) {
+        obs_image_f32_row(&z, 0)[x] = x == 5 ? INFINITY : 2.0f;
+        obs_image_f32_row(&nx, 0)[x] = n3[x][0];
+        obs_image_f32_row(&ny, 0)[x] = n3[x][1];
+        obs_image_f32_row(&nz, 0)[x] = n3[x][2];
+    }
+    io_channel ch[4] = {{"Z", IO_PIXEL_FLOAT, &z, NULL}, {"N.X", IO_PIXEL_FLOAT, &nx, NULL},
+                        {"N.Y", IO_PIXEL_FLOAT, &ny, NULL}, {"N.Z", IO_PIXEL_FLOAT, &nz, NULL}};
+    const char *path = test_path(test_tmpdir(), "normals.exr");
+    CHECK_OK(io_exr_write(ctx, path, ch, 4, NULL, 0), ctx);
+    io_image im;
+    CHECK_OK(io_image_read(ctx, path, &im), ctx);
+    k = ao_intrinsics_unknown();
+    k.fx = k.fy = 10.0;
+    k.cx = 3.0;
+    k.cy = 0.5;
+    ao_external_options o = ao_external_options_default();
+    o.intrinsics = &k;
+    ao_external e;
+    CHECK_OK(ao_external_from_image(ctx, &im, &o, &e), ctx);
+    CHECK_EQ_INT(e.renormalized_normal_pixels, 3);
+    const float *ex = obs_image_f32_row(&e.normal[0], 0), *ey = obs_image_f32_row(&e.normal[1], 0),
+                *ez = obs_image_f32_row(&e.normal[2], 0);
+    CHECK(ex[0] == 0.0f && ey[0] == 0.0f && ez[0] == 1.0f);
+    CHECK(ey[1] == 0.9f);                               /* within [0.5, 2]: the file's value */
+    CHECK(ex[2] == 1.0f && ey[2] == 0.0f && ez[2] == 0.0f); /* renormalised */
+    for (int x = 3; x < 6; x++)                          /* NaN, zero, background: no normal */
+        CHECK(ex[x] == 0.0f && ey[x] == 0.0f && ez[x] == 0.0f);
+    ao_external_free(&e);
+    io_image_free(&im);
+    obs_image_f32_free(&z);
+    obs_image_f32_free(&nx);
+    obs_image_f32_free(&ny);
+    obs_image_f32_free(&nz);
+    obs_context_destroy(ctx);
+}
