@@ -15,6 +15,7 @@
 #include "test.h"
 #include "truth/truth.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -591,6 +592,159 @@ TEST(truth_output_identical_for_1_2_and_8_threads)
         for (int t = 0; t < 3; t++)
             truth_ao_result_free(&res[t]);
         truth_ao_result_free(&other);
+    }
+    run_free(&R);
+}
+
+/* truth_ao_render_multi: one ray set, several (estimator, radius) outputs. With a fixed sample
+ * count (min = max, target 0) every output must equal, value for value, the single-output run of
+ * its own estimator and radius: the directions depend on pixel, sample and seed only, and the
+ * closest hit within r_max is the closest within r when t <= r. Binary outputs (COS, UNIF) are
+ * traced by rtcOccluded1M alone and by rtcIntersect1M in the shared set; both report a hit at
+ * t <= r for the same rays, so they must agree too. Adaptive: every output meets the target or
+ * the pixel is at max, and one output alone is bit-identical to truth_ao_render. */
+static int same_values(const truth_ao_result *a, const truth_ao_result *b, double *max_diff)
+{
+    *max_diff = 0.0;
+    if (a->width != b->width || a->height != b->height)
+        return 0;
+    for (int y = 0; y < a->height; y++)
+        for (int x = 0; x < a->width; x++) {
+            double d = fabs((double)px(&a->mean, x, y) - px(&b->mean, x, y));
+            d = fmax(d, fabs((double)px(&a->std_error, x, y) - px(&b->std_error, x, y)));
+            d = fmax(d, fabs((double)px(&a->count, x, y) - px(&b->count, x, y)));
+            *max_diff = fmax(*max_diff, d);
+        }
+    return *max_diff == 0.0;
+}
+
+TEST(truth_multi_output_equals_each_single_run)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 5, 16);
+    mb_sphere(&mb, 0, 0.5, 0, 0.5, 32, 16);
+    mb_sphere(&mb, 0.8, 0.3, 0.4, 0.3, 24, 12);
+    mb_to_scene(&mb, &R.scene);
+    CHECK_MSG(run_setup(&R, obs_v3(1.5f, 1.5f, 2.5f), obs_v3(0.2f, 0.3f, 0), 41, 31), "setup: %s",
+              obs_context_last_error(R.ctx));
+    static const truth_ao_output cos_family[] = {
+        {TRUTH_AO_COS, 0.3f}, {TRUTH_AO_OBS_SAO_B, 0.3f}, {TRUTH_AO_COS, 0.9f}, {TRUTH_AO_OBS_MSSAO, 0.6f},
+        {TRUTH_AO_OBS_SAO_LINEAR, 0.9f}, {TRUTH_AO_OBS_SAO_B, 0.9f}, {TRUTH_AO_COS, INFINITY}};
+    static const truth_ao_output unif_family[] = {{TRUTH_AO_UNIF, 0.25f}, {TRUTH_AO_OBS_HBAO, 0.25f},
+                                                  {TRUTH_AO_OBS_HBAO, 0.7f}, {TRUTH_AO_UNIF, 0.7f}};
+    const struct { const truth_ao_output *o; int n; } fam[] = {{cos_family, 7}, {unif_family, 4}};
+    obs_pool *pool = obs_pool_create(2);
+    for (int f = 0; f < 2; f++) {
+        truth_ao_params p = truth_ao_params_default();
+        p.min_samples = p.max_samples = 128; /* fixed count: the same rays in both */
+        p.target_error = 0.0;
+        p.seed = 77;
+        truth_ao_result multi[TRUTH_AO_MAX_OUTPUTS];
+        CHECK_OK(truth_ao_render_multi(R.ctx, pool, R.ts, &R.scene, &R.cam, &R.gb, &p, fam[f].o, fam[f].n, multi), R.ctx);
+        for (int j = 0; j < fam[f].n; j++) {
+            truth_ao_params q = p;
+            q.estimator = fam[f].o[j].estimator;
+            q.radius = fam[f].o[j].radius;
+            truth_ao_result one;
+            CHECK_OK(run_ao(&R, pool, &q, &one), R.ctx);
+            double md;
+            CHECK_MSG(same_values(&multi[j], &one, &md), "output %d (%s, r %g): max difference %g from its single run", j,
+                      truth_ao_estimator_name(q.estimator), (double)q.radius, md);
+            truth_ao_result_free(&one);
+        }
+        /* the ray set is traced once: its ray count is one output's, not the sum */
+        truth_ao_params q = p;
+        q.estimator = fam[f].o[0].estimator;
+        q.radius = fam[f].o[0].radius;
+        truth_ao_result one;
+        CHECK_OK(run_ao(&R, pool, &q, &one), R.ctx);
+        CHECK(multi[0].stats.rays == one.stats.rays);
+        truth_ao_result_free(&one);
+        for (int j = 0; j < fam[f].n; j++)
+            truth_ao_result_free(&multi[j]);
+    }
+    /* adaptive: a pixel stops only when every output is within the target, or at max */
+    {
+        truth_ao_params p = truth_ao_params_default();
+        p.target_error = 0.02;
+        p.max_samples = 1024;
+        truth_ao_result multi[TRUTH_AO_MAX_OUTPUTS];
+        CHECK_OK(truth_ao_render_multi(R.ctx, NULL, R.ts, &R.scene, &R.cam, &R.gb, &p, cos_family, 7, multi), R.ctx);
+        int64_t early = 0;
+        for (int y = 0; y < multi[0].height; y++)
+            for (int x = 0; x < multi[0].width; x++) {
+                float c = px(&multi[0].count, x, y);
+                if (c == 0.0f || c >= 1024.0f)
+                    continue;
+                early++;
+                for (int j = 0; j < 7; j++) {
+                    CHECK(px(&multi[j].count, x, y) == c);
+                    CHECK_MSG(px(&multi[j].std_error, x, y) <= 0.02f, "pixel %d,%d output %d stopped at se %g", x, y, j,
+                              (double)px(&multi[j].std_error, x, y));
+                }
+            }
+        CHECK(early > 0);
+        /* 1 and 2 threads: the same bits */
+        truth_ao_result m2[TRUTH_AO_MAX_OUTPUTS];
+        CHECK_OK(truth_ao_render_multi(R.ctx, pool, R.ts, &R.scene, &R.cam, &R.gb, &p, cos_family, 7, m2), R.ctx);
+        for (int j = 0; j < 7; j++) {
+            CHECK(planes_equal(&multi[j], &m2[j]));
+            truth_ao_result_free(&multi[j]);
+            truth_ao_result_free(&m2[j]);
+        }
+        /* one output alone is truth_ao_render, bit for bit (VOL included) */
+        static const truth_ao_output singles[] = {{TRUTH_AO_COS, 0.4f}, {TRUTH_AO_OBS_HBAO, 0.4f}, {TRUTH_AO_VOL, 0.4f}};
+        for (int k = 0; k < 3; k++) {
+            truth_ao_result a, b;
+            truth_ao_params q = p;
+            q.estimator = singles[k].estimator;
+            q.radius = singles[k].radius;
+            CHECK_OK(truth_ao_render_multi(R.ctx, pool, R.ts, &R.scene, &R.cam, &R.gb, &p, &singles[k], 1, &a), R.ctx);
+            CHECK_OK(run_ao(&R, pool, &q, &b), R.ctx);
+            CHECK_MSG(planes_equal(&a, &b), "%s alone differs from truth_ao_render", truth_ao_estimator_name(q.estimator));
+            truth_ao_result_free(&a);
+            truth_ao_result_free(&b);
+        }
+    }
+    obs_pool_destroy(pool);
+    run_free(&R);
+}
+
+TEST(truth_multi_output_refuses_outputs_that_cannot_share_rays)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 5, 4);
+    mb_to_scene(&mb, &R.scene);
+    CHECK(run_setup(&R, obs_v3(0, 2, 2), obs_v3(0, 0, 0), 8, 8));
+    truth_ao_params p = truth_ao_params_default();
+    p.max_samples = 64;
+    truth_ao_result out[TRUTH_AO_MAX_OUTPUTS + 1];
+    const truth_ao_output mixed[] = {{TRUTH_AO_COS, 0.5f}, {TRUTH_AO_UNIF, 0.5f}};
+    const truth_ao_output vol[] = {{TRUTH_AO_VOL, 0.5f}, {TRUTH_AO_VOL, 0.2f}};
+    const truth_ao_output inf_obs[] = {{TRUTH_AO_COS, 0.5f}, {TRUTH_AO_OBS_SAO_B, INFINITY}};
+    const truth_ao_output bad_est[] = {{TRUTH_AO_COS, 0.5f}, {(truth_ao_estimator)99, 0.5f}};
+    truth_ao_output many[TRUTH_AO_MAX_OUTPUTS + 1];
+    for (int j = 0; j <= TRUTH_AO_MAX_OUTPUTS; j++)
+        many[j] = (truth_ao_output){TRUTH_AO_COS, 0.1f * (float)(j + 1)};
+    const struct { const truth_ao_output *o; int n; const char *what; } bad[] = {
+        {mixed, 2, "share"}, {vol, 2, "share"}, {inf_obs, 2, "radius"}, {bad_est, 2, "out of range"},
+        {many, TRUTH_AO_MAX_OUTPUTS + 1, "outputs"}, {many, 0, "outputs"}, {NULL, 1, "NULL"}};
+    for (size_t k = 0; k < sizeof bad / sizeof bad[0]; k++) {
+        obs_context_clear_error(R.ctx);
+        obs_status st = truth_ao_render_multi(R.ctx, NULL, R.ts, &R.scene, &R.cam, &R.gb, &p, bad[k].o, bad[k].n, out);
+        CHECK_MSG(st == OBS_STATUS_INVALID_ARGUMENT, "case %zu: status %d", k, (int)st);
+        CHECK_MSG(strstr(obs_context_last_error(R.ctx), bad[k].what) != NULL, "case %zu: message '%s'", k,
+                  obs_context_last_error(R.ctx));
+    }
+    /* the full 16 are accepted */
+    CHECK_OK(truth_ao_render_multi(R.ctx, NULL, R.ts, &R.scene, &R.cam, &R.gb, &p, many, TRUTH_AO_MAX_OUTPUTS, out), R.ctx);
+    for (int j = 0; j < TRUTH_AO_MAX_OUTPUTS; j++) {
+        CHECK(out[j].width == 8 && px(&out[j].count, 4, 4) >= 64.0f);
+        truth_ao_result_free(&out[j]);
     }
     run_free(&R);
 }

@@ -182,6 +182,28 @@ obs_status truth_ao_render(obs_context *ctx, obs_pool *pool, const truth_scene *
                            truth_ao_result *out);
 void truth_ao_result_free(truth_ao_result *r);   /* NULL-safe; zeroes it */
 
+/* Several estimates from ONE set of rays: a study needs every estimator at several radii on the
+ * same G-buffer, and the hemisphere estimators that share a direction distribution differ only in
+ * what they make of the hit distance t. The rays go to the largest radius with a hit record; for
+ * an output of radius r <= r_max the closest hit within r_max is its closest hit within r when
+ * t <= r, so each output is the estimate its own truth_ao_render would compute from the same
+ * rays (the same directions: they depend on pixel, sample index and seed only). A pixel stops
+ * when EVERY output's standard error is <= target_error (after min_samples), or at max_samples:
+ * every output of a pixel has the same count. Outputs must be all cosine-weighted (COS,
+ * OBS_SAO_B, OBS_SAO_LINEAR, OBS_MSSAO) or all uniform (UNIF, OBS_HBAO); VOL only alone.
+ * p->estimator and p->radius are ignored; the rest of p as for truth_ao_render. out[0..count-1]
+ * are allocated here (free each with truth_ao_result_free); stats are those of the one ray set.
+ * With count 1 the result is bit-identical to truth_ao_render's. */
+#define TRUTH_AO_MAX_OUTPUTS 16
+typedef struct truth_ao_output {
+    truth_ao_estimator estimator;
+    float radius;
+} truth_ao_output;
+
+obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                 const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,
+                                 const truth_ao_output *outputs, int count, truth_ao_result *out);
+
 /* ============================================ end of AO ground truth ============================ */
 
 #ifdef __cplusplus

@@ -239,7 +239,8 @@ typedef struct px_state {
     float t[3], b[3], n[3];
     uint64_t pixel;        /* inner pixel index y*W + x: the RNG key */
     uint32_t shift[3];     /* Cranley-Patterson shift, 32-bit fixed point: Philox(pixel, 0, 0, seed) */
-    double mean, m2;       /* running mean and sum of squared deviations of the samples */
+    double mean[TRUTH_AO_MAX_OUTPUTS], m2[TRUTH_AO_MAX_OUTPUTS]; /* per output: running mean and sum of
+                           squared deviations of the samples */
     int64_t count;         /* samples taken */
     int x, y;
     int state;             /* 1 surface, 0 background, -1 invalid normal */
@@ -273,7 +274,14 @@ typedef struct ao_job {
     float *tri_extent;     /* per triangle of every mesh: object-space bounding-box extent */
     size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
     thread_scratch *scratch;
-    truth_ao_result *out;
+    truth_ao_result *out;  /* outs[0] */
+    truth_ao_result *outs; /* nout results, one per output */
+    int nout;              /* 1, or several outputs of one ray set (truth_ao_render_multi) */
+    int multi_hit;         /* nout > 1: rays traced with a hit record to the largest radius */
+    int binary[TRUTH_AO_MAX_OUTPUTS];     /* the output is [t > r] (no falloff) */
+    falloff_kind fk[TRUTH_AO_MAX_OUTPUTS];
+    double inv_r2s[TRUTH_AO_MAX_OUTPUTS]; /* 1 / r^2 per output (0 for r = inf) */
+    float radii[TRUTH_AO_MAX_OUTPUTS];
     const truth_ao_hooks *hooks;
     obs_vec3 eye;          /* perspective eye (world) */
     obs_vec3 cam_back;     /* camera +Z axis in world (orthographic VOL) */
@@ -351,7 +359,8 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->y = y;
     s->state = 0;
     s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
-    s->mean = s->m2 = 0.0;
+    for (int j = 0; j < TRUTH_AO_MAX_OUTPUTS; j++)
+        s->mean[j] = s->m2[j] = 0.0;
     s->count = 0;
     float depth = 0.0f;
     if (J->p.origin == TRUTH_AO_ORIGIN_GBUFFER) {
@@ -614,6 +623,11 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             om[x] = 1.0f;
             os[x] = 0.0f;
             oc[x] = 0.0f;
+            for (int j = 1; j < J->nout; j++) {
+                obs_image_f32_row(&J->outs[j].mean, y)[x] = 1.0f;
+                obs_image_f32_row(&J->outs[j].std_error, y)[x] = 0.0f;
+                obs_image_f32_row(&J->outs[j].count, y)[x] = 0.0f;
+            }
             if (state == 0)
                 S->background++;
             else
@@ -623,7 +637,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
 
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx); /* RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, the default (build-notes.md) */
-    const int hit_distance = J->ei.hit_distance;
+    const int hit_distance = J->ei.hit_distance || J->multi_hit;
     const double inv_r2 = J->inv_r2;
     const int64_t max_n = J->p.max_samples, min_n = J->p.min_samples;
     uint64_t tile_rays = 0;
@@ -662,6 +676,61 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             px_state *s = &S->px[S->active[a]];
             double *f = S->f;
             double mb, m2b;
+            if (J->multi_hit) {
+                /* several outputs from the same rays, traced to the largest radius: the closest hit
+                 * within r_max is the closest within any r <= r_max when t <= r, so each output is
+                 * computed exactly as its own single-output run would from these rays */
+                const RTCRayHit *h = (const RTCRayHit *)S->rays + (size_t)a * B;
+                double na = (double)s->count, n = na + B, worst = 0.0;
+                for (int j = 0; j < J->nout; j++) {
+                    const float rj = J->radii[j];
+                    if (J->binary[j]) {
+                        int k = 0;
+                        for (int i = 0; i < B; i++)
+                            k += h[i].hit.geomID == RTC_INVALID_GEOMETRY_ID || h[i].ray.tfar > rj;
+                        mb = (double)k / B;
+                        m2b = (double)k * (double)(B - k) / B;
+                    } else {
+                        double sum = 0.0;
+                        for (int i = 0; i < B; i++) {
+                            double v = 1.0;
+                            if (h[i].hit.geomID != RTC_INVALID_GEOMETRY_ID && h[i].ray.tfar <= rj) {
+                                double dd = (double)h[i].ray.tfar;
+                                v = 1.0 - falloff(J->fk[j], dd * dd * J->inv_r2s[j]);
+                            }
+                            f[i] = v;
+                            sum += v;
+                        }
+                        mb = sum / B;
+                        m2b = 0.0;
+                        for (int i = 0; i < B; i++)
+                            m2b += (f[i] - mb) * (f[i] - mb);
+                    }
+                    double delta = mb - s->mean[j];
+                    s->mean[j] += delta * (B / n);
+                    s->m2[j] += m2b + delta * delta * (na * B / n);
+                    double sej = sqrt(s->m2[j] / (n - 1.0) / n);
+                    worst = sej > worst ? sej : worst;
+                }
+                s->count += B;
+                int done_max = s->count >= max_n;
+                int done_target = s->count >= min_n && worst <= J->p.target_error;
+                if (done_max || done_target) {
+                    for (int j = 0; j < J->nout; j++) {
+                        double mean = s->mean[j] < 0.0 ? 0.0 : s->mean[j] > 1.0 ? 1.0 : s->mean[j];
+                        obs_image_f32_row(&J->outs[j].mean, s->y)[s->x] = (float)mean;
+                        obs_image_f32_row(&J->outs[j].std_error, s->y)[s->x] = (float)sqrt(s->m2[j] / (n - 1.0) / n);
+                        obs_image_f32_row(&J->outs[j].count, s->y)[s->x] = (float)s->count;
+                    }
+                    S->surface++;
+                    S->converged += worst <= J->p.target_error;
+                    S->at_max += done_max;
+                    S->max_se = worst > S->max_se ? worst : S->max_se;
+                } else {
+                    S->active[kept++] = S->active[a];
+                }
+                continue;
+            }
             if (hit_distance) {
                 const RTCRayHit *h = (const RTCRayHit *)S->rays + (size_t)a * B;
                 for (int i = 0; i < B; i++) {
@@ -691,16 +760,16 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                 m2b = (double)k * (double)(B - k) / B;
             }
             /* merged into the pixel's running mean and M2 [Welford62, Chan83] */
-            double na = (double)s->count, n = na + B, delta = mb - s->mean;
-            s->mean += delta * (B / n);
-            s->m2 += m2b + delta * delta * (na * B / n);
+            double na = (double)s->count, n = na + B, delta = mb - s->mean[0];
+            s->mean[0] += delta * (B / n);
+            s->m2[0] += m2b + delta * delta * (na * B / n);
             s->count += B;
-            double se = sqrt(s->m2 / (n - 1.0) / n);
+            double se = sqrt(s->m2[0] / (n - 1.0) / n);
             int done_max = s->count >= max_n;
             int done_target = s->count >= min_n && se <= J->p.target_error;
             if (done_max || done_target) {
                 int oi = s->y, ox = s->x;
-                double mean = s->mean < 0.0 ? 0.0 : s->mean > 1.0 ? 1.0 : s->mean;
+                double mean = s->mean[0] < 0.0 ? 0.0 : s->mean[0] > 1.0 ? 1.0 : s->mean[0];
                 obs_image_f32_row(&J->out->mean, oi)[ox] = (float)mean;
                 obs_image_f32_row(&J->out->std_error, oi)[ox] = (float)se;
                 obs_image_f32_row(&J->out->count, oi)[ox] = (float)s->count;
@@ -718,9 +787,11 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
     if (x1 == J->W) /* the tile at the right edge zeroes its rows' padding */
         for (int y = y0; y < y1; y++) {
             size_t pad = (size_t)(J->out->mean.stride - J->W) * sizeof(float);
-            memset(obs_image_f32_row(&J->out->mean, y) + J->W, 0, pad);
-            memset(obs_image_f32_row(&J->out->std_error, y) + J->W, 0, pad);
-            memset(obs_image_f32_row(&J->out->count, y) + J->W, 0, pad);
+            for (int j = 0; j < J->nout; j++) {
+                memset(obs_image_f32_row(&J->outs[j].mean, y) + J->W, 0, pad);
+                memset(obs_image_f32_row(&J->outs[j].std_error, y) + J->W, 0, pad);
+                memset(obs_image_f32_row(&J->outs[j].count, y) + J->W, 0, pad);
+            }
         }
     return tile_rays;
 }
@@ -852,6 +923,11 @@ obs_status truth_ao_render(obs_context *ctx, obs_pool *pool, const truth_scene *
     return truth_ao_render_ex(ctx, pool, ts, scene, camera, gb, p, out, NULL);
 }
 
+static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                 const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
+                                 const truth_ao_output *outputs, int nout, truth_ao_result *outs,
+                                 const truth_ao_hooks *hooks);
+
 obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                               const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
                               truth_ao_result *out, const truth_ao_hooks *hooks)
@@ -859,6 +935,52 @@ obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scen
     if (!out)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render: NULL result");
     memset(out, 0, sizeof *out);
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render: NULL argument");
+    truth_ao_output one = {p->estimator, p->radius};
+    return render_outputs(ctx, pool, ts, scene, camera, gb, p, &one, 1, out, hooks);
+}
+
+obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                 const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
+                                 const truth_ao_output *outputs, int count, truth_ao_result *out)
+{
+    if (!out || !outputs || !p)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render_multi: NULL argument");
+    if (count < 1 || count > TRUTH_AO_MAX_OUTPUTS)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render_multi: %d outputs, must be in [1, %d]", count,
+                         TRUTH_AO_MAX_OUTPUTS);
+    memset(out, 0, sizeof *out * (size_t)count);
+    truth_ao_params q = *p;
+    q.estimator = outputs[0].estimator;
+    q.radius = outputs[0].radius;
+    for (int j = 0; j < count; j++) {
+        const truth_ao_output *o = &outputs[j];
+        if ((unsigned)o->estimator >= TRUTH_AO_COUNT)
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render_multi: output %d: estimator %d out of range",
+                             j, (int)o->estimator);
+        const est_info *ei = &k_est[o->estimator], *e0 = &k_est[outputs[0].estimator];
+        if (!(o->radius > 0.0f) || (isinf(o->radius) && ei->needs_finite_r))
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                             "truth_ao_render_multi: output %d: radius %g is not valid for estimator '%s'", j,
+                             (double)o->radius, ei->name);
+        if (count > 1 && (ei->volume || ei->cosine != e0->cosine))
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                             "truth_ao_render_multi: output %d ('%s') cannot share rays with '%s': outputs must all be "
+                             "cosine-weighted or all uniform hemisphere estimators, and 'vol' only alone",
+                             j, ei->name, e0->name);
+        q.radius = o->radius > q.radius ? o->radius : q.radius;
+    }
+    return render_outputs(ctx, pool, ts, scene, camera, gb, &q, outputs, count, out, NULL);
+}
+
+/* p->radius is the largest output radius (the rays' tfar), p->estimator the first output's. */
+static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                 const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
+                                 const truth_ao_output *outputs, int nout, truth_ao_result *outs,
+                                 const truth_ao_hooks *hooks)
+{
+    truth_ao_result *out = &outs[0];
     double t0 = obs_time_now();
     obs_status st = validate(ctx, ts, scene, camera, gb, p);
     if (st != OBS_STATUS_OK)
@@ -879,6 +1001,16 @@ obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scen
     J->H = gb->height - 2 * gb->guard;
     J->tiling = obs_tiling_make(J->W, J->H, p->tile);
     J->inv_r2 = isinf(p->radius) ? 0.0 : 1.0 / ((double)p->radius * (double)p->radius);
+    J->outs = outs;
+    J->nout = nout;
+    J->multi_hit = nout > 1;
+    for (int j = 0; j < nout; j++) {
+        const est_info *ej = &k_est[outputs[j].estimator];
+        J->radii[j] = outputs[j].radius;
+        J->binary[j] = ej->falloff == FALLOFF_NONE;
+        J->fk[j] = ej->falloff;
+        J->inv_r2s[j] = isinf(outputs[j].radius) ? 0.0 : 1.0 / ((double)outputs[j].radius * (double)outputs[j].radius);
+    }
     J->eye = obs_mat4_mul_point(camera->world, obs_v3(0, 0, 0));
     J->cam_back = obs_v3_normalize(obs_mat4_mul_dir(camera->world, obs_v3(0, 0, 1)));
     atomic_init(&J->tiles_done, 0);
@@ -886,7 +1018,8 @@ obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scen
     const int threads = obs_pool_threads(pool);
     const size_t tile_px = (size_t)p->tile * (size_t)p->tile;
     size_t ray_bytes = 0;
-    int ok = obs_mul_size(tile_px * (size_t)p->batch, J->ei.hit_distance ? sizeof(RTCRayHit) : sizeof(RTCRay), &ray_bytes);
+    int ok = obs_mul_size(tile_px * (size_t)p->batch, J->ei.hit_distance || J->multi_hit ? sizeof(RTCRayHit) : sizeof(RTCRay),
+                          &ray_bytes);
     if (!ok || (int64_t)ray_bytes > obs_context_limits(ctx)->max_memory_bytes) {
         free(J);
         return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "truth_ao_render: ray scratch of %zu bytes over the memory limit",
@@ -955,15 +1088,17 @@ obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scen
         first += mesh->triangle_count;
     }
 
-    st = alloc_out_plane(ctx, J->W, J->H, &out->mean);
-    if (st == OBS_STATUS_OK)
-        st = alloc_out_plane(ctx, J->W, J->H, &out->std_error);
-    if (st == OBS_STATUS_OK)
-        st = alloc_out_plane(ctx, J->W, J->H, &out->count);
+    for (int j = 0; j < nout && st == OBS_STATUS_OK; j++) {
+        st = alloc_out_plane(ctx, J->W, J->H, &outs[j].mean);
+        if (st == OBS_STATUS_OK)
+            st = alloc_out_plane(ctx, J->W, J->H, &outs[j].std_error);
+        if (st == OBS_STATUS_OK)
+            st = alloc_out_plane(ctx, J->W, J->H, &outs[j].count);
+        outs[j].width = J->W;
+        outs[j].height = J->H;
+    }
     if (st != OBS_STATUS_OK)
         goto done;
-    out->width = J->W;
-    out->height = J->H;
     J->out = out;
 
     double tw = obs_time_now();
@@ -986,6 +1121,8 @@ obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scen
     }
     stt->seconds = obs_time_now() - t0;
     stt->seconds_work = t_work;
+    for (int j = 1; j < nout; j++)
+        outs[j].stats = *stt; /* one ray set: the same counters */
 
 done:
     if (J->scratch)
@@ -1008,6 +1145,7 @@ done:
     free(J->tri_extent);
     free(J);
     if (st != OBS_STATUS_OK)
-        truth_ao_result_free(out);
+        for (int j = 0; j < nout; j++)
+            truth_ao_result_free(&outs[j]);
     return st;
 }
