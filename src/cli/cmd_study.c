@@ -33,11 +33,15 @@ static const char *study_help =
     "  --radii LIST           radius in scene units, default 0.5,1,1.5,2\n"
     "  --blur LIST            0,1 (default both)\n"
     "  --runs N               timed runs per point (default 5; the median is reported)\n"
-    "  --gt-target-error E    ground truth: stop a pixel at this standard error (default 0.005)\n"
-    "  --gt-max-samples N     ground truth: samples per pixel at most (default 1024)\n"
+    "  --gt-target-error E    ground truth: stop a pixel at this standard error (default 0.01)\n"
+    "  --gt-max-samples N     ground truth: samples per pixel at most at 1280x720 or less (default 256);\n"
+    "                         larger images get it scaled by 921600 / pixels (1080p 112, 4K 32)\n"
     "  --budgets LIST         frame budgets in ms for the summary and the grids (default 1,2,4,8)\n"
     "  --data DIR             where the scenes are (default: the build's data directory)\n"
-    "  --dry-run              print the points and the expected duration, measure nothing\n";
+    "  --dry-run              print the points and the expected duration, measure nothing\n"
+    "  --truth-only           compute (and cache) the ground truths the points need, measure nothing\n"
+    "  --report-only          write the --report from DIR/results.csv as it is, measure nothing (the\n"
+    "                         axes given still choose the tables' rows and columns)\n";
 
 #ifndef OBS_STUDY_DATA_DIR
 #define OBS_STUDY_DATA_DIR "build/data"
@@ -104,13 +108,15 @@ static const char *const columns[] = {
     /* error against the matched ground truth, raw and calibrated */
     "rmse", "ssim", "bias", "mae", "cal_rmse", "cal_ssim", "cal_bias", "cal_gain", "cal_power",
     "gt_mean_std_error", "surface_pixels",
+    /* the ground truth's own noise taken out (see noise_corrected): rmse_nc <= true RMSE <= rmse */
+    "gt_rms_std_error", "rmse_nc", "cal_rmse_nc",
 };
 enum { KEY_COLUMNS = 8, NCOL = (int)(sizeof columns / sizeof columns[0]) };
 
 /* ---- options ---------------------------------------------------------------------------------- */
 
 typedef struct study_opts {
-    int quick, dry_run, runs;
+    int quick, dry_run, runs, truth_only, report_only;
     const char *out_dir, *report_dir, *data_dir;
     str_list scenes, views, methods, resolutions, samples, radii, blurs, budgets;
     double gt_target_error;
@@ -138,6 +144,7 @@ typedef struct frame {
     ao_input in;
     obs_image_f32 nrm[3];           /* normals for the blend (the G-buffer's) */
     obs_image_f32 mask;             /* 1 on surface pixels (w x h) */
+    obs_image_f32 fit_mask;         /* the surface pixels of a regular s x s lattice: the calibration fit's */
     study_stats raster;
 } frame;
 
@@ -145,6 +152,7 @@ static void frame_free(frame *f)
 {
     rast_gbuffer_free(&f->gb);
     obs_image_f32_free(&f->mask);
+    obs_image_f32_free(&f->fit_mask);
     truth_scene_destroy(f->ts);
     obs_scene_free(&f->scene);
     memset(f, 0, sizeof *f);
@@ -188,6 +196,18 @@ static obs_status frame_render(obs_context *ctx, obs_pool *pool, const study_opt
                 float d = obs_image_f32_row(f->in.depth, y)[x];
                 obs_image_f32_row(&f->mask, y)[x] = d > 0.0f && d < INFINITY ? 1.0f : 0.0f;
             }
+    /* The calibration fit (two parameters, ~50 passes over its pixels) on about 250k pixels: every
+     * s-th pixel of every s-th row, s = ceil(sqrt(W H / 250k)) (1 up to 500x500, 3 at 1080p, 6 at
+     * 4K). The fitted curve is then applied to, and scored on, every surface pixel. */
+    if (st == OBS_STATUS_OK)
+        st = obs_image_f32_alloc(ctx, W, H, &f->fit_mask);
+    if (st == OBS_STATUS_OK) {
+        const int step = (int)ceil(sqrt((double)W * (double)H / 250000.0));
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                obs_image_f32_row(&f->fit_mask, y)[x] =
+                    (x % step == step / 2 && y % step == step / 2) ? obs_image_f32_row(&f->mask, y)[x] : 0.0f;
+    }
     if (st == OBS_STATUS_OK && need_truth)
         st = truth_scene_create(ctx, &f->scene, TRUTH_BUILD_MEDIUM, &f->ts);
     return st;
@@ -195,30 +215,81 @@ static obs_status frame_render(obs_context *ctx, obs_pool *pool, const study_opt
 
 /* The ground truth for (scene, view, size, estimator, radius), from the cache DIR/gt/ or computed
  * and cached. mean and se are allocated here. */
+/* The ground truth's per-pixel sample cap at W x H: gt_max_samples is the cap at 1280x720 or
+ * less; larger images get it scaled down by their pixel count (a multiple of the batch of 16, at
+ * least 32), so that every resolution's ground truth costs about the same rays. The larger noise
+ * per pixel averages out in the error statistics, and the noise-corrected RMSE removes its
+ * contribution (noise_corrected); SSIM is not corrected (docs/study.md). */
+static long long gt_cap(const study_opts *o, int W, int H)
+{
+    const double px = (double)W * (double)H, ref = 1280.0 * 720.0;
+    if (px <= ref)
+        return o->gt_max_samples;
+    long long n = (long long)(o->gt_max_samples * ref / px / 16.0 + 0.5) * 16;
+    n = n < 32 ? 32 : n;
+    return n < o->gt_max_samples ? n : o->gt_max_samples;
+}
+
+static void gt_path(const study_opts *o, const char *scene_name, const char *view, const frame *f,
+                    const char *estimator, float radius, char *path, size_t size)
+{
+    snprintf(path, size, "%s/gt/%s_%s_%dx%d_%s_r%.6g_e%.3g_m%lld.exr", o->out_dir, scene_name, view, f->in.w, f->in.h,
+             estimator, (double)radius, o->gt_target_error, gt_cap(o, f->in.w, f->in.h));
+}
+
+/* Mean and root-mean-square of the ground truth's standard error over the surface pixels. */
+static void gt_noise(const frame *f, const obs_image_f32 *se, double *mean_se, double *rms_se)
+{
+    double s = 0.0, s2 = 0.0;
+    int64_t n = 0;
+    for (int y = 0; y < f->in.h; y++)
+        for (int x = 0; x < f->in.w; x++)
+            if (obs_image_f32_row(&f->mask, y)[x] != 0.0f) {
+                double e = obs_image_f32_row(se, y)[x];
+                s += e;
+                s2 += e * e;
+                n++;
+            }
+    *mean_se = n ? s / (double)n : 0.0;
+    if (rms_se)
+        *rms_se = n ? sqrt(s2 / (double)n) : 0.0;
+}
+
+/* Write one ground truth to its cache file (channels V, SE, N; atomically, io_exr_write). */
+static obs_status gt_write(obs_context *ctx, const study_opts *o, const char *path, const char *estimator,
+                           truth_ao_result *r)
+{
+    io_channel ch[3] = {{"V", IO_PIXEL_FLOAT, &r->mean, NULL},
+                        {"SE", IO_PIXEL_FLOAT, &r->std_error, NULL},
+                        {"N", IO_PIXEL_FLOAT, &r->count, NULL}};
+    io_attr at[1];
+    memset(at, 0, sizeof at);
+    strcpy(at[0].name, "obscura:truth_estimator");
+    at[0].type = IO_ATTR_STRING;
+    at[0].s = (char *)estimator;
+    char gtdir[4200];
+    snprintf(gtdir, sizeof gtdir, "%s/gt", o->out_dir);
+    obs_status st = ensure_dir(ctx, gtdir);
+    if (st == OBS_STATUS_OK)
+        st = io_exr_write(ctx, path, ch, 3, at, 1);
+    return st;
+}
+
 static obs_status ground_truth(obs_context *ctx, obs_pool *pool, const study_opts *o, const char *scene_name,
                                const char *view, frame *f, const char *estimator, float radius, obs_image_f32 *mean,
-                               double *mean_se)
+                               double *mean_se, double *rms_se)
 {
     char path[4096];
-    snprintf(path, sizeof path, "%s/gt/%s_%s_%dx%d_%s_r%.6g_e%.3g_m%lld.exr", o->out_dir, scene_name, view,
-             f->in.w, f->in.h, estimator, (double)radius, o->gt_target_error, o->gt_max_samples);
+    gt_path(o, scene_name, view, f, estimator, radius, path, sizeof path);
     io_image im;
     memset(&im, 0, sizeof im);
     if (access(path, R_OK) == 0 && io_image_read(ctx, path, &im) == OBS_STATUS_OK) {
         int cv = io_image_find_channel(&im, "V"), cs = io_image_find_channel(&im, "SE");
         if (cv >= 0 && cs >= 0 && im.width == f->in.w && im.height == f->in.h && im.f32[cv].data) {
             obs_status st = obs_image_f32_alloc(ctx, im.width, im.height, mean);
-            double s = 0.0;
-            int64_t n = 0;
             for (int y = 0; st == OBS_STATUS_OK && y < im.height; y++)
-                for (int x = 0; x < im.width; x++) {
-                    obs_image_f32_row(mean, y)[x] = obs_image_f32_row(&im.f32[cv], y)[x];
-                    if (obs_image_f32_row(&f->mask, y)[x] != 0.0f) {
-                        s += obs_image_f32_row(&im.f32[cs], y)[x];
-                        n++;
-                    }
-                }
-            *mean_se = n ? s / (double)n : 0.0;
+                memcpy(obs_image_f32_row(mean, y), obs_image_f32_row(&im.f32[cv], y), sizeof(float) * (size_t)im.width);
+            gt_noise(f, &im.f32[cs], mean_se, rms_se);
             io_image_free(&im);
             return st;
         }
@@ -231,37 +302,152 @@ static obs_status ground_truth(obs_context *ctx, obs_pool *pool, const study_opt
     tp.target_error = o->gt_target_error;
     tp.min_samples = 32;
     tp.batch = 16;
-    tp.max_samples = o->gt_max_samples;
+    tp.max_samples = gt_cap(o, f->in.w, f->in.h);
     truth_ao_result r;
     obs_status st = truth_ao_render(ctx, pool, f->ts, &f->scene, &f->cam, &f->gb, &tp, &r);
     if (st != OBS_STATUS_OK)
         return st;
-    io_channel ch[3] = {{"V", IO_PIXEL_FLOAT, &r.mean, NULL},
-                        {"SE", IO_PIXEL_FLOAT, &r.std_error, NULL},
-                        {"N", IO_PIXEL_FLOAT, &r.count, NULL}};
-    io_attr at[1];
-    memset(at, 0, sizeof at);
-    strcpy(at[0].name, "obscura:truth_estimator");
-    at[0].type = IO_ATTR_STRING;
-    at[0].s = (char *)estimator;
-    char gtdir[4200];
-    snprintf(gtdir, sizeof gtdir, "%s/gt", o->out_dir);
-    st = ensure_dir(ctx, gtdir);
-    if (st == OBS_STATUS_OK)
-        st = io_exr_write(ctx, path, ch, 3, at, 1);
-    double s = 0.0;
-    int64_t n = 0;
-    for (int y = 0; y < r.height; y++)
-        for (int x = 0; x < r.width; x++)
-            if (obs_image_f32_row(&r.count, y)[x] > 0.0f) {
-                s += obs_image_f32_row(&r.std_error, y)[x];
-                n++;
-            }
-    *mean_se = n ? s / (double)n : 0.0;
+    st = gt_write(ctx, o, path, estimator, &r);
+    gt_noise(f, &r.std_error, mean_se, rms_se);
     *mean = r.mean;
     memset(&r.mean, 0, sizeof r.mean);
     truth_ao_result_free(&r);
     return st;
+}
+
+/* ---- the ground truths a frame needs, computed together ----------------------------------------- */
+
+/* The estimators whose rays can be shared (truth_ao_render_multi): 0 cosine-weighted hemisphere,
+ * 1 uniform hemisphere, 2 + k for VOL (alone). */
+static int gt_family(truth_ao_estimator e)
+{
+    switch (e) {
+    case TRUTH_AO_COS:
+    case TRUTH_AO_OBS_SAO_B:
+    case TRUTH_AO_OBS_SAO_LINEAR:
+    case TRUTH_AO_OBS_MSSAO:
+        return 0;
+    case TRUTH_AO_UNIF:
+    case TRUTH_AO_OBS_HBAO:
+        return 1;
+    default:
+        return -1;
+    }
+}
+
+typedef struct gt_need {
+    truth_ao_estimator est;
+    float radius;
+} gt_need;
+
+/* Compute, for frame f, every (estimator, radius) in need[0..n-1] that is not cached yet: the
+ * hemisphere estimators of one family in one ray set per up to TRUTH_AO_MAX_OUTPUTS outputs, VOL
+ * one radius at a time; each output goes to its own cache file, as ground_truth() would write it.
+ * The values are those of the single runs for the same rays; a pixel of a shared set stops when
+ * all its outputs are within the target (so it takes at least the samples each alone would). */
+static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_opts *o, const char *scene_name,
+                             const char *view, frame *f, const gt_need *need, int n, int quiet)
+{
+    obs_status st = OBS_STATUS_OK;
+    int done[256] = {0};
+    if (n > 256)
+        n = 256;
+    for (int i = 0; i < n; i++) {
+        char path[4096];
+        gt_path(o, scene_name, view, f, truth_ao_estimator_name(need[i].est), need[i].radius, path, sizeof path);
+        done[i] = access(path, R_OK) == 0;
+    }
+    for (int i = 0; i < n && st == OBS_STATUS_OK; i++) {
+        if (done[i])
+            continue;
+        truth_ao_output outs[TRUTH_AO_MAX_OUTPUTS];
+        int idx[TRUTH_AO_MAX_OUTPUTS], k = 0;
+        const int fam = gt_family(need[i].est);
+        for (int j = i; j < n && k < TRUTH_AO_MAX_OUTPUTS; j++)
+            if (!done[j] && (j == i || (fam >= 0 && gt_family(need[j].est) == fam))) {
+                outs[k] = (truth_ao_output){need[j].est, need[j].radius};
+                idx[k++] = j;
+                if (fam < 0)
+                    break;
+            }
+        truth_ao_params tp = truth_ao_params_default();
+        tp.target_error = o->gt_target_error;
+        tp.min_samples = 32;
+        tp.batch = 16;
+        tp.max_samples = gt_cap(o, f->in.w, f->in.h);
+        truth_ao_result r[TRUTH_AO_MAX_OUTPUTS];
+        double t0 = obs_time_now();
+        st = truth_ao_render_multi(ctx, pool, f->ts, &f->scene, &f->cam, &f->gb, &tp, outs, k, r);
+        if (st != OBS_STATUS_OK)
+            break;
+        if (!quiet)
+            fprintf(stderr, "\rground truth %s/%s %dx%d: %d output%s (%s%s) in %.1f s, %.0f Mrays, %.2f samples/px mean\n",
+                    scene_name, view, f->in.w, f->in.h, k, k > 1 ? "s" : "", truth_ao_estimator_name(outs[0].estimator),
+                    k > 1 ? ", ..." : "", obs_time_now() - t0, r[0].stats.rays / 1e6,
+                    r[0].stats.pixels_surface ? (double)r[0].stats.rays / (double)r[0].stats.pixels_surface : 0.0);
+        for (int j = 0; j < k; j++) {
+            char path[4096];
+            gt_path(o, scene_name, view, f, truth_ao_estimator_name(outs[j].estimator), outs[j].radius, path, sizeof path);
+            if (st == OBS_STATUS_OK)
+                st = gt_write(ctx, o, path, truth_ao_estimator_name(outs[j].estimator), &r[j]);
+            truth_ao_result_free(&r[j]);
+            done[idx[j]] = 1;
+        }
+    }
+    return st;
+}
+
+/* The frame's ground truths in memory, loaded once each (a 4K EXR takes a while to decode). */
+typedef struct gt_slot {
+    char est[32];
+    float radius;
+    obs_image_f32 mean;
+    double mean_se, rms_se;
+} gt_slot;
+
+typedef struct gt_cache {
+    gt_slot slot[32];
+    int n;
+} gt_cache;
+
+static void gt_cache_clear(gt_cache *c)
+{
+    for (int i = 0; i < c->n; i++)
+        obs_image_f32_free(&c->slot[i].mean);
+    c->n = 0;
+}
+
+static obs_status gt_cache_get(obs_context *ctx, obs_pool *pool, const study_opts *o, const char *scene_name,
+                               const char *view, frame *f, gt_cache *c, const char *est, float radius,
+                               const gt_slot **out)
+{
+    for (int i = 0; i < c->n; i++)
+        if (!strcmp(c->slot[i].est, est) && c->slot[i].radius == radius) {
+            *out = &c->slot[i];
+            return OBS_STATUS_OK;
+        }
+    if (c->n == (int)(sizeof c->slot / sizeof c->slot[0]))
+        gt_cache_clear(c);
+    gt_slot *s = &c->slot[c->n];
+    memset(s, 0, sizeof *s);
+    snprintf(s->est, sizeof s->est, "%s", est);
+    s->radius = radius;
+    obs_status st = ground_truth(ctx, pool, o, scene_name, view, f, est, radius, &s->mean, &s->mean_se, &s->rms_se);
+    if (st != OBS_STATUS_OK)
+        return st;
+    c->n++;
+    *out = s;
+    return OBS_STATUS_OK;
+}
+
+/* Error against a noisy reference: E[(a - g_hat)^2] = (a - g)^2 + Var(g_hat), so the mean squared
+ * error less the mean squared standard error estimates the error against the exact g. The i.i.d.
+ * standard error over-estimates the spread of these low-discrepancy estimates (docs/truth.md), so
+ * this subtracts a little too much: rmse_nc <= true RMSE <= rmse. */
+static double noise_corrected(double rmse, double rms_se)
+{
+    double d = rmse * rmse - rms_se * rms_se;
+    return d > 0.0 ? sqrt(d) : 0.0;
 }
 
 /* ---- one point -------------------------------------------------------------------------------- */
@@ -270,7 +456,7 @@ typedef struct point_result {
     study_stats prepare, kernel, blur, blend, total;
     met_result raw, cal;
     met_fit fit;
-    double gt_se;
+    double gt_se, gt_rms;
     char params[1024];
     char status[256];
 } point_result;
@@ -318,7 +504,7 @@ static obs_status run_point(obs_context *ctx, obs_pool *pool, const ao_method *m
         met_params mp = met_params_default();
         st = met_compare(ctx, pool, gt, ao, &f->mask, &mp, &res->raw);
         if (st == OBS_STATUS_OK)
-            st = met_fit_gain_power(ctx, pool, gt, ao, &f->mask, &mp, &res->fit);
+            st = met_fit_gain_power(ctx, pool, gt, ao, &f->fit_mask, &mp, &res->fit);
         if (st == OBS_STATUS_OK)
             st = obs_image_f32_alloc(ctx, f->in.w, f->in.h, &cal);
         if (st == OBS_STATUS_OK)
@@ -343,10 +529,14 @@ typedef struct sweep_ctx {
     study_opts *o;
     study_table table;
     char csv[4096], json[4096];
+    double last_save;
+    int dirty;
 } sweep_ctx;
 
 static obs_status save_table(obs_context *ctx, sweep_ctx *s)
 {
+    s->last_save = obs_time_now();
+    s->dirty = 0;
     obs_status st = ensure_dir(ctx, s->o->out_dir);
     if (st == OBS_STATUS_OK)
         st = study_table_write_csv(ctx, &s->table, s->csv);
@@ -367,24 +557,23 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                 (long long)total, o->scenes.n, o->views.n, nres, o->methods.n, o->samples.n, o->radii.n, o->blurs.n,
                 o->runs, obs_pool_threads(pool));
     if (o->dry_run) {
-        /* Expected duration: a point costs about (runs + 1) x its kernel time, and a kernel costs
-         * about 2-10 ns per pixel per tap on this class of machine (docs/performance.md); ground
-         * truth about 30 M rays/s with ~64-256 rays per pixel. Coarse, stated as a range. */
+        /* Expected duration, from the full study's own rates on the 2-core development machine
+         * (2026-12-01; docs/study.md): a point with 5 runs costs about 0.5 us per pixel (1 s at
+         * 1080p averaged over techniques and samples: the runs, the error and the calibration fit);
+         * the ground truth of a frame about 4-10 s per ray set (one per radius for VOL, one for each
+         * of the two hemisphere families) at any resolution, its sample cap scaling with the pixels.
+         * Coarse, stated as a range; the bar's ETA comes from the points measured. */
         double px = 0.0;
         for (int r = 0; r < nres; r++) {
             int W, H;
             if (cli_parse_size(o->resolutions.v[r], &W, &H))
                 px += (double)W * H;
         }
-        double taps = 0.0;
-        for (int k = 0; k < o->samples.n; k++)
-            taps += atof(o->samples.v[k]);
-        double pts = (double)o->scenes.n * o->views.n * o->methods.n * o->radii.n * o->blurs.n;
-        double lo = pts * px * taps * (o->runs + 1) * 2e-9, hi = lo * 5.0;
-        double gt = (double)o->scenes.n * o->views.n * px * o->radii.n * 4.0; /* ~4 estimators */
-        double glo = gt * 64 / 30e6, ghi = gt * 256 / 30e6;
+        double pts = (double)o->scenes.n * o->views.n * o->methods.n * o->samples.n * o->radii.n * o->blurs.n;
+        double mid = pts * px * 0.5e-6 * (o->runs + 1) / 6.0, lo = 0.6 * mid, hi = 1.5 * mid;
+        double sets = (double)o->scenes.n * o->views.n * nres * (o->radii.n + 2);
         printf("expected duration: sweep %.0f-%.0f min, ground truth %.0f-%.0f min (first run; cached after)\n",
-               lo / 60, hi / 60, glo / 60, ghi / 60);
+               lo / 60, hi / 60, sets * 4.0 / 60, sets * 10.0 / 60);
         return OBS_STATUS_OK;
     }
     study_progress pr;
@@ -421,6 +610,47 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                     break;
                 }
                 const double unit = scene_unit(scene);
+                {
+                    /* every ground truth this frame's remaining points need, computed together */
+                    gt_need need[256];
+                    int nn = 0;
+                    for (int qi = 0; qi < o->radii.n; qi++)
+                        for (int mi = 0; mi < o->methods.n; mi++)
+                            for (int ni = 0; ni < o->samples.n; ni++)
+                                for (int bi = 0; bi < o->blurs.n; bi++) {
+                                    const char *key[KEY_COLUMNS] = {scene, view, ws, hs, o->methods.v[mi],
+                                                                    o->samples.v[ni], o->radii.v[qi], o->blurs.v[bi]};
+                                    if (study_table_find(&s->table, key) >= 0)
+                                        continue;
+                                    const ao_method *m = ao_method_find(o->methods.v[mi]);
+                                    unsigned char p[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
+                                    m->params_default(p);
+                                    m->set_samples(p, atoi(o->samples.v[ni]));
+                                    m->set_radius(p, (float)(atof(o->radii.v[qi]) * unit));
+                                    m->set_blur(p, atoi(o->blurs.v[bi]));
+                                    truth_ao_estimator e;
+                                    if (m->params_validate(ctx, p) != OBS_STATUS_OK ||
+                                        !truth_ao_estimator_from_name(m->truth_estimator(p), &e)) {
+                                        obs_context_clear_error(ctx);
+                                        continue;
+                                    }
+                                    const float r = m->get_radius(p);
+                                    int dup = 0;
+                                    for (int k = 0; k < nn; k++)
+                                        dup |= need[k].est == e && need[k].radius == r;
+                                    if (!dup && nn < 256)
+                                        need[nn++] = (gt_need){e, r};
+                                }
+                    st = gt_prepare(ctx, pool, o, scene, view, &f, need, nn, s->g->quiet);
+                }
+                if (o->truth_only) {
+                    for (int64_t k = 0; k < todo; k++)
+                        study_progress_step(&pr, 0, "ground truth");
+                    frame_free(&f);
+                    continue;
+                }
+                gt_cache gtc;
+                memset(&gtc, 0, sizeof gtc);
                 for (int qi = 0; qi < o->radii.n && st == OBS_STATUS_OK; qi++)
                     for (int mi = 0; mi < o->methods.n && st == OBS_STATUS_OK; mi++)
                         for (int ni = 0; ni < o->samples.n && st == OBS_STATUS_OK; ni++)
@@ -456,13 +686,16 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                                 fmt(cells[8], radius_m);
                                 row[9] = res.params;
                                 row[10] = est;
-                                obs_image_f32 ao = {0}, gt = {0};
+                                obs_image_f32 ao = {0};
+                                const gt_slot *gts = NULL;
                                 obs_status ps = m->params_validate(ctx, p);
                                 if (ps == OBS_STATUS_OK)
-                                    ps = ground_truth(ctx, pool, o, scene, view, &f, est, m->get_radius(p), &gt,
-                                                      &res.gt_se);
-                                if (ps == OBS_STATUS_OK)
-                                    ps = run_point(ctx, pool, m, p, &f, o->runs, &gt, &ao, &res);
+                                    ps = gt_cache_get(ctx, pool, o, scene, view, &f, &gtc, est, m->get_radius(p), &gts);
+                                if (ps == OBS_STATUS_OK) {
+                                    res.gt_se = gts->mean_se;
+                                    res.gt_rms = gts->rms_se;
+                                    ps = run_point(ctx, pool, m, p, &f, o->runs, &gts->mean, &ao, &res);
+                                }
                                 if (ps == OBS_STATUS_OUT_OF_MEMORY || ps == OBS_STATUS_IO_ERROR) {
                                     st = ps; /* a study that cannot allocate or write stops */
                                 } else if (ps != OBS_STATUS_OK) {
@@ -477,19 +710,27 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                                                   res.total.min, res.total.max, o->runs, obs_pool_threads(pool),
                                                   res.raw.rmse, res.raw.ssim, res.raw.bias, res.raw.mae, res.cal.rmse,
                                                   res.cal.ssim, res.cal.bias, res.fit.gain, res.fit.power, res.gt_se,
-                                                  (double)res.raw.valid};
+                                                  (double)res.raw.valid, res.gt_rms,
+                                                  noise_corrected(res.raw.rmse, res.gt_rms),
+                                                  noise_corrected(res.cal.rmse, res.gt_rms)};
                                     for (size_t k = 0; k < sizeof v / sizeof v[0]; k++)
                                         fmt(cells[12 + k], v[k]);
                                 }
                                 obs_image_f32_free(&ao);
-                                obs_image_f32_free(&gt);
                                 if (st == OBS_STATUS_OK)
                                     st = study_table_append(ctx, &s->table, row);
-                                if (st == OBS_STATUS_OK)
-                                    st = save_table(ctx, s); /* after every point: a killed study resumes */
+                                s->dirty = 1;
+                                /* every few seconds (the table is rewritten whole, so not after every
+                                 * point of a 10,000-point study): a killed study loses at most the
+                                 * last seconds of points and resumes */
+                                if (st == OBS_STATUS_OK && obs_time_now() - s->last_save > 5.0)
+                                    st = save_table(ctx, s);
                                 study_progress_step(&pr, 1, label);
                             }
+                gt_cache_clear(&gtc);
                 frame_free(&f);
+                if (st == OBS_STATUS_OK && s->dirty)
+                    st = save_table(ctx, s);
             }
     study_progress_end(&pr);
     return st;
@@ -509,13 +750,22 @@ typedef struct agg {
 
 static int col(const study_table *t, const char *name) { return study_table_column(t, name); }
 
+/* Add v to the list l (",a,b," form, at least ","), unless it is there or does not fit. */
+static void list_add(char *l, size_t size, const char *v)
+{
+    char tok[64];
+    snprintf(tok, sizeof tok, ",%s,", v);
+    if (!strstr(l, tok) && strlen(l) + strlen(tok) < size)
+        strcat(l, tok + 1);
+}
+
 /* Rows at W x H with status ok, averaged over scenes and views per (method, samples, radius, blur). */
 static int aggregate(const study_table *t, int W, int H, agg *out, int max)
 {
     int n = 0;
     const int cw = col(t, "width"), ch = col(t, "height"), cm = col(t, "method"), cs = col(t, "samples"),
-              cr = col(t, "radius_units"), cb = col(t, "blur"), ct = col(t, "total_ms"), ce = col(t, "cal_rmse"),
-              cx = col(t, "rmse"), cst = col(t, "status");
+              cr = col(t, "radius_units"), cb = col(t, "blur"), ct = col(t, "total_ms"), ce = col(t, "cal_rmse_nc"),
+              cx = col(t, "rmse_nc"), cst = col(t, "status");
     for (int64_t r = 0; r < t->rows; r++) {
         if (strcmp(study_table_get(t, r, cst), "ok") != 0 || study_table_num(t, r, cw) != W ||
             study_table_num(t, r, ch) != H)
@@ -577,7 +827,7 @@ static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_opts 
         double se;
         point_result res;
         memset(&res, 0, sizeof res);
-        st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(p), m->get_radius(p), &gt, &se);
+        st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(p), m->get_radius(p), &gt, &se, NULL);
         if (st == OBS_STATUS_OK)
             st = run_point(ctx, pool, m, p, &f, 1, NULL, &ao, &res);
         for (int y = 0; st == OBS_STATUS_OK && y < H; y++)
@@ -640,7 +890,7 @@ static obs_status mssao_levels_table(obs_context *ctx, obs_pool *pool, const stu
         obs_image_f32 gt = {0}, out = {0}, up = {0}, lvimg = {0};
         double gt_se = 0.0;
         if (st == OBS_STATUS_OK)
-            st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(&p), m->get_radius(&p), &gt, &gt_se);
+            st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(&p), m->get_radius(&p), &gt, &gt_se, NULL);
         if (st == OBS_STATUS_OK)
             st = obs_image_f32_alloc(ctx, W, H, &out);
         if (st == OBS_STATUS_OK)
@@ -722,7 +972,27 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
     fprintf(md, "# What AO accuracy costs in time\n\n");
     fprintf(md, "Generated by `obscura study ao%s --report %s` (obscura %s). Reproduce: docs/study.md.\n\n",
             o->quick ? " --quick" : "", o->report_dir, OBS_VERSION_STRING);
-    fprintf(md, "- Points: %lld rows in `results.csv` (%s).\n", (long long)t->rows, o->out_dir);
+    fprintf(md, "- Points: %lld rows in `results.csv` (%s).", (long long)t->rows, o->out_dir);
+    {
+        /* what was measured at each resolution: a study may sweep some resolutions more fully */
+        const int cw = col(t, "width"), chh = col(t, "height"), cn = col(t, "samples"), cq = col(t, "radius_units");
+        for (int r = 0; r < o->resolutions.n; r++) {
+            int w, h;
+            cli_parse_size(o->resolutions.v[r], &w, &h);
+            int64_t n = 0;
+            char sam[256] = ",", rad[256] = ","; /* ",a,b," lists of the values seen */
+            for (int64_t i = 0; i < t->rows; i++) {
+                if (study_table_num(t, i, cw) != w || study_table_num(t, i, chh) != h)
+                    continue;
+                n++;
+                list_add(sam, sizeof sam, study_table_get(t, i, cn));
+                list_add(rad, sizeof rad, study_table_get(t, i, cq));
+            }
+            sam[strlen(sam) - 1] = rad[strlen(rad) - 1] = '\0';
+            fprintf(md, " %s: %lld (samples %s; radii %s)%s", o->resolutions.v[r], (long long)n, n ? sam + 1 : "-",
+                    n ? rad + 1 : "-", r + 1 < o->resolutions.n ? ";" : ".\n");
+        }
+    }
     fprintf(md, "- Scenes:");
     for (int i = 0; i < o->scenes.n; i++)
         fprintf(md, " %s (unit %.3g m)%s", o->scenes.v[i], scene_unit(o->scenes.v[i]), i + 1 < o->scenes.n ? "," : ".\n");
@@ -731,9 +1001,16 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
             o->runs, obs_pool_threads(pool));
     fprintf(md, "- Error: against each technique's matched ground truth (`obscura ao --list` names it; "
                 "docs/truth.md), over surface pixels. *Calibrated* fits `1 - g (1 - v^p)` to the ground truth "
-                "first (docs/compare.md), so it measures shape, not the technique's overall darkness.\n");
-    fprintf(md, "- Ground truth: target standard error %.3g per pixel, at most %lld samples per pixel.\n\n",
-            o->gt_target_error, o->gt_max_samples);
+                "first (docs/compare.md), so it measures shape, not the technique's overall darkness. Every RMSE "
+                "here has the ground truth's own noise taken out: sqrt(RMSE^2 - mean SE^2), SE the ground truth's "
+                "per-pixel standard error (`rmse_nc`, `cal_rmse_nc`; the uncorrected values are in the CSV). The "
+                "i.i.d. SE over-estimates the spread of these low-discrepancy estimates, so the truth lies between "
+                "the two.\n");
+    fprintf(md, "- Ground truth: target standard error %.3g per pixel, at most %lld samples per pixel at 1280x720 "
+                "and below, scaled by the pixel count above (1920x1080: %lld, 3840x2160: %lld), so each resolution's "
+                "ground truth costs about the same rays; the estimators that share a direction distribution are "
+                "computed from one ray set (`truth_ao_render_multi`).\n\n",
+            o->gt_target_error, o->gt_max_samples, gt_cap(o, 1920, 1080), gt_cap(o, 3840, 2160));
 
     /* ---- plots: calibrated RMSE against total time, all scenes together, and per scene ---- */
     for (int sc = -1; sc < o->scenes.n; sc++) {
@@ -754,7 +1031,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                 if (sc >= 0 && strcmp(study_table_get(t, r, col(t, "scene")), o->scenes.v[sc]) != 0)
                     continue;
                 xs[ns][n] = study_table_num(t, r, col(t, "total_ms"));
-                ys[ns][n] = study_table_num(t, r, col(t, "cal_rmse"));
+                ys[ns][n] = study_table_num(t, r, col(t, "cal_rmse_nc"));
                 n++;
             }
             ser[ns] = (study_series){o->methods.v[mi], xs[ns], ys[ns], n};
@@ -895,7 +1172,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                 strcmp(study_table_get(t, r, col(t, "status")), "ok") != 0 ||
                 study_table_num(t, r, col(t, "width")) != MW)
                 continue;
-            double e = study_table_num(t, r, col(t, "cal_rmse"));
+            double e = study_table_num(t, r, col(t, "cal_rmse_nc"));
             if (e > worst) {
                 worst = e;
                 wb = study_table_num(t, r, col(t, "bias"));
@@ -957,8 +1234,8 @@ int cmd_study(cli_globals *g, int argc, char **argv)
     o.runs = 5;
     o.out_dir = "out/study-ao";
     o.data_dir = OBS_STUDY_DATA_DIR;
-    o.gt_target_error = 0.005;
-    o.gt_max_samples = 1024;
+    o.gt_target_error = 0.01;
+    o.gt_max_samples = 256;
     const char *scenes = "dragon_plane,village,room,bunny", *views = "default,view2", *methods = NULL,
                *res = "3840x2160,1920x1080,1280x720", *samples = "4,8,16,32", *radii = "0.5,1,1.5,2", *blurs = "0,1",
                *budgets = "1,2,4,8";
@@ -974,6 +1251,10 @@ int cmd_study(cli_globals *g, int argc, char **argv)
             o.quick = 1;
         } else if (!strcmp(a, "--dry-run")) {
             o.dry_run = 1;
+        } else if (!strcmp(a, "--truth-only")) {
+            o.truth_only = 1;
+        } else if (!strcmp(a, "--report-only")) {
+            o.report_only = 1;
         } else if ((!strcmp(a, "-o") || !strcmp(a, "--out")) && v) {
             o.out_dir = v, i++;
         } else if (!strcmp(a, "--report") && v) {
@@ -1113,11 +1394,13 @@ int cmd_study(cli_globals *g, int argc, char **argv)
         if (st == OBS_STATUS_OK && resumed && !g->quiet)
             fprintf(stderr, "obscura: study ao: resuming: %lld points already measured in %s\n", (long long)resumed,
                     s.csv);
-        if (st == OBS_STATUS_OK)
+        if (st == OBS_STATUS_OK && !o.report_only)
             st = sweep(ctx, pool, &s);
-        if (st == OBS_STATUS_OK && !o.dry_run)
-            st = save_table(ctx, &s);
-        if (st == OBS_STATUS_OK && o.report_dir && !o.dry_run)
+        if (!o.dry_run && !o.report_only && (st == OBS_STATUS_OK || s.dirty)) { /* what was measured is kept, even on an error */
+            obs_status ss = save_table(ctx, &s);
+            st = st == OBS_STATUS_OK ? ss : st;
+        }
+        if (st == OBS_STATUS_OK && o.report_dir && !o.dry_run && !o.truth_only)
             st = report(ctx, pool, &s);
         if (st != OBS_STATUS_OK)
             code = cli_fail(ctx, st);
