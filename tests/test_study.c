@@ -193,3 +193,85 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     CHECK(dt && strstr(dt, "expected duration"));
     free(dt);
 }
+
+/* Read a study's results.csv through the library, with the columns its header names. */
+static int read_results(const char *path, study_table *t, obs_context *ctx)
+{
+    char *csv = test_slurp(path, NULL);
+    if (!csv)
+        return 0;
+    char *nl = strchr(csv, '\n');
+    if (nl)
+        *nl = '\0';
+    const char *names[STUDY_MAX_COLUMNS];
+    int n = 0;
+    for (char *tok = strtok(csv, ","); tok && n < STUDY_MAX_COLUMNS; tok = strtok(NULL, ","))
+        names[n++] = tok;
+    int ok = study_table_init(ctx, t, names, n, 8) == OBS_STATUS_OK;
+    free(csv);
+    int64_t rows = 0;
+    return ok && study_table_read_csv(ctx, t, path, &rows) == OBS_STATUS_OK;
+}
+
+/* --truth-only computes the ground truths (the hemisphere estimators of one family from one ray
+ * set) and measures nothing; the sweep then reuses them; every RMSE has its noise-corrected
+ * companion, sqrt(rmse^2 - gt_rms_std_error^2) clamped at 0, never above the raw value;
+ * --report-only writes the report from the table without measuring. */
+TEST(study_truth_only_then_sweep_then_report_only)
+{
+    const char *dir = test_tmpdir();
+    char out[1024], rep[1024], err[1100], data[1024];
+    snprintf(out, sizeof out, "%s/study-t", dir);
+    snprintf(rep, sizeof rep, "%s/study-t/report", dir);
+    snprintf(err, sizeof err, "%s/err-t.txt", dir);
+    snprintf(data, sizeof data, "%s", test_data_dir());
+    const char *a[] = {"study", "ao", "--quick", "--data", data, "-o", out, "--truth-only", "--radii", "0.5,1", NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, a, NULL, err), 0);
+    char *e = test_slurp(err, NULL);
+    /* two radii of the cosine family (cos, obs-sao, obs-mssao, ...) in one set: "N outputs" */
+    CHECK_MSG(e && strstr(e, "ground truth bunny/default 192x108") && strstr(e, " outputs (cos"), "stderr: %s", e ? e : "");
+    free(e);
+    char *csv = test_slurp(test_path(out, "results.csv"), NULL);
+    CHECK_MSG(!csv || !strchr(strchr(csv, '\n') ? strchr(csv, '\n') : "", ','), "truth-only measured points");
+    free(csv);
+    const char *b[] = {"study", "ao", "--quick", "--data", data, "-o", out, "--radii", "0.5,1", NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, err), 0);
+    e = test_slurp(err, NULL);
+    CHECK_MSG(e && !strstr(e, "ground truth bunny"), "the sweep recomputed a cached ground truth: %s", e ? e : "");
+    free(e);
+    obs_context *ctx = obs_context_create();
+    study_table t;
+    CHECK(read_results(test_path(out, "results.csv"), &t, ctx));
+    int cr = study_table_column(&t, "rmse"), cn = study_table_column(&t, "rmse_nc"),
+        cc = study_table_column(&t, "cal_rmse"), ccn = study_table_column(&t, "cal_rmse_nc"),
+        cg = study_table_column(&t, "gt_rms_std_error"), cm = study_table_column(&t, "gt_mean_std_error");
+    CHECK(cr >= 0 && cn >= 0 && cc >= 0 && ccn >= 0 && cg >= 0 && cm >= 0);
+    int methods = 0;
+    for (const ao_method *const *m = ao_methods(); *m; m++)
+        methods++;
+    CHECK_MSG(t.rows == 4 * methods, "%lld rows", (long long)t.rows);
+    for (int64_t r = 0; r < t.rows; r++) {
+        double raw = study_table_num(&t, r, cr), nc = study_table_num(&t, r, cn), g = study_table_num(&t, r, cg);
+        double cal = study_table_num(&t, r, cc), cnc = study_table_num(&t, r, ccn);
+        CHECK(g > 0.0 && g >= study_table_num(&t, r, cm) - 1e-9); /* rms >= mean */
+        CHECK(nc >= 0.0 && nc <= raw && cnc >= 0.0 && cnc <= cal);
+        double want = raw > g ? sqrt(raw * raw - g * g) : 0.0;
+        CHECK_MSG(fabs(nc - want) <= 1e-6 * (1.0 + want), "row %lld: rmse_nc %g, want %g", (long long)r, nc, want);
+    }
+    study_table_free(&t);
+    obs_context_destroy(ctx);
+    /* the report from the table alone: nothing measured, the table unchanged */
+    char *before = test_slurp(test_path(out, "results.csv"), NULL);
+    const char *c[] = {"study", "ao", "--quick", "--data", data, "-o", out, "--radii", "0.5,1", "--report-only",
+                       "--report", rep, NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, c, NULL, err), 0);
+    char *after = test_slurp(test_path(out, "results.csv"), NULL);
+    CHECK(before && after && !strcmp(before, after));
+    free(before);
+    free(after);
+    char *md = test_slurp(test_path(rep, "README.md"), NULL);
+    char cover[128];
+    snprintf(cover, sizeof cover, "192x108: %d (samples 8; radii 0.5,1)", 4 * methods);
+    CHECK_MSG(md && strstr(md, cover) && strstr(md, "noise taken out"), "report lacks '%s'", cover);
+    free(md);
+}
