@@ -152,6 +152,10 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     char *md = test_slurp(test_path(rep, "README.md"), NULL);
     CHECK(md && strstr(md, "Best technique per frame budget") && strstr(md, "pareto_all.svg") &&
           strstr(md, "grid_bunny.png"));
+    /* it ends with the generated summary: budgets, the Pareto front, each technique's hard case */
+    const char *sm = md ? strstr(md, "\n## Summary") : NULL;
+    CHECK(sm && strstr(sm, "Per frame budget at 192x108") && strstr(sm, "On the Pareto front") &&
+          strstr(sm, "Hard cases") && !strstr(sm + 1, "\n## "));
     /* the seed's Table 24: MSSAO's 5 levels, each with a time and an error */
     const char *lv = md ? strstr(md, "MSSAO per level") : NULL;
     CHECK(lv && strstr(lv, "| bunny | 0 | 192x108 |") && strstr(lv, "| bunny | 4 | 12x7 |"));

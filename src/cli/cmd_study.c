@@ -1062,6 +1062,71 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
     /* ---- the summary: best configuration per frame budget ---- */
     agg *ag = (agg *)calloc(4096, sizeof(agg));
     int na = ag ? aggregate(t, MW, MH, ag, 4096) : 0;
+    /* the closing summary, written as the sections below find its facts, appended at the end */
+    char *sumtext = NULL;
+    size_t sumlen = 0;
+    FILE *sum = open_memstream(&sumtext, &sumlen);
+    if (!sum) {
+        free(ag);
+        fclose(md);
+        free(mdtext);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "%s: out of memory", mdpath);
+    }
+    {
+        int fastest = -1;
+        for (int k = 0; k < na; k++)
+            if (fastest < 0 || ag[k].time_sum / ag[k].n < ag[fastest].time_sum / ag[fastest].n)
+                fastest = k;
+        fprintf(sum, "- **Per frame budget at %dx%d** (time and error averaged over the scenes and views, %d threads):",
+                MW, MH, obs_pool_threads(pool));
+        for (int b = 0; b < o->budgets.n; b++) {
+            double budget = atof(o->budgets.v[b]);
+            int best = -1;
+            for (int k = 0; k < na; k++)
+                if (ag[k].time_sum / ag[k].n <= budget &&
+                    (best < 0 || ag[k].err_sum / ag[k].n < ag[best].err_sum / ag[best].n))
+                    best = k;
+            if (best >= 0)
+                fprintf(sum, " %g ms: %s (%d samples, radius %g, blur %s), %.2f ms, calibrated RMSE %.3f;", budget,
+                        ag[best].method, ag[best].samples, ag[best].radius_units, ag[best].blur ? "on" : "off",
+                        ag[best].time_sum / ag[best].n, ag[best].err_sum / ag[best].n);
+            else
+                fprintf(sum, " %g ms: nothing fits;", budget);
+        }
+        if (fastest >= 0)
+            fprintf(sum, " the fastest configuration of all is %s with %d samples at %.2f ms (calibrated RMSE %.3f).\n",
+                    ag[fastest].method, ag[fastest].samples, ag[fastest].time_sum / ag[fastest].n,
+                    ag[fastest].err_sum / ag[fastest].n);
+        /* which techniques are on the Pareto front of the averaged configurations */
+        double *cx = (double *)malloc(sizeof(double) * (size_t)(na ? na : 1));
+        double *cy = (double *)malloc(sizeof(double) * (size_t)(na ? na : 1));
+        unsigned char *on = (unsigned char *)calloc((size_t)(na ? na : 1), 1);
+        if (cx && cy && on && na) {
+            for (int k = 0; k < na; k++) {
+                cx[k] = ag[k].time_sum / ag[k].n;
+                cy[k] = ag[k].err_sum / ag[k].n;
+            }
+            study_pareto_front(cx, cy, na, on);
+            fprintf(sum, "- **On the Pareto front** (averaged configurations at %dx%d, by time):", MW, MH);
+            int first = 1;
+            for (int pass = 0; pass < na; pass++) { /* print in order of time */
+                int k = -1;
+                for (int j = 0; j < na; j++)
+                    if (on[j] == 1 && (k < 0 || cx[j] < cx[k]))
+                        k = j;
+                if (k < 0)
+                    break;
+                on[k] = 2;
+                fprintf(sum, "%s %s %d/%g/%s (%.1f ms, %.3f)", first ? "" : ",", ag[k].method, ag[k].samples,
+                        ag[k].radius_units, ag[k].blur ? "blur" : "raw", cx[k], cy[k]);
+                first = 0;
+            }
+            fprintf(sum, " (technique samples/radius/blur, ms, calibrated RMSE).\n");
+        }
+        free(cx);
+        free(cy);
+        free(on);
+    }
     fprintf(md, "## Best technique per frame budget (%dx%d, mean over scenes and views)\n\n", MW, MH);
     fprintf(md, "| budget | technique | samples | radius (units) | blur | time (ms) | calibrated RMSE | raw RMSE |\n"
                 "|---|---|---|---|---|---|---|---|\n");
@@ -1164,6 +1229,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
     fprintf(md, "\n## Where each technique is worst\n\nThe scene and view with the largest calibrated RMSE at %dx%d "
                 "(over all its points there), and its raw bias there (negative: darker than the ground truth).\n\n"
                 "| technique | worst scene / view | calibrated RMSE | raw bias |\n|---|---|---|---|\n", MW, MH);
+    int nhard = 0;
     for (int mi = 0; mi < o->methods.n; mi++) {
         double worst = -1.0, wb = NAN;
         const char *wsn = "—", *wvn = "";
@@ -1181,7 +1247,13 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
             }
         }
         fprintf(md, "| %s | %s / %s | %.4f | %.4f |\n", o->methods.v[mi], wsn, wvn, worst, wb);
+        if (worst >= 0.0)
+            fprintf(sum, "%s %s on %s/%s (calibrated RMSE %.3f, %s by %.3f)", nhard++ ? ";" : "- **Hard cases** (each "
+                    "technique's worst scene and view at the main resolution, over all its points):", o->methods.v[mi],
+                    wsn, wvn, worst, wb < 0.0 ? "too dark" : "too light", fabs(wb));
     }
+    if (nhard)
+        fprintf(sum, ".\n");
     free(ag);
     /* ---- image grids ---- */
     obs_status st = OBS_STATUS_OK;
@@ -1207,6 +1279,9 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
         has_mssao |= !strcmp(o->methods.v[mi], "mssao");
     if (st == OBS_STATUS_OK && has_mssao)
         st = mssao_levels_table(ctx, pool, o, MW, MH, md);
+    if (fclose(sum) == 0 && sumtext)
+        fprintf(md, "\n## Summary\n\nGenerated from the table above, on this machine.\n\n%s", sumtext);
+    free(sumtext);
     if (fclose(md) != 0 && st == OBS_STATUS_OK)
         st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "%s: out of memory", mdpath);
     if (st == OBS_STATUS_OK)
