@@ -545,17 +545,22 @@ static int planes_equal(const truth_ao_result *a, const truth_ao_result *b)
     return a->stats.rays == b->stats.rays && a->stats.pixels_converged == b->stats.pixels_converged;
 }
 
-TEST(truth_output_identical_for_1_2_and_8_threads)
+/* A floor with two balls, seen obliquely: occlusion of every degree, for the determinism tests. */
+static int two_balls_setup(ao_run *R, int W, int H)
 {
-    ao_run R;
-    memset(&R, 0, sizeof R);
+    memset(R, 0, sizeof *R);
     mesh_b mb = {0};
     mb_floor(&mb, 0, 0, 0, 5, 16);
     mb_sphere(&mb, 0, 0.5, 0, 0.5, 32, 16);
     mb_sphere(&mb, 0.8, 0.3, 0.4, 0.3, 24, 12);
-    mb_to_scene(&mb, &R.scene);
-    CHECK_MSG(run_setup(&R, obs_v3(1.5f, 1.5f, 2.5f), obs_v3(0.2f, 0.3f, 0), 37, 29), "setup: %s",
-              obs_context_last_error(R.ctx));
+    mb_to_scene(&mb, &R->scene);
+    return run_setup(R, obs_v3(1.5f, 1.5f, 2.5f), obs_v3(0.2f, 0.3f, 0), W, H);
+}
+
+TEST(truth_output_identical_for_1_2_and_8_threads)
+{
+    ao_run R;
+    CHECK_MSG(two_balls_setup(&R, 37, 29), "setup: %s", obs_context_last_error(R.ctx));
     static const truth_ao_estimator est[] = {TRUTH_AO_COS, TRUTH_AO_OBS_SAO_B, TRUTH_AO_VOL};
     for (int e = 0; e < 3; e++) {
         truth_ao_params p = truth_ao_params_default();
@@ -621,14 +626,7 @@ static int same_values(const truth_ao_result *a, const truth_ao_result *b, doubl
 TEST(truth_multi_output_equals_each_single_run)
 {
     ao_run R;
-    memset(&R, 0, sizeof R);
-    mesh_b mb = {0};
-    mb_floor(&mb, 0, 0, 0, 5, 16);
-    mb_sphere(&mb, 0, 0.5, 0, 0.5, 32, 16);
-    mb_sphere(&mb, 0.8, 0.3, 0.4, 0.3, 24, 12);
-    mb_to_scene(&mb, &R.scene);
-    CHECK_MSG(run_setup(&R, obs_v3(1.5f, 1.5f, 2.5f), obs_v3(0.2f, 0.3f, 0), 41, 31), "setup: %s",
-              obs_context_last_error(R.ctx));
+    CHECK_MSG(two_balls_setup(&R, 41, 31), "setup: %s", obs_context_last_error(R.ctx));
     static const truth_ao_output cos_family[] = {
         {TRUTH_AO_COS, 0.3f}, {TRUTH_AO_OBS_SAO_B, 0.3f}, {TRUTH_AO_COS, 0.9f}, {TRUTH_AO_OBS_MSSAO, 0.6f},
         {TRUTH_AO_OBS_SAO_LINEAR, 0.9f}, {TRUTH_AO_OBS_SAO_B, 0.9f}, {TRUTH_AO_COS, INFINITY}};

@@ -750,6 +750,18 @@ typedef struct agg {
 
 static int col(const study_table *t, const char *name) { return study_table_column(t, name); }
 
+/* The aggregated configuration (of `method`, or of any when NULL) with the lowest mean error among
+ * those whose mean time is within budget ms; -1 if none. */
+static int best_within(const agg *ag, int na, double budget, const char *method)
+{
+    int best = -1;
+    for (int k = 0; k < na; k++)
+        if ((!method || !strcmp(ag[k].method, method)) && ag[k].time_sum / ag[k].n <= budget &&
+            (best < 0 || ag[k].err_sum / ag[k].n < ag[best].err_sum / ag[best].n))
+            best = k;
+    return best;
+}
+
 /* Add v to the list l (",a,b," form, at least ","), unless it is there or does not fit. */
 static void list_add(char *l, size_t size, const char *v)
 {
@@ -1081,11 +1093,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                 MW, MH, obs_pool_threads(pool));
         for (int b = 0; b < o->budgets.n; b++) {
             double budget = atof(o->budgets.v[b]);
-            int best = -1;
-            for (int k = 0; k < na; k++)
-                if (ag[k].time_sum / ag[k].n <= budget &&
-                    (best < 0 || ag[k].err_sum / ag[k].n < ag[best].err_sum / ag[best].n))
-                    best = k;
+            const int best = best_within(ag, na, budget, NULL);
             if (best >= 0)
                 fprintf(sum, " %g ms: %s (%d samples, radius %g, blur %s), %.2f ms, calibrated RMSE %.3f;", budget,
                         ag[best].method, ag[best].samples, ag[best].radius_units, ag[best].blur ? "on" : "off",
@@ -1134,11 +1142,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
     int nbest = 0;
     for (int b = 0; b < o->budgets.n; b++) {
         double budget = atof(o->budgets.v[b]);
-        int best = -1;
-        for (int k = 0; k < na; k++)
-            if (ag[k].time_sum / ag[k].n <= budget &&
-                (best < 0 || ag[k].err_sum / ag[k].n < ag[best].err_sum / ag[best].n))
-                best = k;
+        const int best = best_within(ag, na, budget, NULL);
         if (best < 0) {
             fprintf(md, "| %g ms | none fits | | | | | | |\n", budget);
             continue;
@@ -1154,11 +1158,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
     fprintf(md, "\n## Each technique at its best within %g ms\n\n| technique | samples | radius (units) | blur | time (ms) "
                 "| calibrated RMSE | raw RMSE |\n|---|---|---|---|---|---|---|\n", big);
     for (int mi = 0; mi < o->methods.n && nbest < 16; mi++) {
-        int best = -1;
-        for (int k = 0; k < na; k++)
-            if (!strcmp(ag[k].method, o->methods.v[mi]) && ag[k].time_sum / ag[k].n <= big &&
-                (best < 0 || ag[k].err_sum / ag[k].n < ag[best].err_sum / ag[best].n))
-                best = k;
+        const int best = best_within(ag, na, big, o->methods.v[mi]);
         if (best < 0) {
             fprintf(md, "| %s | — | — | — | over budget | | |\n", o->methods.v[mi]);
             continue;
