@@ -589,16 +589,16 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                 snprintf(ws, sizeof ws, "%d", W);
                 snprintf(hs, sizeof hs, "%d", H);
                 /* Which points are still to do here? */
-                int64_t todo = 0;
+                int64_t remaining = 0;
                 for (int mi = 0; mi < o->methods.n; mi++)
                     for (int ni = 0; ni < o->samples.n; ni++)
                         for (int qi = 0; qi < o->radii.n; qi++)
                             for (int bi = 0; bi < o->blurs.n; bi++) {
                                 const char *key[KEY_COLUMNS] = {scene, view, ws, hs, o->methods.v[mi], o->samples.v[ni],
                                                                 o->radii.v[qi], o->blurs.v[bi]};
-                                todo += study_table_find(&s->table, key) < 0;
+                                remaining += study_table_find(&s->table, key) < 0;
                             }
-                if (!todo) {
+                if (!remaining) {
                     for (int64_t k = 0; k < (int64_t)o->methods.n * o->samples.n * o->radii.n * o->blurs.n; k++)
                         study_progress_step(&pr, 0, "resumed");
                     continue;
@@ -644,7 +644,7 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                     st = gt_prepare(ctx, pool, o, scene, view, &f, need, nn, s->g->quiet);
                 }
                 if (o->truth_only) {
-                    for (int64_t k = 0; k < todo; k++)
+                    for (int64_t k = 0; k < (int64_t)o->methods.n * o->samples.n * o->radii.n * o->blurs.n; k++)
                         study_progress_step(&pr, 0, "ground truth");
                     frame_free(&f);
                     continue;
