@@ -108,8 +108,11 @@ static const char *const columns[] = {
     /* error against the matched ground truth, raw and calibrated */
     "rmse", "ssim", "bias", "mae", "cal_rmse", "cal_ssim", "cal_bias", "cal_gain", "cal_power",
     "gt_mean_std_error", "surface_pixels",
-    /* the ground truth's own noise taken out (see noise_corrected): rmse_nc <= true RMSE <= rmse */
+    /* the ground truth's own noise taken out (see noise_corrected) */
     "gt_rms_std_error", "rmse_nc", "cal_rmse_nc",
+    /* the ground truth's noise from a second, independent ground truth (appended last: tables
+     * written before it are read with it empty, and refreshed, see refresh_noise) */
+    "gt_noise_rms",
 };
 enum { KEY_COLUMNS = 8, NCOL = (int)(sizeof columns / sizeof columns[0]) };
 
@@ -230,11 +233,15 @@ static long long gt_cap(const study_opts *o, int W, int H)
     return n < o->gt_max_samples ? n : o->gt_max_samples;
 }
 
+/* The cache file of a ground truth; seed 0 is the reference, seed 1 its independent replicate. */
 static void gt_path(const study_opts *o, const char *scene_name, const char *view, const frame *f,
-                    const char *estimator, float radius, char *path, size_t size)
+                    const char *estimator, float radius, unsigned seed, char *path, size_t size)
 {
-    snprintf(path, size, "%s/gt/%s_%s_%dx%d_%s_r%.6g_e%.3g_m%lld.exr", o->out_dir, scene_name, view, f->in.w, f->in.h,
-             estimator, (double)radius, o->gt_target_error, gt_cap(o, f->in.w, f->in.h));
+    char rep[16] = "";
+    if (seed)
+        snprintf(rep, sizeof rep, "_s%u", seed);
+    snprintf(path, size, "%s/gt/%s_%s_%dx%d_%s_r%.6g_e%.3g_m%lld%s.exr", o->out_dir, scene_name, view, f->in.w,
+             f->in.h, estimator, (double)radius, o->gt_target_error, gt_cap(o, f->in.w, f->in.h), rep);
 }
 
 /* Mean and root-mean-square of the ground truth's standard error over the surface pixels. */
@@ -276,11 +283,11 @@ static obs_status gt_write(obs_context *ctx, const study_opts *o, const char *pa
 }
 
 static obs_status ground_truth(obs_context *ctx, obs_pool *pool, const study_opts *o, const char *scene_name,
-                               const char *view, frame *f, const char *estimator, float radius, obs_image_f32 *mean,
-                               double *mean_se, double *rms_se)
+                               const char *view, frame *f, const char *estimator, float radius, unsigned seed,
+                               obs_image_f32 *mean, double *mean_se, double *rms_se)
 {
     char path[4096];
-    gt_path(o, scene_name, view, f, estimator, radius, path, sizeof path);
+    gt_path(o, scene_name, view, f, estimator, radius, seed, path, sizeof path);
     io_image im;
     memset(&im, 0, sizeof im);
     if (access(path, R_OK) == 0 && io_image_read(ctx, path, &im) == OBS_STATUS_OK) {
@@ -303,6 +310,7 @@ static obs_status ground_truth(obs_context *ctx, obs_pool *pool, const study_opt
     tp.min_samples = 32;
     tp.batch = 16;
     tp.max_samples = gt_cap(o, f->in.w, f->in.h);
+    tp.seed = seed;
     truth_ao_result r;
     obs_status st = truth_ao_render(ctx, pool, f->ts, &f->scene, &f->cam, &f->gb, &tp, &r);
     if (st != OBS_STATUS_OK)
@@ -349,12 +357,13 @@ static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_opts 
                              const char *view, frame *f, const gt_need *need, int n, int quiet)
 {
     obs_status st = OBS_STATUS_OK;
-    int done[256] = {0};
     if (n > 256)
         n = 256;
+    for (unsigned seed = 0; seed < 2 && st == OBS_STATUS_OK; seed++) {
+    int done[256] = {0};
     for (int i = 0; i < n; i++) {
         char path[4096];
-        gt_path(o, scene_name, view, f, truth_ao_estimator_name(need[i].est), need[i].radius, path, sizeof path);
+        gt_path(o, scene_name, view, f, truth_ao_estimator_name(need[i].est), need[i].radius, seed, path, sizeof path);
         done[i] = access(path, R_OK) == 0;
     }
     for (int i = 0; i < n && st == OBS_STATUS_OK; i++) {
@@ -375,24 +384,28 @@ static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_opts 
         tp.min_samples = 32;
         tp.batch = 16;
         tp.max_samples = gt_cap(o, f->in.w, f->in.h);
+        tp.seed = seed;
         truth_ao_result r[TRUTH_AO_MAX_OUTPUTS];
         double t0 = obs_time_now();
         st = truth_ao_render_multi(ctx, pool, f->ts, &f->scene, &f->cam, &f->gb, &tp, outs, k, r);
         if (st != OBS_STATUS_OK)
             break;
         if (!quiet)
-            fprintf(stderr, "\rground truth %s/%s %dx%d: %d output%s (%s%s) in %.1f s, %.0f Mrays, %.2f samples/px mean\n",
-                    scene_name, view, f->in.w, f->in.h, k, k > 1 ? "s" : "", truth_ao_estimator_name(outs[0].estimator),
+            fprintf(stderr,
+                    "\rground truth %s/%s %dx%d%s: %d output%s (%s%s) in %.1f s, %.0f Mrays, %.2f samples/px mean\n",
+                    scene_name, view, f->in.w, f->in.h, seed ? " (replicate)" : "", k, k > 1 ? "s" : "", truth_ao_estimator_name(outs[0].estimator),
                     k > 1 ? ", ..." : "", obs_time_now() - t0, r[0].stats.rays / 1e6,
                     r[0].stats.pixels_surface ? (double)r[0].stats.rays / (double)r[0].stats.pixels_surface : 0.0);
         for (int j = 0; j < k; j++) {
             char path[4096];
-            gt_path(o, scene_name, view, f, truth_ao_estimator_name(outs[j].estimator), outs[j].radius, path, sizeof path);
+            gt_path(o, scene_name, view, f, truth_ao_estimator_name(outs[j].estimator), outs[j].radius, seed, path,
+                    sizeof path);
             if (st == OBS_STATUS_OK)
                 st = gt_write(ctx, o, path, truth_ao_estimator_name(outs[j].estimator), &r[j]);
             truth_ao_result_free(&r[j]);
             done[idx[j]] = 1;
         }
+    }
     }
     return st;
 }
@@ -403,6 +416,7 @@ typedef struct gt_slot {
     float radius;
     obs_image_f32 mean;
     double mean_se, rms_se;
+    double noise_rms; /* sqrt(mean over surface pixels of (g0 - g1)^2 / 2): g0's noise, from its replicate */
 } gt_slot;
 
 typedef struct gt_cache {
@@ -432,21 +446,44 @@ static obs_status gt_cache_get(obs_context *ctx, obs_pool *pool, const study_opt
     memset(s, 0, sizeof *s);
     snprintf(s->est, sizeof s->est, "%s", est);
     s->radius = radius;
-    obs_status st = ground_truth(ctx, pool, o, scene_name, view, f, est, radius, &s->mean, &s->mean_se, &s->rms_se);
-    if (st != OBS_STATUS_OK)
+    obs_status st = ground_truth(ctx, pool, o, scene_name, view, f, est, radius, 0, &s->mean, &s->mean_se, &s->rms_se);
+    obs_image_f32 g1 = {0};
+    double se1;
+    if (st == OBS_STATUS_OK)
+        st = ground_truth(ctx, pool, o, scene_name, view, f, est, radius, 1, &g1, &se1, NULL);
+    if (st != OBS_STATUS_OK) {
+        obs_image_f32_free(&s->mean);
+        obs_image_f32_free(&g1);
         return st;
+    }
+    /* Two independent randomisations of the same estimator (Cranley-Patterson shifts from seeds 0
+     * and 1): E[(g0 - g1)^2] = 2 Var(g0), per pixel, whatever the sequence's convergence rate. */
+    double s2 = 0.0;
+    int64_t n = 0;
+    for (int y = 0; y < f->in.h; y++)
+        for (int x = 0; x < f->in.w; x++)
+            if (obs_image_f32_row(&f->mask, y)[x] != 0.0f) {
+                double d = (double)obs_image_f32_row(&s->mean, y)[x] - obs_image_f32_row(&g1, y)[x];
+                s2 += d * d;
+                n++;
+            }
+    s->noise_rms = n ? sqrt(s2 / (2.0 * (double)n)) : 0.0;
+    obs_image_f32_free(&g1);
     c->n++;
     *out = s;
     return OBS_STATUS_OK;
 }
 
-/* Error against a noisy reference: E[(a - g_hat)^2] = (a - g)^2 + Var(g_hat), so the mean squared
- * error less the mean squared standard error estimates the error against the exact g. The i.i.d.
- * standard error over-estimates the spread of these low-discrepancy estimates (docs/truth.md), so
- * this subtracts a little too much: rmse_nc <= true RMSE <= rmse. */
-static double noise_corrected(double rmse, double rms_se)
+/* Error against a noisy reference: E[(a - g_hat)^2] = (a - g)^2 + Var(g_hat) (a is independent of
+ * the reference's noise), so the mean squared error less the reference's mean noise variance
+ * estimates the mean squared error against the exact g; clamped at 0. The variance comes from an
+ * independent replicate (gt_cache_get), not from the per-pixel i.i.d. standard error: that
+ * formula over-estimates the spread of these low-discrepancy estimates by a factor that varies
+ * per pixel (on an open plane VOL's estimate is exact after every even sample count while its
+ * i.i.d. SE is 0.5/sqrt(n)), so subtracting it would over-correct. */
+static double noise_corrected(double rmse, double noise_rms)
 {
-    double d = rmse * rmse - rms_se * rms_se;
+    double d = rmse * rmse - noise_rms * noise_rms;
     return d > 0.0 ? sqrt(d) : 0.0;
 }
 
@@ -456,7 +493,7 @@ typedef struct point_result {
     study_stats prepare, kernel, blur, blend, total;
     met_result raw, cal;
     met_fit fit;
-    double gt_se, gt_rms;
+    double gt_se, gt_rms, gt_noise;
     char params[1024];
     char status[256];
 } point_result;
@@ -545,6 +582,44 @@ static obs_status save_table(obs_context *ctx, sweep_ctx *s)
     return st;
 }
 
+/* A point's parameters from its key cells: the technique's defaults, then the swept axes. Returns
+ * the radius in metres as set. */
+static float point_params(const ao_method *m, const char *samples, const char *radius_units, const char *blur,
+                          double unit, void *p)
+{
+    const float radius_m = (float)(atof(radius_units) * unit);
+    m->params_default(p);
+    m->set_samples(p, atoi(samples));
+    m->set_radius(p, radius_m);
+    m->set_blur(p, atoi(blur));
+    return radius_m;
+}
+
+/* Does a point still need work: not measured (row < 0), or measured ("ok") before its ground
+ * truth's replicate-based noise was recorded? */
+static int row_pending(const study_table *t, int64_t row)
+{
+    if (row < 0)
+        return 1;
+    return !strcmp(study_table_get(t, row, study_table_column(t, "status")), "ok") &&
+           !study_table_get(t, row, study_table_column(t, "gt_noise_rms"))[0];
+}
+
+/* Record a measured row's ground-truth noise and its noise-corrected RMSEs from its raw ones. */
+static obs_status refresh_noise(obs_context *ctx, study_table *t, int64_t row, double noise_rms)
+{
+    char a[32], b[32], c[32];
+    fmt(a, noise_rms);
+    fmt(b, noise_corrected(study_table_num(t, row, study_table_column(t, "rmse")), noise_rms));
+    fmt(c, noise_corrected(study_table_num(t, row, study_table_column(t, "cal_rmse")), noise_rms));
+    obs_status st = study_table_set(ctx, t, row, study_table_column(t, "gt_noise_rms"), a);
+    if (st == OBS_STATUS_OK)
+        st = study_table_set(ctx, t, row, study_table_column(t, "rmse_nc"), b);
+    if (st == OBS_STATUS_OK)
+        st = study_table_set(ctx, t, row, study_table_column(t, "cal_rmse_nc"), c);
+    return st;
+}
+
 static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
 {
     study_opts *o = s->o;
@@ -596,7 +671,7 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                             for (int bi = 0; bi < o->blurs.n; bi++) {
                                 const char *key[KEY_COLUMNS] = {scene, view, ws, hs, o->methods.v[mi], o->samples.v[ni],
                                                                 o->radii.v[qi], o->blurs.v[bi]};
-                                remaining += study_table_find(&s->table, key) < 0;
+                                remaining += row_pending(&s->table, study_table_find(&s->table, key));
                             }
                 if (!remaining) {
                     for (int64_t k = 0; k < (int64_t)o->methods.n * o->samples.n * o->radii.n * o->blurs.n; k++)
@@ -620,14 +695,11 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                                 for (int bi = 0; bi < o->blurs.n; bi++) {
                                     const char *key[KEY_COLUMNS] = {scene, view, ws, hs, o->methods.v[mi],
                                                                     o->samples.v[ni], o->radii.v[qi], o->blurs.v[bi]};
-                                    if (study_table_find(&s->table, key) >= 0)
+                                    if (!row_pending(&s->table, study_table_find(&s->table, key)))
                                         continue;
                                     const ao_method *m = ao_method_find(o->methods.v[mi]);
                                     unsigned char p[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
-                                    m->params_default(p);
-                                    m->set_samples(p, atoi(o->samples.v[ni]));
-                                    m->set_radius(p, (float)(atof(o->radii.v[qi]) * unit));
-                                    m->set_blur(p, atoi(o->blurs.v[bi]));
+                                    point_params(m, o->samples.v[ni], o->radii.v[qi], o->blurs.v[bi], unit, p);
                                     truth_ao_estimator e;
                                     if (m->params_validate(ctx, p) != OBS_STATUS_OK ||
                                         !truth_ao_estimator_from_name(m->truth_estimator(p), &e)) {
@@ -643,14 +715,37 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                                 }
                     st = gt_prepare(ctx, pool, o, scene, view, &f, need, nn, s->g->quiet);
                 }
+                gt_cache gtc;
+                memset(&gtc, 0, sizeof gtc);
+                /* rows measured before the replicate-based noise existed: fill it in (no timing) */
+                for (int qi = 0; qi < o->radii.n && st == OBS_STATUS_OK; qi++)
+                    for (int mi = 0; mi < o->methods.n && st == OBS_STATUS_OK; mi++)
+                        for (int ni = 0; ni < o->samples.n && st == OBS_STATUS_OK; ni++)
+                            for (int bi = 0; bi < o->blurs.n && st == OBS_STATUS_OK; bi++) {
+                                const char *key[KEY_COLUMNS] = {scene, view, ws, hs, o->methods.v[mi], o->samples.v[ni],
+                                                                o->radii.v[qi], o->blurs.v[bi]};
+                                const int64_t row = study_table_find(&s->table, key);
+                                if (row < 0 || !row_pending(&s->table, row))
+                                    continue;
+                                const ao_method *m = ao_method_find(o->methods.v[mi]);
+                                unsigned char p[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
+                                point_params(m, o->samples.v[ni], o->radii.v[qi], o->blurs.v[bi], unit, p);
+                                const gt_slot *gts = NULL;
+                                st = gt_cache_get(ctx, pool, o, scene, view, &f, &gtc, m->truth_estimator(p),
+                                                  m->get_radius(p), &gts);
+                                if (st == OBS_STATUS_OK)
+                                    st = refresh_noise(ctx, &s->table, row, gts->noise_rms);
+                                s->dirty = 1;
+                            }
                 if (o->truth_only) {
                     for (int64_t k = 0; k < (int64_t)o->methods.n * o->samples.n * o->radii.n * o->blurs.n; k++)
                         study_progress_step(&pr, 0, "ground truth");
+                    gt_cache_clear(&gtc);
                     frame_free(&f);
+                    if (st == OBS_STATUS_OK && s->dirty)
+                        st = save_table(ctx, s);
                     continue;
                 }
-                gt_cache gtc;
-                memset(&gtc, 0, sizeof gtc);
                 for (int qi = 0; qi < o->radii.n && st == OBS_STATUS_OK; qi++)
                     for (int mi = 0; mi < o->methods.n && st == OBS_STATUS_OK; mi++)
                         for (int ni = 0; ni < o->samples.n && st == OBS_STATUS_OK; ni++)
@@ -666,11 +761,8 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                                     continue;
                                 }
                                 unsigned char p[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
-                                m->params_default(p);
-                                const float radius_m = (float)(atof(o->radii.v[qi]) * unit);
-                                m->set_samples(p, atoi(o->samples.v[ni]));
-                                m->set_radius(p, radius_m);
-                                m->set_blur(p, atoi(o->blurs.v[bi]));
+                                const float radius_m = point_params(m, o->samples.v[ni], o->radii.v[qi], o->blurs.v[bi],
+                                                                    unit, p);
                                 point_result res;
                                 memset(&res, 0, sizeof res);
                                 m->params_to_string(p, res.params, sizeof res.params);
@@ -694,6 +786,7 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                                 if (ps == OBS_STATUS_OK) {
                                     res.gt_se = gts->mean_se;
                                     res.gt_rms = gts->rms_se;
+                                    res.gt_noise = gts->noise_rms;
                                     ps = run_point(ctx, pool, m, p, &f, o->runs, &gts->mean, &ao, &res);
                                 }
                                 if (ps == OBS_STATUS_OUT_OF_MEMORY || ps == OBS_STATUS_IO_ERROR) {
@@ -711,8 +804,8 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
                                                   res.raw.rmse, res.raw.ssim, res.raw.bias, res.raw.mae, res.cal.rmse,
                                                   res.cal.ssim, res.cal.bias, res.fit.gain, res.fit.power, res.gt_se,
                                                   (double)res.raw.valid, res.gt_rms,
-                                                  noise_corrected(res.raw.rmse, res.gt_rms),
-                                                  noise_corrected(res.cal.rmse, res.gt_rms)};
+                                                  noise_corrected(res.raw.rmse, res.gt_noise),
+                                                  noise_corrected(res.cal.rmse, res.gt_noise), res.gt_noise};
                                     for (size_t k = 0; k < sizeof v / sizeof v[0]; k++)
                                         fmt(cells[12 + k], v[k]);
                                 }
@@ -839,7 +932,7 @@ static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_opts 
         double se;
         point_result res;
         memset(&res, 0, sizeof res);
-        st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(p), m->get_radius(p), &gt, &se, NULL);
+        st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(p), m->get_radius(p), 0, &gt, &se, NULL);
         if (st == OBS_STATUS_OK)
             st = run_point(ctx, pool, m, p, &f, 1, NULL, &ao, &res);
         for (int y = 0; st == OBS_STATUS_OK && y < H; y++)
@@ -902,7 +995,7 @@ static obs_status mssao_levels_table(obs_context *ctx, obs_pool *pool, const stu
         obs_image_f32 gt = {0}, out = {0}, up = {0}, lvimg = {0};
         double gt_se = 0.0;
         if (st == OBS_STATUS_OK)
-            st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(&p), m->get_radius(&p), &gt, &gt_se, NULL);
+            st = ground_truth(ctx, pool, o, scene, view, &f, m->truth_estimator(&p), m->get_radius(&p), 0, &gt, &gt_se, NULL);
         if (st == OBS_STATUS_OK)
             st = obs_image_f32_alloc(ctx, W, H, &out);
         if (st == OBS_STATUS_OK)
@@ -1014,10 +1107,10 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
     fprintf(md, "- Error: against each technique's matched ground truth (`obscura ao --list` names it; "
                 "docs/truth.md), over surface pixels. *Calibrated* fits `1 - g (1 - v^p)` to the ground truth "
                 "first (docs/compare.md), so it measures shape, not the technique's overall darkness. Every RMSE "
-                "here has the ground truth's own noise taken out: sqrt(RMSE^2 - mean SE^2), SE the ground truth's "
-                "per-pixel standard error (`rmse_nc`, `cal_rmse_nc`; the uncorrected values are in the CSV). The "
-                "i.i.d. SE over-estimates the spread of these low-discrepancy estimates, so the truth lies between "
-                "the two.\n");
+                "here has the ground truth's own noise taken out: sqrt(max(0, RMSE^2 - s^2)), s^2 the reference's mean "
+                "noise variance over the surface pixels, estimated from a second ground truth with another seed "
+                "(an independent randomisation): s^2 = mean((g0 - g1)^2) / 2 (`gt_noise_rms`; `rmse_nc`, "
+                "`cal_rmse_nc`; the uncorrected values are in the CSV).\n");
     fprintf(md, "- Ground truth: target standard error %.3g per pixel, at most %lld samples per pixel at 1280x720 "
                 "and below, scaled by the pixel count above (1920x1080: %lld, 3840x2160: %lld), so each resolution's "
                 "ground truth costs about the same rays; the estimators that share a direction distribution are "

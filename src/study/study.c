@@ -161,6 +161,19 @@ obs_status study_table_append(obs_context *ctx, study_table *t, const char *cons
     return OBS_STATUS_OK;
 }
 
+obs_status study_table_set(obs_context *ctx, study_table *t, int64_t row, int column, const char *value)
+{
+    if (!t || row < 0 || row >= t->rows || column < 0 || column >= t->columns)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study table: cell (%lld, %d) out of range", (long long)row,
+                         column);
+    char *c = dup_str(value);
+    if (!c)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study table: out of memory");
+    free(t->cells[row * t->columns + column]);
+    t->cells[row * t->columns + column] = c;
+    return OBS_STATUS_OK;
+}
+
 const char *study_table_get(const study_table *t, int64_t row, int column)
 {
     if (!t || row < 0 || row >= t->rows || column < 0 || column >= t->columns)
@@ -275,7 +288,10 @@ obs_status study_table_read_csv(obs_context *ctx, study_table *t, const char *pa
     const char *p = text;
     int line = 1;
     int n = csv_record(&p, buf, cells, STUDY_MAX_COLUMNS + 1);
-    if (n != t->columns)
+    /* a table written before columns were appended to this study's list is read with the new
+     * trailing cells empty: its header must be a prefix of ours, from the key columns on */
+    const int file_columns = n;
+    if (n < t->key_columns || n > t->columns)
         st = obs_error(ctx, OBS_STATUS_PARSE_ERROR, "%s: line 1: %d columns, expected %d (another study's table?)",
                        path, n, t->columns);
     for (int i = 0; st == OBS_STATUS_OK && i < n; i++)
@@ -285,11 +301,13 @@ obs_status study_table_read_csv(obs_context *ctx, study_table *t, const char *pa
     while (st == OBS_STATUS_OK && *p) {
         line++;
         n = csv_record(&p, buf, cells, STUDY_MAX_COLUMNS + 1);
-        if (n != t->columns) {
+        if (n != file_columns) {
             st = obs_error(ctx, OBS_STATUS_PARSE_ERROR, "%s: line %d: %s", path, line,
                            n < 0 ? "malformed record" : "wrong number of cells");
             break;
         }
+        for (int i = n; i < t->columns; i++)
+            cells[i] = (char *)"";
         st = study_table_append(ctx, t, (const char *const *)cells);
         if (st == OBS_STATUS_OK && rows_read)
             (*rows_read)++;

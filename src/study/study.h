@@ -45,6 +45,9 @@ int64_t study_table_find(const study_table *t, const char *const *key);
 /* Append a row of `columns` values (copied; NULL = empty). Returns OK, LIMIT_EXCEEDED, OUT_OF_MEMORY. */
 obs_status study_table_append(obs_context *ctx, study_table *t, const char *const *values);
 
+/* Replace a cell (value copied; NULL = empty). Returns OK, INVALID_ARGUMENT (out of range), OUT_OF_MEMORY. */
+obs_status study_table_set(obs_context *ctx, study_table *t, int64_t row, int column, const char *value);
+
 /* A cell (never NULL: "" for empty), and the cell as a double (NaN for empty or non-numeric). */
 const char *study_table_get(const study_table *t, int64_t row, int column);
 double study_table_num(const study_table *t, int64_t row, int column);
@@ -54,7 +57,9 @@ double study_table_num(const study_table *t, int64_t row, int column);
 obs_status study_table_write_csv(obs_context *ctx, const study_table *t, const char *path);
 
 /* Read a CSV written by study_table_write_csv into t, which must be initialised with the same
- * columns: rows are appended. A missing file is not an error (*rows_read = 0). Returns OK,
+ * columns, or with more: a file whose header is a prefix of t's columns (at least the key) was
+ * written before columns were appended, and its rows get those trailing cells empty. Rows are
+ * appended. A missing file is not an error (*rows_read = 0). Returns OK,
  * PARSE_ERROR (other columns, a malformed line: the message names the file and line),
  * IO_ERROR, LIMIT_EXCEEDED, OUT_OF_MEMORY. */
 obs_status study_table_read_csv(obs_context *ctx, study_table *t, const char *path, int64_t *rows_read);
