@@ -196,6 +196,10 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     CHECK_MSG(rows == 2 * methods && rows == ok, "%d rows, %d ok, %d methods", rows, ok, methods);
     CHECK(csv && !strstr(csv, "nan") && !strstr(csv, "inf"));
     char *md = test_slurp(test_path(rep, "README.md"), NULL);
+    /* the table is copied beside the page */
+    char *rcsv = test_slurp(test_path(rep, "results.csv"), NULL);
+    CHECK(rcsv && csv && !strcmp(rcsv, csv));
+    free(rcsv);
     CHECK(md && strstr(md, "Best technique per frame budget") && strstr(md, "pareto_all.svg") &&
           strstr(md, "grid_bunny.png"));
     /* it ends with the generated summary: budgets, the Pareto front, each technique's hard case */
