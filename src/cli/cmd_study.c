@@ -865,15 +865,16 @@ static void list_add(char *l, size_t size, const char *v)
 }
 
 /* Rows at W x H with status ok, averaged over scenes and views per (method, samples, radius, blur). */
-static int aggregate(const study_table *t, int W, int H, agg *out, int max)
+/* The rows at W x H (of one scene, or of all when scene is NULL), averaged per configuration. */
+static int aggregate(const study_table *t, int W, int H, const char *scene, agg *out, int max)
 {
     int n = 0;
     const int cw = col(t, "width"), ch = col(t, "height"), cm = col(t, "method"), cs = col(t, "samples"),
               cr = col(t, "radius_units"), cb = col(t, "blur"), ct = col(t, "total_ms"), ce = col(t, "cal_rmse_nc"),
-              cx = col(t, "rmse_nc"), cst = col(t, "status");
+              cx = col(t, "rmse_nc"), cst = col(t, "status"), csc = col(t, "scene");
     for (int64_t r = 0; r < t->rows; r++) {
         if (strcmp(study_table_get(t, r, cst), "ok") != 0 || study_table_num(t, r, cw) != W ||
-            study_table_num(t, r, ch) != H)
+            study_table_num(t, r, ch) != H || (scene && strcmp(study_table_get(t, r, csc), scene) != 0))
             continue;
         const char *m = study_table_get(t, r, cm);
         int smp = (int)study_table_num(t, r, cs), bl = (int)study_table_num(t, r, cb);
@@ -1175,7 +1176,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
 
     /* ---- the summary: best configuration per frame budget ---- */
     agg *ag = (agg *)calloc(4096, sizeof(agg));
-    int na = ag ? aggregate(t, MW, MH, ag, 4096) : 0;
+    int na = ag ? aggregate(t, MW, MH, NULL, ag, 4096) : 0;
     /* the closing summary, written as the sections below find its facts, appended at the end */
     char *sumtext = NULL;
     size_t sumlen = 0;
@@ -1207,6 +1208,26 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
             fprintf(sum, " the fastest configuration of all is %s with %d samples at %.2f ms (calibrated RMSE %.3f).\n",
                     ag[fastest].method, ag[fastest].samples, ag[fastest].time_sum / ag[fastest].n,
                     ag[fastest].err_sum / ag[fastest].n);
+        /* per scene, for the budgets nothing fits on average: scenes differ in covered pixels */
+        agg *as = (agg *)calloc(4096, sizeof(agg));
+        for (int b = 0; as && b < o->budgets.n; b++) {
+            const double budget = atof(o->budgets.v[b]);
+            if (best_within(ag, na, budget, NULL) >= 0)
+                continue;
+            fprintf(sum, "- **%g ms, scene by scene** (mean over views):", budget);
+            for (int sc = 0; sc < o->scenes.n; sc++) {
+                const int ns = aggregate(t, MW, MH, o->scenes.v[sc], as, 4096);
+                const int k = best_within(as, ns, budget, NULL);
+                if (k >= 0)
+                    fprintf(sum, " %s: %s (%d samples, radius %g, blur %s), %.2f ms, calibrated RMSE %.3f;",
+                            o->scenes.v[sc], as[k].method, as[k].samples, as[k].radius_units, as[k].blur ? "on" : "off",
+                            as[k].time_sum / as[k].n, as[k].err_sum / as[k].n);
+                else
+                    fprintf(sum, " %s: nothing fits;", o->scenes.v[sc]);
+            }
+            fprintf(sum, "\n");
+        }
+        free(as);
         /* which techniques are on the Pareto front of the averaged configurations */
         double *cx = (double *)malloc(sizeof(double) * (size_t)(na ? na : 1));
         double *cy = (double *)malloc(sizeof(double) * (size_t)(na ? na : 1));
@@ -1313,7 +1334,7 @@ static obs_status report(obs_context *ctx, obs_pool *pool, sweep_ctx *s)
             int w, h;
             cli_parse_size(o->resolutions.v[r], &w, &h);
             agg *ar = (agg *)calloc(4096, sizeof(agg));
-            int nr = ar ? aggregate(t, w, h, ar, 4096) : 0;
+            int nr = ar ? aggregate(t, w, h, NULL, ar, 4096) : 0;
             int k = 0;
             while (k < nr && !(!strcmp(ar[k].method, o->methods.v[mi]) &&
                                ar[k].samples == atoi(o->samples.v[o->samples.n > 1 ? 1 : 0]) &&
