@@ -231,6 +231,10 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b1, NULL, NULL), 2);
     const char *b2[] = {"study", "ao", "--radii", "-1", NULL};
     CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b2, NULL, NULL), 2);
+    const char *b6[] = {"study", "ao", "--report-only", "-o", out, NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b6, NULL, NULL), 2);
+    const char *b7[] = {"study", "ao", "--report-only", "--truth-only", "--report", rep, "-o", out, NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b7, NULL, NULL), 2);
     const char *b3[] = {"study", "sss", NULL};
     CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b3, NULL, NULL), 2);
     const char *b4[] = {"study", "ao", "--quick", "--data", "/nonexistent", "-o", out, NULL};

@@ -1496,6 +1496,10 @@ int cmd_study(cli_globals *g, int argc, char **argv)
             return cli_usage_error("study ao: unknown option '%s' (or a missing value)", a);
         }
     }
+    if (o.report_only && !o.report_dir)
+        return cli_usage_error("study ao: --report-only needs --report DIR");
+    if (o.report_only + o.truth_only + o.dry_run > 1)
+        return cli_usage_error("study ao: --report-only, --truth-only and --dry-run exclude each other");
     if (o.quick) {
         /* CI: one scene and view at a small size, the default sample count and radius, both blur
          * settings, 3 runs, a coarse ground truth. Explicit flags still win. */
