@@ -353,13 +353,11 @@ typedef struct gt_need {
  * one radius at a time; each output goes to its own cache file, as ground_truth() would write it.
  * The values are those of the single runs for the same rays; a pixel of a shared set stops when
  * all its outputs are within the target (so it takes at least the samples each alone would). */
-static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_opts *o, const char *scene_name,
-                             const char *view, frame *f, const gt_need *need, int n, int quiet)
+/* One seed's pass of gt_prepare: the need[] entries whose cache file for that seed is missing. */
+static obs_status gt_prepare_seed(obs_context *ctx, obs_pool *pool, const study_opts *o, const char *scene_name,
+                                  const char *view, frame *f, const gt_need *need, int n, unsigned seed, int quiet)
 {
     obs_status st = OBS_STATUS_OK;
-    if (n > 256)
-        n = 256;
-    for (unsigned seed = 0; seed < 2 && st == OBS_STATUS_OK; seed++) {
     int done[256] = {0};
     for (int i = 0; i < n; i++) {
         char path[4096];
@@ -393,8 +391,8 @@ static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_opts 
         if (!quiet)
             fprintf(stderr,
                     "\rground truth %s/%s %dx%d%s: %d output%s (%s%s) in %.1f s, %.0f Mrays, %.2f samples/px mean\n",
-                    scene_name, view, f->in.w, f->in.h, seed ? " (replicate)" : "", k, k > 1 ? "s" : "", truth_ao_estimator_name(outs[0].estimator),
-                    k > 1 ? ", ..." : "", obs_time_now() - t0, r[0].stats.rays / 1e6,
+                    scene_name, view, f->in.w, f->in.h, seed ? " (replicate)" : "", k, k > 1 ? "s" : "",
+                    truth_ao_estimator_name(outs[0].estimator), k > 1 ? ", ..." : "", obs_time_now() - t0, r[0].stats.rays / 1e6,
                     r[0].stats.pixels_surface ? (double)r[0].stats.rays / (double)r[0].stats.pixels_surface : 0.0);
         for (int j = 0; j < k; j++) {
             char path[4096];
@@ -406,7 +404,18 @@ static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_opts 
             done[idx[j]] = 1;
         }
     }
-    }
+    return st;
+}
+
+static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_opts *o, const char *scene_name,
+                             const char *view, frame *f, const gt_need *need, int n, int quiet)
+{
+    if (n > 256)
+        n = 256;
+    /* seed 0: the reference; seed 1: its independent replicate, for the noise estimate */
+    obs_status st = gt_prepare_seed(ctx, pool, o, scene_name, view, f, need, n, 0, quiet);
+    if (st == OBS_STATUS_OK)
+        st = gt_prepare_seed(ctx, pool, o, scene_name, view, f, need, n, 1, quiet);
     return st;
 }
 
