@@ -359,7 +359,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->y = y;
     s->state = 0;
     s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
-    for (int j = 0; j < TRUTH_AO_MAX_OUTPUTS; j++)
+    for (int j = 0; j < J->nout; j++)
         s->mean[j] = s->m2[j] = 0.0;
     s->count = 0;
     float depth = 0.0f;
