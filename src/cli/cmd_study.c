@@ -466,7 +466,9 @@ static obs_status gt_cache_get(obs_context *ctx, obs_pool *pool, const study_opt
         return st;
     }
     /* Two independent randomisations of the same estimator (Cranley-Patterson shifts from seeds 0
-     * and 1): E[(g0 - g1)^2] = 2 Var(g0), per pixel, whatever the sequence's convergence rate. */
+     * and 1): E[(g0 - g1)^2] = 2 Var(g0), per pixel, whatever the sequence's convergence rate: the
+     * replicate variance estimate of randomised QMC [L'Ecuyer & Lemieux 2002, "Recent advances in
+     * randomized quasi-Monte Carlo methods", section 3; Owen 1997]. */
     double s2 = 0.0;
     int64_t n = 0;
     for (int y = 0; y < f->in.h; y++)
