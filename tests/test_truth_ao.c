@@ -545,6 +545,16 @@ static int planes_equal(const truth_ao_result *a, const truth_ao_result *b)
     return a->stats.rays == b->stats.rays && a->stats.pixels_converged == b->stats.pixels_converged;
 }
 
+/* A lone floor of n x n quads, 8x8 pixels seen from eye: for the refusal tests. */
+static int floor_setup(ao_run *R, int n, obs_vec3 eye)
+{
+    memset(R, 0, sizeof *R);
+    mesh_b mb = {0};
+    mb_floor(&mb, 0, 0, 0, 5, n);
+    mb_to_scene(&mb, &R->scene);
+    return run_setup(R, eye, obs_v3(0, 0, 0), 8, 8);
+}
+
 /* A floor with two balls, seen obliquely: occlusion of every degree, for the determinism tests. */
 static int two_balls_setup(ao_run *R, int W, int H)
 {
@@ -713,11 +723,7 @@ TEST(truth_multi_output_equals_each_single_run)
 TEST(truth_multi_output_refuses_outputs_that_cannot_share_rays)
 {
     ao_run R;
-    memset(&R, 0, sizeof R);
-    mesh_b mb = {0};
-    mb_floor(&mb, 0, 0, 0, 5, 4);
-    mb_to_scene(&mb, &R.scene);
-    CHECK(run_setup(&R, obs_v3(0, 2, 2), obs_v3(0, 0, 0), 8, 8));
+    CHECK_MSG(floor_setup(&R, 4, obs_v3(0, 2, 2)), "setup: %s", obs_context_last_error(R.ctx));
     truth_ao_params p = truth_ao_params_default();
     p.max_samples = 64;
     truth_ao_result out[TRUTH_AO_MAX_OUTPUTS + 1];
@@ -901,11 +907,7 @@ TEST(truth_embree_origin_agrees_with_gbuffer_origin)
 TEST(truth_bad_parameters_are_refused)
 {
     ao_run R;
-    memset(&R, 0, sizeof R);
-    mesh_b mb = {0};
-    mb_floor(&mb, 0, 0, 0, 5, 2);
-    mb_to_scene(&mb, &R.scene);
-    CHECK_MSG(run_setup(&R, obs_v3(1, 2, 3), obs_v3(0, 0, 0), 8, 8), "setup: %s", obs_context_last_error(R.ctx));
+    CHECK_MSG(floor_setup(&R, 2, obs_v3(1, 2, 3)), "setup: %s", obs_context_last_error(R.ctx));
     struct { const char *what; truth_ao_params p; obs_status want; } c[32];
     int n = 0;
 #define CASE(desc, field, value, status)                                                         \
