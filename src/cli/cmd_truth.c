@@ -26,17 +26,21 @@ static const char *truth_help =
     "                        obs-hbao: falloff 1-d^2/R^2, uniform-weighted (classic HBAO)\n"
     "                        vol: share of the ball of radius r visible from the eye (Crytek's quantity)\n"
     "  --radius R            world units, > 0; 'inf' for cos and unif (default 0.5, XeGTAO's default)\n"
-    "  --target-error E      stop a pixel once its standard error is <= E (default 0.002)\n"
+    "  --target-error E      stop a pixel once its error bar is <= E (default 0.002); the bar is\n"
+    "                        max(replicate standard error, floor(n) ~ 1.41/n): rays that all agree\n"
+    "                        cannot stop a pixel before floor(n) <= E (704 samples at 0.002)\n"
     "  --min-samples N       samples per pixel before the target may stop it (default 64)\n"
     "  --max-samples N       samples per pixel at most (default 4096; limit 1048576)\n"
     "  --batch B             samples per pixel per round, a divisor of both counts (default 16)\n"
+    "  --replicates R        independent scramblings per pixel, 2..32, dividing B (default 8): the\n"
+    "                        standard error is the spread of their means (docs/truth.md)\n"
     "  --seed S              random seed (default 0); output depends only on inputs and seed\n"
     "  --normal KIND         geometric (default, XeGTAO's reference) or shading\n"
     "  --origin KIND         gbuffer (default: the rasterized G-buffer point) or embree (a primary hit)\n"
     "  --offset-ulps K       self-intersection offset, K * 2^-24 * scale (default 64; docs/truth.md)\n"
     "  --tile T              tile side in pixels, 4..32 (default 8)\n"
     "  --build Q             Embree BVH quality: low, medium (default), high\n"
-    "EXR channels: AO.mean (visibility, 1 = unoccluded), AO.stderr (its standard error), AO.count\n"
+    "EXR channels: AO.mean (visibility, 1 = unoccluded), AO.stderr (its error bar), AO.count\n"
     "(samples; 0 = no surface there, mean 1), Z (the G-buffer's linear depth, inf = background).\n"
     "The PNG is AO.mean quantised linearly (255 = visibility 1), tagged linear (gamma 1.0), with\n"
     "the background (AO.count 0) drawn black.\n"
@@ -148,6 +152,9 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         } else if (!strcmp(a, "--batch")) {
             if (!cli_parse_int(v, 1, 1 << 20, &ll)) return cli_usage_error("--batch needs a positive integer");
             p.batch = (int)ll; i++;
+        } else if (!strcmp(a, "--replicates")) {
+            if (!cli_parse_int(v, 1, 1 << 20, &ll)) return cli_usage_error("--replicates needs a positive integer");
+            p.replicates = (int)ll; i++;
         } else if (!strcmp(a, "--seed")) {
             if (!cli_parse_int(v, 0, INT64_MAX, &ll)) return cli_usage_error("--seed needs an integer >= 0");
             p.seed = (uint64_t)ll; i++;
@@ -290,6 +297,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     strcpy(at[na].name, "obscura:target_error"); at[na].type = IO_ATTR_FLOAT; at[na].f = (float)p.target_error; na++;
     strcpy(at[na].name, "obscura:min_samples"); at[na].type = IO_ATTR_INT; at[na].i = p.min_samples; na++;
     strcpy(at[na].name, "obscura:max_samples"); at[na].type = IO_ATTR_INT; at[na].i = p.max_samples; na++;
+    strcpy(at[na].name, "obscura:replicates"); at[na].type = IO_ATTR_INT; at[na].i = p.replicates; na++;
     strcpy(at[na].name, "obscura:seed"); at[na].type = IO_ATTR_STRING;
     char seed_text[32];
     snprintf(seed_text, sizeof seed_text, "%llu", (unsigned long long)p.seed);
@@ -348,6 +356,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     io_json_int(&j, "min_samples", p.min_samples);
     io_json_int(&j, "max_samples", p.max_samples);
     io_json_int(&j, "batch", p.batch);
+    io_json_int(&j, "replicates", p.replicates);
     io_json_string(&j, "seed", seed_text);
     io_json_string(&j, "normal", p.normal == TRUTH_AO_NORMAL_GEOMETRIC ? "geometric" : "shading");
     io_json_string(&j, "origin", p.origin == TRUTH_AO_ORIGIN_GBUFFER ? "gbuffer" : "embree");
@@ -367,6 +376,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     io_json_number(&j, "mean_samples_per_surface_pixel", n_sum / surf);
     io_json_number(&j, "mean_std_error", se_sum / surf);
     io_json_number(&j, "max_std_error", S->max_std_error);
+    io_json_number(&j, "error_floor_at_min_samples", truth_ao_error_floor(p.min_samples));
     io_json_number(&j, "max_offset", S->max_offset);
     io_json_number(&j, "seconds_load", t_raster - t_load);
     io_json_number(&j, "seconds_raster", t_bvh - t_raster);

@@ -109,15 +109,23 @@ typedef struct truth_ao_params {
     truth_ao_estimator estimator; /* default TRUTH_AO_COS (ao.md 2: the common target) */
     float radius;                 /* r in world units, > 0; INFINITY allowed for COS and UNIF.
                                      Default 0.5: XeGTAO's default Radius (ao.md 1.8) */
-    double target_error;          /* stop a pixel when its standard error <= this (and min_samples
-                                     are done); >= 0. Default 0.002 (issue 3, "for example 0.002") */
-    int64_t min_samples;          /* default 64; a positive multiple of batch. A pixel whose samples
-                                     all agree stops here with std_error 0 */
+    double target_error;          /* stop a pixel when its error bar <= this (and min_samples are
+                                     done); >= 0. Default 0.002 (issue 3, "for example 0.002"). The
+                                     error bar is max(replicate standard error, floor(n)), where
+                                     floor(n) is the Agresti-Coull standard error of n identical
+                                     outcomes (docs/truth.md, "Convergence"): identical samples
+                                     cannot stop a pixel before floor(n) <= target_error */
+    int64_t min_samples;          /* default 64; a positive multiple of batch */
     int64_t max_samples;          /* default 4096; a multiple of batch, >= min_samples, <= 2^31, and
                                      <= obs_limits.max_samples (LIMIT_EXCEEDED otherwise) */
-    int batch;                    /* B, samples per pixel per round, in [2, 1024]. Default 16: 16 rays
-                                     per pixel of an 8x8 tile is the 1024-ray rtcOccluded1M batch
-                                     that build-notes.md measured fastest */
+    int batch;                    /* B, samples per pixel per round, in [2, 1024], a multiple of
+                                     replicates. Default 16: 16 rays per pixel of an 8x8 tile is the
+                                     1024-ray rtcOccluded1M batch that build-notes.md measured fastest */
+    int replicates;               /* R, independent randomisations of the point set per pixel, in
+                                     [2, TRUTH_AO_MAX_REPLICATES]; each takes B/R samples a round. The
+                                     standard error is the spread of their means (randomised QMC,
+                                     [LEcuyer02]). Default 8 (docs/truth.md, "Convergence": 7 degrees
+                                     of freedom; the calibration test's choice) */
     uint64_t seed;                /* default 0; output is a function of (inputs, params, seed) only,
                                      not of the thread count, tile size or guard band */
     truth_ao_normal normal;       /* default TRUTH_AO_NORMAL_GEOMETRIC */
@@ -130,7 +138,16 @@ typedef struct truth_ao_params {
     void *progress_user;
 } truth_ao_params;
 
+#define TRUTH_AO_MAX_REPLICATES 32
+/* The floor's z: Agresti & Coull's "add two successes and two failures" (z^2 = 4, a 95% interval). */
+#define TRUTH_AO_FLOOR_Z 2.0
+
 truth_ao_params truth_ao_params_default(void);
+
+/* floor(n) = sqrt(p (1 - p) / (n + z^2)), p = (z^2 / 2) / (n + z^2), z = TRUTH_AO_FLOOR_Z: the
+ * Agresti-Coull standard error of a proportion seen n times out of n (or 0 times), the smallest it
+ * gives for any outcome [Agresti98]. About 1.41 / n. */
+double truth_ao_error_floor(int64_t n);
 
 /* "cos", "unif", "obs-sao", "obs-sao-linear", "obs-mssao", "obs-hbao", "vol" ("?" if out of range). */
 const char *truth_ao_estimator_name(truth_ao_estimator e);
@@ -143,9 +160,10 @@ typedef struct truth_ao_stats {
     int64_t pixels_surface;     /* pixels with a surface: count > 0 */
     int64_t pixels_background;  /* no surface (depth +inf, or an Embree miss): count = 0 */
     int64_t pixels_invalid;     /* a surface with an unusable normal (zero, non-finite): count = 0 */
-    int64_t pixels_converged;   /* surface pixels that stopped with std_error <= target_error */
+    int64_t pixels_converged;   /* surface pixels whose error bar (std_error) of THIS output is
+                                   <= target_error when they stopped */
     int64_t pixels_at_max;      /* surface pixels that reached max_samples */
-    double max_std_error;       /* over surface pixels */
+    double max_std_error;       /* of this output, over surface pixels */
     double max_offset;          /* the largest self-intersection offset eps used, world units */
     double seconds;             /* wall time of the whole call */
     double seconds_work;        /* of which the tile work: sampling, tracing, accumulation (not the
@@ -158,9 +176,9 @@ typedef struct truth_ao_stats {
 typedef struct truth_ao_result {
     int width, height;
     obs_image_f32 mean;         /* estimated visibility V in [0, 1] */
-    obs_image_f32 std_error;    /* standard error of mean: the i.i.d. formula sqrt(M2/(n-1)/n), an
-                                   over-estimate for these low-discrepancy samples (docs/truth.md,
-                                   "Convergence") */
+    obs_image_f32 std_error;    /* the error bar of mean: max(s_R, floor(n)), s_R the standard
+                                   error from the spread of the R replicates' means [LEcuyer02],
+                                   floor(n) = truth_ao_error_floor (docs/truth.md, "Convergence") */
     obs_image_f32 count;        /* samples taken (an integer; exact in float up to 2^24) */
     truth_ao_stats stats;
 } truth_ao_result;
@@ -188,12 +206,14 @@ void truth_ao_result_free(truth_ao_result *r);   /* NULL-safe; zeroes it */
  * an output of radius r <= r_max the closest hit within r_max is its closest hit within r when
  * t <= r, so each output is the estimate its own truth_ao_render would compute from the same
  * rays (the same directions: they depend on pixel, sample index and seed only). A pixel stops
- * when EVERY output's standard error is <= target_error (after min_samples), or at max_samples:
+ * when EVERY output's error bar is <= target_error (after min_samples), or at max_samples:
  * every output of a pixel has the same count. Outputs must be all cosine-weighted (COS,
- * OBS_SAO_B, OBS_SAO_LINEAR, OBS_MSSAO) or all uniform (UNIF, OBS_HBAO); VOL only alone.
- * p->estimator and p->radius are ignored; the rest of p as for truth_ao_render. out[0..count-1]
- * are allocated here (free each with truth_ao_result_free); stats are those of the one ray set.
- * With count 1 the result is bit-identical to truth_ao_render's. */
+ * OBS_SAO_B, OBS_SAO_LINEAR, OBS_MSSAO) or all uniform (UNIF, OBS_HBAO), in any order; VOL only
+ * alone. p->estimator and p->radius are ignored; the rest of p as for truth_ao_render.
+ * out[0..count-1] are allocated here (free each with truth_ao_result_free). Each output's stats
+ * share the ray set's counters (rays, pixels, at_max, times) and have their own
+ * pixels_converged and max_std_error. With count 1 the result is bit-identical to
+ * truth_ao_render's. */
 #define TRUTH_AO_MAX_OUTPUTS 16
 typedef struct truth_ao_output {
     truth_ao_estimator estimator;

@@ -4,13 +4,19 @@
  * the sampling, the self-intersection offset and the convergence test. In short, per pixel:
  *   - p and n from the G-buffer (or an Embree primary hit); n faces the viewer;
  *   - the origin is offset along the geometric normal by eps = k 2^-24 m (setup_pixel);
- *   - sample i of a pixel is point i of a low-discrepancy sequence (a (0,2)-sequence in base 2,
- *     plus base-3 van der Corput for a third dimension), Cranley-Patterson rotated by the pixel's
- *     own Philox shift, keyed by (pixel, seed); samples are taken in rounds of B;
- *   - each pixel keeps the running mean and M2 of its samples (Welford; rounds are merged with
- *     Chan et al.'s update); standard error = sqrt(M2 / (n - 1) / n), the i.i.d. formula, which
- *     over-estimates the error of a low-discrepancy mean (docs/truth.md, "Convergence");
- *   - a pixel stops at min_samples once its standard error is <= target, or at max_samples;
+ *   - a pixel's samples come from R independent randomisations (replicates) of one
+ *     low-discrepancy sequence (a (0,2)-sequence in base 2, plus base-3 van der Corput for a third
+ *     dimension): replicate r's sample i is point i of the sequence, Owen-scrambled in base 2
+ *     [Owen95, Burley20] and digitally shifted in base 3 [LEcuyer02], with seeds keyed by (pixel,
+ *     r, seed). Both keep the sequence's (t,m,s)-net stratification, which the earlier
+ *     Cranley-Patterson rotation (addition mod 1) broke; samples are taken in rounds of B, B/R
+ *     per replicate;
+ *   - each pixel keeps, per output and replicate, the sum of its sample values; the estimate is
+ *     the mean of the replicates' means and its standard error s_R is their spread,
+ *     sqrt(sum_r (m_r - m)^2 / (R (R - 1))) [LEcuyer02]; the error bar is max(s_R, floor(n)),
+ *     floor(n) the Agresti-Coull standard error of n identical outcomes [Agresti98], so a pixel
+ *     whose rays all agree cannot stop before floor(n) <= target (docs/truth.md, "Convergence");
+ *   - a pixel stops after min_samples once its error bar is <= target, or at max_samples;
  *   - a tile's active pixels trace each round as one rtcOccluded1M / rtcIntersect1M batch.
  *
  * References:
@@ -23,13 +29,18 @@
  *               "Building an Orthonormal Basis, Revisited", JCGT 6(1), 2017.
  *   [Kollig02]  T. Kollig, A. Keller, "Efficient Multidimensional Sampling", Computer Graphics
  *               Forum 21(3) (Eurographics 2002): the (0,2)-sequence (van der Corput, Sobol' dim 2).
- *   [Cranley76] R. Cranley, T. Patterson, "Randomization of Number Theoretic Methods for Multiple
- *               Integration", SIAM J. Numer. Anal. 13(6), 1976.
- *   [Welford62] B. P. Welford, "Note on a Method for Calculating Corrected Sums of Squares and
- *               Products", Technometrics 4(3), 1962.
- *   [Chan83]    T. F. Chan, G. H. Golub, R. J. LeVeque, "Algorithms for Computing the Sample
- *               Variance: Analysis and Recommendations", The American Statistician 37(3), 1983:
- *               merging (n, mean, M2) of two sets.
+ *   [LEcuyer02] P. L'Ecuyer, C. Lemieux, "Recent Advances in Randomized Quasi-Monte Carlo
+ *               Methods", in Modeling Uncertainty, Kluwer, 2002: randomised QMC, the random
+ *               digital shift (it preserves the net structure) and the variance estimate from
+ *               independent replicates of a randomised point set.
+ *   [Owen95]    A. B. Owen, "Randomly Permuted (t,m,s)-Nets and (t,s)-Sequences", Monte Carlo and
+ *               Quasi-Monte Carlo Methods in Scientific Computing, LNS 106, Springer, 1995.
+ *   [Burley20]  B. Burley, "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020.
+ *   [Laine11]   S. Laine, T. Karras, "Stratified Sampling for Stochastic Transparency", Computer
+ *               Graphics Forum 30(4) (EGSR 2011).
+ *   [Agresti98] A. Agresti, B. A. Coull, "Approximate Is Better than 'Exact' for Interval
+ *               Estimation of Binomial Proportions", The American Statistician 52(2), 1998: add
+ *               z^2/2 successes and z^2/2 failures.
  *   [Wachter19] C. Waechter, N. Binder, "A Fast and Robust Method for Avoiding Self-Intersection",
  *               Ray Tracing Gems, ch. 6, 2019: offsets measured in ulps of the coordinates.
  */
@@ -84,12 +95,21 @@ truth_ao_params truth_ao_params_default(void)
     p.min_samples = 64;
     p.max_samples = 4096;
     p.batch = 16;             /* 8x8 tile x 16 rays = one 1024-ray rtcOccluded1M call (build-notes.md) */
+    p.replicates = 8;         /* docs/truth.md, "Convergence": 7 degrees of freedom per error bar */
     p.seed = 0;
     p.normal = TRUTH_AO_NORMAL_GEOMETRIC;
     p.origin = TRUTH_AO_ORIGIN_GBUFFER;
     p.tile = 8;               /* build-notes.md: "a batch per 8x8 tile" was the fastest */
     p.offset_ulps = 64.0f;    /* docs/truth.md, "Self-intersection" */
     return p;
+}
+
+double truth_ao_error_floor(int64_t n)
+{
+    /* [Agresti98]: p~ = (k + z^2/2) / (n + z^2) at k = 0 (or n), se = sqrt(p~ (1 - p~) / (n + z^2)) */
+    const double z2 = TRUTH_AO_FLOOR_Z * TRUTH_AO_FLOOR_Z, nn = (double)(n > 0 ? n : 0) + z2;
+    const double pt = 0.5 * z2 / nn;
+    return sqrt(pt * (1.0 - pt) / nn);
 }
 
 const char *truth_ao_estimator_name(truth_ao_estimator e)
@@ -145,10 +165,9 @@ static uint32_t sobol2(uint32_t i)
 /* Local directions (z = the normal) of n samples (n a multiple of 4), 4 at a time with SSE2
  * (baseline x86-64: one code path on every machine, so results never depend on the CPU).
  *
- * Input: the samples' two coordinates in 32-bit fixed point, b0[i] + s0 and b1[i] + s1 (mod 2^32:
- * the Cranley-Patterson rotation done exactly [Cranley76]). Each is taken to the centre of its
- * 2^-25 cell of [-1, 1): ((u >> 7) | 1 - 2^24) / 2^24, an odd integer over 2^24, never 0 and
- * exact in float.
+ * Input: the samples' two coordinates in 32-bit fixed point, u0[i] and u1[i], already digitally
+ * shifted (pixel_points). Each is taken to the centre of its 2^-25 cell of [-1, 1):
+ * ((u >> 7) | 1 - 2^24) / 2^24, an odd integer over 2^24, never 0 and exact in float.
  *
  * Concentric map to the unit disk [Shirley97], in Shirley's two-case form: |a| > |b|: radius a,
  * angle (pi/4)(b/a); else radius b, angle pi/2 - (pi/4)(a/b). sin and cos on [-pi/4, pi/4] are
@@ -170,10 +189,8 @@ static inline __m128 fixed_to_signed_unit(__m128i u)
     return _mm_mul_ps(_mm_cvtepi32_ps(odd), _mm_set1_ps(0x1p-24f));
 }
 
-static void local_dirs(const uint32_t *b0, const uint32_t *b1, uint32_t s0, uint32_t s1, int n, int mode, float *lx,
-                       float *ly, float *lz)
+static void local_dirs(const uint32_t *u0, const uint32_t *u1, int n, int mode, float *lx, float *ly, float *lz)
 {
-    const __m128i vs0 = _mm_set1_epi32((int)s0), vs1 = _mm_set1_epi32((int)s1);
     const __m128 absmask = _mm_castsi128_ps(_mm_set1_epi32(0x7FFFFFFF));
     const __m128 one = _mm_set1_ps(1.0f), two = _mm_set1_ps(2.0f), pi4 = _mm_set1_ps(0.78539816339744831f);
     const __m128 c6 = _mm_set1_ps(1.0f / 6.0f), c20 = _mm_set1_ps(1.0f / 20.0f), c42 = _mm_set1_ps(1.0f / 42.0f),
@@ -181,8 +198,8 @@ static void local_dirs(const uint32_t *b0, const uint32_t *b1, uint32_t s0, uint
     const __m128 c2 = _mm_set1_ps(0.5f), c12 = _mm_set1_ps(1.0f / 12.0f), c30 = _mm_set1_ps(1.0f / 30.0f),
                  c56 = _mm_set1_ps(1.0f / 56.0f), c90 = _mm_set1_ps(1.0f / 90.0f);
     for (int i = 0; i < n; i += 4) {
-        __m128i ua = _mm_add_epi32(_mm_load_si128((const __m128i *)(b0 + i)), vs0);
-        __m128i ub = _mm_add_epi32(_mm_load_si128((const __m128i *)(b1 + i)), vs1);
+        __m128i ua = _mm_load_si128((const __m128i *)(u0 + i));
+        __m128i ub = _mm_load_si128((const __m128i *)(u1 + i));
         __m128 zsign = _mm_setzero_ps();
         if (mode == DIRS_SPHERE) {
             zsign = _mm_castsi128_ps(_mm_and_si128(ua, _mm_set1_epi32((int)0x80000000u)));
@@ -238,10 +255,12 @@ typedef struct px_state {
     float org[3];          /* hemisphere estimators: the offset origin; VOL: p itself */
     float t[3], b[3], n[3];
     uint64_t pixel;        /* inner pixel index y*W + x: the RNG key */
-    uint32_t shift[3];     /* Cranley-Patterson shift, 32-bit fixed point: Philox(pixel, 0, 0, seed) */
-    double mean[TRUTH_AO_MAX_OUTPUTS], m2[TRUTH_AO_MAX_OUTPUTS]; /* per output: running mean and sum of
-                           squared deviations of the samples */
-    int64_t count;         /* samples taken */
+    uint32_t shift[TRUTH_AO_MAX_REPLICATES][2]; /* per replicate: the Owen-scrambling seeds of the two
+                           base-2 coordinates: Philox(pixel, r, 0, seed) words 0, 1 */
+    uint64_t shift3[TRUTH_AO_MAX_REPLICATES]; /* per replicate (VOL): the base-3 digital shift, words 2,
+                           3 as one 64-bit number whose base-3 digits are the shifts */
+    double *acc;           /* nout x R sums of the sample values: acc[j R + r] (thread_scratch.acc) */
+    int64_t count;         /* samples taken (count / R per replicate) */
     int x, y;
     int state;             /* 1 surface, 0 background, -1 invalid normal */
 } px_state;
@@ -249,15 +268,18 @@ typedef struct px_state {
 typedef struct thread_scratch {
     _Alignas(64) px_state *px; /* 64-byte aligned, a multiple of 64 bytes: threads never share a cache line */
     int *active;
-    uint32_t *b0, *b1, *b2; /* the round's points of the sequence, B rounded up to 4 of each */
+    uint32_t *b0, *b1, *b2; /* the round's points of the sequence, B/R of them: b0, b1 its two base-2
+                               coordinates bit-reversed (b0 = the index), b2 the index (base 3) */
+    uint32_t *u0, *u1, *u2; /* one pixel's round, shifted: B rounded up to 4 of each (pixel_points) */
+    double *acc;           /* tile*tile pixels x nout x R replicate sums (px_state.acc) */
     float *lx, *ly, *lz;   /* local directions of one pixel's round */
     __m128 *d4;            /* world directions of one pixel's round, one (x, y, z, 0) per ray */
-    double *f;             /* one pixel's sample values */
     void *rays;            /* RTCRay or RTCRayHit, tile*tile*batch of them */
     /* per-thread counters, summed at the end (deterministic) */
     uint64_t rays_traced, primary_rays;
-    int64_t surface, background, invalid, converged, at_max;
-    double max_se, max_eps;
+    int64_t surface, background, invalid, at_max;
+    int64_t converged[TRUTH_AO_MAX_OUTPUTS]; /* per output: stopped with its error bar <= target */
+    double max_se[TRUTH_AO_MAX_OUTPUTS], max_eps;
 } thread_scratch;
 
 typedef struct ao_job {
@@ -285,7 +307,6 @@ typedef struct ao_job {
     const truth_ao_hooks *hooks;
     obs_vec3 eye;          /* perspective eye (world) */
     obs_vec3 cam_back;     /* camera +Z axis in world (orthographic VOL) */
-    double inv_r2;
     atomic_int_fast64_t tiles_done;
     atomic_uint_fast64_t rays_done;
 } ao_job;
@@ -359,8 +380,8 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->y = y;
     s->state = 0;
     s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
-    for (int j = 0; j < J->nout; j++)
-        s->mean[j] = s->m2[j] = 0.0;
+    for (int j = 0; j < J->nout * J->p.replicates; j++)
+        s->acc[j] = 0.0;
     s->count = 0;
     float depth = 0.0f;
     if (J->p.origin == TRUTH_AO_ORIGIN_GBUFFER) {
@@ -420,11 +441,13 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         return;
     }
     s->state = 1;
-    uint32_t w[4];
-    obs_rng_u32x4(s->pixel, 0, 0, J->p.seed, w);
-    s->shift[0] = w[0];
-    s->shift[1] = w[1];
-    s->shift[2] = w[2];
+    for (int r = 0; r < J->p.replicates; r++) {
+        uint32_t w[4];
+        obs_rng_u32x4(s->pixel, (uint64_t)r, 0, J->p.seed, w);
+        s->shift[r][0] = w[0];
+        s->shift[r][1] = w[1];
+        s->shift3[r] = ((uint64_t)w[3] << 32) | w[2];
+    }
     /* Self-intersection offset (docs/truth.md): eps = k 2^-24 m along the geometric normal, where
      * m bounds the magnitudes whose float rounding decides on which side of the surface's plane
      * Embree finds the origin: the point, the eye (the G-buffer depth is measured from it), and the
@@ -479,11 +502,62 @@ static inline uint32_t float_bits(float f)
     return u;
 }
 
+/* The base-3 radical inverse of idx with every one of its 20 digits shifted by the matching base-3
+ * digit of `shift`, mod 3: a base-3 random digital shift [LEcuyer02] (the base-2 XOR's analogue; it
+ * keeps van der Corput's stratification in base-3 intervals). 3^20 > 2^31 covers every index; a
+ * 64-bit shift taken mod 3^20 has digits uniform within 2e-10. As 32-bit fixed point. */
+static uint32_t radical_inverse3_shifted(uint32_t idx, uint64_t shift)
+{
+    uint64_t v = 0;
+    for (int k = 0; k < 20; k++) {
+        uint32_t d = idx % 3u, e = (uint32_t)(shift % 3u);
+        idx /= 3u;
+        shift /= 3u;
+        v = v * 3u + (d + e) % 3u;
+    }
+    return (uint32_t)((double)v * (4294967296.0 / 3486784401.0)); /* v / 3^20 * 2^32 < 2^32 */
+}
+
+/* Base-2 Owen scrambling of a coordinate given bit-reversed (its least significant digit first),
+ * [Burley20] with the Laine-Karras permutation [Laine11]: v + seed, then four x ^= x * c with even
+ * c. Each step changes a bit only as a function of the bits below it, so, read in the original
+ * bit order, every digit is permuted as a function of the digits before it: a nested (Owen)
+ * scramble, which keeps every (t,m,s)-net a net [Owen95]. For a uniform seed v + seed is uniform
+ * and the rest is a fixed bijection, so each scrambled point is exactly uniform on the 2^32 grid.
+ * The constants are [Burley20]'s listing. */
+static inline uint32_t owen_reversed(uint32_t v, uint32_t seed)
+{
+    v += seed;
+    v ^= v * 0x6c50b47cu;
+    v ^= v * 0xb82f1e52u;
+    v ^= v * 0xc7afe638u;
+    v ^= v * 0x8d22f6e6u;
+    return v;
+}
+
+/* One pixel's round of B samples, scrambled: ray k belongs to replicate r = k / (B/R) and takes
+ * point i = k mod (B/R) of the round's points (round * B/R + i of the sequence), Owen-scrambled
+ * with replicate r's two seeds (base 2) and digitally shifted with its base-3 shift. */
+static void pixel_points(const ao_job *J, thread_scratch *S, const px_state *s)
+{
+    const int B = J->p.batch, R = J->p.replicates, m = B / R, B4 = (B + 3) & ~3;
+    for (int r = 0, k = 0; r < R; r++)
+        for (int i = 0; i < m; i++, k++) {
+            S->u0[k] = bit_reverse32(owen_reversed(S->b0[i], s->shift[r][0]));
+            S->u1[k] = bit_reverse32(owen_reversed(S->b1[i], s->shift[r][1]));
+            if (J->ei.volume)
+                S->u2[k] = radical_inverse3_shifted(S->b2[i], s->shift3[r]);
+        }
+    for (int k = B; k < B4; k++) /* padding: its directions are computed, never traced */
+        S->u0[k] = S->u1[k] = S->u2[k] = 0u;
+}
+
 /* The B occlusion rays of one pixel's round: origin the offset point, tnear 0, tfar r. */
-static void gen_hemisphere_occ(const ao_job *J, const thread_scratch *S, const px_state *s, RTCRay *rays)
+static void gen_hemisphere_occ(const ao_job *J, thread_scratch *S, const px_state *s, RTCRay *rays)
 {
     const int B = J->p.batch, B4 = (B + 3) & ~3;
-    local_dirs(S->b0, S->b1, s->shift[0], s->shift[1], B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
+    pixel_points(J, S, s);
+    local_dirs(S->u0, S->u1, B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
     world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
     const __m128 org = _mm_setr_ps(s->org[0], s->org[1], s->org[2], 0.0f);
     const __m128 tail = _mm_castsi128_ps(_mm_setr_epi32((int)float_bits(J->p.radius), -1, 0, 0)); /* tfar, mask, id, flags */
@@ -496,10 +570,11 @@ static void gen_hemisphere_occ(const ao_job *J, const thread_scratch *S, const p
 }
 
 /* The same rays with a hit record, for the hit-distance estimators. */
-static void gen_hemisphere_hit(const ao_job *J, const thread_scratch *S, const px_state *s, RTCRayHit *rays)
+static void gen_hemisphere_hit(const ao_job *J, thread_scratch *S, const px_state *s, RTCRayHit *rays)
 {
     const int B = J->p.batch, B4 = (B + 3) & ~3;
-    local_dirs(S->b0, S->b1, s->shift[0], s->shift[1], B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
+    pixel_points(J, S, s);
+    local_dirs(S->u0, S->u1, B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
     world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
     const __m128 org = _mm_setr_ps(s->org[0], s->org[1], s->org[2], 0.0f);
     const __m128 tail = _mm_castsi128_ps(_mm_setr_epi32((int)float_bits(J->p.radius), -1, 0, 0));
@@ -518,17 +593,18 @@ static void gen_hemisphere_hit(const ao_job *J, const thread_scratch *S, const p
 
 /* VOL: q = p + r cbrt(u3) w, w uniform on the sphere (DIRS_SPHERE), and the segment from the
  * eye (orthographic: from q's foot on the view plane) to q, as t in [0, 1]. */
-static void gen_volume(const ao_job *J, const thread_scratch *S, const px_state *s, RTCRay *rays)
+static void gen_volume(const ao_job *J, thread_scratch *S, const px_state *s, RTCRay *rays)
 {
     const int B = J->p.batch, B4 = (B + 3) & ~3;
-    local_dirs(S->b0, S->b1, s->shift[0], s->shift[1], B4, DIRS_SPHERE, S->lx, S->ly, S->lz);
+    pixel_points(J, S, s);
+    local_dirs(S->u0, S->u1, B4, DIRS_SPHERE, S->lx, S->ly, S->lz);
     world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
     const float R = J->p.radius;
     const int persp = J->cam->projection == OBS_PROJECTION_PERSPECTIVE;
     for (int i = 0; i < B; i++) {
         float d[4];
         _mm_storeu_ps(d, S->d4[i]);
-        uint32_t c = S->b2[i] + s->shift[2];
+        uint32_t c = S->u2[i];
         float rad = R * cbrtf(((float)(c >> 8) + 0.5f) * 0x1p-24f);
         float qx = s->org[0] + rad * d[0], qy = s->org[1] + rad * d[1], qz = s->org[2] + rad * d[2];
         RTCRay *r = &rays[i];
@@ -576,7 +652,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
 {
     int x0, y0, x1, y1;
     obs_tiling_rect(&J->tiling, tile, &x0, &y0, &x1, &y1);
-    const int B = J->p.batch;
+    const int B = J->p.batch, R = J->p.replicates, m = B / R;
     {
         /* The tile's rows in the G-buffer and output planes are strided: ask for all their cache
          * lines at once, so that the misses overlap instead of queueing pixel by pixel. */
@@ -638,19 +714,18 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
     struct RTCIntersectContext ictx;
     rtcInitIntersectContext(&ictx); /* RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT, the default (build-notes.md) */
     const int hit_distance = J->ei.hit_distance || J->multi_hit;
-    const double inv_r2 = J->inv_r2;
     const int64_t max_n = J->p.max_samples, min_n = J->p.min_samples;
     uint64_t tile_rays = 0;
     for (int64_t round = 0; nactive > 0; round++) {
-        /* this round's B points of the sequence, shared by the tile's pixels (each shifts them):
-         * (van der Corput base 2, Sobol' dim 2) is a (0,2)-sequence [Kollig02]; the third
-         * coordinate (VOL's radius) is van der Corput base 3. The padding up to 4 is never used. */
-        const int B4 = (B + 3) & ~3;
-        for (int i = 0; i < B4; i++) {
-            uint32_t idx = (uint32_t)(round * B + i);
-            S->b0[i] = bit_reverse32(idx);
-            S->b1[i] = sobol2(idx);
-            S->b2[i] = J->ei.volume ? (uint32_t)(obs_radical_inverse(3, idx) * 4294967296.0) : 0u;
+        /* this round's B/R points of the sequence, shared by the tile's pixels and replicates
+         * (each shifts them): (van der Corput base 2, Sobol' dim 2) is a (0,2)-sequence
+         * [Kollig02]; the third coordinate (VOL's radius) is van der Corput base 3, kept as the
+         * index here and shifted digit by digit in pixel_points. */
+        for (int i = 0; i < m; i++) {
+            uint32_t idx = (uint32_t)(round * m + i);
+            S->b0[i] = idx;                       /* van der Corput, bit-reversed back */
+            S->b1[i] = bit_reverse32(sobol2(idx)); /* Sobol' dim 2, bit-reversed */
+            S->b2[i] = idx;
         }
         int nr = 0;
         for (int a = 0; a < nactive; a++) {
@@ -674,109 +749,74 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         int kept = 0;
         for (int a = 0; a < nactive; a++) {
             px_state *s = &S->px[S->active[a]];
-            double *f = S->f;
-            double mb, m2b;
-            if (J->multi_hit) {
-                /* several outputs from the same rays, traced to the largest radius: the closest hit
-                 * within r_max is the closest within any r <= r_max when t <= r, so each output is
-                 * computed exactly as its own single-output run would from these rays */
-                const RTCRayHit *h = (const RTCRayHit *)S->rays + (size_t)a * B;
-                double na = (double)s->count, n = na + B, worst = 0.0;
-                for (int j = 0; j < J->nout; j++) {
-                    const float rj = J->radii[j];
-                    if (J->binary[j]) {
-                        int k = 0;
-                        for (int i = 0; i < B; i++)
-                            k += h[i].hit.geomID == RTC_INVALID_GEOMETRY_ID || h[i].ray.tfar > rj;
-                        mb = (double)k / B;
-                        m2b = (double)k * (double)(B - k) / B;
-                    } else {
-                        double sum = 0.0;
-                        for (int i = 0; i < B; i++) {
-                            double v = 1.0;
-                            if (h[i].hit.geomID != RTC_INVALID_GEOMETRY_ID && h[i].ray.tfar <= rj) {
-                                double dd = (double)h[i].ray.tfar;
-                                v = 1.0 - falloff(J->fk[j], dd * dd * J->inv_r2s[j]);
-                            }
-                            f[i] = v;
-                            sum += v;
-                        }
-                        mb = sum / B;
-                        m2b = 0.0;
-                        for (int i = 0; i < B; i++)
-                            m2b += (f[i] - mb) * (f[i] - mb);
-                    }
-                    double delta = mb - s->mean[j];
-                    s->mean[j] += delta * (B / n);
-                    s->m2[j] += m2b + delta * delta * (na * B / n);
-                    double sej = sqrt(s->m2[j] / (n - 1.0) / n);
-                    worst = sej > worst ? sej : worst;
-                }
-                s->count += B;
-                int done_max = s->count >= max_n;
-                int done_target = s->count >= min_n && worst <= J->p.target_error;
-                if (done_max || done_target) {
-                    for (int j = 0; j < J->nout; j++) {
-                        double mean = s->mean[j] < 0.0 ? 0.0 : s->mean[j] > 1.0 ? 1.0 : s->mean[j];
-                        obs_image_f32_row(&J->outs[j].mean, s->y)[s->x] = (float)mean;
-                        obs_image_f32_row(&J->outs[j].std_error, s->y)[s->x] = (float)sqrt(s->m2[j] / (n - 1.0) / n);
-                        obs_image_f32_row(&J->outs[j].count, s->y)[s->x] = (float)s->count;
-                    }
-                    S->surface++;
-                    S->converged += worst <= J->p.target_error;
-                    S->at_max += done_max;
-                    S->max_se = worst > S->max_se ? worst : S->max_se;
-                } else {
-                    S->active[kept++] = S->active[a];
-                }
-                continue;
-            }
+            /* Each output's sample values, summed per replicate (ray k is replicate k / m's).
+             * Occlusion rays (binary estimators alone; VOL): 1 where unoccluded (Embree marks an
+             * occluded ray with tfar = -inf). Hit records: the closest hit within the output's
+             * radius r_j (rays go to the largest radius; the closest hit within r_max is the
+             * closest within r_j when t <= r_j, so each output gets exactly the values its own
+             * single run would), then [t > r_j] or 1 - rho(t^2 / r_j^2). */
             if (hit_distance) {
                 const RTCRayHit *h = (const RTCRayHit *)S->rays + (size_t)a * B;
-                for (int i = 0; i < B; i++) {
-                    double v = 1.0;
-                    if (h[i].hit.geomID != RTC_INVALID_GEOMETRY_ID) {
-                        double dd = (double)h[i].ray.tfar; /* unit directions: the hit distance */
-                        v = 1.0 - falloff(J->ei.falloff, dd * dd * inv_r2);
+                for (int j = 0; j < J->nout; j++) {
+                    const float rj = J->radii[j];
+                    double *acc = s->acc + (size_t)j * R;
+                    for (int r = 0; r < R; r++) {
+                        double sum = 0.0;
+                        for (int i = r * m; i < r * m + m; i++) {
+                            const int hit = h[i].hit.geomID != RTC_INVALID_GEOMETRY_ID && h[i].ray.tfar <= rj;
+                            if (J->binary[j]) {
+                                sum += hit ? 0.0 : 1.0;
+                            } else if (hit) {
+                                double dd = (double)h[i].ray.tfar; /* unit directions: the hit distance */
+                                sum += 1.0 - falloff(J->fk[j], dd * dd * J->inv_r2s[j]);
+                            } else {
+                                sum += 1.0;
+                            }
+                        }
+                        acc[r] += sum;
                     }
-                    f[i] = v;
                 }
-                /* the round's mean and M2, two passes */
-                double sum = 0.0;
-                for (int i = 0; i < B; i++)
-                    sum += f[i];
-                mb = sum / B;
-                m2b = 0.0;
-                for (int i = 0; i < B; i++)
-                    m2b += (f[i] - mb) * (f[i] - mb);
             } else {
-                /* binary: k of the B rays are unoccluded (Embree marks an occluded ray with tfar = -inf);
-                 * mean k/B and M2 = k (B - k) / B, exactly */
-                const RTCRay *r = (const RTCRay *)S->rays + (size_t)a * B;
-                int k = 0;
-                for (int i = 0; i < B; i++)
-                    k += r[i].tfar != -INFINITY;
-                mb = (double)k / B;
-                m2b = (double)k * (double)(B - k) / B;
+                const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
+                for (int r = 0; r < R; r++) {
+                    int k = 0;
+                    for (int i = r * m; i < r * m + m; i++)
+                        k += ry[i].tfar != -INFINITY;
+                    s->acc[r] += (double)k;
+                }
             }
-            /* merged into the pixel's running mean and M2 [Welford62, Chan83] */
-            double na = (double)s->count, n = na + B, delta = mb - s->mean[0];
-            s->mean[0] += delta * (B / n);
-            s->m2[0] += m2b + delta * delta * (na * B / n);
             s->count += B;
-            double se = sqrt(s->m2[0] / (n - 1.0) / n);
-            int done_max = s->count >= max_n;
-            int done_target = s->count >= min_n && se <= J->p.target_error;
+            /* Per output: the mean of the replicates' means, their spread s_R [LEcuyer02] and the
+             * error bar max(s_R, floor(n)) [Agresti98]; the pixel stops when every output's bar is
+             * within the target (after min_samples), or at max_samples. */
+            const double n = (double)s->count, mr = n / R, fl = truth_ao_error_floor(s->count);
+            double mean[TRUTH_AO_MAX_OUTPUTS], bar[TRUTH_AO_MAX_OUTPUTS], worst = 0.0;
+            for (int j = 0; j < J->nout; j++) {
+                const double *acc = s->acc + (size_t)j * R;
+                double tot = 0.0;
+                for (int r = 0; r < R; r++)
+                    tot += acc[r];
+                const double mj = tot / n;
+                double ss = 0.0;
+                for (int r = 0; r < R; r++)
+                    ss += (acc[r] / mr - mj) * (acc[r] / mr - mj);
+                const double se = sqrt(ss / ((double)R * (double)(R - 1)));
+                mean[j] = mj < 0.0 ? 0.0 : mj > 1.0 ? 1.0 : mj;
+                bar[j] = se > fl ? se : fl;
+                worst = bar[j] > worst ? bar[j] : worst;
+            }
+            const int done_max = s->count >= max_n;
+            const int done_target = s->count >= min_n && worst <= J->p.target_error;
             if (done_max || done_target) {
-                int oi = s->y, ox = s->x;
-                double mean = s->mean[0] < 0.0 ? 0.0 : s->mean[0] > 1.0 ? 1.0 : s->mean[0];
-                obs_image_f32_row(&J->out->mean, oi)[ox] = (float)mean;
-                obs_image_f32_row(&J->out->std_error, oi)[ox] = (float)se;
-                obs_image_f32_row(&J->out->count, oi)[ox] = (float)s->count;
+                for (int j = 0; j < J->nout; j++) {
+                    obs_image_f32_row(&J->outs[j].mean, s->y)[s->x] = (float)mean[j];
+                    obs_image_f32_row(&J->outs[j].std_error, s->y)[s->x] = (float)bar[j];
+                    obs_image_f32_row(&J->outs[j].count, s->y)[s->x] = (float)s->count;
+                    S->converged[j] += bar[j] <= J->p.target_error;
+                    S->max_se[j] = bar[j] > S->max_se[j] ? bar[j] : S->max_se[j];
+                }
                 S->surface++;
-                S->converged += se <= J->p.target_error;
                 S->at_max += done_max;
-                S->max_se = se > S->max_se ? se : S->max_se;
             } else {
                 S->active[kept++] = S->active[a];
             }
@@ -877,6 +917,9 @@ static obs_status validate(obs_context *ctx, const truth_scene *ts, const obs_sc
         BAD("truth_ao_render: target error %g must be finite and >= 0", p->target_error);
     if (p->batch < 2 || p->batch > 1024)
         BAD("truth_ao_render: batch %d must be in [2, 1024]", p->batch);
+    if (p->replicates < 2 || p->replicates > TRUTH_AO_MAX_REPLICATES || p->batch % p->replicates)
+        BAD("truth_ao_render: replicates %d must be in [2, %d] and divide the batch (%d)", p->replicates,
+            TRUTH_AO_MAX_REPLICATES, p->batch);
     if (p->min_samples < p->batch || p->min_samples % p->batch)
         BAD("truth_ao_render: min samples %lld must be a positive multiple of the batch (%d)", (long long)p->min_samples,
             p->batch);
@@ -954,6 +997,9 @@ obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_s
     truth_ao_params q = *p;
     q.estimator = outputs[0].estimator;
     q.radius = outputs[0].radius;
+    if (count > 1) /* the shared rays' parameters: the family's binary estimator, which accepts any
+                      radius (the largest output radius is taken below), whatever the outputs' order */
+        q.estimator = k_est[outputs[0].estimator].cosine ? TRUTH_AO_COS : TRUTH_AO_UNIF;
     for (int j = 0; j < count; j++) {
         const truth_ao_output *o = &outputs[j];
         if ((unsigned)o->estimator >= TRUTH_AO_COUNT)
@@ -974,7 +1020,8 @@ obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_s
     return render_outputs(ctx, pool, ts, scene, camera, gb, &q, outputs, count, out, NULL);
 }
 
-/* p->radius is the largest output radius (the rays' tfar), p->estimator the first output's. */
+/* p->radius is the largest output radius (the rays' tfar); p->estimator the single output's, or
+ * for several outputs (hit records, multi_hit) the binary estimator of their direction family. */
 static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                                  const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
                                  const truth_ao_output *outputs, int nout, truth_ao_result *outs,
@@ -1000,7 +1047,6 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     J->W = gb->width - 2 * gb->guard;
     J->H = gb->height - 2 * gb->guard;
     J->tiling = obs_tiling_make(J->W, J->H, p->tile);
-    J->inv_r2 = isinf(p->radius) ? 0.0 : 1.0 / ((double)p->radius * (double)p->radius);
     J->outs = outs;
     J->nout = nout;
     J->multi_hit = nout > 1;
@@ -1052,10 +1098,17 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         S->ly = (float *)obs_aligned_alloc(sizeof(float) * B4);
         S->lz = (float *)obs_aligned_alloc(sizeof(float) * B4);
         S->d4 = (__m128 *)obs_aligned_alloc(sizeof(__m128) * B4);
-        S->f = (double *)malloc(sizeof(double) * (size_t)p->batch);
+        S->u0 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        S->u1 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        S->u2 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        const size_t per_px = (size_t)nout * (size_t)p->replicates;
+        S->acc = (double *)obs_aligned_alloc(sizeof(double) * tile_px * per_px);
         if (!S->px || !S->active || !S->rays || !S->b0 || !S->b1 || !S->b2 || !S->lx || !S->ly || !S->lz || !S->d4 ||
-            !S->f)
+            !S->u0 || !S->u1 || !S->u2 || !S->acc)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
+        else
+            for (size_t k = 0; k < tile_px; k++)
+                S->px[k].acc = S->acc + k * per_px;
     }
     if (st != OBS_STATUS_OK)
         goto done;
@@ -1114,15 +1167,22 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         stt->pixels_surface += S->surface;
         stt->pixels_background += S->background;
         stt->pixels_invalid += S->invalid;
-        stt->pixels_converged += S->converged;
         stt->pixels_at_max += S->at_max;
-        stt->max_std_error = S->max_se > stt->max_std_error ? S->max_se : stt->max_std_error;
         stt->max_offset = S->max_eps > stt->max_offset ? S->max_eps : stt->max_offset;
     }
     stt->seconds = obs_time_now() - t0;
     stt->seconds_work = t_work;
-    for (int j = 1; j < nout; j++)
-        outs[j].stats = *stt; /* one ray set: the same counters */
+    for (int j = 0; j < nout; j++) {
+        if (j > 0)
+            outs[j].stats = *stt; /* one ray set: the same counters ... */
+        truth_ao_stats *sj = &outs[j].stats;
+        sj->pixels_converged = 0; /* ... but each output's own convergence and error bars */
+        sj->max_std_error = 0.0;
+        for (int t = 0; t < threads; t++) {
+            sj->pixels_converged += J->scratch[t].converged[j];
+            sj->max_std_error = J->scratch[t].max_se[j] > sj->max_std_error ? J->scratch[t].max_se[j] : sj->max_std_error;
+        }
+    }
 
 done:
     if (J->scratch)
@@ -1137,7 +1197,10 @@ done:
             obs_aligned_free(J->scratch[t].ly);
             obs_aligned_free(J->scratch[t].lz);
             obs_aligned_free(J->scratch[t].d4);
-            free(J->scratch[t].f);
+            obs_aligned_free(J->scratch[t].u0);
+            obs_aligned_free(J->scratch[t].u1);
+            obs_aligned_free(J->scratch[t].u2);
+            obs_aligned_free(J->scratch[t].acc);
         }
     obs_aligned_free(J->scratch);
     free(J->inst_norm);
