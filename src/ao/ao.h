@@ -941,8 +941,8 @@ int ao_hbao_simd_available(void);
  * SIGGRAPH 2012) as PostProcessAmbientOcclusion.usf computes it (UE 4.11/4.12 era, Copyright
  * 1998-2016; read in JimmieKJ/unrealTournament @ 89cfe56, with the constant setup of
  * PostProcessAmbientOcclusion.h/.cpp and the random texture of SystemTextures.cpp): the
- * full-resolution pass, and optionally UE's multi-resolution chain (levels 2, 3: AO setup levels and
- * MipBlend with the upsampled coarser AO). docs/ao/ue4.md has every detail.
+ * full-resolution pass and UE's multi-resolution chain (levels 2, the default as at quality 50, and 3:
+ * AO setup levels and MipBlend with the upsampled coarser AO). docs/ao/ue4.md has every detail.
  *
  * The kernel runs in UE's scene units (1 unit = 1 cm): depths are multiplied by
  * AO_UE4_UNITS_PER_METRE, so the shader's unit-bearing constants (FlatSurfaceBias 5, the anti-halo
@@ -960,7 +960,7 @@ int ao_hbao_simd_available(void);
 #define AO_UE4_DEFAULT_DISTANCE 0.8f        /* m, > 0; AmbientOcclusionDistance_DEPRECATED 80 (anti-halo, no-normal path) */
 #define AO_UE4_DEFAULT_FADE_DISTANCE 80.0f  /* m, >= 0; AmbientOcclusionFadeDistance 8000 */
 #define AO_UE4_DEFAULT_FADE_RADIUS 50.0f    /* m, >= 0.01 (C++ max(1 uu, .)); AmbientOcclusionFadeRadius 5000 */
-#define AO_UE4_DEFAULT_MIP_SCALE 1.7f       /* AmbientOcclusionMipScale 1.7 (radius factor per level; one level here) */
+#define AO_UE4_DEFAULT_MIP_SCALE 1.7f       /* AmbientOcclusionMipScale 1.7 (radius factor per level) */
 #define AO_UE4_DEFAULT_SAMPLE_SET 1         /* USE_SAMPLESET at SHADER_QUALITY 2 (AmbientOcclusionQuality 50) */
 #define AO_UE4_DEFAULT_STEPS 2              /* SAMPLE_STEPS at SHADER_QUALITY 2 */
 #define AO_UE4_DEFAULT_QUAD_BLUR 2          /* QUAD_MESSAGE_PASSING_BLUR at SHADER_QUALITY 2 */
@@ -968,7 +968,7 @@ int ao_hbao_simd_available(void);
 #define AO_UE4_CONTRAST_TWEAK 0.9f          /* acosApproxNormAngle "ContrastTweak = 0.9f" */
 #define AO_UE4_MAX_STEPS 8
 #define AO_UE4_MAX_LEVELS 3                 /* r.AmbientOcclusionLevels range (min(., 3) in the C++) */
-#define AO_UE4_DEFAULT_MIP_BLEND 0.6f       /* AmbientOcclusionMipBlend 0.6 (multi-resolution option) */
+#define AO_UE4_DEFAULT_MIP_BLEND 0.6f       /* AmbientOcclusionMipBlend 0.6 (levels > 1) */
 #define AO_UE4_MAX_DEPTH_M 1.0e5f           /* depths (and background taps) are clamped to 100 km */
 
 typedef enum ao_ue4_normals {
@@ -980,11 +980,19 @@ typedef enum ao_ue4_normals {
 } ao_ue4_normals;
 
 typedef enum ao_ue4_variant {
-    AO_UE4_VARIANT_CLASSIC = 0,     /* OPTIMIZATION_O1 0: saturate(dot(D, n)/|D|), halo weights (default) */
-    AO_UE4_VARIANT_O1,              /* OPTIMIZATION_O1 1 (what UE 4.9+ compiles): saturate(dot(D, n *
-                                       0.08 * lerp(z, 1000, ws))/dot(D, D)), weight 1 */
+    AO_UE4_VARIANT_CLASSIC = 0,     /* "classic-reconstruction": OPTIMIZATION_O1 0, saturate(dot(D, n)/|D|)
+                                       with halo weights. UE never ran it (the shader defines
+                                       OPTIMIZATION_O1 1; in the 2016 text its InvHaloSize zeroes every
+                                       weight): our reconstruction, with our InvHaloSize (docs/ao/ue4.md,
+                                       difference 2) */
+    AO_UE4_VARIANT_O1,              /* "o1", the default: OPTIMIZATION_O1 1 (what UE 4.9+ compiles):
+                                       saturate(dot(D, n * 0.08 * lerp(z, 1000, ws))/dot(D, D)), weight 1 */
     AO_UE4_VARIANT_COUNT
 } ao_ue4_variant;
+
+#define AO_UE4_DEFAULT_VARIANT AO_UE4_VARIANT_O1 /* PostProcessAmbientOcclusion.usf "#define OPTIMIZATION_O1 1" (UE 4.9+) */
+#define AO_UE4_DEFAULT_LEVELS 2             /* [1, 3]; r.AmbientOcclusionLevels -1 -> ComputeAmbientOcclusionPassCount
+                                               1 + (q > 70) + (q > 35) at AmbientOcclusionQuality q = 50 */
 
 typedef struct ao_ue4_params {
     ao_ue4_variant variant;
@@ -1003,21 +1011,25 @@ typedef struct ao_ue4_params {
     int quad_blur;          /* QUAD_MESSAGE_PASSING_BLUR 0..3 (the 2x2 ddx/ddy blur) */
     int blur;               /* 1: the seed thesis' 21-tap Gaussian (ao_blur_gaussian21) afterwards */
     int levels;             /* resolution levels, [1, AO_UE4_MAX_LEVELS]: 1 = the full-resolution pass
-                               alone (default); 2, 3 = UE's multi-resolution chain (AO setup levels at
-                               1/2, 1/4, each blended with the upsampled coarser one by MipBlend) */
+                               alone; 2 (default, AO_UE4_DEFAULT_LEVELS), 3 = UE's multi-resolution chain
+                               (AO setup levels at 1/2, 1/4, each blended with the upsampled coarser
+                               one by MipBlend; simplified: docs/ao/ue4.md, difference 3) */
     float mip_blend;        /* AmbientOcclusionMipBlend, [0, 1] (levels > 1) */
     float mip_scale;        /* AmbientOcclusionMipScale, radius factor per level, (0, 16] (levels > 1) */
 } ao_ue4_params;
 
-/* UE4's defaults (AO_UE4_DEFAULT_*): quality 50 (set 1, 2 steps, quad blur 2), classic variant,
- * G-buffer normals, Gaussian blur off. */
+/* UE4's defaults (AO_UE4_DEFAULT_*), what UE 4.9+ runs at AmbientOcclusionQuality 50: set 1, 2 steps,
+ * quad blur 2, 2 levels, OPTIMIZATION_O1 1, G-buffer normals, Gaussian blur off. */
 ao_ue4_params ao_ue4_params_default(void);
 
-/* Presets: "default" and "ue4" (ao_ue4_params_default()); "ue4-multires" (the same with 2 levels, what
- * ComputeAmbientOcclusionPassCount gives for AmbientOcclusionQuality 50); "ue4-o1" (the same with OPTIMIZATION_O1,
- * as UE 4.9+ ships); "thesis" (ssao-thesis-2017 Table 3: r = 0.05, 8 samples; read as the shader
- * radius AORadiusInShader = 0.05 in view-space mode, i.e. radius 0.8 m; 8 samples -> set 1 x 2 steps,
- * Gaussian blur on: docs/ao/ue4.md); "quality-0" .. "quality-4" (SHADER_QUALITY 0..4). */
+/* Presets: "default" = "ue4" (ao_ue4_params_default(): UE 4.9+ at quality 50, O1, 2 levels);
+ * "ue4-o1" and "ue4-multires" (the same as "ue4", names kept from before the default was O1 with
+ * 2 levels); "ue4-one-level" (the full-resolution pass alone, as a one-pass shader port runs it);
+ * "classic-reconstruction" (our reconstruction of the OPTIMIZATION_O1 0 branch UE never ran, one
+ * level: the default before issue 12); "thesis" (ssao-thesis-2017 Table 3: r = 0.05, 8 samples; read
+ * as the shader radius AORadiusInShader = 0.05 in view-space mode, i.e. radius 0.8 m; 8 samples ->
+ * set 1 x 2 steps, Gaussian blur on: docs/ao/ue4.md); "quality-0" .. "quality-4" (SHADER_QUALITY
+ * 0..4 with the levels of a representative AmbientOcclusionQuality: 1, 1, 2, 2, 3). */
 int ao_ue4_params_preset(const char *name, ao_ue4_params *out);
 const char *const *ao_ue4_preset_names(void);
 

@@ -1,9 +1,10 @@
 /* ao_ue4.c: Unreal Engine 4's screen-space ambient occlusion [Mittring12]: the passes of
- * PostProcessAmbientOcclusion.usf (the full-resolution pass; optionally the AO setup levels and the
- * coarse passes of the multi-resolution chain) (UE 4.11/4.12, Copyright 1998-2016; read in
- * JimmieKJ/unrealTournament @ 89cfe56 Engine/Shaders/PostProcessAmbientOcclusion.usf), with the
- * constant block of FScreenSpaceAOandSSRShaderParameters::Set (PostProcessAmbientOcclusion.h) and
- * the 4x4 SSAORandomization texture of FSystemTextures::InitializeTextures (SystemTextures.cpp).
+ * PostProcessAmbientOcclusion.usf (the full-resolution pass, and the AO setup levels and the coarse
+ * passes of the multi-resolution chain: 2 levels by default, as at quality 50) (UE 4.11/4.12,
+ * Copyright 1998-2016; read in JimmieKJ/unrealTournament @ 89cfe56
+ * Engine/Shaders/PostProcessAmbientOcclusion.usf), with the constant block of
+ * FScreenSpaceAOandSSRShaderParameters::Set (PostProcessAmbientOcclusion.h) and the 4x4
+ * SSAORandomization texture of FSystemTextures::InitializeTextures (SystemTextures.cpp).
  *
  * Pixel convention: UE4 is D3D. SV_Position has y DOWN from the top of the render target, which is
  * our row order, so the 4x4 noise texel and the 2x2 quads of the quad blur use (x, y) of the full
@@ -18,9 +19,11 @@
  * lerp(a, b, t) is a + t * (b - a), rsqrt is 1/sqrtf, pow is powf, saturate maps NaN to 0 (D3D).
  * Deviations from the shader (each also in docs/ao/ue4.md, "Differences from the reference"):
  *   - taps read the full-resolution depth at the nearest texel, not the HZB at MipLevel;
- *   - the classic path's InvHaloSize is 1 / (2 ActualAORadius) (view-space units, as |Delta|);
- *   - the multi-resolution option (levels > 1) keeps the setup in float32 (UE: FP16 setup, 8-bit
- *     coarse AO) and builds each setup level from the previous one;
+ *   - the classic path (variant "classic-reconstruction", which UE never ran: the shader defines
+ *     OPTIMIZATION_O1 1, our default) uses InvHaloSize = 1 / (2 ActualAORadius) (view-space units,
+ *     as |Delta|);
+ *   - the multi-resolution chain (levels > 1; the default 2) keeps the setup in float32 (UE: FP16
+ *     setup, 8-bit coarse AO) and builds each setup level from the previous one;
  *   - background, zero normals and depths beyond AO_UE4_MAX_DEPTH_M are handled explicitly;
  *   - the result is saturated (UE writes a UNORM target) but not quantised to 8 bits.
  *
@@ -46,7 +49,7 @@ ao_ue4_params ao_ue4_params_default(void)
 {
     ao_ue4_params p;
     memset(&p, 0, sizeof p);
-    p.variant = AO_UE4_VARIANT_CLASSIC;   /* issue 4 asks for the classic (weighted) path */
+    p.variant = AO_UE4_DEFAULT_VARIANT;   /* OPTIMIZATION_O1 1: what UE ran (issue 12) */
     p.normals = AO_UE4_NORMALS_GBUFFER;   /* SSAO_NORMAL_MODE 1 (pixel shader default) */
     p.radius = AO_UE4_DEFAULT_RADIUS;
     p.radius_in_ws = AO_UE4_DEFAULT_RADIUS_IN_WS;
@@ -60,35 +63,45 @@ ao_ue4_params ao_ue4_params_default(void)
     p.steps = AO_UE4_DEFAULT_STEPS;
     p.quad_blur = AO_UE4_DEFAULT_QUAD_BLUR;
     p.blur = 0;
-    p.levels = 1;
+    p.levels = AO_UE4_DEFAULT_LEVELS;     /* 2 at quality 50, with our chain's simplifications */
     p.mip_blend = AO_UE4_DEFAULT_MIP_BLEND;
     p.mip_scale = AO_UE4_DEFAULT_MIP_SCALE;
     return p;
 }
 
-static const char *const preset_names[] = {"default",   "ue4",       "ue4-o1",    "ue4-multires", "thesis",
-                                           "quality-0", "quality-1", "quality-2", "quality-3",    "quality-4",
-                                           NULL};
+static const char *const preset_names[] = {"default",   "ue4",       "ue4-o1",    "ue4-multires", "ue4-one-level",
+                                           "classic-reconstruction", "thesis", "quality-0", "quality-1",
+                                           "quality-2", "quality-3", "quality-4", NULL};
 
 const char *const *ao_ue4_preset_names(void) { return preset_names; }
 
 /* PostProcessAmbientOcclusion.usf: SHADER_QUALITY -> USE_SAMPLESET, SAMPLE_STEPS,
- * QUAD_MESSAGE_PASSING_BLUR; the C++ maps AmbientOcclusionQuality q to
- * (q > 75) + (q > 55) + (q > 25) + (q > 5) (FSSAOHelper::GetAmbientOcclusionShaderLevel). */
-static const int quality_table[5][3] = {{1, 1, 0}, {1, 1, 2}, {1, 2, 2}, {1, 3, 0}, {3, 3, 0}};
+ * QUAD_MESSAGE_PASSING_BLUR; the C++ maps AmbientOcclusionQuality q to the shader level
+ * (q > 75) + (q > 55) + (q > 25) + (q > 5) (FSSAOHelper::GetAmbientOcclusionShaderLevel) and,
+ * separately, to the number of levels 1 + (q > 70) + (q > 35) (ComputeAmbientOcclusionPassCount).
+ * The levels are not a function of the shader level: the fourth column is the count at a
+ * representative q of the row (0, 25, 50 = the default, 60, 100); shader level 2 runs 1 level for
+ * q in (25, 35], level 3 runs 3 for q in (70, 75] (docs/ao/ue4.md). */
+static const int quality_table[5][4] = {{1, 1, 0, 1}, {1, 1, 2, 1}, {1, 2, 2, 2}, {1, 3, 0, 2}, {3, 3, 0, 3}};
 
 int ao_ue4_params_preset(const char *name, ao_ue4_params *out)
 {
     if (!name || !out)
         return 0;
     ao_ue4_params p = ao_ue4_params_default();
-    if (!strcmp(name, "default") || !strcmp(name, "ue4")) {
-        /* FPostProcessSettings defaults */
-    } else if (!strcmp(name, "ue4-multires")) {
-        /* FSSAOHelper::ComputeAmbientOcclusionPassCount: 1 + (q > 70) + (q > 35) = 2 at q = 50 */
-        p.levels = 2;
-    } else if (!strcmp(name, "ue4-o1")) {
-        p.variant = AO_UE4_VARIANT_O1; /* "#define OPTIMIZATION_O1 1" in the 4.9+ shader */
+    if (!strcmp(name, "default") || !strcmp(name, "ue4") || !strcmp(name, "ue4-o1") ||
+        !strcmp(name, "ue4-multires")) {
+        /* FPostProcessSettings defaults, OPTIMIZATION_O1 1, 2 levels at quality 50. "ue4-o1" and
+         * "ue4-multires" named these two choices when the default was neither; they are kept as
+         * names of the same, now default, settings. */
+    } else if (!strcmp(name, "ue4-one-level")) {
+        p.levels = 1; /* r.AmbientOcclusionLevels 1: the full-resolution pass alone */
+    } else if (!strcmp(name, "classic-reconstruction")) {
+        /* Our reconstruction of the OPTIMIZATION_O1 0 branch, which UE never ran (its 2016
+         * InvHaloSize zeroes every weight; we use 1 / (2 ActualAORadius)), on one level: the
+         * default before issue 12, kept so that older results can be reproduced. */
+        p.variant = AO_UE4_VARIANT_CLASSIC;
+        p.levels = 1;
     } else if (!strcmp(name, "thesis")) {
         /* ssao-thesis-2017, Tabla 3: "Unreal Engine AO  Radio(m) 0,05  Muestras 8". The thesis has no
          * UE4 code; it says UE4 "provee mayor oclusión conforme más lejos se encuentra de la cámara",
@@ -103,6 +116,7 @@ int ao_ue4_params_preset(const char *name, ao_ue4_params *out)
         p.sample_set = quality_table[q][0];
         p.steps = quality_table[q][1];
         p.quad_blur = quality_table[q][2];
+        p.levels = quality_table[q][3];
     } else {
         return 0;
     }
@@ -182,7 +196,9 @@ obs_status ao_ue4_params_validate(obs_context *ctx, const ao_ue4_params *p)
     return OBS_STATUS_OK;
 }
 
-static const char *const variant_names[] = {"classic", "o1", NULL};
+/* AO_UE4_VARIANT_CLASSIC is named for what it is, a reconstruction: "--variant classic" is refused
+ * with the list of names (docs/ao/ue4.md, "Names"). */
+static const char *const variant_names[] = {"classic-reconstruction", "o1", NULL};
 static const char *const normals_names[] = {"none", "gbuffer", "depth", NULL};
 
 int ao_ue4_params_to_string(const ao_ue4_params *p, char *buf, size_t size)
@@ -1587,7 +1603,8 @@ _Static_assert(sizeof(ao_ue4_params) <= AO_PARAMS_MAX_SIZE, "AO_PARAMS_MAX_SIZE"
 #define UE4_F(field) offsetof(ao_ue4_params, field)
 static const ao_param_desc ue4_param_descs[] = {
     {"variant", AO_PARAM_ENUM, UE4_F(variant), 0, 0, variant_names,
-     "classic (OPTIMIZATION_O1 0, weighted) or o1 (what UE 4.9+ compiles)"},
+     "o1 (OPTIMIZATION_O1 1, what UE 4.9+ compiles) or classic-reconstruction (our reading of the "
+     "OPTIMIZATION_O1 0 branch UE never ran)"},
     {"normals", AO_PARAM_ENUM, UE4_F(normals), 0, 0, normals_names,
      "SSAO_NORMAL_MODE: none (WedgeNoNormal), gbuffer (from depth when absent), depth"},
     {"radius", AO_PARAM_FLOAT, UE4_F(radius), 1e-6, 1e4, NULL,
@@ -1605,7 +1622,7 @@ static const ao_param_desc ue4_param_descs[] = {
     {"quad-blur", AO_PARAM_INT, UE4_F(quad_blur), 0, 3, NULL, "QUAD_MESSAGE_PASSING_BLUR (2x2 ddx/ddy blur)"},
     {"blur", AO_PARAM_BOOL, UE4_F(blur), 0, 1, NULL, "the seed thesis' 21-tap Gaussian afterwards"},
     {"levels", AO_PARAM_INT, UE4_F(levels), 1, AO_UE4_MAX_LEVELS, NULL,
-     "resolution levels (r.AmbientOcclusionLevels): 1 = full resolution only"},
+     "resolution levels (r.AmbientOcclusionLevels; UE: 2 at quality 50): 1 = full resolution only"},
     {"mip-blend", AO_PARAM_FLOAT, UE4_F(mip_blend), 0, 1, NULL, "AmbientOcclusionMipBlend (levels > 1)"},
     {"mip-scale", AO_PARAM_FLOAT, UE4_F(mip_scale), 1e-6, 16, NULL, "AmbientOcclusionMipScale (levels > 1)"},
 };
@@ -1679,7 +1696,7 @@ static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
 
 const ao_method ao_i_method_ue4 = {
     .name = "ue4",
-    .title = "Unreal Engine 4 AO [Mittring12]: PostProcessAmbientOcclusion.usf (classic and O1 wedges, multi-res option)",
+    .title = "Unreal Engine 4 AO [Mittring12]: PostProcessAmbientOcclusion.usf (O1 wedge, 2 levels; classic reconstruction)",
     .doc = "docs/ao/ue4.md",
     .params_size = sizeof(ao_ue4_params),
     .params_default = m_default,
@@ -1698,9 +1715,11 @@ const ao_method ao_i_method_ue4 = {
     .flat_value = 1.0f,
     /* exactly 1 on a camera-facing plane (every mode); on a tilted plane the tap reads its texel's
      * depth at its continuous screen position (point sampling, as UE's HZB fetch), which puts the
-     * tap off the plane by up to half a texel's depth step: measured 0.0434 on the registry's 50
-     * degree plane (96x64, f = 80 px, radius 0.5 m, border 4; classic variant, test_ao_ue4.c) */
-    .flat_tolerance = 0.05f,
+     * tap off the plane by up to half a texel's depth step, and O1's dot(D, n 0.08 z)/|D|^2 grows as
+     * the tap nears the centre: measured 0.153 (0.138 with the Gaussian) on the registry's 50 degree
+     * plane (96x64, f = 80 px, radius 0.5 m, border 4) with the default (O1, 2 levels); 0.0434 with
+     * classic-reconstruction, which was the default until issue 12 (test_ao_ue4.c, docs/ao/ue4.md) */
+    .flat_tolerance = 0.16f,
     .constants_to_json = m_constants_json,
     .compute = m_compute,
 };
