@@ -95,6 +95,16 @@ typedef enum truth_ao_normal {
     TRUTH_AO_NORMAL_COUNT
 } truth_ao_normal;
 
+/* What the std_error plane holds. The stopping rule always uses max(s_R, floor(n)). */
+typedef enum truth_ao_error_bar {
+    TRUTH_AO_BAR_FLOORED = 0,       /* max(s_R, floor(n)): never 0 on a surface (default) */
+    TRUTH_AO_BAR_REPLICATES,        /* s_R alone: with a fixed count (min = max) its square is an
+                                       unbiased estimate of the variance of the mean, what a study
+                                       subtracts from its squared errors (docs/study.md); 0 where
+                                       every replicate agrees */
+    TRUTH_AO_BAR_COUNT
+} truth_ao_error_bar;
+
 typedef enum truth_ao_origin {
     TRUTH_AO_ORIGIN_GBUFFER = 0,    /* pixel ray origin + depth * ray direction (rast_pixel_ray) */
     TRUTH_AO_ORIGIN_EMBREE,         /* the Embree primary hit along the same pixel ray */
@@ -134,6 +144,7 @@ typedef struct truth_ao_params {
     float offset_ulps;            /* k of the self-intersection offset eps = k * 2^-24 * m along the
                                      geometric normal, m = max(|p|inf, |eye|inf, triangle extent);
                                      >= 0, default 64 (docs/truth.md, "Self-intersection") */
+    truth_ao_error_bar error_bar; /* default TRUTH_AO_BAR_FLOORED */
     truth_progress_fn progress;   /* default NULL */
     void *progress_user;
 } truth_ao_params;
@@ -163,7 +174,7 @@ typedef struct truth_ao_stats {
     int64_t pixels_converged;   /* surface pixels whose error bar (std_error) of THIS output is
                                    <= target_error when they stopped */
     int64_t pixels_at_max;      /* surface pixels that reached max_samples */
-    double max_std_error;       /* of this output, over surface pixels */
+    double max_std_error;       /* of this output's std_error plane, over surface pixels */
     double max_offset;          /* the largest self-intersection offset eps used, world units */
     double seconds;             /* wall time of the whole call */
     double seconds_work;        /* of which the tile work: sampling, tracing, accumulation (not the
@@ -178,7 +189,8 @@ typedef struct truth_ao_result {
     obs_image_f32 mean;         /* estimated visibility V in [0, 1] */
     obs_image_f32 std_error;    /* the error bar of mean: max(s_R, floor(n)), s_R the standard
                                    error from the spread of the R replicates' means [LEcuyer02],
-                                   floor(n) = truth_ao_error_floor (docs/truth.md, "Convergence") */
+                                   floor(n) = truth_ao_error_floor (docs/truth.md, "Convergence");
+                                   s_R alone with error_bar = TRUTH_AO_BAR_REPLICATES */
     obs_image_f32 count;        /* samples taken (an integer; exact in float up to 2^24) */
     truth_ao_stats stats;
 } truth_ao_result;

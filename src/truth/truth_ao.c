@@ -790,7 +790,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
              * error bar max(s_R, floor(n)) [Agresti98]; the pixel stops when every output's bar is
              * within the target (after min_samples), or at max_samples. */
             const double n = (double)s->count, mr = n / R, fl = truth_ao_error_floor(s->count);
-            double mean[TRUTH_AO_MAX_OUTPUTS], bar[TRUTH_AO_MAX_OUTPUTS], worst = 0.0;
+            double mean[TRUTH_AO_MAX_OUTPUTS], bar[TRUTH_AO_MAX_OUTPUTS], se_r[TRUTH_AO_MAX_OUTPUTS], worst = 0.0;
             for (int j = 0; j < J->nout; j++) {
                 const double *acc = s->acc + (size_t)j * R;
                 double tot = 0.0;
@@ -802,6 +802,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                     ss += (acc[r] / mr - mj) * (acc[r] / mr - mj);
                 const double se = sqrt(ss / ((double)R * (double)(R - 1)));
                 mean[j] = mj < 0.0 ? 0.0 : mj > 1.0 ? 1.0 : mj;
+                se_r[j] = se;
                 bar[j] = se > fl ? se : fl;
                 worst = bar[j] > worst ? bar[j] : worst;
             }
@@ -810,10 +811,11 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             if (done_max || done_target) {
                 for (int j = 0; j < J->nout; j++) {
                     obs_image_f32_row(&J->outs[j].mean, s->y)[s->x] = (float)mean[j];
-                    obs_image_f32_row(&J->outs[j].std_error, s->y)[s->x] = (float)bar[j];
+                    const double shown = J->p.error_bar == TRUTH_AO_BAR_REPLICATES ? se_r[j] : bar[j];
+                    obs_image_f32_row(&J->outs[j].std_error, s->y)[s->x] = (float)shown;
                     obs_image_f32_row(&J->outs[j].count, s->y)[s->x] = (float)s->count;
                     S->converged[j] += bar[j] <= J->p.target_error;
-                    S->max_se[j] = bar[j] > S->max_se[j] ? bar[j] : S->max_se[j];
+                    S->max_se[j] = shown > S->max_se[j] ? shown : S->max_se[j];
                 }
                 S->surface++;
                 S->at_max += done_max;
@@ -906,6 +908,8 @@ static obs_status validate(obs_context *ctx, const truth_scene *ts, const obs_sc
         BAD("truth_ao_render: estimator %d out of range", (int)p->estimator);
     if ((unsigned)p->normal >= TRUTH_AO_NORMAL_COUNT)
         BAD("truth_ao_render: normal %d out of range", (int)p->normal);
+    if ((unsigned)p->error_bar >= TRUTH_AO_BAR_COUNT)
+        BAD("truth_ao_render: error bar %d out of range", (int)p->error_bar);
     if ((unsigned)p->origin >= TRUTH_AO_ORIGIN_COUNT)
         BAD("truth_ao_render: origin %d out of range", (int)p->origin);
     const est_info *ei = &k_est[p->estimator];
