@@ -484,8 +484,8 @@ obs_status met_compare(obs_context *ctx, obs_pool *pool, const obs_image_f32 *re
     t.max_x = t.max_y = -1;
     /* The reference's variance: each strip's sum of squared deviations from its own mean, from
      * sums shifted by its first value, then the strips merged in order by the pairwise update of
-     * Chan, Golub & LeVeque 1983, the pairwise update (M2 = M2a + M2b + d^2 na nb / n, d the difference of
-     * the means), which avoids the cancellation of sum(a^2) - n mean^2. */
+     * [Chan83] (M2 = M2a + M2b + d^2 na nb / n, d the difference of the means), which avoids the
+     * cancellation of sum(a^2) - n mean^2. */
     double var_mean = 0.0, var_m2 = 0.0;
     for (int s = 0; s < strips; s++) {
         if (ps[s].n > 0) {
