@@ -765,8 +765,7 @@ obs_status met_fit_gain_power(obs_context *ctx, obs_pool *pool, const obs_image_
         fit_objective(&f, best_u, &best_g);
         out->power = exp(best_u);
         out->gain = best_g;
-        out->power_at_bound = fabs(out->power - MET_FIT_POWER_MIN) <= 1e-6 * MET_FIT_POWER_MIN ||
-                              fabs(out->power - MET_FIT_POWER_MAX) <= 1e-6 * MET_FIT_POWER_MAX;
+        out->power_at_bound = met_fit_power_at_bound(out->power);
     }
     /* The objective at the result, summed directly (no cancellation). */
     job.power = exp(best_u);
@@ -815,6 +814,12 @@ obs_status met_apply_gain_power(obs_context *ctx, const obs_image_f32 *test, dou
 /* ------------------------------------------------------------------------------------------------
  * Skill against the flat baseline [Murphy88]
  * ---------------------------------------------------------------------------------------------- */
+
+int met_fit_power_at_bound(double power)
+{
+    return fabs(power - MET_FIT_POWER_MIN) <= 1e-6 * MET_FIT_POWER_MIN ||
+           fabs(power - MET_FIT_POWER_MAX) <= 1e-6 * MET_FIT_POWER_MAX;
+}
 
 met_skill met_skill_of(double mse, double ref_var, double noise_var)
 {

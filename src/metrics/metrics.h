@@ -145,6 +145,10 @@ obs_status met_fit_gain_power(obs_context *ctx, obs_pool *pool, const obs_image_
                               const obs_image_f32 *test, const obs_image_f32 *mask, const met_params *p,
                               met_fit *out);
 
+/* 1 when power lies within 1e-6 (relative) of MET_FIT_POWER_MIN or MET_FIT_POWER_MAX: the rule of
+ * met_fit.power_at_bound, for a power read back from a table. */
+int met_fit_power_at_bound(double power);
+
 /* How much better than a flat image a test is: the flat baseline and the MSE skill score.
  *
  * The fit above can turn an uninformative test into a near-constant image whose calibrated RMSE is
