@@ -321,6 +321,13 @@ TEST(compare_calibrated_thresholds_apply_after_the_fit)
     rc = run_compare(a, b, "--max-rmse", "0.001", "--calibrated", "--json", json, NULL);
     CHECK_MSG(rc == 0, "exit %d, stderr: %s, stdout: %s", rc, g_err, g_out);
     CHECK_MSG(strstr(g_out, "gain 1.5") && strstr(g_out, "power 2"), "stdout: %s", g_out);
+    /* beside the calibrated RMSE: the flat baseline and the skill (1: the fit is exact) */
+    CHECK_MSG(strstr(g_out, "flat baseline rmse") && strstr(g_out, "skill 1") && !strstr(g_out, "not informative"),
+              "stdout: %s", g_out);
+    char jb[8192];
+    slurp(json, jb, sizeof jb);
+    CHECK_MSG(strstr(jb, "\"baseline_rmse\"") && strstr(jb, "\"skill\"") && strstr(jb, "\"fit_at_bound\": false"),
+              "json: %s", jb);
     obs_image_f32_free(&ra);
     obs_image_f32_free(&tb);
     obs_context_destroy(ctx);

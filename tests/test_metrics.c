@@ -534,3 +534,141 @@ TEST(metrics_colormap_endpoints_match_inferno)
         prev = lum;
     }
 }
+
+/* ---- the flat baseline and the skill score [Murphy88] ------------------------------------- */
+
+/* Fit test to ref, apply the fit, score the calibrated image: its skill against the flat baseline. */
+static met_skill calibrated_skill(obs_context *ctx, const obs_image_f32 *ref, const obs_image_f32 *test, met_fit *f)
+{
+    obs_image_f32 c = {0};
+    met_skill s = {NAN, NAN, NAN};
+    met_result m;
+    if (obs_image_f32_alloc(ctx, ref->width, ref->height, &c) == OBS_STATUS_OK &&
+        met_fit_gain_power(ctx, NULL, ref, test, NULL, NULL, f) == OBS_STATUS_OK &&
+        met_apply_gain_power(ctx, test, f->gain, f->power, &c) == OBS_STATUS_OK &&
+        met_compare(ctx, NULL, ref, &c, NULL, NULL, &m) == OBS_STATUS_OK)
+        s = met_skill_of(m.mse, m.ref_var, 0.0);
+    obs_image_f32_free(&c);
+    return s;
+}
+
+TEST(metrics_skill_and_baseline_match_hand_values)
+{
+    obs_context *ctx = obs_context_create();
+    obs_image_f32 r = {0}, t = {0}, m = {0};
+    CHECK_OK(obs_image_f32_alloc(ctx, 2, 2, &r), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, 2, 2, &t), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, 2, 2, &m), ctx);
+    /* reference 0.25, 0.5, 0.75, 1 (exact in float): mean 0.625, variance (0.140625 + 0.015625 +
+     * 0.015625 + 0.140625) / 4 = 0.078125; test off by 0.25 at one pixel: mse 0.015625 */
+    const float rv[4] = {0.25f, 0.5f, 0.75f, 1.0f}, tv[4] = {0.25f, 0.5f, 0.75f, 0.75f};
+    fill_values(&r, rv);
+    fill_values(&t, tv);
+    met_result res;
+    CHECK_OK(met_compare(ctx, NULL, &r, &t, NULL, NULL, &res), ctx);
+    CHECK_NEAR(res.ref_var, 0.078125, 1e-15);
+    met_skill s = met_skill_of(res.mse, res.ref_var, 0.0);
+    CHECK_NEAR(s.baseline_rmse, sqrt(0.078125), 1e-15);
+    CHECK_NEAR(s.rmse, 0.125, 1e-15);
+    CHECK_NEAR(s.skill, 1.0 - 0.015625 / 0.078125, 1e-14); /* 0.8 */
+    /* the same noise variance taken out of both: (0.015625 - 0.0078125) / (0.078125 - 0.0078125) */
+    s = met_skill_of(res.mse, res.ref_var, 0.0078125);
+    CHECK_NEAR(s.baseline_rmse, sqrt(0.0703125), 1e-15);
+    CHECK_NEAR(s.skill, 1.0 - 0.0078125 / 0.0703125, 1e-14);
+    /* a noise larger than the error: the corrected error is 0, the skill 1 */
+    s = met_skill_of(res.mse, res.ref_var, 0.02);
+    CHECK(s.rmse == 0.0 && s.skill == 1.0);
+    /* a flat reference: nothing beats a flat image, the skill is undefined */
+    s = met_skill_of(0.01, 0.0, 0.0);
+    CHECK(s.baseline_rmse == 0.0 && isnan(s.skill));
+    s = met_skill_of(NAN, 0.1, 0.0);
+    CHECK(isnan(s.skill) && isnan(s.baseline_rmse));
+    /* the variance is over the valid pixels only: without the pixel at 1, (0.25, 0.5, 0.75) has
+     * variance 0.125 / 3 */
+    const float mv[4] = {1, 1, 1, 0};
+    fill_values(&m, mv);
+    CHECK_OK(met_compare(ctx, NULL, &r, &t, &m, NULL, &res), ctx);
+    CHECK_NEAR(res.ref_var, 0.125 / 3.0, 1e-15);
+    CHECK_EQ_INT(res.valid, 3);
+    obs_image_f32_free(&r);
+    obs_image_f32_free(&t);
+    obs_image_f32_free(&m);
+    /* over many strips and a large offset (where sum(a^2) - n mean^2 cancels), the merged variance
+     * matches a two-pass one over the image and does not depend on the thread count */
+    CHECK_OK(obs_image_f32_alloc(ctx, 97, 301, &r), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, 97, 301, &t), ctx);
+    fill_random(&r, 5, 1000.0f, 1000.25f);
+    fill_random(&t, 6, 1000.0f, 1000.25f);
+    double mean = 0.0, v2 = 0.0;
+    for (int y = 0; y < r.height; y++)
+        for (int x = 0; x < r.width; x++)
+            mean += px(&r, x, y);
+    mean /= 97.0 * 301.0;
+    for (int y = 0; y < r.height; y++)
+        for (int x = 0; x < r.width; x++)
+            v2 += (px(&r, x, y) - mean) * (px(&r, x, y) - mean);
+    v2 /= 97.0 * 301.0;
+    met_params mp = met_params_default();
+    mp.compute_ssim = 0;
+    CHECK_OK(met_compare(ctx, NULL, &r, &t, NULL, &mp, &res), ctx);
+    CHECK_MSG(fabs(res.ref_var - v2) <= 1e-9 * v2, "variance %.17g, two-pass %.17g", res.ref_var, v2);
+    obs_pool *pool = obs_pool_create(3);
+    met_result res3;
+    CHECK_OK(met_compare(ctx, pool, &r, &t, NULL, &mp, &res3), ctx);
+    CHECK(res3.ref_var == res.ref_var);
+    obs_pool_destroy(pool);
+    obs_image_f32_free(&r);
+    obs_image_f32_free(&t);
+    obs_context_destroy(ctx);
+}
+
+/* The calibrated fit turns an uninformative test into about the reference's mean: its calibrated
+ * RMSE is then the flat baseline, and the skill says so (about 0, or below); an inverted image
+ * gains nothing either; a perfect image has skill 1; a noisy but informative one lies between. */
+TEST(metrics_skill_separates_informative_from_flat_tests)
+{
+    obs_context *ctx = obs_context_create();
+    obs_image_f32 r = {0}, t = {0};
+    CHECK_OK(obs_image_f32_alloc(ctx, 96, 80, &r), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, 96, 80, &t), ctx);
+    fill_structured(&r, 11);
+    for (int y = 0; y < r.height; y++) /* keep the reference a visibility in [0, 1] */
+        for (int x = 0; x < r.width; x++)
+            set_px(&r, x, y, fminf(1.0f, fmaxf(0.0f, px(&r, x, y))));
+    met_fit f;
+    /* constant */
+    obs_image_f32_fill(&t, 0.7f);
+    met_skill s = calibrated_skill(ctx, &r, &t, &f);
+    CHECK_MSG(fabs(s.skill) <= 1e-4 && (f.power_at_bound || s.skill <= 1e-9), "constant: skill %.3g, p %g", s.skill,
+              f.power);
+    /* its calibrated RMSE is the flat baseline */
+    CHECK_MSG(fabs(s.rmse - s.baseline_rmse) <= 1e-4, "constant: rmse %g, baseline %g", s.rmse, s.baseline_rmse);
+    /* inverted */
+    for (int y = 0; y < r.height; y++)
+        for (int x = 0; x < r.width; x++)
+            set_px(&t, x, y, 1.0f - px(&r, x, y));
+    s = calibrated_skill(ctx, &r, &t, &f);
+    CHECK_MSG(s.skill <= 1e-9, "inverted: skill %.3g (p %g, at bound %d)", s.skill, f.power, f.power_at_bound);
+    /* perfect */
+    met_result res;
+    CHECK_OK(met_compare(ctx, NULL, &r, &r, NULL, NULL, &res), ctx);
+    s = met_skill_of(res.mse, res.ref_var, 0.0);
+    CHECK(s.skill == 1.0 && s.rmse == 0.0);
+    s = calibrated_skill(ctx, &r, &r, &f);
+    CHECK_MSG(s.skill > 1.0 - 1e-6 && !f.power_at_bound, "perfect, calibrated: skill %.9g", s.skill);
+    /* noisy but informative: the reference plus uniform noise of variance 0.1^2 / 12 */
+    for (int y = 0; y < r.height; y++)
+        for (int x = 0; x < r.width; x++)
+            set_px(&t, x, y, px(&r, x, y) + 0.1f * (obs_rng_float((uint64_t)(y * 96 + x), 0, 3, 21) - 0.5f));
+    CHECK_OK(met_compare(ctx, NULL, &r, &t, NULL, NULL, &res), ctx);
+    s = met_skill_of(res.mse, res.ref_var, 0.0);
+    const double want = 1.0 - (0.01 / 12.0) / res.ref_var;
+    CHECK_MSG(s.skill > 0.0 && s.skill < 1.0 && fabs(s.skill - want) < 0.05, "noisy: skill %g, about %g", s.skill, want);
+    double raw_skill = s.skill;
+    s = calibrated_skill(ctx, &r, &t, &f);
+    CHECK_MSG(s.skill > 0.0 && s.skill < 1.0 && s.skill >= raw_skill - 0.05 && !f.power_at_bound,
+              "noisy, calibrated: skill %g (raw %g)", s.skill, raw_skill);
+    obs_image_f32_free(&r);
+    obs_image_f32_free(&t);
+    obs_context_destroy(ctx);
+}

@@ -1,12 +1,16 @@
-/* test_study.c: the study machinery (src/study/study.h) and `obscura study ao --quick` (issue 5). */
+/* test_study.c: the study machinery (src/study/study.h), the AO study library (study_ao.h) and
+ * `obscura study ao` (issue 5): the library is driven directly, the command for its flags, exit
+ * codes and resume. */
 #include "test.h"
 #include "study/study.h"
+#include "study/study_ao.h"
 #include "ao/ao.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 TEST(study_table_round_trips_through_csv_with_quoting)
 {
@@ -172,6 +176,25 @@ TEST(study_svg_scatter_has_axes_legend_and_front)
     obs_context_destroy(ctx);
 }
 
+/* Read a study's results.csv through the library, with the columns its header names. */
+static int read_results(const char *path, study_table *t, obs_context *ctx)
+{
+    char *csv = test_slurp(path, NULL);
+    if (!csv)
+        return 0;
+    char *nl = strchr(csv, '\n');
+    if (nl)
+        *nl = '\0';
+    const char *names[STUDY_MAX_COLUMNS];
+    int n = 0;
+    for (char *tok = strtok(csv, ","); tok && n < STUDY_MAX_COLUMNS; tok = strtok(NULL, ","))
+        names[n++] = tok;
+    int ok = study_table_init(ctx, t, names, n, 8) == OBS_STATUS_OK;
+    free(csv);
+    int64_t rows = 0;
+    return ok && study_table_read_csv(ctx, t, path, &rows) == OBS_STATUS_OK;
+}
+
 TEST(study_ao_quick_runs_resumes_and_reports)
 {
     const char *dir = test_tmpdir();
@@ -180,8 +203,26 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     snprintf(rep, sizeof rep, "%s/study/report", dir);
     snprintf(err, sizeof err, "%s/err.txt", dir);
     snprintf(data, sizeof data, "%s", test_data_dir());
+    /* the first run through the library: the quick options, a sweep, a report */
+    {
+        study_ao_options o = study_ao_options_quick();
+        o.data_dir = data;
+        o.out_dir = out;
+        o.report_dir = rep;
+        obs_context *ctx = obs_context_create();
+        obs_pool *pool = obs_pool_create(2);
+        study_ao *s = NULL;
+        CHECK_OK(study_ao_open(ctx, &o, &s), ctx);
+        if (s) {
+            CHECK(study_ao_table(s)->rows == 0);
+            CHECK_OK(study_ao_sweep(ctx, pool, s), ctx);
+            CHECK_OK(study_ao_report(ctx, pool, s), ctx);
+        }
+        study_ao_close(s);
+        obs_pool_destroy(pool);
+        obs_context_destroy(ctx);
+    }
     const char *a[] = {"--threads", "2", "study", "ao", "--quick", "--data", data, "-o", out, "--report", rep, NULL};
-    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, a, NULL, err), 0);
     char *csv = test_slurp(test_path(out, "results.csv"), NULL);
     CHECK(csv != NULL);
     /* every registered method, blur off and on; every row measured ("ok") with finite errors */
@@ -209,7 +250,6 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     /* the seed's Table 24: MSSAO's 5 levels, each with a time and an error */
     const char *lv = md ? strstr(md, "MSSAO per level") : NULL;
     CHECK(lv && strstr(lv, "| bunny | 0 | 192x108 |") && strstr(lv, "| bunny | 4 | 12x7 |"));
-    free(md);
     char *svg = test_slurp(test_path(rep, "pareto_all.svg"), NULL);
     CHECK(svg && strstr(svg, "Pareto front"));
     free(svg);
@@ -217,7 +257,41 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     char *png = test_slurp(test_path(rep, "grid_bunny.png"), &plen);
     CHECK(png && plen > 100);
     free(png);
-    /* a second run measures nothing again: every point is resumed, the table is unchanged */
+    /* the budget table and each technique's best rank only informative configurations: none of
+     * their points has its fit at a bound (the summary says which were left out) */
+    {
+        obs_context *ctx = obs_context_create();
+        study_table t;
+        CHECK(read_results(test_path(out, "results.csv"), &t, ctx));
+        const char *tb = md ? strstr(md, "| budget | technique |") : NULL;
+        CHECK(tb && strstr(tb, "| flat baseline | skill |"));
+        int ranked = 0;
+        for (const char *line = tb ? strchr(strchr(tb, '\n') + 1, '\n') : NULL; line && line[1] == '|';
+             line = strchr(line + 1, '\n')) {
+            char method[64];
+            int smp, blur_yes;
+            double rad;
+            char blur[8];
+            if (sscanf(line + 1, "| %*s ms | %63s | %d | %lf | %7s |", method, &smp, &rad, blur) != 4)
+                continue;
+            blur_yes = !strcmp(blur, "yes");
+            ranked++;
+            for (int64_t r = 0; r < t.rows; r++)
+                if (!strcmp(study_table_get(&t, r, study_table_column(&t, "method")), method) &&
+                    study_table_num(&t, r, study_table_column(&t, "samples")) == smp &&
+                    study_table_num(&t, r, study_table_column(&t, "radius_units")) == rad &&
+                    study_table_num(&t, r, study_table_column(&t, "blur")) == blur_yes)
+                    CHECK_MSG(study_table_num(&t, r, study_table_column(&t, "fit_at_bound")) == 0.0 &&
+                                  study_table_num(&t, r, study_table_column(&t, "cal_skill_nc")) > STUDY_SKILL_MIN,
+                              "ranked %s %d/%g/%s has an uninformative point", method, smp, rad, blur);
+        }
+        CHECK(ranked > 0);
+        study_table_free(&t);
+        obs_context_destroy(ctx);
+    }
+    free(md);
+    /* a second run, through the command, measures nothing again: every point is resumed, the table
+     * is unchanged */
     CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, a, NULL, err), 0);
     char *e = test_slurp(err, NULL);
     CHECK(e && strstr(e, "resuming"));
@@ -252,23 +326,30 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     free(dt);
 }
 
-/* Read a study's results.csv through the library, with the columns its header names. */
-static int read_results(const char *path, study_table *t, obs_context *ctx)
+/* The quick study over the given radii through the library: its truth step (truth_only) or its
+ * sweep, logging to log_path (truncated). Returns the status. */
+static obs_status quick_step(const char *data, const char *out, const char *radii, int truth_only,
+                             const char *log_path)
 {
-    char *csv = test_slurp(path, NULL);
-    if (!csv)
-        return 0;
-    char *nl = strchr(csv, '\n');
-    if (nl)
-        *nl = '\0';
-    const char *names[STUDY_MAX_COLUMNS];
-    int n = 0;
-    for (char *tok = strtok(csv, ","); tok && n < STUDY_MAX_COLUMNS; tok = strtok(NULL, ","))
-        names[n++] = tok;
-    int ok = study_table_init(ctx, t, names, n, 8) == OBS_STATUS_OK;
-    free(csv);
-    int64_t rows = 0;
-    return ok && study_table_read_csv(ctx, t, path, &rows) == OBS_STATUS_OK;
+    study_ao_options o = study_ao_options_quick();
+    o.data_dir = data;
+    o.out_dir = out;
+    o.radii = radii;
+    o.log = fopen(log_path, "w");
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    study_ao *s = NULL;
+    obs_status st = study_ao_open(ctx, &o, &s);
+    if (st == OBS_STATUS_OK)
+        st = truth_only ? study_ao_truth(ctx, pool, s) : study_ao_sweep(ctx, pool, s);
+    if (st != OBS_STATUS_OK)
+        fprintf(stderr, "quick_step: %s\n", obs_context_last_error(ctx));
+    study_ao_close(s);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+    if (o.log)
+        fclose(o.log);
+    return st;
 }
 
 /* --truth-only computes the ground truths (the hemisphere estimators of one family from one ray
@@ -283,8 +364,7 @@ TEST(study_truth_only_then_sweep_then_report_only)
     snprintf(rep, sizeof rep, "%s/study-t/report", dir);
     snprintf(err, sizeof err, "%s/err-t.txt", dir);
     snprintf(data, sizeof data, "%s", test_data_dir());
-    const char *a[] = {"study", "ao", "--quick", "--data", data, "-o", out, "--truth-only", "--radii", "0.5,1", NULL};
-    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, a, NULL, err), 0);
+    CHECK_EQ_INT(quick_step(data, out, "0.5,1", 1, err), OBS_STATUS_OK);
     char *e = test_slurp(err, NULL);
     /* two radii of the cosine family (cos, obs-sao, obs-mssao, ...) in one set: "N outputs" */
     CHECK_MSG(e && strstr(e, "ground truth bunny/default 192x108") && strstr(e, " outputs (cos"), "stderr: %s", e ? e : "");
@@ -294,8 +374,7 @@ TEST(study_truth_only_then_sweep_then_report_only)
     char *csv = test_slurp(test_path(out, "results.csv"), NULL);
     CHECK_MSG(!csv || !strchr(strchr(csv, '\n') ? strchr(csv, '\n') : "", ','), "truth-only measured points");
     free(csv);
-    const char *b[] = {"study", "ao", "--quick", "--data", data, "-o", out, "--radii", "0.5,1", NULL};
-    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, err), 0);
+    CHECK_EQ_INT(quick_step(data, out, "0.5,1", 0, err), OBS_STATUS_OK);
     e = test_slurp(err, NULL);
     CHECK_MSG(e && !strstr(e, "ground truth bunny"), "the sweep recomputed a cached ground truth: %s", e ? e : "");
     free(e);
@@ -322,29 +401,52 @@ TEST(study_truth_only_then_sweep_then_report_only)
         CHECK(nc >= 0.0 && nc <= raw && cnc >= 0.0 && cnc <= cal);
         double want = raw > g ? sqrt(raw * raw - g * g) : 0.0;
         CHECK_MSG(fabs(nc - want) <= 1e-6 * (1.0 + want), "row %lld: rmse_nc %g, want %g", (long long)r, nc, want);
+        /* the flat baseline and the skill [Murphy88]: skill = 1 - cal_rmse^2 / baseline^2, the same
+         * with the noise s^2 taken out of both; the baseline is the truth's standard deviation, so
+         * the skill is at most 1; the bound flag is the fitted power's */
+        double base = study_table_num(&t, r, study_table_column(&t, "baseline_rmse"));
+        double base_nc = study_table_num(&t, r, study_table_column(&t, "baseline_rmse_nc"));
+        double sk = study_table_num(&t, r, study_table_column(&t, "cal_skill"));
+        double sk_nc = study_table_num(&t, r, study_table_column(&t, "cal_skill_nc"));
+        double at = study_table_num(&t, r, study_table_column(&t, "fit_at_bound"));
+        CHECK_MSG(base > 0.0 && base_nc > 0.0 && base_nc <= base, "row %lld: baseline %g, nc %g", (long long)r, base,
+                  base_nc);
+        CHECK_MSG(fabs(base_nc - sqrt(base * base - g * g)) <= 1e-6, "row %lld: baseline_nc %g", (long long)r, base_nc);
+        CHECK_MSG(fabs(sk - (1.0 - cal * cal / (base * base))) <= 1e-6 && sk <= 1.0, "row %lld: skill %g", (long long)r,
+                  sk);
+        CHECK_MSG(fabs(sk_nc - (1.0 - cnc * cnc / (base_nc * base_nc))) <= 1e-5 && sk_nc <= 1.0,
+                  "row %lld: skill_nc %g", (long long)r, sk_nc);
+        CHECK(at == (double)met_fit_power_at_bound(study_table_num(&t, r, study_table_column(&t, "cal_power"))));
     }
-    /* a table written before gt_noise_rms existed (its header one column short) is read, and its
-     * rows get the noise and the corrected RMSEs filled in, without being measured again */
+    /* a table written before gt_noise_rms existed (its header ending before it, so without the
+     * skill columns appended after it either) is read, and its rows get the noise, the corrected
+     * RMSEs, the flat baseline, the skill and the bound flag filled in, without being measured
+     * again */
     {
         char *full = test_slurp(test_path(out, "results.csv"), NULL);
         CHECK(full != NULL);
         FILE *fo = full ? fopen(test_path(out, "results.csv"), "w") : NULL;
         CHECK(fo != NULL);
-        for (char *line = full; fo && line && *line;) { /* drop each line's last cell (no quotes in it) */
+        for (char *line = full; fo && line && *line;) { /* keep each line's first cg cells */
             char *end = strchr(line, '\n');
             size_t len = end ? (size_t)(end - line) : strlen(line);
-            char *comma = NULL;
-            for (char *q = line; q < line + len; q++)
-                if (*q == ',')
-                    comma = q;
-            fwrite(line, 1, comma ? (size_t)(comma - line) : len, fo);
+            size_t keep = len;
+            int cells = 0, quoted = 0;
+            for (size_t q = 0; q < len; q++) {
+                quoted ^= line[q] == '"';
+                if (line[q] == ',' && !quoted && ++cells == cg) {
+                    keep = q;
+                    break;
+                }
+            }
+            fwrite(line, 1, keep, fo);
             fputc('\n', fo);
             line = end ? end + 1 : NULL;
         }
         if (fo)
             fclose(fo);
         free(full);
-        CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, err), 0);
+        CHECK_EQ_INT(quick_step(data, out, "0.5,1", 0, err), OBS_STATUS_OK);
         study_table t2;
         CHECK(read_results(test_path(out, "results.csv"), &t2, ctx));
         CHECK(t2.rows == t.rows);
@@ -355,6 +457,14 @@ TEST(study_truth_only_then_sweep_then_report_only)
             /* recomputed from the 9-digit raw cells: equal to about 1e-8 */
             CHECK(fabs(study_table_num(&t, r, ccn) - study_table_num(&t2, r, ccn)) <= 1e-7);
             CHECK(fabs(study_table_num(&t, r, cn) - study_table_num(&t2, r, cn)) <= 1e-7);
+            static const char *const added[] = {"baseline_rmse", "baseline_rmse_nc", "cal_skill", "cal_skill_nc",
+                                                "fit_at_bound"};
+            for (int k = 0; k < 5; k++) {
+                const double v1 = study_table_num(&t, r, study_table_column(&t, added[k]));
+                const double v2 = study_table_num(&t2, r, study_table_column(&t2, added[k]));
+                CHECK_MSG(fabs(v1 - v2) <= 1e-6 * (1.0 + fabs(v1)), "row %lld %s: %.9g measured, %.9g completed",
+                          (long long)r, added[k], v1, v2);
+            }
         }
         study_table_free(&t2);
     }
@@ -374,4 +484,121 @@ TEST(study_truth_only_then_sweep_then_report_only)
     snprintf(cover, sizeof cover, "192x108: %d (samples 8; radii 0.5,1)", 4 * methods);
     CHECK_MSG(md && strstr(md, cover) && strstr(md, "noise taken out"), "report lacks '%s'", cover);
     free(md);
+}
+
+/* The ground truth's sampling settings come from one function: the target error, 32..cap samples
+ * in batches of 16, the cap scaled by 921600 / pixels above 1280x720 (a multiple of 16, at least
+ * 32), seed 0 for the reference and 1 for the replicate. */
+TEST(study_ao_truth_params_scale_the_cap_with_the_pixels)
+{
+    const study_ao_options o = study_ao_options_default();
+    truth_ao_params tp = study_ao_truth_params(&o, 1280, 720, 0);
+    CHECK(tp.target_error == 0.01f || fabs((double)tp.target_error - 0.01) < 1e-9);
+    CHECK(tp.min_samples == 32 && tp.batch == 16 && tp.max_samples == 256 && tp.seed == 0);
+    CHECK_EQ_INT((int)study_ao_truth_params(&o, 640, 480, 0).max_samples, 256);
+    CHECK_EQ_INT((int)study_ao_truth_params(&o, 1920, 1080, 0).max_samples, 112); /* 256 * 0.444 = 113.8 -> 112 */
+    CHECK_EQ_INT((int)study_ao_truth_params(&o, 3840, 2160, 0).max_samples, 32);  /* 28.4 -> 32 (the floor) */
+    CHECK_EQ_INT((int)study_ao_truth_params(&o, 1920, 1080, 1).seed, 1);
+    const study_ao_options q = study_ao_options_quick();
+    tp = study_ao_truth_params(&q, 192, 108, 1);
+    CHECK(fabs((double)tp.target_error - 0.02) < 1e-7 && tp.max_samples == 128 && tp.seed == 1);
+    CHECK_EQ_INT((int)study_ao_truth_params(&q, 1920, 1080, 0).max_samples, 64); /* 56.9 -> 64 */
+}
+
+/* The library refuses bad options with INVALID_ARGUMENT and a message that names the culprit,
+ * before touching the output directory. */
+TEST(study_ao_open_refuses_bad_options_with_a_message)
+{
+    obs_context *ctx = obs_context_create();
+    char out[1024];
+    snprintf(out, sizeof out, "%s/never", test_tmpdir());
+    static const struct {
+        const char *field, *value, *message;
+    } cases[] = {
+        {"methods", "sao,nope", "nope"}, {"radii", "1,-1", "-1"},       {"resolutions", "192by108", "192by108"},
+        {"blurs", "2", "--blur"},        {"samples", "0", "'0'"},        {"budgets", "0", "budget"},
+        {"scenes", "", "scenes"},        {"views", ",,", "views"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        study_ao_options o = study_ao_options_quick();
+        o.out_dir = out;
+        if (!strcmp(cases[i].field, "methods")) o.methods = cases[i].value;
+        if (!strcmp(cases[i].field, "radii")) o.radii = cases[i].value;
+        if (!strcmp(cases[i].field, "resolutions")) o.resolutions = cases[i].value;
+        if (!strcmp(cases[i].field, "blurs")) o.blurs = cases[i].value;
+        if (!strcmp(cases[i].field, "samples")) o.samples = cases[i].value;
+        if (!strcmp(cases[i].field, "budgets")) o.budgets = cases[i].value;
+        if (!strcmp(cases[i].field, "scenes")) o.scenes = cases[i].value;
+        if (!strcmp(cases[i].field, "views")) o.views = cases[i].value;
+        study_ao *s = (study_ao *)&o; /* must be reset to NULL */
+        obs_status st = study_ao_open(ctx, &o, &s);
+        CHECK_MSG(st == OBS_STATUS_INVALID_ARGUMENT && s == NULL && strstr(obs_context_last_error(ctx), cases[i].message),
+                  "%s=%s: status %d, '%s'", cases[i].field, cases[i].value, (int)st, obs_context_last_error(ctx));
+        obs_context_clear_error(ctx);
+    }
+    study_ao_options o = study_ao_options_quick();
+    o.out_dir = out;
+    o.runs = 0;
+    study_ao *s = NULL;
+    CHECK(study_ao_open(ctx, &o, &s) == OBS_STATUS_INVALID_ARGUMENT && s == NULL);
+    obs_context_clear_error(ctx);
+    o.runs = 3;
+    o.gt_max_samples = 100; /* not a multiple of 16 */
+    CHECK(study_ao_open(ctx, &o, &s) == OBS_STATUS_INVALID_ARGUMENT && s == NULL);
+    CHECK(access(out, F_OK) != 0);
+    /* good options open an empty study; the dry run counts its points */
+    o = study_ao_options_quick();
+    o.out_dir = out;
+    o.methods = "sao,gtao";
+    o.radii = "0.5,1";
+    CHECK_OK(study_ao_open(ctx, &o, &s), ctx);
+    if (s) {
+        const study_ao_plan p = study_ao_plan_of(s);
+        CHECK(p.points == 1 * 1 * 1 * 2 * 1 * 2 * 2 && p.methods == 2 && p.radii == 2 && p.runs == 3);
+        CHECK(p.sweep_min_lo > 0.0 && p.sweep_min_lo < p.sweep_min_hi && p.truth_min_lo < p.truth_min_hi);
+        CHECK(study_ao_table(s)->rows == 0);
+        CHECK(study_ao_report(ctx, NULL, s) == OBS_STATUS_INVALID_ARGUMENT); /* no report directory */
+        obs_context_clear_error(ctx);
+    }
+    study_ao_close(s);
+    obs_context_destroy(ctx);
+}
+
+/* The generic score against a noisy ground truth, by hand: MSEs 0.02 (raw) and 0.01 (calibrated),
+ * truth variance 0.05, noise s = 0.05 (s^2 = 0.0025). */
+TEST(study_score_matches_hand_values)
+{
+    study_score s = study_score_of(0.02, 0.01, 0.05, 0.05, 0);
+    CHECK_NEAR(s.rmse, sqrt(0.02), 1e-15);
+    CHECK_NEAR(s.rmse_nc, sqrt(0.0175), 1e-15);
+    CHECK_NEAR(s.cal_rmse, 0.1, 1e-15);
+    CHECK_NEAR(s.cal_rmse_nc, sqrt(0.0075), 1e-15);
+    CHECK_NEAR(s.baseline_rmse, sqrt(0.05), 1e-15);
+    CHECK_NEAR(s.baseline_rmse_nc, sqrt(0.0475), 1e-15);
+    CHECK_NEAR(s.cal_skill, 0.8, 1e-14);                    /* 1 - 0.01 / 0.05 */
+    CHECK_NEAR(s.cal_skill_nc, 1.0 - 0.0075 / 0.0475, 1e-14);
+    CHECK(s.fit_at_bound == 0 && study_score_informative(s.cal_skill_nc, s.fit_at_bound));
+    /* a flat prediction (MSE = variance) has skill 0: not informative; nor is any fit at its bound */
+    s = study_score_of(0.05, 0.05, 0.05, 0.0, 0);
+    CHECK(s.cal_skill == 0.0 && !study_score_informative(s.cal_skill, 0));
+    CHECK(!study_score_informative(0.9, 1) && !study_score_informative(NAN, 0) && !study_score_informative(-0.1, 0));
+    CHECK_NEAR(study_noise_corrected(0.05, 0.03), 0.04, 1e-15);
+    CHECK(study_noise_corrected(0.03, 0.05) == 0.0);
+    /* the replicate noise: g0 - g1 = +-0.25 on the two unmasked pixels: sqrt(0.0625 / 2) */
+    obs_context *ctx = obs_context_create();
+    obs_image_f32 g0 = {0}, g1 = {0}, m = {0};
+    CHECK_OK(obs_image_f32_alloc(ctx, 3, 1, &g0), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, 3, 1, &g1), ctx);
+    CHECK_OK(obs_image_f32_alloc(ctx, 3, 1, &m), ctx);
+    const float a[3] = {0.5f, 0.75f, 0.0f}, b[3] = {0.25f, 1.0f, 1.0f}, mk[3] = {1, 1, 0};
+    for (int x = 0; x < 3; x++) {
+        obs_image_f32_row(&g0, 0)[x] = a[x];
+        obs_image_f32_row(&g1, 0)[x] = b[x];
+        obs_image_f32_row(&m, 0)[x] = mk[x];
+    }
+    CHECK_NEAR(study_replicate_noise_rms(&g0, &g1, &m), sqrt(0.0625 / 2.0), 1e-15);
+    obs_image_f32_free(&g0);
+    obs_image_f32_free(&g1);
+    obs_image_f32_free(&m);
+    obs_context_destroy(ctx);
 }

@@ -488,6 +488,13 @@ int cmd_compare(cli_globals *g, int argc, char **argv)
                 print_row(label, &pairs[k].cal);
                 printf("  fit: gain %.6g, power %.6g%s, fit rmse %.6g\n", pairs[k].fit.gain, pairs[k].fit.power,
                        pairs[k].fit.power_at_bound ? " (at the search bound)" : "", pairs[k].fit.fit_rmse);
+                /* [Murphy88]: the calibrated RMSE beside that of the best flat image, and the skill */
+                const met_skill sk = met_skill_of(pairs[k].cal.mse, pairs[k].cal.ref_var, 0.0);
+                printf("  flat baseline rmse %.6g (the reference's standard deviation), skill %.6g%s\n",
+                       sk.baseline_rmse, sk.skill,
+                       pairs[k].fit.power_at_bound ? " (fit at its bound: not informative)"
+                       : !(sk.skill > 0.0)         ? " (no better than a flat image)"
+                                                   : "");
             }
             if (pairs[k].raw.nonfinite > 0)
                 printf("  %lld non-finite pixels skipped (--ignore-nonfinite)\n", (long long)pairs[k].raw.nonfinite);
@@ -557,6 +564,10 @@ int cmd_compare(cli_globals *g, int argc, char **argv)
                 io_json_bool(&j, "power_at_search_bound", pairs[k].fit.power_at_bound);
                 json_num(&j, "fit_rmse_unclamped", pairs[k].fit.fit_rmse);
                 io_json_int(&j, "fit_evaluations", pairs[k].fit.evaluations);
+                const met_skill sk = met_skill_of(pairs[k].cal.mse, pairs[k].cal.ref_var, 0.0);
+                json_num(&j, "baseline_rmse", sk.baseline_rmse);
+                json_num(&j, "skill", sk.skill);
+                io_json_bool(&j, "fit_at_bound", pairs[k].fit.power_at_bound);
                 json_result(&j, &pairs[k].cal);
                 io_json_end_object(&j);
             }

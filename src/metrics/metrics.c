@@ -149,6 +149,7 @@ static obs_status build_valid(obs_context *ctx, const obs_image_f32 *ref, const 
 
 typedef struct point_sums {
     double se, ae, e, ra, ta, max_abs;
+    double ra_k, ra_d, ra_d2; /* the reference's shift (its strip's first valid value), sum and sum of squares of a - k */
     int64_t n, over;
     int max_x, max_y;
 } point_sums;
@@ -178,6 +179,11 @@ static void point_task(void *user, int64_t task, int thread)
                 continue;
             double a = ra[x], b = rb[x];
             double e = b - a, ae = fabs(e);
+            if (s.n == 0)
+                s.ra_k = a;
+            const double d = a - s.ra_k;
+            s.ra_d += d;
+            s.ra_d2 += d * d;
             s.se += e * e;
             s.ae += ae;
             s.e += e;
@@ -436,7 +442,7 @@ static void result_init(met_result *r, const obs_image_f32 *ref)
     r->first_nonfinite_x = r->first_nonfinite_y = -1;
     r->first_nonfinite_input = MET_INPUT_NONE;
     r->mse = r->rmse = r->mae = r->bias = r->max_abs = r->psnr = NAN;
-    r->over_fraction = r->ref_mean = r->test_mean = r->ssim = NAN;
+    r->over_fraction = r->ref_mean = r->test_mean = r->ref_var = r->ssim = NAN;
     r->max_x = r->max_y = -1;
 }
 
@@ -476,7 +482,18 @@ obs_status met_compare(obs_context *ctx, obs_pool *pool, const obs_image_f32 *re
     memset(&t, 0, sizeof t);
     t.max_abs = -1.0;
     t.max_x = t.max_y = -1;
+    /* The reference's variance: each strip's sum of squared deviations from its own mean, from
+     * sums shifted by its first value, then the strips merged in order by the pairwise update of
+     * [Chan83] (M2 = M2a + M2b + d^2 na nb / n, d the difference of the means), which avoids the
+     * cancellation of sum(a^2) - n mean^2. */
+    double var_mean = 0.0, var_m2 = 0.0;
     for (int s = 0; s < strips; s++) {
+        if (ps[s].n > 0) {
+            const double nb = (double)ps[s].n, na = (double)t.n, mb = ps[s].ra_k + ps[s].ra_d / nb;
+            const double m2b = ps[s].ra_d2 - ps[s].ra_d * ps[s].ra_d / nb, d = mb - var_mean;
+            var_m2 += (m2b > 0.0 ? m2b : 0.0) + d * d * na * nb / (na + nb);
+            var_mean += d * nb / (na + nb);
+        }
         t.se += ps[s].se;
         t.ae += ps[s].ae;
         t.e += ps[s].e;
@@ -501,6 +518,7 @@ obs_status met_compare(obs_context *ctx, obs_pool *pool, const obs_image_f32 *re
         out->bias = t.e / n;
         out->ref_mean = t.ra / n;
         out->test_mean = t.ta / n;
+        out->ref_var = var_m2 / n;
         out->max_abs = t.max_abs;
         out->max_x = t.max_x;
         out->max_y = t.max_y;
@@ -747,8 +765,7 @@ obs_status met_fit_gain_power(obs_context *ctx, obs_pool *pool, const obs_image_
         fit_objective(&f, best_u, &best_g);
         out->power = exp(best_u);
         out->gain = best_g;
-        out->power_at_bound = fabs(out->power - MET_FIT_POWER_MIN) <= 1e-6 * MET_FIT_POWER_MIN ||
-                              fabs(out->power - MET_FIT_POWER_MAX) <= 1e-6 * MET_FIT_POWER_MAX;
+        out->power_at_bound = met_fit_power_at_bound(out->power);
     }
     /* The objective at the result, summed directly (no cancellation). */
     job.power = exp(best_u);
@@ -792,6 +809,35 @@ obs_status met_apply_gain_power(obs_context *ctx, const obs_image_f32 *test, dou
         }
     }
     return OBS_STATUS_OK;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Skill against the flat baseline [Murphy88]
+ * ---------------------------------------------------------------------------------------------- */
+
+int met_fit_power_at_bound(double power)
+{
+    return fabs(power - MET_FIT_POWER_MIN) <= 1e-6 * MET_FIT_POWER_MIN ||
+           fabs(power - MET_FIT_POWER_MAX) <= 1e-6 * MET_FIT_POWER_MAX;
+}
+
+met_skill met_skill_of(double mse, double ref_var, double noise_var)
+{
+    met_skill s;
+    /* Noise correction: with r_hat = r + n, n independent of r and of the test, zero mean and mean
+     * variance noise_var, E[mse] = mse(r) + noise_var and E[Var(r_hat)] = Var(r) + noise_var; the
+     * same subtraction as the studies' noise-corrected RMSE, clamped at 0. */
+    const double nv = noise_var > 0.0 ? noise_var : 0.0;
+    const double m = mse - nv > 0.0 ? mse - nv : 0.0, v = ref_var - nv > 0.0 ? ref_var - nv : 0.0;
+    s.rmse = sqrt(m);
+    /* The best constant image is the reference's mean; its MSE is Var(r): the flat baseline. */
+    s.baseline_rmse = sqrt(v);
+    /* [Murphy88] the MSE skill score against the sample climatology: SS = 1 - MSE / MSE(mean) =
+     * 1 - MSE / Var(r) (= r^2 - (r - s_t/s_r)^2 - ((mean t - mean r)/s_r)^2 in his decomposition). */
+    s.skill = v > 0.0 ? 1.0 - m / v : NAN;
+    if (!(mse >= 0.0) || !(ref_var >= 0.0) || !isfinite(mse) || !isfinite(ref_var))
+        s.rmse = s.baseline_rmse = s.skill = NAN;
+    return s;
 }
 
 /* ------------------------------------------------------------------------------------------------

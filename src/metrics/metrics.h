@@ -86,6 +86,8 @@ typedef struct met_result {
     int64_t over_count;      /* pixels with |e| > threshold */
     double over_fraction;    /* over_count / valid */
     double ref_mean, test_mean;
+    double ref_var;          /* the reference's variance over the valid pixels, (1/n) sum (a - ref_mean)^2:
+                                the MSE of the best constant image (met_skill_of) */
 
     double ssim;             /* mean SSIM over the SSIM pixels (see met_ssim) */
     int64_t ssim_pixels;     /* valid centre pixels whose window holds >= half its weight valid */
@@ -142,6 +144,35 @@ typedef struct met_fit {
 obs_status met_fit_gain_power(obs_context *ctx, obs_pool *pool, const obs_image_f32 *ref,
                               const obs_image_f32 *test, const obs_image_f32 *mask, const met_params *p,
                               met_fit *out);
+
+/* 1 when power lies within 1e-6 (relative) of MET_FIT_POWER_MIN or MET_FIT_POWER_MAX: the rule of
+ * met_fit.power_at_bound, for a power read back from a table. */
+int met_fit_power_at_bound(double power);
+
+/* How much better than a flat image a test is: the flat baseline and the MSE skill score.
+ *
+ * The fit above can turn an uninformative test into a near-constant image whose calibrated RMSE is
+ * the reference's own standard deviation (a constant test calibrates to exactly the reference's
+ * mean). So a calibrated RMSE is read beside
+ *   baseline_rmse = sqrt(Var(r))                the RMSE of the best constant image (r's mean)
+ *   skill         = 1 - MSE / Var(r)            [Murphy88], the MSE skill score with the sample
+ *                                               climatology (the reference's mean) as its standard
+ * 1 for a perfect test, 0 for one no better than a flat image, negative for worse (an inverted
+ * image). Both over the same valid pixels as the MSE.
+ *
+ * noise_var corrects for a noisy reference r_hat = r + n (n independent of r and of the test):
+ * both the MSE and Var(r_hat) are inflated by the mean noise variance, so both are reduced by it
+ * (clamped at 0): rmse = sqrt(max(0, mse - noise_var)), baseline_rmse = sqrt(max(0, ref_var -
+ * noise_var)), skill = 1 - max(0, mse - noise_var) / max(0, ref_var - noise_var). Pass 0 for an
+ * exact reference. skill is NaN when the (corrected) variance is 0 (a flat reference: no image
+ * can beat a flat one), and everything is NaN for a negative or non-finite mse or ref_var. */
+typedef struct met_skill {
+    double rmse;             /* sqrt(max(0, mse - noise_var)) */
+    double baseline_rmse;    /* sqrt(max(0, ref_var - noise_var)) */
+    double skill;            /* 1 - rmse^2 / baseline_rmse^2 */
+} met_skill;
+
+met_skill met_skill_of(double mse, double ref_var, double noise_var);
 
 /* out(x, y) = clamp01(1 - gain (1 - clamp01(test(x, y))^power)) for every pixel; a NaN test
  * value stays NaN (so met_compare's non-finite policy still applies). out may alias test.

@@ -2,10 +2,12 @@
 #include "study.h"
 #include "../io/io.h"
 
+#include <errno.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 /* ================================================================================================
@@ -720,4 +722,113 @@ obs_status study_svg_scatter(obs_context *ctx, const char *path, const study_plo
                   L + pw + 12, ly + 4, (long long)left_out);
     sb_printf(&b, "</svg>\n");
     return sb_write(ctx, &b, path);
+}
+
+/* ================================================================================================
+ * Axes
+ * ============================================================================================== */
+
+void study_axis_free(study_axis *a)
+{
+    if (!a)
+        return;
+    free(a->buf);
+    memset(a, 0, sizeof *a);
+}
+
+obs_status study_axis_parse(obs_context *ctx, const char *name, const char *list, study_axis *out)
+{
+    memset(out, 0, sizeof *out);
+    if (!list || !*list)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study: the %s list is empty", name);
+    out->buf = dup_str(list);
+    if (!out->buf)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study: out of memory");
+    char *save = NULL;
+    for (char *tok = strtok_r(out->buf, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+        if (out->n == STUDY_AXIS_MAX) {
+            study_axis_free(out);
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study: the %s list has more than %d values", name,
+                             STUDY_AXIS_MAX);
+        }
+        out->v[out->n++] = tok;
+    }
+    if (out->n == 0) {
+        study_axis_free(out);
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study: the %s list is empty", name);
+    }
+    return OBS_STATUS_OK;
+}
+
+/* ================================================================================================
+ * Scores against a noisy ground truth
+ * ============================================================================================== */
+
+double study_replicate_noise_rms(const obs_image_f32 *g0, const obs_image_f32 *g1, const obs_image_f32 *mask)
+{
+    /* [L'Ecuyer & Lemieux 2002, section 3]: E[(g0 - g1)^2] = 2 Var(g0) for two independent
+     * randomisations of the same estimator */
+    double s2 = 0.0;
+    int64_t n = 0;
+    for (int y = 0; y < g0->height; y++)
+        for (int x = 0; x < g0->width; x++)
+            if (!mask || obs_image_f32_row(mask, y)[x] != 0.0f) {
+                double d = (double)obs_image_f32_row(g0, y)[x] - obs_image_f32_row(g1, y)[x];
+                s2 += d * d;
+                n++;
+            }
+    return n ? sqrt(s2 / (2.0 * (double)n)) : 0.0;
+}
+
+double study_noise_corrected(double rmse, double noise_rms)
+{
+    double d = rmse * rmse - noise_rms * noise_rms;
+    return d > 0.0 ? sqrt(d) : 0.0;
+}
+
+study_score study_score_of(double raw_mse, double cal_mse, double ref_var, double noise_rms, int fit_at_bound)
+{
+    study_score s;
+    const double nv = noise_rms * noise_rms;
+    s.rmse = sqrt(raw_mse);
+    s.rmse_nc = study_noise_corrected(s.rmse, noise_rms);
+    s.cal_rmse = sqrt(cal_mse);
+    s.cal_rmse_nc = study_noise_corrected(s.cal_rmse, noise_rms);
+    /* [Murphy88]: the best constant image has MSE Var(truth); skill 1 - MSE / Var (met_skill_of) */
+    const met_skill k = met_skill_of(cal_mse, ref_var, 0.0), knc = met_skill_of(cal_mse, ref_var, nv);
+    s.baseline_rmse = k.baseline_rmse;
+    s.baseline_rmse_nc = knc.baseline_rmse;
+    s.cal_skill = k.skill;
+    s.cal_skill_nc = knc.skill;
+    s.fit_at_bound = fit_at_bound;
+    return s;
+}
+
+int study_score_informative(double cal_skill, int fit_at_bound)
+{
+    return !fit_at_bound && cal_skill > STUDY_SKILL_MIN;
+}
+
+/* ================================================================================================
+ * Directories
+ * ============================================================================================== */
+
+obs_status study_make_dirs(obs_context *ctx, const char *dir)
+{
+    char buf[4096];
+    size_t n = strlen(dir);
+    if (n >= sizeof buf)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "directory name too long: %.64s...", dir);
+    memcpy(buf, dir, n + 1);
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
+            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
+        *p = '/';
+    }
+    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
+    return OBS_STATUS_OK;
 }

@@ -1,12 +1,16 @@
 /* study.h: the generic parts of an accuracy-versus-time study (prefix study_): a sweep over
- * parameter axes with resume, a results table written as CSV and JSON, timing statistics, Pareto
- * fronts, a progress bar and SVG scatter plots. A study (`obscura study ao`, later sss and volume)
- * is a list of axes, a run function that measures one point, and the error it records; everything
- * else is here. docs/study.md. */
+ * parameter axes with resume, a results table written as CSV and JSON, timing statistics, the
+ * score a point records against a noisy ground truth (raw and calibrated RMSE with the truth's
+ * noise taken out, the flat baseline, the skill, whether the fit is at its bound), Pareto fronts, a
+ * progress bar and SVG scatter plots. A study (`obscura study ao`: study_ao.h; later sss and
+ * volume) is a list of axes, a run function that measures one point, an error function that
+ * scores it against a ground truth with a replicate, and a report; docs/study.md, "The shape of
+ * a study", says what each provides. */
 #ifndef STUDY_H
 #define STUDY_H
 
 #include "../core/obs.h"
+#include "../metrics/metrics.h"
 
 #include <stdio.h>
 
@@ -78,6 +82,68 @@ typedef struct study_stats {
 /* The median (the mean of the two middle values for even n), min and max of v[0..n-1] (v is
  * reordered). */
 study_stats study_stats_of(double *v, int n);
+
+/* ---- Axes ---------------------------------------------------------------------------------------
+ * An axis is a list of values given as one comma-separated string ("4,8,16,32"); empty items are
+ * skipped. The values are text: each study parses and checks its own. */
+
+#define STUDY_AXIS_MAX 32
+
+typedef struct study_axis {
+    int n;
+    char *v[STUDY_AXIS_MAX];        /* pointers into buf */
+    char *buf;                      /* owned */
+} study_axis;
+
+/* Split list into out (which is overwritten, not freed: start from a zeroed axis or free it first).
+ * Returns OK, INVALID_ARGUMENT (NULL or empty list, more than STUDY_AXIS_MAX values: the message
+ * names the axis), OUT_OF_MEMORY. */
+obs_status study_axis_parse(obs_context *ctx, const char *name, const char *list, study_axis *out);
+void study_axis_free(study_axis *a);                   /* NULL-safe; leaves it empty */
+
+/* ---- Scores against a noisy ground truth --------------------------------------------------------
+ * Every study scores a point against a ground truth that is itself an estimate. The truth's noise
+ * variance s^2 (mean over the scored pixels) comes from an independent replicate: two
+ * randomisations g0, g1 of the same estimator give E[(g0 - g1)^2] = 2 Var(g0) per pixel, whatever
+ * the estimator's convergence rate -- the replicate variance estimate of randomised quasi-Monte
+ * Carlo [L'Ecuyer & Lemieux 2002, "Recent advances in randomized quasi-Monte Carlo methods",
+ * section 3; Owen 1997]. A noisy reference inflates a mean squared error by s^2 (the point's
+ * error is independent of the reference's noise), so s^2 is subtracted (clamped at 0). */
+
+/* sqrt(mean over the pixels mask allows (m != 0) of (g0 - g1)^2 / 2): g0's noise. 0 when no pixel. */
+double study_replicate_noise_rms(const obs_image_f32 *g0, const obs_image_f32 *g1, const obs_image_f32 *mask);
+
+/* sqrt(max(0, rmse^2 - noise_rms^2)). */
+double study_noise_corrected(double rmse, double noise_rms);
+
+/* What a point records against its ground truth, from mean squared errors: raw (the effect's
+ * output) and calibrated (after the effect's artistic knobs are fitted, met_fit_gain_power for AO),
+ * each as measured and with the truth's noise taken out (_nc); the flat baseline (the RMSE of the
+ * best constant image, the truth's standard deviation) and the calibrated skill
+ * 1 - MSE_cal / Var(truth) [Murphy88] (met_skill_of; _nc: both with s^2 taken out); and whether the
+ * fit ended at a bound of its range. */
+typedef struct study_score {
+    double rmse, rmse_nc;
+    double cal_rmse, cal_rmse_nc;
+    double baseline_rmse, baseline_rmse_nc;
+    double cal_skill, cal_skill_nc;
+    int fit_at_bound;
+} study_score;
+
+/* raw_mse, cal_mse: the point's; ref_var: the truth's variance over the same pixels; noise_rms: s
+ * (0: an exact truth); fit_at_bound: the calibration's flag. */
+study_score study_score_of(double raw_mse, double cal_mse, double ref_var, double noise_rms, int fit_at_bound);
+
+/* A skill at or below this is "no better than a flat image": 0 up to rounding (a constant test
+ * image calibrates to the truth's mean and scores about -1e-14). */
+#define STUDY_SKILL_MIN 1e-6
+
+/* 1 when a calibrated score says something about the effect: its fit is not at a bound and its
+ * skill is above STUDY_SKILL_MIN (a NaN skill is not). Reports rank only these (docs/study.md). */
+int study_score_informative(double cal_skill, int fit_at_bound);
+
+/* mkdir -p dir. Returns OK, INVALID_ARGUMENT (too long), IO_ERROR. */
+obs_status study_make_dirs(obs_context *ctx, const char *dir);
 
 /* ---- Pareto front ------------------------------------------------------------------------------
  * on_front[i] = 1 when no other point j has cost[j] <= cost[i] and err[j] <= err[i] with one of
