@@ -24,7 +24,6 @@ static const char *study_help =
     "  --radii LIST           radius in scene units, default 0.5,1,1.5,2\n"
     "  --blur LIST            0,1 (default both)\n"
     "  --runs N               timed runs per point (default 5; the median is reported)\n"
-    "  --gt-target-error E    ground truth: stop a pixel at this standard error (default 0.01)\n"
     "  --gt-max-samples N     ground truth: samples per pixel at most at 1280x720 or less (default 256);\n"
     "                         larger images get it scaled by 921600 / pixels (1080p 112, 4K 32)\n"
     "  --budgets LIST         frame budgets in ms for the summary and the grids (default 1,2,4,8)\n"
@@ -58,7 +57,6 @@ int cmd_study(cli_globals *g, int argc, char **argv)
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
-        double d;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_help, stdout);
             return CLI_EXIT_OK;
@@ -96,10 +94,6 @@ int cmd_study(cli_globals *g, int argc, char **argv)
             if (!cli_parse_int(v, 1, 64, &ll))
                 return cli_usage_error("--runs needs an integer in [1, 64]");
             o.runs = (int)ll, i++;
-        } else if (!strcmp(a, "--gt-target-error")) {
-            if (!cli_parse_float(v, &d) || !(d >= 0.0) || !isfinite(d))
-                return cli_usage_error("--gt-target-error needs a number >= 0");
-            o.gt_target_error = d, i++;
         } else if (!strcmp(a, "--gt-max-samples")) {
             if (!cli_parse_int(v, 32, 1 << 20, &ll) || ll % 16 != 0)
                 return cli_usage_error("--gt-max-samples needs a multiple of 16 in [32, 1048576]");

@@ -804,9 +804,9 @@ study_score study_score_of(double raw_mse, double cal_mse, double ref_var, doubl
     return s;
 }
 
-int study_score_informative(double cal_skill, int fit_at_bound)
+int study_score_informative(double cal_skill)
 {
-    return !fit_at_bound && cal_skill > STUDY_SKILL_MIN;
+    return cal_skill > STUDY_SKILL_MIN;
 }
 
 /* ================================================================================================

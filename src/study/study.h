@@ -103,14 +103,17 @@ void study_axis_free(study_axis *a);                   /* NULL-safe; leaves it e
 
 /* ---- Scores against a noisy ground truth --------------------------------------------------------
  * Every study scores a point against a ground truth that is itself an estimate. The truth's noise
- * variance s^2 (mean over the scored pixels) comes from an independent replicate: two
- * randomisations g0, g1 of the same estimator give E[(g0 - g1)^2] = 2 Var(g0) per pixel, whatever
- * the estimator's convergence rate -- the replicate variance estimate of randomised quasi-Monte
- * Carlo [L'Ecuyer & Lemieux 2002, "Recent advances in randomized quasi-Monte Carlo methods",
- * section 3; Owen 1997]. A noisy reference inflates a mean squared error by s^2 (the point's
- * error is independent of the reference's noise), so s^2 is subtracted (clamped at 0). */
+ * variance s^2 (mean over the scored pixels) comes from independent randomisations of the same
+ * estimator -- the replicate variance estimate of randomised quasi-Monte Carlo [L'Ecuyer &
+ * Lemieux 2002, "Recent advances in randomized quasi-Monte Carlo methods"]: either inside each
+ * pixel (the AO ground truth's s_R, truth_ao_params.error_bar = TRUTH_AO_BAR_REPLICATES: s^2 is
+ * the mean of s_R^2), or, for a reference without its own replicates, from two whole runs g0, g1,
+ * E[(g0 - g1)^2] = 2 Var(g0) per pixel (study_replicate_noise_rms). A noisy reference inflates a
+ * mean squared error by s^2 (the point's error is independent of the reference's noise), so s^2
+ * is subtracted (clamped at 0). */
 
-/* sqrt(mean over the pixels mask allows (m != 0) of (g0 - g1)^2 / 2): g0's noise. 0 when no pixel. */
+/* sqrt(mean over the pixels mask allows (m != 0) of (g0 - g1)^2 / 2): g0's noise, for references
+ * that carry no replicates of their own. 0 when no pixel. */
 double study_replicate_noise_rms(const obs_image_f32 *g0, const obs_image_f32 *g1, const obs_image_f32 *mask);
 
 /* sqrt(max(0, rmse^2 - noise_rms^2)). */
@@ -134,13 +137,16 @@ typedef struct study_score {
  * (0: an exact truth); fit_at_bound: the calibration's flag. */
 study_score study_score_of(double raw_mse, double cal_mse, double ref_var, double noise_rms, int fit_at_bound);
 
-/* A skill at or below this is "no better than a flat image": 0 up to rounding (a constant test
- * image calibrates to the truth's mean and scores about -1e-14). */
-#define STUDY_SKILL_MIN 1e-6
+/* A skill at or below this is "about as good as a flat image": the calibrated image explains at
+ * most 5% of the truth's variance (a constant test image scores about -1e-14, an inverted one
+ * -0.13). Our choice (issue 12: a near-constant image must not rank on its calibrated RMSE). */
+#define STUDY_SKILL_MIN 0.05
 
-/* 1 when a calibrated score says something about the effect: its fit is not at a bound and its
- * skill is above STUDY_SKILL_MIN (a NaN skill is not). Reports rank only these (docs/study.md). */
-int study_score_informative(double cal_skill, int fit_at_bound);
+/* 1 when a calibrated score says something about the effect: its skill is above STUDY_SKILL_MIN
+ * (a NaN skill is not). A fit at its power bound is flagged (fit_at_bound), not excluded: its
+ * skill already says how much of the truth the re-shaped image explains. Reports rank only
+ * informative configurations (docs/study.md). */
+int study_score_informative(double cal_skill);
 
 /* mkdir -p dir. Returns OK, INVALID_ARGUMENT (too long), IO_ERROR. */
 obs_status study_make_dirs(obs_context *ctx, const char *dir);

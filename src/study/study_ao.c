@@ -34,7 +34,6 @@ study_ao_options study_ao_options_default(void)
     o.blurs = STUDY_AO_DEFAULT_BLURS;
     o.budgets = STUDY_AO_DEFAULT_BUDGETS;
     o.runs = STUDY_AO_DEFAULT_RUNS;
-    o.gt_target_error = STUDY_AO_DEFAULT_GT_TARGET_ERROR;
     o.gt_max_samples = STUDY_AO_DEFAULT_GT_MAX_SAMPLES;
     o.quick = 0;
     o.log = NULL;
@@ -50,7 +49,6 @@ study_ao_options study_ao_options_quick(void)
     o.samples = STUDY_AO_QUICK_SAMPLES;
     o.radii = STUDY_AO_QUICK_RADII;
     o.runs = STUDY_AO_QUICK_RUNS;
-    o.gt_target_error = STUDY_AO_QUICK_GT_TARGET_ERROR;
     o.gt_max_samples = STUDY_AO_QUICK_GT_MAX_SAMPLES;
     o.quick = 1;
     return o;
@@ -60,9 +58,9 @@ study_ao_options study_ao_options_quick(void)
 truth_ao_params study_ao_truth_params(const study_ao_options *o, int width, int height, unsigned seed)
 {
     truth_ao_params tp = truth_ao_params_default();
-    tp.target_error = o->gt_target_error;
-    tp.min_samples = 32;
     tp.batch = 16;
+    tp.replicates = 8;
+    tp.error_bar = TRUTH_AO_BAR_REPLICATES;
     /* The per-pixel sample cap: gt_max_samples at 1280x720 or less; larger images get it scaled
      * down by their pixel count (a multiple of the batch of 16, at least 32), so that every
      * resolution's ground truth costs about the same rays. The larger noise per pixel averages out
@@ -75,8 +73,7 @@ truth_ao_params study_ao_truth_params(const study_ao_options *o, int width, int 
         n = n < 32 ? 32 : n;
         cap = n < o->gt_max_samples ? n : o->gt_max_samples;
     }
-    tp.max_samples = cap;
-    /* seed 0: the reference; 1: its independent replicate (another Cranley-Patterson shift) */
+    tp.min_samples = tp.max_samples = cap; /* a fixed count: unbiased (docs/truth.md, "Limits") */
     tp.seed = seed;
     return tp;
 }
@@ -185,8 +182,6 @@ static obs_status check_options(obs_context *ctx, study_ao *s)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: no output or data directory");
     if (o->runs < 1 || o->runs > 64)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: runs %d outside [1, 64]", o->runs);
-    if (!(o->gt_target_error >= 0.0) || !isfinite(o->gt_target_error))
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: ground truth target error must be >= 0");
     if (o->gt_max_samples < 32 || o->gt_max_samples > (1 << 20) || o->gt_max_samples % 16 != 0)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
                          "study ao: ground truth max samples must be a multiple of 16 in [32, 1048576]");
@@ -423,9 +418,9 @@ obs_status study_ao_i_frame_render(obs_context *ctx, obs_pool *pool, const study
  * The ground truth and its cache
  * ============================================================================================== */
 
-/* The cache file of a ground truth; seed 0 is the reference, seed 1 its independent replicate.
- * The name records the settings of study_ao_truth_params that decide its accuracy (the target
- * error and the sample cap), so that a cached file is only reused for the same settings. */
+/* The cache file of a ground truth (seed 0; another seed gets a suffix). The name records the
+ * settings of study_ao_truth_params that decide its accuracy (the fixed count and the
+ * replicates), so that a cached file is only reused for the same settings. */
 static void gt_path(const study_ao *s, const char *scene_name, const char *view, const study_ao_i_frame *f,
                     const char *estimator, float radius, unsigned seed, char *path, size_t size)
 {
@@ -433,8 +428,8 @@ static void gt_path(const study_ao *s, const char *scene_name, const char *view,
     char rep[16] = "";
     if (seed)
         snprintf(rep, sizeof rep, "_s%u", seed);
-    snprintf(path, size, "%s/gt/%s_%s_%dx%d_%s_r%.6g_e%.3g_m%lld%s.exr", s->o.out_dir, scene_name, view, f->in.w,
-             f->in.h, estimator, (double)radius, (double)tp.target_error, (long long)tp.max_samples, rep);
+    snprintf(path, size, "%s/gt/%s_%s_%dx%d_%s_r%.6g_n%lld_R%d%s.exr", s->o.out_dir, scene_name, view, f->in.w,
+             f->in.h, estimator, (double)radius, (long long)tp.max_samples, tp.replicates, rep);
 }
 
 /* Mean and root-mean-square of the ground truth's standard error over the surface pixels. */
@@ -596,11 +591,8 @@ static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_ao *s
 {
     if (n > 256)
         n = 256;
-    /* seed 0: the reference; seed 1: its independent replicate, for the noise estimate */
-    obs_status st = gt_prepare_seed(ctx, pool, s, scene_name, view, f, need, n, 0);
-    if (st == OBS_STATUS_OK)
-        st = gt_prepare_seed(ctx, pool, s, scene_name, view, f, need, n, 1);
-    return st;
+    /* one seed: the noise estimate comes from the replicates inside each pixel (gt_cache_get) */
+    return gt_prepare_seed(ctx, pool, s, scene_name, view, f, need, n, 0);
 }
 
 /* The frame's ground truths in memory, loaded once each (a 4K EXR takes a while to decode). */
@@ -609,7 +601,7 @@ typedef struct gt_slot {
     float radius;
     obs_image_f32 mean;
     double mean_se, rms_se;
-    double noise_rms; /* sqrt(mean over surface pixels of (g0 - g1)^2 / 2): g0's noise, from its replicate */
+    double noise_rms; /* sqrt(mean over the scored pixels of s_R^2): the reference's noise */
     double ref_var;   /* g0's variance over the surface pixels (met_result.ref_var): the flat baseline's MSE */
 } gt_slot;
 
@@ -642,10 +634,6 @@ static obs_status gt_cache_get(obs_context *ctx, obs_pool *pool, const study_ao 
     g->radius = radius;
     obs_status st =
         study_ao_i_ground_truth(ctx, pool, s, scene_name, view, f, est, radius, 0, &g->mean, &g->mean_se, &g->rms_se);
-    obs_image_f32 g1 = {0};
-    double se1;
-    if (st == OBS_STATUS_OK)
-        st = study_ao_i_ground_truth(ctx, pool, s, scene_name, view, f, est, radius, 1, &g1, &se1, NULL);
     /* the flat baseline: the variance of g0 over the pixels every point is scored on, by the
      * metrics' own rule (so it is the ref_var of met_compare(g0, ao, mask)) */
     met_result self;
@@ -655,14 +643,15 @@ static obs_status gt_cache_get(obs_context *ctx, obs_pool *pool, const study_ao 
         st = met_compare(ctx, pool, &g->mean, &g->mean, &f->mask, &mp, &self);
     if (st != OBS_STATUS_OK) {
         obs_image_f32_free(&g->mean);
-        obs_image_f32_free(&g1);
         return st;
     }
     g->ref_var = self.ref_var;
-    /* Two independent randomisations of the same estimator (Cranley-Patterson shifts from seeds 0
-     * and 1): study_replicate_noise_rms [L'Ecuyer & Lemieux 2002, section 3]. */
-    g->noise_rms = study_replicate_noise_rms(&g->mean, &g1, &f->mask);
-    obs_image_f32_free(&g1);
+    /* The reference's noise: each pixel's s_R^2 estimates the variance of its mean without bias
+     * (randomised QMC with 8 independent replicates at a fixed count [L'Ecuyer & Lemieux 2002];
+     * calibrated in tests/test_truth_ao.c), so their mean over the scored pixels estimates the
+     * noise's share of the mean squared error. (Until issue 12: the difference of two whole ground
+     * truths from seeds 0 and 1, which cost twice the rays for the same estimate.) */
+    g->noise_rms = g->rms_se;
     c->n++;
     *out = g;
     return OBS_STATUS_OK;

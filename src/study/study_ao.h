@@ -7,7 +7,7 @@
  * tables and a Markdown report. It is the first study built on study.h and follows the shape
  * docs/study.md describes ("The shape of a study"): axes (study_ao_options), a run function (one
  * point: time and output), an error function (study_score against the matched ground truth and
- * its replicate), the ground truth with its cache and noise (study_ao_truth_params), and the
+ * its noise), the ground truth with its cache and noise (study_ao_truth_params), and the
  * report. `obscura study ao` only parses flags into study_ao_options and calls these.
  *
  * Typical use:
@@ -45,7 +45,6 @@ extern "C" {
 #define STUDY_AO_DEFAULT_BLURS "0,1"
 #define STUDY_AO_DEFAULT_BUDGETS "1,2,4,8"        /* ms */
 #define STUDY_AO_DEFAULT_RUNS 5                   /* timed runs per point after one warm-up */
-#define STUDY_AO_DEFAULT_GT_TARGET_ERROR 0.01     /* per-pixel standard error at which a truth pixel stops */
 #define STUDY_AO_DEFAULT_GT_MAX_SAMPLES 256       /* per pixel at 1280x720 or less (study_ao_truth_params) */
 /* --quick (CI, a few seconds per technique): the bunny, its default view, 192x108, 8 samples,
  * radius 1 unit, both blur settings, 3 runs, a coarser ground truth */
@@ -55,7 +54,6 @@ extern "C" {
 #define STUDY_AO_QUICK_SAMPLES "8"
 #define STUDY_AO_QUICK_RADII "1"
 #define STUDY_AO_QUICK_RUNS 3
-#define STUDY_AO_QUICK_GT_TARGET_ERROR 0.02
 #define STUDY_AO_QUICK_GT_MAX_SAMPLES 128
 
 /* The study's axes and settings. Start from study_ao_options_default() (or _quick()) and change
@@ -74,7 +72,6 @@ typedef struct study_ao_options {
     const char *blurs;              /* "0" and/or "1" */
     const char *budgets;            /* frame budgets in ms for the report, > 0 */
     int runs;                       /* timed runs per point, [1, 64] */
-    double gt_target_error;         /* >= 0; see study_ao_truth_params */
     long long gt_max_samples;       /* multiple of 16 in [32, 2^20]; see study_ao_truth_params */
     int quick;                      /* 1: the options came from study_ao_options_quick (the report says so) */
     FILE *log;                      /* the progress bar and one line per ground truth computed; NULL: silent */
@@ -85,13 +82,15 @@ study_ao_options study_ao_options_quick(void);
 
 /* The ground truth's sampling settings for a W x H frame and a seed: the ONE place that decides
  * how the study's ground truths are sampled (the estimator and radius are then set per output).
- *   target_error = o->gt_target_error: a pixel stops when its standard error is below it;
- *   min_samples 32, batch 16;
- *   max_samples = o->gt_max_samples at 1280x720 or less; above, scaled by 921600 / (W H) (a
- *     multiple of 16, at least 32, never above o->gt_max_samples), so that every resolution's
- *     ground truth costs about the same rays (1920x1080: 112, 3840x2160: 32 from 256);
- *   seed: 0 for the reference, 1 for its independent replicate (the noise estimate).
- * The cache file name records target_error and max_samples (docs/study.md); a retune of the other
+ *   a FIXED count per pixel (min_samples = max_samples; no adaptive stopping, so the estimate is
+ *     exactly unbiased, rare occlusion included: docs/truth.md, "Limits"): o->gt_max_samples at
+ *     1280x720 or less; above, scaled by 921600 / (W H) (a multiple of 16, at least 32, never above
+ *     o->gt_max_samples), so that every resolution's ground truth costs about the same rays
+ *     (1920x1080: 112, 3840x2160: 32 from 256); batch 16, 8 replicates;
+ *   error_bar = TRUTH_AO_BAR_REPLICATES: the SE plane is the replicates' standard error s_R, whose
+ *     square is an unbiased estimate of each pixel's variance: the study's noise estimate;
+ *   seed 0 (the caller's choice).
+ * The cache file name records the count and the replicates (docs/study.md); a retune of the other
  * fields must change the name too, or clear OUT/gt/. */
 truth_ao_params study_ao_truth_params(const study_ao_options *o, int width, int height, unsigned seed);
 
@@ -126,7 +125,7 @@ typedef struct study_ao_plan {
 
 study_ao_plan study_ao_plan_of(const study_ao *s);
 
-/* Compute and cache every ground truth (and its replicate) the grid's pending points need, and
+/* Compute and cache every ground truth the grid's pending points need, and
  * complete rows measured before a column existed; measure nothing. Writes the table when it
  * changed. Returns OK, or the first error of loading a scene (NOT_FOUND, IO_ERROR, PARSE_ERROR...),
  * of the truth module, or of writing (IO_ERROR); OUT_OF_MEMORY; LIMIT_EXCEEDED. */

@@ -28,19 +28,19 @@ static double mean_err(const agg *a) { return a->err_sum / a->n; }
 static double mean_base(const agg *a) { return a->nskill ? a->base_sum / a->nskill : NAN; }
 static double mean_skill(const agg *a) { return a->nskill ? a->skill_sum / a->nskill : NAN; }
 
-/* Is a configuration's calibrated score informative (study_score_informative)? Not when the fit of
- * any of its points is at its bound, nor when its mean skill is not above STUDY_SKILL_MIN. A table
- * from before the skill columns (report-only on an old table) has no skill: only the bound rule,
- * from the fitted power, applies then. */
+/* Is a configuration's calibrated score informative (study_score_informative)? Not when its mean
+ * skill is not above STUDY_SKILL_MIN. A table from before the skill columns (report-only on an old
+ * table) has no skill: a fit at its bound in any point stands in for it then. */
 static int informative(const agg *a)
 {
-    if (a->nbound > 0)
-        return 0;
-    return a->nskill == 0 || study_score_informative(mean_skill(a), 0);
+    if (a->nskill == 0)
+        return a->nbound == 0;
+    return study_score_informative(mean_skill(a));
 }
 
-/* "†" after a value whose configuration is not informative. */
-static const char *mark(const agg *a) { return informative(a) ? "" : "†"; }
+/* "†" after a configuration that is not informative (not ranked); "°" after one whose fit is at
+ * its power bound in some point (ranked, flagged). */
+static const char *mark(const agg *a) { return !informative(a) ? "†" : a->nbound > 0 ? "°" : ""; }
 
 /* The aggregated configuration (of `method`, or of any when NULL) with the lowest mean error among
  * those whose mean time is within budget ms, and (informative_only) whose score is informative;
@@ -344,16 +344,18 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
                 "truth's standard deviation over the surface pixels) and the *skill* 1 - MSE / Var(ground truth) "
                 "(Murphy 1988, the MSE skill score against the sample mean; 1 perfect, 0 no better than a flat "
                 "image), both with the noise s^2 taken out of the MSE and of the variance (`baseline_rmse_nc`, "
-                "`cal_skill_nc`). A configuration is **not ranked** (marked †) when the fitted power of any of its "
-                "points sits at the bound of its range (`fit_at_bound`: the fit has flattened the image) or its mean "
-                "skill is not above %g: the budget table, each technique's best, the summary's budgets and Pareto "
-                "front consider only the others. The plots show every point.\n",
+                "`cal_skill_nc`). A configuration is **not ranked** (marked †) when its mean skill is not above %g "
+                "(the calibrated image explains at most 5%% of the ground truth's variance): the budget table, each "
+                "technique's best, the summary's budgets and Pareto front consider only the others. A fit whose "
+                "power sits at the bound of its range in some point (`fit_at_bound`) is flagged ° and still ranked: "
+                "its skill says how much the re-shaped image explains. The plots show every point.\n",
             STUDY_SKILL_MIN);
-    fprintf(md, "- Ground truth: target standard error %.3g per pixel, at most %lld samples per pixel at 1280x720 "
-                "and below, scaled by the pixel count above (1920x1080: %lld, 3840x2160: %lld), so each resolution's "
-                "ground truth costs about the same rays; the estimators that share a direction distribution are "
-                "computed from one ray set (`truth_ao_render_multi`).\n\n",
-            s->o.gt_target_error, s->o.gt_max_samples, (long long)study_ao_truth_params(&s->o, 1920, 1080, 0).max_samples,
+    fprintf(md, "- Ground truth: a fixed %lld samples per pixel at 1280x720 and below (no adaptive stopping: "
+                "unbiased, rare occlusion included), scaled by the pixel count above (1920x1080: %lld, 3840x2160: "
+                "%lld), so each resolution's ground truth costs about the same rays; 8 Owen-scrambled replicates "
+                "per pixel give its noise, which the `_nc` columns take out; the estimators that share a direction "
+                "distribution are computed from one ray set (`truth_ao_render_multi`).\n\n",
+            s->o.gt_max_samples, (long long)study_ao_truth_params(&s->o, 1920, 1080, 0).max_samples,
             (long long)study_ao_truth_params(&s->o, 3840, 2160, 0).max_samples);
 
     /* ---- plots: calibrated RMSE against total time, all scenes together, and per scene ---- */
@@ -445,16 +447,16 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
                     mean_skill(&ag[fastest]), informative(&ag[fastest]) ? "" : ", not informative");
         /* which configurations are left out of the ranking, by technique */
         if (unranked > 0) {
-            fprintf(sum, "- **Not ranked** (fit at its bound in some point, or mean skill not above %g): %d of %d "
-                         "configurations:", STUDY_SKILL_MIN, unranked, na);
+            fprintf(sum, "- **Not ranked** (mean skill not above %g): %d of %d configurations:", STUDY_SKILL_MIN,
+                    unranked, na);
             int first = 1;
             for (int mi = 0; mi < s->methods.n; mi++) {
                 int n = 0, nb = 0, of = 0;
                 for (int k = 0; k < na; k++)
                     if (!strcmp(ag[k].method, s->methods.v[mi])) {
                         of++;
-                        n += !informative(&ag[k]);
-                        nb += ag[k].nbound > 0;
+                            n += !informative(&ag[k]);
+                        nb += !informative(&ag[k]) && ag[k].nbound > 0;
                     }
                 if (n)
                     fprintf(sum, "%s %s %d of %d (%d at the bound)", first ? "" : ",", s->methods.v[mi], n, of, nb);
@@ -560,7 +562,7 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
     /* ---- tables in the seed's layout: time (and error) for samples x radius per technique ---- */
     fprintf(md, "\n## Time and error for samples × radius (the seed's Tables 15, 18, 22, 23), %dx%d, no blur\n\n"
                 "Each cell: median total ms / calibrated RMSE (skill), mean over scenes and views; † not informative "
-                "(fit at its bound in some point, or skill not above %g).\n", MW, MH, STUDY_SKILL_MIN);
+                "(skill not above %g), ° fit at its power bound in some point.\n", MW, MH, STUDY_SKILL_MIN);
     for (int mi = 0; mi < s->methods.n; mi++) {
         fprintf(md, "\n**%s**\n\n| samples \\ radius |", s->methods.v[mi]);
         for (int q = 0; q < s->radii.n; q++)
@@ -644,10 +646,10 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
                 wvn = study_table_get(t, r, col(t, "view"));
             }
         }
-        /* the bound rule always; the skill rule where the table has the skill */
-        const int uninformative = wbound || (wskill == wskill && !study_score_informative(wskill, 0));
+        /* the skill rule where the table has the skill, else the bound as its stand-in */
+        const int uninformative = wskill == wskill ? !study_score_informative(wskill) : wbound;
         fprintf(md, "| %s | %s / %s | %.4f | %.4f | %.3f%s | %.4f |\n", s->methods.v[mi], wsn, wvn, worst, wbase, wskill,
-                uninformative ? "†" : "", wb);
+                uninformative ? "†" : wbound ? "°" : "", wb);
         if (worst >= 0.0)
             fprintf(sum, "%s %s on %s/%s (calibrated RMSE %.3f, skill %.2f%s, %s by %.3f)", nhard++ ? ";" : "- **Hard "
                     "cases** (each technique's worst scene and view at the main resolution, over all its points):",
