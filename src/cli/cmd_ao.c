@@ -171,31 +171,6 @@ static int apply_param_flag(const ao_method *m, void *params, unsigned char *giv
     return 1;
 }
 
-/* mkdir -p for the directory part of path (as cmd_gbuffer.c does). */
-static obs_status make_parent_dirs(obs_context *ctx, const char *path)
-{
-    char buf[4096];
-    size_t n = strlen(path);
-    if (n >= sizeof buf)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "output path too long: %s", path);
-    memcpy(buf, path, n + 1);
-    char *slash = strrchr(buf, '/');
-    if (!slash)
-        return OBS_STATUS_OK;
-    *slash = '\0';
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-        *p = '/';
-    }
-    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
-        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-    return OBS_STATUS_OK;
-}
-
 static int parse_depth_kind(const char *v, ao_depth_kind *out)
 {
     if (!v) return 0;
@@ -503,7 +478,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
                        "(docs/ao/)";
     na++;
     char path[4200];
-    st = make_parent_dirs(ctx, prefix);
+    st = cli_make_parent_dirs(ctx, prefix);
     if (st == OBS_STATUS_OK) {
         snprintf(path, sizeof path, "%s.exr", prefix);
         st = io_exr_write(ctx, path, ch, 3, at, na);

@@ -54,15 +54,5 @@ obs_status cli_make_parent_dirs(obs_context *ctx, const char *path)
     if (!slash)
         return OBS_STATUS_OK;
     *slash = '\0';
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-        *p = '/';
-    }
-    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
-        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-    return OBS_STATUS_OK;
+    return io_make_dirs(ctx, buf);
 }

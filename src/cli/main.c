@@ -69,52 +69,11 @@ int cli_usage_error(const char *fmt, ...)
     return CLI_EXIT_USAGE;
 }
 
-int cli_parse_int(const char *s, long long lo, long long hi, long long *out)
-{
-    if (!s || !*s)
-        return 0;
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || *end || v < lo || v > hi)
-        return 0;
-    *out = v;
-    return 1;
-}
+int cli_parse_int(const char *s, long long lo, long long hi, long long *out) { return obs_parse_int(s, lo, hi, out); }
 
-int cli_parse_float(const char *s, double *out)
-{
-    if (!s || !*s)
-        return 0;
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (errno || *end || v != v)
-        return 0;
-    *out = v;
-    return 1;
-}
+int cli_parse_float(const char *s, double *out) { return obs_parse_double(s, out); }
 
-int cli_parse_size(const char *s, int *w, int *h)
-{
-    if (!s)
-        return 0;
-    const char *x = strchr(s, 'x');
-    if (!x || x == s)
-        return 0;
-    char buf[32];
-    size_t n = (size_t)(x - s);
-    if (n >= sizeof buf)
-        return 0;
-    memcpy(buf, s, n);
-    buf[n] = '\0';
-    long long a, b;
-    if (!cli_parse_int(buf, 1, RAST_MAX_DIM, &a) || !cli_parse_int(x + 1, 1, RAST_MAX_DIM, &b))
-        return 0;
-    *w = (int)a;
-    *h = (int)b;
-    return 1;
-}
+int cli_parse_size(const char *s, int *w, int *h) { return obs_parse_size(s, RAST_MAX_DIM, w, h); }
 
 int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i)
 {

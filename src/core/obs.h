@@ -271,6 +271,18 @@ static inline double obs_halton(uint64_t i, int dimension) { return obs_radical_
 double obs_cp_rotate(double u, double shift);
 
 /* ------------------------------------------------------------------------------------------------
+ * Parsing numbers from text (command lines, option lists)
+ * ---------------------------------------------------------------------------------------------- */
+
+/* The whole of s as a base-10 integer in [lo, hi]: 1 and *out set, or 0 (NULL, empty, trailing
+ * characters, overflow, out of range). */
+int obs_parse_int(const char *s, long long lo, long long hi, long long *out);
+/* The whole of s as a number (strtod: "inf" accepted, NaN refused): 1 and *out set, or 0. */
+int obs_parse_double(const char *s, double *out);
+/* "WxH" with each side an integer in [1, max]: 1 and *w, *h set, or 0. */
+int obs_parse_size(const char *s, int max, int *w, int *h);
+
+/* ------------------------------------------------------------------------------------------------
  * Timers
  * ---------------------------------------------------------------------------------------------- */
 

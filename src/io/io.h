@@ -30,6 +30,10 @@ extern "C" {
  * Returns: OK; INVALID_ARGUMENT; IO_ERROR (message names the path and errno text). */
 obs_status io_write_file_atomic(obs_context *ctx, const char *path, const void *data, size_t len);
 
+/* mkdir -p dir (every missing directory of the path). Returns OK, INVALID_ARGUMENT (too long),
+ * IO_ERROR (the message names the directory and errno text). */
+obs_status io_make_dirs(obs_context *ctx, const char *dir);
+
 /* For writers that stream (or hand a path to a library): make a unique temporary path beside
  * `path` (same directory, so rename is atomic). tmp must hold at least strlen(path)+48 bytes. */
 obs_status io_temp_path(obs_context *ctx, const char *path, char *tmp, size_t tmp_size);

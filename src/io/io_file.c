@@ -162,3 +162,23 @@ obs_status io_read_file(obs_context *ctx, const char *path, size_t max_bytes, ch
     *len = size;
     return OBS_STATUS_OK;
 }
+
+obs_status io_make_dirs(obs_context *ctx, const char *dir)
+{
+    char buf[4096];
+    size_t n = strlen(dir);
+    if (n >= sizeof buf)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "directory name too long: %.64s...", dir);
+    memcpy(buf, dir, n + 1);
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
+            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
+        *p = '/';
+    }
+    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
+    return OBS_STATUS_OK;
+}

@@ -808,27 +808,3 @@ int study_score_informative(double cal_skill)
 {
     return cal_skill > STUDY_SKILL_MIN;
 }
-
-/* ================================================================================================
- * Directories
- * ============================================================================================== */
-
-obs_status study_make_dirs(obs_context *ctx, const char *dir)
-{
-    char buf[4096];
-    size_t n = strlen(dir);
-    if (n >= sizeof buf)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "directory name too long: %.64s...", dir);
-    memcpy(buf, dir, n + 1);
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        if (mkdir(buf, 0777) != 0 && errno != EEXIST)
-            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-        *p = '/';
-    }
-    if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
-        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create directory %s: %s", buf, strerror(errno));
-    return OBS_STATUS_OK;
-}

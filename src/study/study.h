@@ -148,9 +148,6 @@ study_score study_score_of(double raw_mse, double cal_mse, double ref_var, doubl
  * informative configurations (docs/study.md). */
 int study_score_informative(double cal_skill);
 
-/* mkdir -p dir. Returns OK, INVALID_ARGUMENT (too long), IO_ERROR. */
-obs_status study_make_dirs(obs_context *ctx, const char *dir);
-
 /* ---- Pareto front ------------------------------------------------------------------------------
  * on_front[i] = 1 when no other point j has cost[j] <= cost[i] and err[j] <= err[i] with one of
  * them strictly smaller (both minimised). Points with a NaN coordinate are never on the front.

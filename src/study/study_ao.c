@@ -98,50 +98,7 @@ double study_ao_scene_unit(const char *name)
 
 /* ---- parsing the axes' values ------------------------------------------------------------------ */
 
-static int parse_int(const char *s, long long lo, long long hi, long long *out)
-{
-    if (!s || !*s)
-        return 0;
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || *end || v < lo || v > hi)
-        return 0;
-    *out = v;
-    return 1;
-}
-
-static int parse_double(const char *s, double *out)
-{
-    if (!s || !*s)
-        return 0;
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (errno || *end || v != v)
-        return 0;
-    *out = v;
-    return 1;
-}
-
-int study_ao_i_parse_size(const char *s, int *w, int *h)
-{
-    const char *x = s ? strchr(s, 'x') : NULL;
-    if (!x || x == s)
-        return 0;
-    char buf[32];
-    size_t n = (size_t)(x - s);
-    if (n >= sizeof buf)
-        return 0;
-    memcpy(buf, s, n);
-    buf[n] = '\0';
-    long long a, b;
-    if (!parse_int(buf, 1, RAST_MAX_DIM, &a) || !parse_int(x + 1, 1, RAST_MAX_DIM, &b))
-        return 0;
-    *w = (int)a;
-    *h = (int)b;
-    return 1;
-}
+int study_ao_i_parse_size(const char *s, int *w, int *h) { return obs_parse_size(s, RAST_MAX_DIM, w, h); }
 
 /* ---- the results table ------------------------------------------------------------------------ */
 
@@ -197,13 +154,13 @@ static obs_status check_options(obs_context *ctx, study_ao *s)
     }
     for (int i = 0; i < s->samples.n; i++) {
         long long ll;
-        if (!parse_int(s->samples.v[i], 1, 1024, &ll))
+        if (!obs_parse_int(s->samples.v[i], 1, 1024, &ll))
             return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: bad sample count '%s' (1..1024)",
                              s->samples.v[i]);
     }
     for (int i = 0; i < s->radii.n; i++) {
         double d;
-        if (!parse_double(s->radii.v[i], &d) || !(d > 0.0) || !isfinite(d))
+        if (!obs_parse_double(s->radii.v[i], &d) || !(d > 0.0) || !isfinite(d))
             return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: bad radius '%s' (> 0, in scene units)",
                              s->radii.v[i]);
     }
@@ -212,7 +169,7 @@ static obs_status check_options(obs_context *ctx, study_ao *s)
             return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: --blur takes 0 and/or 1");
     for (int i = 0; i < s->budgets.n; i++) {
         double d;
-        if (!parse_double(s->budgets.v[i], &d) || !(d > 0.0) || !isfinite(d))
+        if (!obs_parse_double(s->budgets.v[i], &d) || !(d > 0.0) || !isfinite(d))
             return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: bad budget '%s' (ms > 0)", s->budgets.v[i]);
     }
     return OBS_STATUS_OK;
@@ -340,7 +297,7 @@ static obs_status pick_camera(obs_context *ctx, const obs_scene *s, const char *
             return OBS_STATUS_OK;
         }
     long long idx;
-    if (s->camera_count > 0 && parse_int(view, 0, (long long)s->camera_count - 1, &idx)) {
+    if (s->camera_count > 0 && obs_parse_int(view, 0, (long long)s->camera_count - 1, &idx)) {
         *out = s->cameras[idx];
         return OBS_STATUS_OK;
     }
@@ -464,7 +421,7 @@ static obs_status gt_write(obs_context *ctx, const study_ao *s, const char *path
     at[0].s = (char *)estimator;
     char gtdir[4200];
     snprintf(gtdir, sizeof gtdir, "%s/gt", s->o.out_dir);
-    obs_status st = study_make_dirs(ctx, gtdir);
+    obs_status st = io_make_dirs(ctx, gtdir);
     if (st == OBS_STATUS_OK)
         st = io_exr_write(ctx, path, ch, 3, at, 1);
     return st;
@@ -739,7 +696,7 @@ static obs_status save_table(obs_context *ctx, study_ao *s)
 {
     s->last_save = obs_time_now();
     s->dirty = 0;
-    obs_status st = study_make_dirs(ctx, s->o.out_dir);
+    obs_status st = io_make_dirs(ctx, s->o.out_dir);
     if (st == OBS_STATUS_OK)
         st = study_table_write_csv(ctx, &s->table, s->csv);
     if (st == OBS_STATUS_OK)

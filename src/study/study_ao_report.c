@@ -270,7 +270,7 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
     if (!s->o.report_dir || !*s->o.report_dir)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: no report directory");
     const study_table *t = &s->table;
-    obs_status dst = study_make_dirs(ctx, s->o.report_dir);
+    obs_status dst = io_make_dirs(ctx, s->o.report_dir);
     if (dst != OBS_STATUS_OK)
         return dst;
     char path[4096];
