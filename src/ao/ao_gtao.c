@@ -663,33 +663,45 @@ void ao_gtao_mips_free(obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
         obs_image_f32_free(&levels[l]);
 }
 
-static obs_status prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
-                                   obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS], int avx2)
+/* Level l's size: max(1, size >> 1) per level */
+static void level_size(int W, int H, int l, int *w, int *h)
 {
-    if (!in || !k || !levels || !in->depth)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: prefilter: NULL argument");
-    memset(levels, 0, sizeof(obs_image_f32) * AO_GTAO_DEPTH_MIP_LEVELS);
+    for (int i = 0; i < l; i++) {
+        W = W > 1 ? W >> 1 : 1;
+        H = H > 1 ? H >> 1 : 1;
+    }
+    *w = W, *h = H;
+}
+
+/* Fill levels[0..4], already sized (level_size); every texel is written. */
+static void prefilter_fill(obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
+                           obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS], int avx2)
+{
     prefilter_job J = {in, NULL, NULL, mip_filter_from(k), avx2};
-    int w = in->width, h = in->height;
     for (int l = 0; l < AO_GTAO_DEPTH_MIP_LEVELS; l++) {
-        obs_status st = obs_image_f32_alloc(ctx, w, h, &levels[l]);
-        if (st != OBS_STATUS_OK) {
-            ao_gtao_mips_free(levels);
-            return st;
-        }
         J.dst = &levels[l];
         J.src = l ? &levels[l - 1] : NULL;
-        obs_pool_run(pool, h, prefilter_row, &J);
-        w = w > 1 ? w >> 1 : 1;
-        h = h > 1 ? h >> 1 : 1;
+        obs_pool_run(pool, levels[l].height, prefilter_row, &J);
     }
-    return OBS_STATUS_OK;
 }
 
 obs_status ao_gtao_prefilter_depths(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_constants *k,
                                     obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS])
 {
-    return prefilter_depths(ctx, pool, in, k, levels, gtao_use_avx2());
+    if (!in || !k || !levels || !in->depth)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "gtao: prefilter: NULL argument");
+    memset(levels, 0, sizeof(obs_image_f32) * AO_GTAO_DEPTH_MIP_LEVELS);
+    for (int l = 0; l < AO_GTAO_DEPTH_MIP_LEVELS; l++) {
+        int w, h;
+        level_size(in->width, in->height, l, &w, &h);
+        obs_status st = obs_image_f32_alloc(ctx, w, h, &levels[l]);
+        if (st != OBS_STATUS_OK) {
+            ao_gtao_mips_free(levels);
+            return st;
+        }
+    }
+    prefilter_fill(pool, in, k, levels, gtao_use_avx2());
+    return OBS_STATUS_OK;
 }
 
 /* ================================================================================================
@@ -1776,6 +1788,102 @@ AVX2_FN static void output8_avx2(const float *f, const float *r, const float *d,
 }
 #endif
 
+/* ---- The workspace (issue 12): what a call needs besides its output, kept between calls ------------
+ * The MIP levels, the main pass's working term, edges and counts, the denoiser's two planes and the
+ * per-call tables are parked in the caller's context (obs_context_scratch_put) and reused by the
+ * next call with that context: no allocation, no page faults, and no zeroing, because every plane
+ * is fully written before it is read (the prefilter writes every texel of each level, main_row every
+ * pixel of the region and every row's counts, each denoise pass every pixel of its view, which is
+ * all the next pass and the output read). The tables are rebuilt only when their inputs change.
+ * Planes only grow; the context frees them (obs_context_destroy). */
+enum { WS_VIS = AO_GTAO_DEPTH_MIP_LEVELS, WS_PING, WS_PONG, WS_PLANES };
+typedef struct gtao_workspace {
+    obs_image_f32 plane[WS_PLANES]; /* levels 0..4, vis, ping, pong */
+    size_t cap[WS_PLANES];          /* floats each plane's memory holds */
+    unsigned char *edges;
+    size_t edges_cap;
+    int64_t (*counts)[2];
+    size_t counts_cap;
+    main_tables *tables;            /* built for these inputs: */
+    int tables_slices, tables_steps, tables_noise_index;
+    float tables_power, tables_mip_offset;
+} gtao_workspace;
+
+static const char gtao_workspace_key; /* its address names our slot in the context */
+
+static void gtao_workspace_destroy(void *p)
+{
+    gtao_workspace *ws = (gtao_workspace *)p;
+    if (!ws)
+        return;
+    for (int i = 0; i < WS_PLANES; i++)
+        obs_aligned_free(ws->plane[i].data);
+    free(ws->edges);
+    free(ws->counts);
+    main_tables_free(ws->tables);
+    free(ws);
+}
+
+/* Make *im a w x h plane (rows of 16-float multiples, as obs_image_f32_alloc) in memory that holds
+ * *cap floats, growing it when needed, with obs_image_f32_alloc's limits. Not zeroed. */
+static obs_status ws_plane(obs_context *ctx, obs_image_f32 *im, size_t *cap, int w, int h)
+{
+    const size_t row = ((size_t)w + 15) & ~(size_t)15;
+    size_t elems, bytes;
+    if (!obs_mul_size(row, (size_t)h, &elems) || !obs_mul_size(elems, 4, &bytes))
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "image size %dx%d overflows size_t", w, h);
+    const obs_limits *lim = obs_context_limits(ctx);
+    if ((int64_t)w * (int64_t)h > lim->max_image_pixels)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                         "image %dx%d has %lld pixels, over the limit of %lld (raise it with --max-pixels)", w, h,
+                         (long long)w * h, (long long)lim->max_image_pixels);
+    if ((int64_t)bytes > lim->max_memory_bytes)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                         "image %dx%d needs %lld bytes, over the limit of %lld (raise it with --max-memory)", w, h,
+                         (long long)bytes, (long long)lim->max_memory_bytes);
+    if (elems > *cap || !im->data) {
+        obs_aligned_free(im->data);
+        im->data = (float *)obs_aligned_alloc(bytes);
+        *cap = im->data ? elems : 0;
+        if (!im->data)
+            return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "cannot allocate %zu bytes for a %dx%d image", bytes, w,
+                             h);
+    }
+    im->width = w;
+    im->height = h;
+    im->stride = (ptrdiff_t)row;
+    return OBS_STATUS_OK;
+}
+
+/* n elements of `size` bytes in *p (capacity *cap), growing it when needed. Returns 0 when out of
+ * memory. Not zeroed. */
+static int ws_array(void **p, size_t *cap, size_t n, size_t size)
+{
+    if (n <= *cap && *p)
+        return 1;
+    free(*p);
+    *p = malloc(n * size);
+    *cap = *p ? n : 0;
+    return *p != NULL;
+}
+
+/* The per-call tables for k, rebuilt only when their inputs changed. */
+static const main_tables *ws_tables(gtao_workspace *ws, const ao_gtao_constants *k)
+{
+    if (ws->tables && ws->tables_slices == k->slice_count && ws->tables_steps == k->steps_per_slice &&
+        ws->tables_noise_index == k->noise_index && f2u(ws->tables_power) == f2u(k->sample_distribution_power) &&
+        f2u(ws->tables_mip_offset) == f2u(k->depth_mip_sampling_offset))
+        return ws->tables;
+    main_tables_free(ws->tables);
+    ws->tables = main_tables_create(k);
+    ws->tables_slices = k->slice_count;
+    ws->tables_steps = k->steps_per_slice;
+    ws->tables_noise_index = k->noise_index;
+    ws->tables_power = k->sample_distribution_power;
+    ws->tables_mip_offset = k->depth_mip_sampling_offset;
+    return ws->tables;
+}
+
 static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
                                obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats, int reference)
 {
@@ -1799,12 +1907,25 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
     const int gtao_avx2 = gtao_use_avx2();
     (void)gtao_avx2;
 
+    /* ---- 0. The workspace: the context's, or a fresh one (parked in the context at the end) ---- */
+    gtao_workspace *ws = (gtao_workspace *)obs_context_scratch_take(ctx, &gtao_workspace_key);
+    if (!ws && !(ws = (gtao_workspace *)calloc(1, sizeof *ws)))
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "gtao: out of memory");
+    obs_image_f32 *levels = ws->plane;
+
     /* ---- 1. PrefilterDepths ---- */
     double t0 = obs_time_now();
-    obs_image_f32 levels[AO_GTAO_DEPTH_MIP_LEVELS];
-    st = prefilter_depths(ctx, pool, in, &k, levels, !reference && gtao_avx2);
-    if (st != OBS_STATUS_OK)
+    st = OBS_STATUS_OK;
+    for (int l = 0; l < AO_GTAO_DEPTH_MIP_LEVELS && st == OBS_STATUS_OK; l++) {
+        int lw, lh;
+        level_size(W, H, l, &lw, &lh);
+        st = ws_plane(ctx, &levels[l], &ws->cap[l], lw, lh);
+    }
+    if (st != OBS_STATUS_OK) {
+        obs_context_scratch_put(ctx, &gtao_workspace_key, ws, gtao_workspace_destroy);
         return st;
+    }
+    prefilter_fill(pool, in, &k, levels, !reference && gtao_avx2);
     double t1 = obs_time_now();
 
     /* ---- 2. MainPass over the window plus one pixel per denoise pass (the denoiser's reach) ---- */
@@ -1812,19 +1933,19 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
     const int rx0 = in->x0 - m < 0 ? 0 : in->x0 - m, rx1 = in->x0 + in->w - 1 + m > W - 1 ? W - 1 : in->x0 + in->w - 1 + m;
     const int ry0 = in->y0 - m < 0 ? 0 : in->y0 - m, ry1 = in->y0 + in->h - 1 + m > H - 1 ? H - 1 : in->y0 + in->h - 1 + m;
     const int rw = rx1 - rx0 + 1, rh = ry1 - ry0 + 1;
-    obs_image_f32 vis = {0}, ping = {0}, pong = {0};
-    unsigned char *edges = NULL;
-    int64_t(*counts)[2] = NULL;
-    main_tables *tables = NULL;
-    st = obs_image_f32_alloc(ctx, rw, rh, &vis);
+    obs_image_f32 *vis = &ws->plane[WS_VIS], *ping = &ws->plane[WS_PING], *pong = &ws->plane[WS_PONG];
+    const main_tables *tables = NULL;
+    st = ws_plane(ctx, vis, &ws->cap[WS_VIS], rw, rh);
     if (st == OBS_STATUS_OK) {
-        edges = (unsigned char *)malloc((size_t)rw * (size_t)rh);
-        counts = (int64_t(*)[2])calloc((size_t)rh, sizeof *counts);
+        const int ok_e = ws_array((void **)&ws->edges, &ws->edges_cap, (size_t)rw * (size_t)rh, 1);
+        const int ok_c = ws_array((void **)&ws->counts, &ws->counts_cap, (size_t)rh, sizeof *ws->counts);
         if (!reference)
-            tables = main_tables_create(&k);
-        if (!edges || !counts || (!reference && !tables))
+            tables = ws_tables(ws, &k);
+        if (!ok_e || !ok_c || (!reference && !tables))
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "gtao: out of memory");
     }
+    unsigned char *edges = ws->edges;
+    int64_t(*counts)[2] = ws->counts;
     if (st == OBS_STATUS_OK) {
         main_job J;
         memset(&J, 0, sizeof J);
@@ -1842,7 +1963,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
         J.in = in;
         J.rx0 = rx0;
         J.ry0 = ry0;
-        J.vis = &vis;
+        J.vis = vis;
         J.edges = edges;
         J.counts = counts;
         J.tables = tables;
@@ -1852,13 +1973,13 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
     double t2 = obs_time_now();
 
     /* ---- 3. Denoise: passes-1 intermediate passes (beta / 5), then the last (beta) ---- */
-    const obs_image_f32 *final = &vis;
+    const obs_image_f32 *final = vis;
     int fx0 = rx0, fy0 = ry0;
     if (st == OBS_STATUS_OK && m > 0) {
-        st = obs_image_f32_alloc(ctx, rw, rh, &ping);
-        if (st == OBS_STATUS_OK)
-            st = obs_image_f32_alloc(ctx, rw, rh, &pong);
-        const obs_image_f32 *src = &vis;
+        st = ws_plane(ctx, ping, &ws->cap[WS_PING], rw, rh);
+        if (st == OBS_STATUS_OK && m > 1)
+            st = ws_plane(ctx, pong, &ws->cap[WS_PONG], rw, rh);
+        const obs_image_f32 *src = vis;
         int ax0 = rx0, ay0 = ry0;
         for (int pass = 0; st == OBS_STATUS_OK && pass < m; pass++) {
             const int last = pass == m - 1;
@@ -1867,7 +1988,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
             const int dx1 = in->x0 + in->w - 1 + reach > W - 1 ? W - 1 : in->x0 + in->w - 1 + reach;
             const int dy0 = in->y0 - reach < 0 ? 0 : in->y0 - reach;
             const int dy1 = in->y0 + in->h - 1 + reach > H - 1 ? H - 1 : in->y0 + in->h - 1 + reach;
-            obs_image_f32 *dst = (pass & 1) ? &pong : &ping;
+            obs_image_f32 *dst = (pass & 1) ? pong : ping;
             obs_image_f32 view = *dst;
             view.width = dx1 - dx0 + 1;
             view.height = dy1 - dy0 + 1;
@@ -1903,7 +2024,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
         for (int y = 0; y < in->h; y++) {
             const int gy = in->y0 + y;
             const float *f = obs_image_f32_row(final, gy - fy0) + (in->x0 - fx0);
-            const float *r = obs_image_f32_row(&vis, gy - ry0) + (in->x0 - rx0);
+            const float *r = obs_image_f32_row(vis, gy - ry0) + (in->x0 - rx0);
             const float *d = obs_image_f32_row(in->depth, gy) + in->x0;
             float *o = obs_image_f32_row(out, y);
             float *orw = out_raw ? obs_image_f32_row(out_raw, y) : NULL;
@@ -1933,13 +2054,7 @@ static obs_status gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input 
             stats->seconds_denoise = t3 - t2;
         }
     }
-    main_tables_free(tables);
-    free(counts);
-    free(edges);
-    obs_image_f32_free(&pong);
-    obs_image_f32_free(&ping);
-    obs_image_f32_free(&vis);
-    ao_gtao_mips_free(levels);
+    obs_context_scratch_put(ctx, &gtao_workspace_key, ws, gtao_workspace_destroy);
     return st;
 }
 
