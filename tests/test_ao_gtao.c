@@ -957,3 +957,15 @@ TEST(gtao_outputs_keep_their_recorded_bits)
     rast_gbuffer_free(&gb);
     obs_context_destroy(ctx);
 }
+
+TEST(gtao_background_edges_are_packed_ones)
+{
+    /* the main pass writes 0xFF without arithmetic for a background pixel whose five MIP-0 taps are
+     * the 65504 clamp (ao_gtao.c, main_row): that is what XeGTAO_CalculateEdges / PackEdges give */
+    float e[4];
+    ao_gtao_calculate_edges(AO_GTAO_DEPTH_CLAMP, AO_GTAO_DEPTH_CLAMP, AO_GTAO_DEPTH_CLAMP, AO_GTAO_DEPTH_CLAMP,
+                            AO_GTAO_DEPTH_CLAMP, e);
+    for (int i = 0; i < 4; i++)
+        CHECK(e[i] == 1.0f);
+    CHECK_EQ_INT(ao_gtao_pack_edges(e), 0xFF);
+}

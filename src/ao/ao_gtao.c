@@ -1471,6 +1471,23 @@ AVX2_FN static void row_edges_avx2(const float *zc, const float *zl, const float
             e[l][i] = o[i][l];
     }
 }
+
+/* 1 when the 8 pixels are all background (our depth d) and their centre, left, right, top and
+ * bottom MIP-0 depths are all the 65504 clamp: their edges are 0xFF and they need no setup. */
+AVX2_FN static inline int bg8_avx2(const float *d, const float *zc, const float *zt, const float *zb)
+{
+    const __m256 dv = _mm256_loadu_ps(d), cl = _mm256_set1_ps(AO_GTAO_DEPTH_CLAMP);
+    const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(dv, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(dv, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    if (_mm256_movemask_ps(fg))
+        return 0;
+    __m256 eq = _mm256_and_ps(_mm256_cmp_ps(_mm256_loadu_ps(zc), cl, _CMP_EQ_OQ),
+                              _mm256_cmp_ps(_mm256_loadu_ps(zc - 1), cl, _CMP_EQ_OQ));
+    eq = _mm256_and_ps(eq, _mm256_cmp_ps(_mm256_loadu_ps(zc + 1), cl, _CMP_EQ_OQ));
+    eq = _mm256_and_ps(eq, _mm256_cmp_ps(_mm256_loadu_ps(zt), cl, _CMP_EQ_OQ));
+    eq = _mm256_and_ps(eq, _mm256_cmp_ps(_mm256_loadu_ps(zb), cl, _CMP_EQ_OQ));
+    return _mm256_movemask_ps(eq) == 0xFF;
+}
 #endif
 
 typedef struct main_job {
@@ -1503,11 +1520,19 @@ static void main_row(void *user, int64_t task, int thread)
     } else {
         /* per chunk of 64 pixels: the edges (8 at a time with AVX2 where the neighbours are inside
          * the row), then the setup per pixel; the slice loops of the pixels that need one, 8 lanes
-         * at a time (AVX2) or one by one (the row's last < 8 and the scalar build); the finish */
+         * at a time (AVX2) or one by one (the row's last < 8 and the scalar build); the finish.
+         * Background pixels (our depth) need no setup: the working term bgv. Where a background
+         * pixel's five MIP-0 taps are all 65504 (the clamp; our background's value) its edges need
+         * no arithmetic: calculate_edges(z, z, z, z, z) with z * 0.011 > 0 is (1.25 - 0 / (z * 0.011))
+         * saturated = 1 each, packed round(1 * 2.9) = 3 each, 0xFF (the denoiser reads them where a
+         * neighbour is foreground; gtao_background_edges_are_packed_ones checks the value). */
         const obs_image_f32 *z0 = &J->levels[0];
         const int W = z0->width, H = z0->height;
         const int yt = y > 0 ? y - 1 : 0, yb = y < H - 1 ? y + 1 : H - 1;
         const float *zr = obs_image_f32_row(z0, y), *zt = obs_image_f32_row(z0, yt), *zb = obs_image_f32_row(z0, yb);
+        const float *dr = obs_image_f32_row(J->in->depth, y);
+        const float cl = AO_GTAO_DEPTH_CLAMP;
+        const float bgv = J->k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
         px_setup S[8];
         int idx[8], na = 0;
         float ech[64][4];
@@ -1517,18 +1542,34 @@ static void main_row(void *user, int64_t task, int thread)
                 const int x = J->rx0 + i0 + j;
 #if GTAO_AVX2
                 if (J->avx2 && j + 8 <= n && x >= 1 && x + 8 <= W - 1) {
+                    if (bg8_avx2(dr + x, zr + x, zt + x, zb + x)) {
+                        memset(&e[i0 + j], 0xFF, 8);
+                        j += 8;
+                        continue;
+                    }
                     row_edges_avx2(zr + x, zr + x - 1, zr + x + 1, zt + x, zb + x, &ech[j], &e[i0 + j]);
                     j += 8;
                     continue;
                 }
 #endif
                 const int xl = x > 0 ? x - 1 : 0, xr = x < W - 1 ? x + 1 : W - 1;
+                if (is_background(dr[x]) && zr[x] == cl && zr[xl] == cl && zr[xr] == cl && zt[x] == cl &&
+                    zb[x] == cl) {
+                    e[i0 + j] = 0xFF;
+                    j++;
+                    continue;
+                }
                 calculate_edges(zr[x], zr[xl], zr[xr], zt[x], zb[x], ech[j]);
                 e[i0 + j] = (unsigned char)pack_edges(ech[j]);
                 j++;
             }
             for (int j = 0; j < n; j++) {
                 const int i = i0 + j;
+                if (is_background(dr[J->rx0 + i])) {
+                    o[i] = bgv;
+                    bg++;
+                    continue;
+                }
                 const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, ech[j], &o[i], &S[na]);
                 bg += c == 0;
                 deg += c == 2;
@@ -1625,6 +1666,15 @@ AVX2_FN static inline __m256 v_unorm8(__m256 v)
     return _mm256_div_ps(_mm256_cvtepi32_ps(q), _mm256_set1_ps(255.0f));
 }
 
+/* 1 when the 8 depths are all background (not > 0 and finite) */
+AVX2_FN static inline int all_bg8_avx2(const float *d)
+{
+    const __m256 dv = _mm256_loadu_ps(d);
+    const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(dv, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(dv, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    return _mm256_movemask_ps(fg) == 0;
+}
+
 AVX2_FN static void denoise8_avx2(const denoise_job *J, const float *rc, const float *rt, const float *rb,
                                   const unsigned char *ec, const unsigned char *et, const unsigned char *eb,
                                   const float *bg, float *o)
@@ -1701,6 +1751,12 @@ static void denoise_row(void *user, int64_t task, int thread)
         const int x = J->dx0 + i;
 #if GTAO_AVX2
         if (J->avx2 && i + 8 <= J->dst->width && x >= 1 && x + 8 <= J->W - 1) {
+            if (bgrow && all_bg8_avx2(bgrow + x)) { /* denoise8_avx2 would blend in 1 for each */
+                for (int l = 0; l < 8; l++)
+                    o[i + l] = 1.0f;
+                i += 7;
+                continue;
+            }
             denoise8_avx2(J, rc + (x - J->ax0), rt + (x - J->ax0), rb + (x - J->ax0), ec + (x - ex0), et + (x - ex0),
                           eb + (x - ex0), bgrow ? bgrow + x : NULL, o + i);
             i += 7;
