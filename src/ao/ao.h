@@ -1270,6 +1270,11 @@ obs_status ao_gtao_compute_reference(obs_context *ctx, obs_pool *pool, const ao_
  * per-call thresholds it reaches (what ao_gtao_compute uses). Exposed so the tests compare them. */
 int ao_gtao_mip_of_length(float off_len, float mip_offset, int fast);
 
+/* The main pass's final power, (float)pow((double)x, (double)p) bit for bit: for p = 2.2f and x in
+ * [2^-126, 2) by tables and a series with a rounding test that falls back to pow near a float
+ * rounding boundary (proof in ao_gtao.c), else pow. Exposed so the tests compare it with pow. */
+float ao_gtao_final_power(float x, float p);
+
 /* (end of GTAO as XeGTAO) */
 
 
