@@ -1253,8 +1253,10 @@ typedef struct ao_gtao_stats {
  * the main pass's, both clamped to [0, 1] (the denoiser reads the unclamped working term in
  * [0, 1.5]). The main pass runs over the window plus one pixel per denoise pass each side (inside
  * the buffer), so the result equals a GPU run over the whole buffer, cropped. stats may be NULL.
+ * Its scratch planes stay in ctx between calls (obs_context_scratch_put; freed by
+ * obs_context_destroy), so repeated calls with one context allocate nothing; same bits either way.
  * Returns: OK; INVALID_ARGUMENT (input, params, plane sizes, normals = GBUFFER without normals);
- * OUT_OF_MEMORY. */
+ * OUT_OF_MEMORY; LIMIT_EXCEEDED (a plane over the context's limits). */
 obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
                            obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats);
 
