@@ -818,3 +818,195 @@ TEST(gtao_gpu_packing_quantises_like_xegtao_storage_and_stays_close_to_fp32)
     obs_scene_free(&scene);
     obs_context_destroy(ctx);
 }
+
+/* ---- speed (issue 12): the outputs' bits, recorded before the fixed-cost changes ---------------- */
+
+/* FNV-1a 64 of a plane's float bits, row by row */
+static uint64_t plane_hash(const obs_image_f32 *a, uint64_t h)
+{
+    for (int y = 0; y < a->height; y++) {
+        const unsigned char *b = (const unsigned char *)obs_image_f32_row(a, y);
+        for (size_t i = 0; i < sizeof(float) * (size_t)a->width; i++)
+            h = (h ^ b[i]) * 0x100000001b3ull;
+    }
+    return h;
+}
+
+/* The 14 parameter sets of gtao_outputs_keep_their_recorded_bits */
+static void golden_params(int c, ao_gtao_params *p)
+{
+    static const char *const pre[5] = {"low", "medium", "high", "ultra", "soft"};
+    ao_gtao_params_preset(c < 5 ? pre[c] : "default", p);
+    if (c == 5)
+        p->final_value_power = 1.0f, p->sample_distribution_power = 1.7f;
+    if (c == 6)
+        p->final_value_power = 3.3f, p->thin_occluder_compensation = 0.4f;
+    if (c == 7)
+        p->gpu_packing = 1, p->denoise_passes = 2;
+    if (c == 8)
+        p->denoise_passes = 0, p->frame_index = 37;
+    if (c == 9)
+        p->blur = 0, p->slices = 1, p->steps = 2;
+    if (c == 10)
+        p->normals = AO_GTAO_NORMALS_DEPTH, p->slices = 1, p->steps = 2;
+    if (c == 11)
+        p->normals = AO_GTAO_NORMALS_DEPTH, p->denoise_passes = 3, p->frame_index = 70;
+    if (c == 12)
+        p->radius = 1e-5f, p->depth_mip_sampling_offset = 0.0f;
+    if (c == 13)
+        p->radius = 3.0f, p->radius_multiplier = 3.0f;
+}
+
+/* The final and raw planes of the sphere scene at W x H (guard 6: the window is a crop), with
+ * background, a band of NaN / 1e30 / 7e4 / +inf / negative depths, a zero depth, a NaN G-buffer
+ * normal, and params set c; hashed together. */
+static obs_status golden_hash(obs_context *ctx, obs_pool *pool, const rast_gbuffer *gb, int c, uint64_t *h)
+{
+    ao_input in;
+    obs_status st = ao_input_from_gbuffer(ctx, gb, 1, &in);
+    ao_gtao_params p;
+    golden_params(c, &p);
+    obs_image_f32 o = {0}, r = {0};
+    if (st == OBS_STATUS_OK)
+        st = run_gtao(ctx, pool, &in, &p, &o, &r);
+    if (st == OBS_STATUS_OK)
+        *h = plane_hash(&r, plane_hash(&o, 0xcbf29ce484222325ull));
+    obs_image_f32_free(&o);
+    obs_image_f32_free(&r);
+    return st;
+}
+
+static obs_status golden_gbuffer(obs_context *ctx, int W, int H, rast_gbuffer *gb)
+{
+    obs_scene scene;
+    tu_ao_scene(&scene);
+    obs_status st = tu_render_depth_normal(ctx, &scene, tu_ao_camera(), W, H, 6, gb);
+    obs_scene_free(&scene);
+    if (st != OBS_STATUS_OK)
+        return st;
+    for (int x = 12; x < 70; x++) {
+        float *row = obs_image_f32_row(&gb->depth, 50 + x % 7);
+        row[x] = x % 5 == 0 ? NAN : x % 5 == 1 ? 1e30f : x % 5 == 2 ? 7e4f : x % 5 == 3 ? INFINITY : -1.0f;
+    }
+    obs_image_f32_row(&gb->depth, 70)[100] = 0.0f;
+    obs_image_f32_row(&gb->normal[0], 80)[95] = NAN;
+    return OBS_STATUS_OK;
+}
+
+/* Recorded with the code before issue 12's changes (commit e0da11c's ao_gtao.c, glibc's pow), on
+ * x86-64 with AVX2 and with OBS_ISA=scalar (the same values). */
+static const uint64_t golden_expected[14] = {
+    0xdbd199be62386cb3ull, /* 0 */
+    0x3f2d086d577abb72ull, /* 1 */
+    0xc910e498f12a92e2ull, /* 2 */
+    0x4340eb46caedc6bcull, /* 3 */
+    0x752af54eb8d157ddull, /* 4 */
+    0x362b76a53f7b8455ull, /* 5 */
+    0x76d48fb3bd71b7c9ull, /* 6 */
+    0xa86b190c5e58d572ull, /* 7 */
+    0xea0eac3032058593ull, /* 8 */
+    0x0abba5d7888f01e9ull, /* 9 */
+    0x5f0911b6ca1947c7ull, /* 10 */
+    0xa874c6c83bd5cf1full, /* 11 */
+    0xd034bc57c53b1a9cull, /* 12 */
+    0xd689e49ba04fa097ull, /* 13 */
+};
+
+TEST(gtao_outputs_keep_their_recorded_bits)
+{
+    /* Issue 12 ("GTAO's fixed cost") changed how the planes are allocated and kept, how the final
+     * power is evaluated, and which pixels get edges and set-up, without changing an output bit:
+     * these are the final and raw planes' hashes from before, for 14 parameter sets (presets, powers,
+     * packing, 0-3 denoise passes, normals from depth, tiny and huge radii), for 1 and 3 threads,
+     * the AVX2 and the scalar paths, and with the context's kept workspace reused across calls of
+     * other sizes and params (a stale plane would show). */
+    obs_context *ctx = obs_context_create();
+    rast_gbuffer gb, small;
+    CHECK_OK(golden_gbuffer(ctx, 160, 120, &gb), ctx);
+    CHECK_OK(golden_gbuffer(ctx, 131, 97, &small), ctx);
+    const int print = getenv("OBS_GTAO_PRINT_GOLDEN") != NULL;
+    for (int isa = 0; isa < 2; isa++) {
+        if (isa)
+            setenv("OBS_ISA", "scalar", 1);
+        for (int t = 1; t <= 3; t += 2) {
+            obs_pool *pool = obs_pool_create(t);
+            for (int c = 0; c < 14; c++) {
+                uint64_t h = 0, hs = 0;
+                CHECK_OK(golden_hash(ctx, pool, &gb, c, &h), ctx);
+                if (print)
+                    printf("    0x%016llxull, /* %d */\n", (unsigned long long)h, c);
+                else
+                    CHECK_MSG(h == golden_expected[c], "set %d, isa %d, threads %d: 0x%016llx", c, isa, t,
+                              (unsigned long long)h);
+                /* a call of another size and other params in between, then set c again */
+                CHECK_OK(golden_hash(ctx, pool, &small, 13 - c, &hs), ctx);
+                CHECK_OK(golden_hash(ctx, pool, &gb, c, &hs), ctx);
+                CHECK_MSG(hs == h, "set %d after a smaller call: 0x%016llx", c, (unsigned long long)hs);
+            }
+            obs_pool_destroy(pool);
+        }
+        unsetenv("OBS_ISA");
+    }
+    /* a fresh context gives the same bits as the one that kept its workspace */
+    obs_context *fresh = obs_context_create();
+    uint64_t h = 0;
+    CHECK_OK(golden_hash(fresh, NULL, &gb, 2, &h), fresh);
+    CHECK(print || h == golden_expected[2]);
+    obs_context_destroy(fresh);
+    rast_gbuffer_free(&small);
+    rast_gbuffer_free(&gb);
+    obs_context_destroy(ctx);
+}
+
+TEST(gtao_background_edges_are_packed_ones)
+{
+    /* the main pass writes 0xFF without arithmetic for a background pixel whose five MIP-0 taps are
+     * the 65504 clamp (ao_gtao.c, main_row): that is what XeGTAO_CalculateEdges / PackEdges give */
+    float e[4];
+    ao_gtao_calculate_edges(AO_GTAO_DEPTH_CLAMP, AO_GTAO_DEPTH_CLAMP, AO_GTAO_DEPTH_CLAMP, AO_GTAO_DEPTH_CLAMP,
+                            AO_GTAO_DEPTH_CLAMP, e);
+    for (int i = 0; i < 4; i++)
+        CHECK(e[i] == 1.0f);
+    CHECK_EQ_INT(ao_gtao_pack_edges(e), 0xFF);
+}
+
+TEST(gtao_final_power_equals_libm_pow)
+{
+    /* ao_gtao_final_power against (float)pow((double)x, (double)p), the main pass's power before
+     * issue 12: every 509th float in [0, 2] (2.1 M inputs), the 256 floats around each of the
+     * 127 x 128 table cells' starts, the ends and special values, for p = 2.2f (the table path) and,
+     * sampled, for other powers (pow itself). The exhaustive check of [0, 2] is
+     * scripts/gtao_final_power_check.c (0 differences). */
+    long bad = 0, n = 0;
+    const float p = 2.2f;
+#define CMP(xv, pv)                                                                                 \
+    do {                                                                                            \
+        const float x_ = (xv), a_ = ao_gtao_final_power(x_, (pv)), b_ = (float)pow((double)x_, (double)(pv)); \
+        bad += memcmp(&a_, &b_, 4) != 0 && !(isnan(a_) && isnan(b_));                               \
+        n++;                                                                                        \
+    } while (0)
+    for (uint32_t u = 0; u <= 0x40000000u; u += 509) {
+        float x;
+        memcpy(&x, &u, 4);
+        CMP(x, p);
+        if (u % (509u * 64u) == 0) {
+            CMP(x, 1.7f);
+            CMP(x, 3.3f);
+            CMP(x, 2.0f);
+        }
+    }
+    for (uint32_t e = 1; e <= 127; e++)
+        for (uint32_t i = 0; i < 128; i++)
+            for (int d = -128; d < 128; d++) {
+                const uint32_t u = (e << 23) + (i << 16) + (uint32_t)d;
+                float x;
+                memcpy(&x, &u, 4);
+                CMP(x, p);
+            }
+    const float special[] = {0.0f, -0.0f, -1.0f, -0.5f, 0x1p-126f, 0x1p-149f, 0x1.fffffep-127f, 1.0f, 2.0f,
+                             0x1.fffffep0f, 1.5f, 0.03f, 0.2034f, 3.0f, 1e30f, INFINITY, -INFINITY, NAN};
+    for (size_t i = 0; i < sizeof special / sizeof special[0]; i++)
+        CMP(special[i], p);
+#undef CMP
+    CHECK_MSG(bad == 0, "%ld of %ld differ", bad, n);
+}

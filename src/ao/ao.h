@@ -1265,8 +1265,10 @@ typedef struct ao_gtao_stats {
  * the main pass's, both clamped to [0, 1] (the denoiser reads the unclamped working term in
  * [0, 1.5]). The main pass runs over the window plus one pixel per denoise pass each side (inside
  * the buffer), so the result equals a GPU run over the whole buffer, cropped. stats may be NULL.
+ * Its scratch planes stay in ctx between calls (obs_context_scratch_put; freed by
+ * obs_context_destroy), so repeated calls with one context allocate nothing; same bits either way.
  * Returns: OK; INVALID_ARGUMENT (input, params, plane sizes, normals = GBUFFER without normals);
- * OUT_OF_MEMORY. */
+ * OUT_OF_MEMORY; LIMIT_EXCEEDED (a plane over the context's limits). */
 obs_status ao_gtao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_gtao_params *params,
                            obs_image_f32 *out, obs_image_f32 *out_raw, ao_gtao_stats *stats);
 
@@ -1281,6 +1283,11 @@ obs_status ao_gtao_compute_reference(obs_context *ctx, obs_pool *pool, const ao_
  * log2(off_len) - mip_offset, 0, 5) + 0.5), 4) with a double log2; fast = 1, the count of the
  * per-call thresholds it reaches (what ao_gtao_compute uses). Exposed so the tests compare them. */
 int ao_gtao_mip_of_length(float off_len, float mip_offset, int fast);
+
+/* The main pass's final power, (float)pow((double)x, (double)p) bit for bit: for p = 2.2f and x in
+ * [2^-126, 2) by tables and a series with a rounding test that falls back to pow near a float
+ * rounding boundary (proof in ao_gtao.c), else pow. Exposed so the tests compare it with pow. */
+float ao_gtao_final_power(float x, float p);
 
 /* (end of GTAO as XeGTAO) */
 

@@ -16,6 +16,11 @@ struct obs_context {
     void *log_user;
     obs_log_level level;
     obs_limits limits;
+    struct {
+        const void *key;
+        void *obj;
+        void (*destroy)(void *);
+    } scratch[OBS_CONTEXT_SCRATCH_SLOTS]; /* obs_context_scratch_put: parked scratch objects */
 };
 
 const char *obs_status_string(obs_status s)
@@ -59,7 +64,59 @@ obs_context *obs_context_create(void)
     return c;
 }
 
-void obs_context_destroy(obs_context *ctx) { free(ctx); }
+void obs_context_destroy(obs_context *ctx)
+{
+    obs_context_scratch_release(ctx);
+    free(ctx);
+}
+
+void *obs_context_scratch_take(obs_context *ctx, const void *key)
+{
+    if (!ctx)
+        return NULL;
+    for (int i = 0; i < OBS_CONTEXT_SCRATCH_SLOTS; i++)
+        if (ctx->scratch[i].obj && ctx->scratch[i].key == key) {
+            void *obj = ctx->scratch[i].obj;
+            ctx->scratch[i].obj = NULL;
+            ctx->scratch[i].key = NULL;
+            return obj;
+        }
+    return NULL;
+}
+
+void obs_context_scratch_put(obs_context *ctx, const void *key, void *obj, void (*destroy)(void *))
+{
+    if (!obj)
+        return;
+    if (ctx) {
+        int free_slot = -1, taken = 0;
+        for (int i = 0; i < OBS_CONTEXT_SCRATCH_SLOTS; i++) {
+            if (ctx->scratch[i].obj && ctx->scratch[i].key == key)
+                taken = 1; /* one object per key: keep the parked one */
+            else if (!ctx->scratch[i].obj && free_slot < 0)
+                free_slot = i;
+        }
+        if (!taken && free_slot >= 0) {
+            ctx->scratch[free_slot].key = key;
+            ctx->scratch[free_slot].obj = obj;
+            ctx->scratch[free_slot].destroy = destroy;
+            return;
+        }
+    }
+    destroy(obj);
+}
+
+void obs_context_scratch_release(obs_context *ctx)
+{
+    if (!ctx)
+        return;
+    for (int i = 0; i < OBS_CONTEXT_SCRATCH_SLOTS; i++)
+        if (ctx->scratch[i].obj) {
+            ctx->scratch[i].destroy(ctx->scratch[i].obj);
+            ctx->scratch[i].obj = NULL;
+            ctx->scratch[i].key = NULL;
+        }
+}
 
 obs_status obs_error(obs_context *ctx, obs_status status, const char *fmt, ...)
 {

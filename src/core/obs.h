@@ -112,6 +112,19 @@ void obs_log(obs_context *ctx, obs_log_level level, const char *fmt, ...)
 const obs_limits *obs_context_limits(const obs_context *ctx);
 void obs_context_set_limits(obs_context *ctx, const obs_limits *limits);
 
+/* Scratch kept between calls: a module parks one reusable object (its scratch memory) per key, the
+ * address of one of its statics, so that repeated calls with the same context allocate and zero
+ * nothing (ao_gtao_compute keeps its planes so). take removes the key's object from the context and
+ * returns it (NULL when none is parked: make a fresh one); put parks obj, or destroys it at once
+ * when the key already has one or all OBS_CONTEXT_SCRATCH_SLOTS are used. A nested call finds the
+ * slot empty and makes its own. obs_context_destroy and obs_context_scratch_release destroy what is
+ * parked. Like the rest of the context, not for concurrent use. ctx may be NULL (take returns NULL,
+ * put destroys). */
+#define OBS_CONTEXT_SCRATCH_SLOTS 8
+void *obs_context_scratch_take(obs_context *ctx, const void *key);
+void obs_context_scratch_put(obs_context *ctx, const void *key, void *obj, void (*destroy)(void *));
+void obs_context_scratch_release(obs_context *ctx);
+
 /* Overflow-checked size arithmetic: return 0 and leave *out untouched on overflow. */
 int obs_mul_size(size_t a, size_t b, size_t *out);
 int obs_add_size(size_t a, size_t b, size_t *out);
