@@ -30,7 +30,10 @@
  * Speed (docs/ao/ue4.md, "Speed"): level 0 reads the input's depth and normals in place; the AO
  * pass and the quad blur run fused per row pair of 128 x 32 tiles; ue4_pixel is the scalar
  * reference, ue4_pixels8 / quad_blur_pair_avx2 the AVX2 paths (8 pixels of a row per vector,
- * bit-identical, chosen at run time; OBS_ISA=scalar forces the scalar one).
+ * bit-identical, chosen at run time; OBS_ISA=scalar forces the scalar one). The coarse levels
+ * (levels > 1) keep their planes in one unzeroed block per call; the setup (setup_texel /
+ * setup_row_avx2) runs one task per row, the upsample (upsample / v_upsample) reads its taps at
+ * texels tabulated per column and per row.
  */
 #include "ao.h"
 #include "ao_internal.h"
