@@ -30,7 +30,10 @@
  * Speed (docs/ao/ue4.md, "Speed"): level 0 reads the input's depth and normals in place; the AO
  * pass and the quad blur run fused per row pair of 128 x 32 tiles; ue4_pixel is the scalar
  * reference, ue4_pixels8 / quad_blur_pair_avx2 the AVX2 paths (8 pixels of a row per vector,
- * bit-identical, chosen at run time; OBS_ISA=scalar forces the scalar one).
+ * bit-identical, chosen at run time; OBS_ISA=scalar forces the scalar one). The coarse levels
+ * (levels > 1) keep their planes in one unzeroed block per call; the setup (setup_texel /
+ * setup_row_avx2) runs one task per row, the upsample (upsample / v_upsample) reads its taps at
+ * texels tabulated per column and per row.
  */
 #include "ao.h"
 #include "ao_internal.h"
@@ -358,13 +361,23 @@ typedef struct level {
     int w, h;
     float s;              /* ScaleToFullRes: 1, 2, 4 */
     float inv_s;          /* 1 / s: a power of two, so u * inv_s is u / s bit for bit */
+    /* Levels >= 1 (the planes share one stride and one allocation, `block`; every texel is
+     * written before it is read, so nothing is zeroed): */
     obs_image_f32 z;      /* depth in uu; background -> max_depth */
-    obs_image_f32 n[3];   /* normalised UE view-space normals (0 = unusable); modes 1, 2 */
-    obs_image_f32 e[3];   /* the setup's stored normal (n * 0.5 + 0.5, averaged); levels >= 1 */
+    obs_image_f32 ln[3];  /* the setup's stored normal decoded, e * 2 - 1 (modes 1, 2): the upsample's
+                             tap normal, and normalised (ue4_normal_at) the coarse pass's normal */
+    obs_image_f32 e[3];   /* the setup's stored normal (n * 0.5 + 0.5, averaged); only where a
+                             coarser level is built from it (modes 1, 2) */
     unsigned char *bg;    /* 1: background */
-    obs_image_f32 ao;     /* levels >= 1: the level's AO (after its quad blur) */
+    obs_image_f32 ao;     /* the level's AO (after its quad blur) */
+    void *block;
+    /* Every level: */
     float *spx, *spy;     /* ScreenPos.x of column x in [0, w], ScreenPos.y of row y in [0, h]
                              (a quad's helper lane may be one past the edge) */
+    /* Where a coarser level follows: ComputeUpsampleContribution's tap texels in the coarser
+     * level, per column x in [0, w] (utx[k][x], k over the x offsets) and per row y in [0, h]
+     * (uty[k][y]); 2 offsets (+-0.5) at level 0, 3 (-1, 0, 1) above. */
+    int *utx[3], *uty[3];
     float radius;         /* AORadiusInShader of the level */
     float samples[12];
     int sample_count;
@@ -398,13 +411,24 @@ static inline void ue4_normal_from(float sx, float sy, float sz, float o[3])
     o[2] = v[2] * rs;
 }
 
-/* The normal of texel (tx, ty): the level's plane, or (level 0 of a one-level run, which keeps no
- * plane) converted from the source normals on the spot. */
+/* The coarse pass's normal from the setup's: normalize(rgb * 2 - 1), zero where the decoded
+ * normal is zero. */
+static inline void ue4_normal_from_setup(const float nv[3], float o[3])
+{
+    const float dd = nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2];
+    const float rs = dd > 0.0f ? 1.0f / sqrtf(dd) : 0.0f;
+    for (int c = 0; c < 3; c++)
+        o[c] = nv[c] * rs;
+}
+
+/* The normal of texel (tx, ty): at a coarse level normalised from the setup's decoded normal, at
+ * level 0 (which keeps no planes) converted from the source normals on the spot. */
 static inline void ue4_normal_at(const prep *P, const level *L, int tx, int ty, float n[3])
 {
-    if (L->n[0].data) {
-        for (int c = 0; c < 3; c++)
-            n[c] = obs_image_f32_row(&L->n[c], ty)[tx];
+    if (L->ln[0].data) {
+        const float nv[3] = {obs_image_f32_row(&L->ln[0], ty)[tx], obs_image_f32_row(&L->ln[1], ty)[tx],
+                             obs_image_f32_row(&L->ln[2], ty)[tx]};
+        ue4_normal_from_setup(nv, n);
         return;
     }
     ue4_normal_from(obs_image_f32_row(P->nsrc[0], ty)[tx], obs_image_f32_row(P->nsrc[1], ty)[tx],
@@ -477,26 +501,46 @@ static inline float depth_at(const prep *P, const level *L, float sx, float sy)
 
 /* ComputeUpsampleContribution (AO_UPSAMPLE_QUALITY 0: 4 taps at +-0.5 coarse texel at full
  * resolution, 1: 9 taps at -1, 0, 1 at the coarse levels), point sampling, clamped. Weight
- * saturate(1 - |dz| 0.003) * saturate(dot(n_tap, n_centre)), normals decoded as rgb * 2 - 1. */
+ * saturate(1 - |dz| 0.003) * saturate(dot(n_tap, n_centre)), normals decoded as rgb * 2 - 1 (the
+ * coarser level's ln planes). The tap texels depend only on the column and on the row: they come
+ * from the level's utx/uty tables (upsample_tables). Taps in the shader's order: (-0.5, +0.5),
+ * (+0.5, +0.5), (-0.5, -0.5), (+0.5, -0.5) at level 0; (-1, -1), (0, -1), .. (1, 1) above. */
+static const signed char upsample_taps4[4][2] = {{0, 1}, {1, 1}, {0, 0}, {1, 0}}; /* (x, y) offset indices */
+static const signed char upsample_taps9[9][2] = {{0, 0}, {1, 0}, {2, 0}, {0, 1}, {1, 1}, {2, 1}, {0, 2}, {1, 2}, {2, 2}};
+
+static void upsample_tables(const level *F, const level *C, int l)
+{
+    static const float o2[2] = {-0.5f, 0.5f}, o3[3] = {-1.0f, 0.0f, 1.0f};
+    const int n = l == 0 ? 2 : 3;
+    const float *o = l == 0 ? o2 : o3;
+    for (int x = 0; x <= F->w; x++) {
+        const float cu = ((float)x + 0.5f) / (float)F->w * (float)C->w;
+        for (int k = 0; k < n; k++)
+            F->utx[k][x] = clampi((int)floorf(cu + o[k]), 0, C->w - 1);
+    }
+    for (int y = 0; y <= F->h; y++) {
+        const float cv = ((float)y + 0.5f) / (float)F->h * (float)C->h;
+        for (int k = 0; k < n; k++)
+            F->uty[k][y] = clampi((int)floorf(cv + o[k]), 0, C->h - 1);
+    }
+}
+
 static float upsample(const prep *P, int l, int x, int y, float SceneDepth, const float cn[3])
 {
     const level *F = &P->lv[l], *C = &P->lv[l + 1];
-    const float cu = ((float)x + 0.5f) / (float)F->w * (float)C->w, cv = ((float)y + 0.5f) / (float)F->h * (float)C->h;
-    static const float o4[4][2] = {{-0.5f, 0.5f}, {0.5f, 0.5f}, {-0.5f, -0.5f}, {0.5f, -0.5f}};
-    static const float o9[9][2] = {{-1, -1}, {0, -1}, {1, -1}, {-1, 0}, {0, 0}, {1, 0}, {-1, 1}, {0, 1}, {1, 1}};
     const int n = l == 0 ? 4 : 9;
+    const signed char(*taps)[2] = l == 0 ? upsample_taps4 : upsample_taps9;
+    const int use_n = P->k->normal_mode != AO_UE4_NORMALS_NONE;
     const float SmallValue = 0.0001f;
     float WeightSum = SmallValue, Ret = SmallValue;
     for (int i = 0; i < n; i++) {
-        const float *o = l == 0 ? o4[i] : o9[i];
-        const int tx = clampi((int)floorf(cu + o[0]), 0, C->w - 1), ty = clampi((int)floorf(cv + o[1]), 0, C->h - 1);
+        const int tx = F->utx[taps[i][0]][x], ty = F->uty[taps[i][1]][y];
         const float SampleValue = obs_image_f32_row(&C->ao, ty)[tx];
         const float SampleDepth = obs_image_f32_row(&C->z, ty)[tx];
         float Weight = saturatef(1.0f - fabsf(SampleDepth - SceneDepth) * 0.003f); /* "crawling pattern at edges" */
-        if (P->k->normal_mode != AO_UE4_NORMALS_NONE) {
-            const float ln[3] = {obs_image_f32_row(&C->e[0], ty)[tx] * 2.0f - 1.0f,
-                                 obs_image_f32_row(&C->e[1], ty)[tx] * 2.0f - 1.0f,
-                                 obs_image_f32_row(&C->e[2], ty)[tx] * 2.0f - 1.0f};
+        if (use_n) {
+            const float ln[3] = {obs_image_f32_row(&C->ln[0], ty)[tx], obs_image_f32_row(&C->ln[1], ty)[tx],
+                                 obs_image_f32_row(&C->ln[2], ty)[tx]};
             Weight *= saturatef(ln[0] * cn[0] + ln[1] * cn[1] + ln[2] * cn[2]);
         }
         Ret += SampleValue * Weight;
@@ -518,7 +562,7 @@ static float ue4_finish(const prep *P, int l, int x, int y, int tx, int ty, floa
         float cn[3] = {n[0], n[1], n[2]}; /* CenterWorldNormal: level 0 the G-buffer's, else the setup's */
         if (l > 0 && k->normal_mode != AO_UE4_NORMALS_NONE)
             for (int c = 0; c < 3; c++)
-                cn[c] = obs_image_f32_row(&L->e[c], ty)[tx] * 2.0f - 1.0f;
+                cn[c] = obs_image_f32_row(&L->ln[c], ty)[tx];
         r = lerpf(r, upsample(P, l, x, y, SceneDepth, cn), k->mip_blend);
     }
     if (l > 0)
@@ -748,6 +792,84 @@ UE4_AVX2_FN static int bg_row_avx2(const float *d, int x0, int x1, unsigned char
     return x;
 }
 
+/* ue4_normal_from of eight source normals (ours): (x, y, -z) * rsqrt(dot), zero unless the dot is
+ * finite and > 0 */
+UE4_AVX2_FN static inline void v_normal_from(__m256 sx, __m256 sy, __m256 sz, __m256 *o0, __m256 *o1, __m256 *o2)
+{
+    const __m256 n2 = _mm256_xor_ps(sz, _mm256_set1_ps(-0.0f));
+    const __m256 dd = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(sx, sx), _mm256_mul_ps(sy, sy)), _mm256_mul_ps(n2, n2));
+    const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dd, _mm256_setzero_ps(), _CMP_GT_OQ),
+                                    _mm256_cmp_ps(dd, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
+    const __m256 rs = _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(dd));
+    *o0 = _mm256_and_ps(_mm256_mul_ps(sx, rs), ok);
+    *o1 = _mm256_and_ps(_mm256_mul_ps(sy, rs), ok);
+    *o2 = _mm256_and_ps(_mm256_mul_ps(n2, rs), ok);
+}
+
+/* ue4_normal_from_setup of eight decoded setup normals: nv * (dd > 0 ? 1 / sqrt(dd) : 0) */
+UE4_AVX2_FN static inline void v_normal_from_setup(__m256 v0, __m256 v1, __m256 v2, __m256 *o0, __m256 *o1,
+                                                   __m256 *o2)
+{
+    const __m256 dd = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(v0, v0), _mm256_mul_ps(v1, v1)), _mm256_mul_ps(v2, v2));
+    const __m256 rs = _mm256_and_ps(_mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(dd)),
+                                    _mm256_cmp_ps(dd, _mm256_setzero_ps(), _CMP_GT_OQ));
+    *o0 = _mm256_mul_ps(v0, rs);
+    *o1 = _mm256_mul_ps(v1, rs);
+    *o2 = _mm256_mul_ps(v2, rs);
+}
+
+/* upsample for the eight pixels x0 .. x0 + 7 of row y of level l (the coarser level's planes read
+ * at the tap texels of the utx/uty tables; the same operations in the same order). The tables
+ * increase with x, and eight pixels span about four coarse texels: where a tap's eight texels lie
+ * within eight consecutive ones, one load of eight texels of the row (moved back from the row's end
+ * to stay inside it) and a lane permutation fetch them: the same values as a gather, fewer loads. */
+UE4_AVX2_FN static __m256 v_upsample(const prep *P, int l, int x0, int y, __m256 SceneDepth, __m256 cn0, __m256 cn1,
+                                     __m256 cn2)
+{
+    const level *F = &P->lv[l], *C = &P->lv[l + 1];
+    const int n = l == 0 ? 4 : 9;
+    const signed char(*taps)[2] = l == 0 ? upsample_taps4 : upsample_taps9;
+    const int use_n = P->k->normal_mode != AO_UE4_NORMALS_NONE;
+    const __m256 one = _mm256_set1_ps(1.0f), sgn = _mm256_set1_ps(-0.0f), c0003 = _mm256_set1_ps(0.003f);
+    __m256 WeightSum = _mm256_set1_ps(0.0001f), Ret = WeightSum;
+    const __m256i stride = _mm256_set1_epi32((int)C->z.stride); /* every plane of C has this stride */
+    for (int i = 0; i < n; i++) {
+        const int *txt = F->utx[taps[i][0]] + x0;
+        const int row = F->uty[taps[i][1]][y];
+        const __m256i tx = _mm256_loadu_si256((const __m256i *)txt);
+        __m256 SampleValue, SampleDepth, t0 = _mm256_setzero_ps(), t1 = t0, t2 = t0;
+        if (txt[7] - txt[0] <= 7 && C->w >= 8) { /* one row load per plane, lanes permuted */
+            const int base = txt[0] < C->w - 8 ? txt[0] : C->w - 8; /* txt[7] - base stays <= 7 */
+            const size_t o = (size_t)row * (size_t)C->z.stride + (size_t)base;
+            const __m256i perm = _mm256_sub_epi32(tx, _mm256_set1_epi32(base));
+            SampleValue = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->ao.data + o), perm);
+            SampleDepth = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->z.data + o), perm);
+            if (use_n) {
+                t0 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->ln[0].data + o), perm);
+                t1 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->ln[1].data + o), perm);
+                t2 = _mm256_permutevar8x32_ps(_mm256_loadu_ps(C->ln[2].data + o), perm);
+            }
+        } else {
+            const __m256i idx = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_set1_epi32(row), stride), tx);
+            SampleValue = _mm256_i32gather_ps(C->ao.data, idx, 4);
+            SampleDepth = _mm256_i32gather_ps(C->z.data, idx, 4);
+            if (use_n) {
+                t0 = _mm256_i32gather_ps(C->ln[0].data, idx, 4);
+                t1 = _mm256_i32gather_ps(C->ln[1].data, idx, 4);
+                t2 = _mm256_i32gather_ps(C->ln[2].data, idx, 4);
+            }
+        }
+        __m256 Weight = v_sat(_mm256_sub_ps(one, _mm256_mul_ps(_mm256_andnot_ps(sgn, _mm256_sub_ps(SampleDepth, SceneDepth)), c0003)));
+        if (use_n) {
+            Weight = _mm256_mul_ps(Weight, v_sat(_mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(t0, cn0), _mm256_mul_ps(t1, cn1)),
+                                                               _mm256_mul_ps(t2, cn2))));
+        }
+        Ret = _mm256_add_ps(Ret, _mm256_mul_ps(SampleValue, Weight));
+        WeightSum = _mm256_add_ps(WeightSum, Weight);
+    }
+    return _mm256_div_ps(Ret, WeightSum);
+}
+
 UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const unsigned char *bgrow, float *ao,
                                     float *depth, float *nx, float *ny, int64_t *nb, int64_t *nn)
 {
@@ -763,24 +885,17 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const u
     __m256 SceneDepth = _mm256_loadu_ps(obs_image_f32_row(zimg, ty) + x0);
     if (conv)
         SceneDepth = v_depth_uu(SceneDepth, U, zmax);
-    __m256 n0 = _mm256_setzero_ps(), n1 = n0, n2 = n0;
+    __m256 n0 = _mm256_setzero_ps(), n1 = n0, n2 = n0, ln0 = n0, ln1 = n0, ln2 = n0;
     if (use_n) {
-        if (L->n[0].data) {
-            n0 = _mm256_loadu_ps(obs_image_f32_row(&L->n[0], ty) + x0);
-            n1 = _mm256_loadu_ps(obs_image_f32_row(&L->n[1], ty) + x0);
-            n2 = _mm256_loadu_ps(obs_image_f32_row(&L->n[2], ty) + x0);
+        if (L->ln[0].data) { /* ue4_normal_from_setup */
+            ln0 = _mm256_loadu_ps(obs_image_f32_row(&L->ln[0], ty) + x0);
+            ln1 = _mm256_loadu_ps(obs_image_f32_row(&L->ln[1], ty) + x0);
+            ln2 = _mm256_loadu_ps(obs_image_f32_row(&L->ln[2], ty) + x0);
+            v_normal_from_setup(ln0, ln1, ln2, &n0, &n1, &n2);
         } else { /* ue4_normal_from */
-            n0 = _mm256_loadu_ps(obs_image_f32_row(P->nsrc[0], ty) + x0);
-            n1 = _mm256_loadu_ps(obs_image_f32_row(P->nsrc[1], ty) + x0);
-            n2 = _mm256_xor_ps(_mm256_loadu_ps(obs_image_f32_row(P->nsrc[2], ty) + x0), _mm256_set1_ps(-0.0f));
-            const __m256 dd = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(n0, n0), _mm256_mul_ps(n1, n1)),
-                                            _mm256_mul_ps(n2, n2));
-            const __m256 ok = _mm256_and_ps(_mm256_cmp_ps(dd, _mm256_setzero_ps(), _CMP_GT_OQ),
-                                            _mm256_cmp_ps(dd, _mm256_set1_ps(INFINITY), _CMP_LT_OQ));
-            const __m256 rs = _mm256_div_ps(one, _mm256_sqrt_ps(dd));
-            n0 = _mm256_and_ps(_mm256_mul_ps(n0, rs), ok);
-            n1 = _mm256_and_ps(_mm256_mul_ps(n1, rs), ok);
-            n2 = _mm256_and_ps(_mm256_mul_ps(n2, rs), ok);
+            v_normal_from(_mm256_loadu_ps(obs_image_f32_row(P->nsrc[0], ty) + x0),
+                          _mm256_loadu_ps(obs_image_f32_row(P->nsrc[1], ty) + x0),
+                          _mm256_loadu_ps(obs_image_f32_row(P->nsrc[2], ty) + x0), &n0, &n1, &n2);
         }
     }
     const __m256 sp_x = _mm256_loadu_ps(L->spx + x0), sp_y = _mm256_set1_ps(L->spy[y]);
@@ -913,18 +1028,23 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const u
             WA1 = _mm256_add_ps(WA1, acc2);
         }
     }
-    float r[8], zd[8], nv[3][8];
+    /* ue4_finish: the upsampled blend (a coarser level follows; CenterWorldNormal: level 0 the
+     * G-buffer's, above the setup's decoded one), then at level 0 the fade and |r| (powf goes lane
+     * by lane below) */
+    float r[8], nv[3][8];
     __m256 rv = _mm256_div_ps(WA0, WA1);
-    const int vec_finish = l == 0 && P->levels == 1; /* ue4_finish without the upsample */
-    if (vec_finish) {
-        /* "soft fade out AO in the distance": lerp(r, 1, saturate(z * Mul + Add)); then |r|, whose
-         * powf goes lane by lane below */
+    if (l + 1 < P->levels) {
+        const __m256 up = l == 0 ? v_upsample(P, l, x0, y, SceneDepth, n0, n1, n2)
+                                 : v_upsample(P, l, x0, y, SceneDepth, ln0, ln1, ln2);
+        rv = v_lerp(rv, up, _mm256_set1_ps(k->mip_blend));
+    }
+    if (l == 0) {
+        /* "soft fade out AO in the distance": lerp(r, 1, saturate(z * Mul + Add)) */
         rv = v_lerp(rv, one, v_sat(_mm256_add_ps(_mm256_mul_ps(SceneDepth, _mm256_set1_ps(k->fade_mul)),
                                                  _mm256_set1_ps(k->fade_add))));
         rv = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), rv);
     }
     _mm256_storeu_ps(r, rv);
-    _mm256_storeu_ps(zd, SceneDepth);
     _mm256_storeu_ps(nv[0], n0);
     _mm256_storeu_ps(nv[1], n1);
     _mm256_storeu_ps(nv[2], n2);
@@ -947,10 +1067,10 @@ UE4_AVX2_FN static void ue4_pixels8(const prep *P, int l, int x0, int y, const u
             nx[i] = n[0];
             ny[i] = n[1];
         }
-        if (vec_finish) /* "user adjust AO": 1 - (1 - pow(|r|, Power)) * Intensity, as ue4_finish */
+        if (l == 0) /* "user adjust AO": 1 - (1 - pow(|r|, Power)) * Intensity, as ue4_finish */
             ao[i] = 1.0f - (1.0f - (r[i] == 1.0f ? 1.0f : powf(r[i], k->power))) * k->intensity;
         else
-            ao[i] = ue4_finish(P, l, x0 + i, y, x0 + i, ty, r[i], zd[i], n);
+            ao[i] = r[i];
     }
 }
 
@@ -1205,76 +1325,211 @@ UE4_AVX2_FN static int quad_blur_pair_avx2(const ao_ue4_constants *k, float *con
 /* MainSetupPS: level l from level l - 1. The four source texels (2x, 2y) .. (2x+1, 2y+1) (the
  * bilinear taps at +-0.5 source texel land on texel centres; clamped): MaxZ = max of the depths;
  * the normal = (0.0001 + sum (n * 0.5 + 0.5) w) / (0.0001 + sum w), w = saturate(1 - |z - MaxZ| *
- * MipThreshold / ScaleToFullRes). Background where MaxZ is the sky. */
+ * MipThreshold / ScaleToFullRes). Background where MaxZ is the sky. Without normals (mode 0) only
+ * the depth and the background are kept (nothing reads the normal). One task per output row; each
+ * row reads its two source rows (clamped) and writes only its own texels. */
 typedef struct setup_job {
     prep *P;
     int l, use_n;
 } setup_job;
 
+/* The source rows of output row y: depth (level 0: the input's, in metres; above: uu) and normals
+ * (level 0: the source normals, ours; above: the stored e planes), rows 2y and 2y + 1 clamped. */
+typedef struct setup_rows {
+    const float *z[2];
+    const float *n[2][3];
+    int conv; /* 1: level 0's source (depth_uu, ue4_normal_from) */
+} setup_rows;
+
+/* Output texel x from source columns sx0, sx1 (2x, 2x + 1 clamped): the scalar reference. */
+static inline void setup_texel(const setup_job *J, const setup_rows *R, level *D, int y, int x, int sx0, int sx1,
+                               float InvThreshold, float zmax)
+{
+    const prep *P = J->P;
+    float z[4], e[4][3];
+    for (int i = 0; i < 4; i++) {
+        const int r = i >> 1, sx = i & 1 ? sx1 : sx0;
+        z[i] = R->conv ? depth_uu(P, R->z[r][sx]) : R->z[r][sx];
+        if (!J->use_n)
+            continue;
+        if (R->conv) { /* level 0: from the source normals */
+            float n0[3];
+            ue4_normal_from(R->n[r][0][sx], R->n[r][1][sx], R->n[r][2][sx], n0);
+            for (int c = 0; c < 3; c++)
+                e[i][c] = n0[c] * 0.5f + 0.5f;
+        } else {
+            for (int c = 0; c < 3; c++)
+                e[i][c] = R->n[r][c][sx];
+        }
+    }
+    /* fmaxf: the depths are never NaN nor zero, so a > b ? a : b is the same */
+    const float m01 = z[0] > z[1] ? z[0] : z[1], m23 = z[2] > z[3] ? z[2] : z[3];
+    const float MaxZ = m01 > m23 ? m01 : m23;
+    obs_image_f32_row(&D->z, y)[x] = MaxZ;
+    D->bg[(size_t)y * D->w + x] = (unsigned char)(MaxZ >= zmax);
+    if (!J->use_n)
+        return;
+    float acc[4] = {0.0001f, 0.0001f, 0.0001f, 0.0001f};
+    for (int i = 0; i < 4; i++) {
+        const float w = saturatef(1.0f - fabsf(z[i] - MaxZ) * InvThreshold); /* ComputeDepthSimilarity */
+        acc[0] += e[i][0] * w, acc[1] += e[i][1] * w, acc[2] += e[i][2] * w, acc[3] += w;
+    }
+    for (int c = 0; c < 3; c++) {
+        const float v = acc[c] / acc[3];
+        if (D->e[c].data)
+            obs_image_f32_row(&D->e[c], y)[x] = v;
+        obs_image_f32_row(&D->ln[c], y)[x] = v * 2.0f - 1.0f; /* decoded: rgb * 2 - 1 */
+    }
+}
+
+#ifdef UE4_AVX2
+/* The even and the odd elements of p[0 .. 15] */
+UE4_AVX2_FN static inline void v_deinterleave(const float *p, __m256 *even, __m256 *odd)
+{
+    const __m256 a = _mm256_loadu_ps(p), b = _mm256_loadu_ps(p + 8);
+    /* per 128-bit half: (a0 a2 b0 b2)(a4 a6 b4 b6); then the 64-bit quarters in the order 0 2 1 3 */
+    *even = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(a, b, 0x88)), 0xD8));
+    *odd = _mm256_castpd_ps(_mm256_permute4x64_pd(_mm256_castps_pd(_mm256_shuffle_ps(a, b, 0xDD)), 0xD8));
+}
+
+/* Eight 0/1 flags from a compare mask */
+UE4_AVX2_FN static inline void v_store_flags8(__m256 mask, unsigned char *dst)
+{
+    const __m256i b = _mm256_and_si256(_mm256_castps_si256(mask), _mm256_set1_epi32(1));
+    const __m256i p16 = _mm256_packus_epi32(b, b), p8 = _mm256_packus_epi16(p16, p16);
+    const uint32_t lo = (uint32_t)_mm_cvtsi128_si32(_mm256_castsi256_si128(p8));
+    const uint32_t hi = (uint32_t)_mm_cvtsi128_si32(_mm256_extracti128_si256(p8, 1));
+    memcpy(dst, &lo, 4);
+    memcpy(dst + 4, &hi, 4);
+}
+
+/* setup_texel for output texels x .. x + 7 of row y while their 16 source columns are all inside
+ * the source (no clamping); lane i = texel x + i. The same operations in the same order. Returns
+ * the first texel left to the scalar loop. */
+UE4_AVX2_FN static int setup_row_avx2(const setup_job *J, const setup_rows *R, level *D, int y, int src_w,
+                                      float InvThreshold, float zmax)
+{
+    const prep *P = J->P;
+    const __m256 one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f), two = _mm256_set1_ps(2.0f);
+    const __m256 sgn = _mm256_set1_ps(-0.0f), vInvT = _mm256_set1_ps(InvThreshold), vzmax = _mm256_set1_ps(zmax);
+    const __m256 U = _mm256_set1_ps(P->k->units_per_metre);
+    int x = 0;
+    for (; 2 * x + 16 <= src_w && x + 8 <= D->w; x += 8) {
+        __m256 z[4], e[4][3];
+        for (int r = 0; r < 2; r++) {
+            v_deinterleave(R->z[r] + 2 * x, &z[2 * r], &z[2 * r + 1]);
+            if (R->conv) {
+                z[2 * r] = v_depth_uu(z[2 * r], U, vzmax);
+                z[2 * r + 1] = v_depth_uu(z[2 * r + 1], U, vzmax);
+            }
+            if (!J->use_n)
+                continue;
+            __m256 ev[3], od[3];
+            for (int c = 0; c < 3; c++)
+                v_deinterleave(R->n[r][c] + 2 * x, &ev[c], &od[c]);
+            if (R->conv) { /* ue4_normal_from, then n * 0.5 + 0.5 */
+                v_normal_from(ev[0], ev[1], ev[2], &ev[0], &ev[1], &ev[2]);
+                v_normal_from(od[0], od[1], od[2], &od[0], &od[1], &od[2]);
+                for (int c = 0; c < 3; c++) {
+                    ev[c] = _mm256_add_ps(_mm256_mul_ps(ev[c], half), half);
+                    od[c] = _mm256_add_ps(_mm256_mul_ps(od[c], half), half);
+                }
+            }
+            for (int c = 0; c < 3; c++) {
+                e[2 * r][c] = ev[c];
+                e[2 * r + 1][c] = od[c];
+            }
+        }
+        const __m256 MaxZ = _mm256_max_ps(_mm256_max_ps(z[0], z[1]), _mm256_max_ps(z[2], z[3])); /* a > b ? a : b */
+        _mm256_storeu_ps(obs_image_f32_row(&D->z, y) + x, MaxZ);
+        v_store_flags8(_mm256_cmp_ps(MaxZ, vzmax, _CMP_GE_OQ), D->bg + (size_t)y * D->w + x);
+        if (!J->use_n)
+            continue;
+        __m256 acc[4];
+        acc[0] = acc[1] = acc[2] = acc[3] = _mm256_set1_ps(0.0001f);
+        for (int i = 0; i < 4; i++) {
+            const __m256 w = v_sat(_mm256_sub_ps(one, _mm256_mul_ps(_mm256_andnot_ps(sgn, _mm256_sub_ps(z[i], MaxZ)), vInvT)));
+            for (int c = 0; c < 3; c++)
+                acc[c] = _mm256_add_ps(acc[c], _mm256_mul_ps(e[i][c], w));
+            acc[3] = _mm256_add_ps(acc[3], w);
+        }
+        for (int c = 0; c < 3; c++) {
+            const __m256 v = _mm256_div_ps(acc[c], acc[3]);
+            if (D->e[c].data)
+                _mm256_storeu_ps(obs_image_f32_row(&D->e[c], y) + x, v);
+            _mm256_storeu_ps(obs_image_f32_row(&D->ln[c], y) + x, _mm256_sub_ps(_mm256_mul_ps(v, two), one));
+        }
+    }
+    return x;
+}
+#endif
+
 static void setup_row(void *user, int64_t task, int thread)
 {
     (void)thread;
     const setup_job *J = (const setup_job *)user;
-    const level *S = &J->P->lv[J->l - 1];
+    const prep *P = J->P;
+    const level *S = &P->lv[J->l - 1];
     level *D = &J->P->lv[J->l];
     const int y = (int)task;
-    const float zmax = J->P->k->max_depth, InvThreshold = 0.01f / S->s; /* AmbientOcclusionMipThreshold */
-    for (int x = 0; x < D->w; x++) {
-        int sx[4], sy[4];
-        for (int i = 0; i < 4; i++) {
-            sx[i] = clampi(2 * x + (i & 1), 0, S->w - 1);
-            sy[i] = clampi(2 * y + (i >> 1), 0, S->h - 1);
-        }
-        float z[4], e[4][3], n0[4][3];
-        for (int i = 0; i < 4; i++) {
-            z[i] = level_depth(J->P, S, sx[i], sy[i]);
-            if (J->use_n && J->l == 1)
-                ue4_normal_at(J->P, S, sx[i], sy[i], n0[i]); /* level 0: from the source normals */
-            for (int c = 0; c < 3; c++) {
-                if (!J->use_n)
-                    e[i][c] = 0.5f;
-                else if (J->l == 1)
-                    e[i][c] = n0[i][c] * 0.5f + 0.5f;
-                else
-                    e[i][c] = obs_image_f32_row(&S->e[c], sy[i])[sx[i]];
-            }
-        }
-        /* fmaxf: the depths are never NaN nor zero, so a > b ? a : b is the same */
-        const float m01 = z[0] > z[1] ? z[0] : z[1], m23 = z[2] > z[3] ? z[2] : z[3];
-        const float MaxZ = m01 > m23 ? m01 : m23;
-        float acc[4] = {0.0001f, 0.0001f, 0.0001f, 0.0001f};
-        for (int i = 0; i < 4; i++) {
-            const float w = saturatef(1.0f - fabsf(z[i] - MaxZ) * InvThreshold); /* ComputeDepthSimilarity */
-            acc[0] += e[i][0] * w, acc[1] += e[i][1] * w, acc[2] += e[i][2] * w, acc[3] += w;
-        }
-        obs_image_f32_row(&D->z, y)[x] = MaxZ;
-        D->bg[(size_t)y * D->w + x] = (unsigned char)(MaxZ >= zmax);
-        float nv[3];
-        for (int c = 0; c < 3; c++) {
-            const float v = acc[c] / acc[3];
-            obs_image_f32_row(&D->e[c], y)[x] = v;
-            nv[c] = v * 2.0f - 1.0f; /* the coarse pass: normalize(rgb * 2 - 1) */
-        }
-        if (J->use_n) {
-            const float dd = nv[0] * nv[0] + nv[1] * nv[1] + nv[2] * nv[2];
-            const float rs = dd > 0.0f ? 1.0f / sqrtf(dd) : 0.0f;
-            for (int c = 0; c < 3; c++)
-                obs_image_f32_row(&D->n[c], y)[x] = nv[c] * rs;
-        }
+    const float zmax = P->k->max_depth, InvThreshold = 0.01f / S->s; /* AmbientOcclusionMipThreshold */
+    setup_rows R;
+    memset(&R, 0, sizeof R);
+    R.conv = J->l == 1;
+    for (int r = 0; r < 2; r++) {
+        const int sy = clampi(2 * y + r, 0, S->h - 1);
+        R.z[r] = R.conv ? obs_image_f32_row(P->in->depth, sy) : obs_image_f32_row(&S->z, sy);
+        for (int c = 0; c < 3 && J->use_n; c++)
+            R.n[r][c] = R.conv ? obs_image_f32_row(P->nsrc[c], sy) : obs_image_f32_row(&S->e[c], sy);
     }
+    int x = 0;
+#ifdef UE4_AVX2
+    if (P->simd)
+        x = setup_row_avx2(J, &R, D, y, S->w, InvThreshold, zmax);
+#endif
+    for (; x < D->w; x++)
+        setup_texel(J, &R, D, y, x, clampi(2 * x, 0, S->w - 1), clampi(2 * x + 1, 0, S->w - 1), InvThreshold, zmax);
+}
+
+/* The planes of coarse level L (z, bg, ao; ln with normals; e with normals where a coarser level
+ * is built from it) in one allocation with one stride (the upsample gathers every plane with one
+ * index), not zeroed: setup_row and the level's AO pass write every texel before it is read. */
+static obs_status level_alloc(obs_context *ctx, level *L, int use_n, int feeds_next)
+{
+    const size_t stride = ((size_t)L->w + 15) & ~(size_t)15, plane = stride * (size_t)L->h; /* floats */
+    const int planes = 2 + (use_n ? 3 : 0) + (use_n && feeds_next ? 3 : 0);
+    const size_t bg_bytes = ((size_t)L->w * (size_t)L->h + 63) & ~(size_t)63;
+    const size_t bytes = sizeof(float) * plane * (size_t)planes + bg_bytes;
+    if (plane > (size_t)INT32_MAX) /* 32-bit gather indices; a level is at most half the input */
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "ue4: level %dx%d too large", L->w, L->h);
+    if ((double)bytes > (double)obs_context_limits(ctx)->max_memory_bytes)
+        return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
+                         "ue4: a %dx%d level needs %zu bytes, over the limit (raise it with --max-memory)", L->w,
+                         L->h, bytes);
+    float *b = (float *)obs_aligned_alloc(bytes);
+    if (!b)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: cannot allocate %zu bytes for a level", bytes);
+    L->block = b;
+    obs_image_f32 *const list[8] = {&L->z, &L->ao, &L->ln[0], &L->ln[1], &L->ln[2], &L->e[0], &L->e[1], &L->e[2]};
+    for (int i = 0; i < planes; i++) {
+        list[i]->data = b + (size_t)i * plane;
+        list[i]->width = L->w;
+        list[i]->height = L->h;
+        list[i]->stride = (ptrdiff_t)stride;
+    }
+    L->bg = (unsigned char *)(b + (size_t)planes * plane);
+    return OBS_STATUS_OK;
 }
 
 static void level_free(level *L)
 {
-    for (int c = 0; c < 3; c++) {
-        obs_image_f32_free(&L->n[c]);
-        obs_image_f32_free(&L->e[c]);
-    }
-    obs_image_f32_free(&L->z);
-    obs_image_f32_free(&L->ao);
-    free(L->bg);
+    obs_aligned_free(L->block);
     free(L->spx);
     free(L->spy);
+    for (int k = 0; k < 3; k++) {
+        free(L->utx[k]);
+        free(L->uty[k]);
+    }
     memset(L, 0, sizeof *L);
 }
 
@@ -1478,12 +1733,17 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         /* level 0 reads the input's depth and normals as they are (level_depth, level_bg_row,
          * ue4_normal_at): no full-size planes, whose fresh pages cost more than the conversion */
         if (l)
-            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->z);
+            st = level_alloc(ctx, L, use_n, l + 1 < P.levels);
         if (st == OBS_STATUS_OK) {
-            L->bg = l ? (unsigned char *)malloc((size_t)L->w * L->h) : NULL;
             L->spx = (float *)malloc(sizeof(float) * ((size_t)L->w + 1));
             L->spy = (float *)malloc(sizeof(float) * ((size_t)L->h + 1));
-            if ((l && !L->bg) || !L->spx || !L->spy)
+            if (!L->spx || !L->spy)
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
+        }
+        for (int k = 0; k < (l ? 3 : 2) && st == OBS_STATUS_OK && l + 1 < P.levels; k++) {
+            L->utx[k] = (int *)malloc(sizeof(int) * ((size_t)L->w + 1));
+            L->uty[k] = (int *)malloc(sizeof(int) * ((size_t)L->h + 1));
+            if (!L->utx[k] || !L->uty[k])
                 st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
         }
         if (st == OBS_STATUS_OK) {
@@ -1494,13 +1754,9 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
             for (int y = 0; y <= L->h; y++)
                 L->spy[y] = (float)(-(((double)y + 0.5) * s - in->cy) * 2.0 / H);
         }
-        for (int c = 0; c < 3 && st == OBS_STATUS_OK && use_n && l; c++)
-            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->n[c]);
-        for (int c = 0; c < 3 && st == OBS_STATUS_OK && l; c++)
-            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->e[c]);
-        if (st == OBS_STATUS_OK && l)
-            st = obs_image_f32_alloc(ctx, L->w, L->h, &L->ao);
     }
+    for (int l = 0; l + 1 < P.levels && st == OBS_STATUS_OK; l++)
+        upsample_tables(&P.lv[l], &P.lv[l + 1], l);
     if (st == OBS_STATUS_OK && use_n) {
         if (K.normal_mode == AO_UE4_NORMALS_GBUFFER) {
             nsrc[0] = in->normal[0], nsrc[1] = in->normal[1], nsrc[2] = in->normal[2];
