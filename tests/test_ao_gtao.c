@@ -670,6 +670,61 @@ TEST(gtao_fast_main_pass_scalar_and_avx2_are_byte_identical_to_the_plain_port)
     obs_context_destroy(ctx);
 }
 
+/* The 8-pixel set-up and finish (AVX2): image widths 44 to 98, every residue mod 8 and across the
+ * 64-pixel chunk (blocks of 8, the scalar set-up for a chunk's last < 8, pending lanes carried
+ * across blocks and chunks, the row's drain with 1..7 lanes),
+ * background, degenerate normals (NaN, zero, +inf, a huge finite one whose square overflows) at
+ * every lane position, perspective and orthographic cameras with G-buffer normals, final powers
+ * 2.2 (the vector x^2.2) and 3.3; against the plain port, with the AVX2 lanes and OBS_ISA=scalar. */
+TEST(gtao_eight_pixel_setup_and_finish_equal_the_plain_port)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene scene;
+    tu_ao_scene(&scene);
+    obs_pool *pool = obs_pool_create(2);
+    for (int ortho = 0; ortho < 2; ortho++) {
+        obs_camera cam = tu_ao_camera();
+        if (ortho)
+            cam.projection = OBS_PROJECTION_ORTHOGRAPHIC, cam.xmag = 3.0f, cam.ymag = 2.0f;
+        for (int w = 1; w <= 19; w += ortho ? 3 : 1) {
+            rast_gbuffer gb;
+            CHECK_OK(tu_render_depth_normal(ctx, &scene, cam, 3 * w + 41, 31, 2, &gb), ctx);
+            const int W = gb.depth.width, H = gb.depth.height;
+            for (int y = 0; y < H; y++)
+                for (int x = 0; x < W; x++) {
+                    const int m = (x * 7 + y * 3) % 23;
+                    if (m == 0)
+                        obs_image_f32_row(&gb.normal[0], y)[x] = NAN;
+                    else if (m == 1)
+                        obs_image_f32_row(&gb.normal[0], y)[x] = 0.0f, obs_image_f32_row(&gb.normal[1], y)[x] = 0.0f,
+                        obs_image_f32_row(&gb.normal[2], y)[x] = 0.0f;
+                    else if (m == 2)
+                        obs_image_f32_row(&gb.normal[1], y)[x] = INFINITY;
+                    else if (m == 3)
+                        obs_image_f32_row(&gb.normal[2], y)[x] = 3e19f;
+                    else if (m == 4)
+                        obs_image_f32_row(&gb.depth, y)[x] = (x + y) % 2 ? NAN : -1.0f;
+                }
+            ao_input in;
+            CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 1, &in), ctx);
+            for (int c = 0; c < 3; c++) {
+                ao_gtao_params p;
+                ao_gtao_params_preset(c == 1 ? "low" : "high", &p);
+                if (c == 2)
+                    p.final_value_power = 3.3f, p.denoise_passes = 0;
+                CHECK_MSG(gtao_fast_equals_reference(ctx, pool, &in, &p), "ortho %d w %d case %d", ortho, w, c);
+                setenv("OBS_ISA", "scalar", 1);
+                CHECK_MSG(gtao_fast_equals_reference(ctx, pool, &in, &p), "scalar: ortho %d w %d case %d", ortho, w, c);
+                unsetenv("OBS_ISA");
+            }
+            rast_gbuffer_free(&gb);
+        }
+    }
+    obs_pool_destroy(pool);
+    obs_scene_free(&scene);
+    obs_context_destroy(ctx);
+}
+
 TEST(gtao_mip_thresholds_equal_the_log2_choice)
 {
     /* every float within 4096 ulps of each level boundary, and a stride over [2^-8, 2^24], for

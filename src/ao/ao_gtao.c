@@ -1449,17 +1449,22 @@ AVX2_FN static inline __m256i v_texel(__m256 uv, __m256i size)
     return r;
 }
 
+/* The pending lanes of a row in structure-of-arrays form: what pixel_setup gives per pixel, lane l
+ * of field f in t[f][l] (lanes 0..7 run next; 8..15 take the overflow of an 8-pixel set-up). */
+enum { LN_N0, LN_N1, LN_N2, LN_C0, LN_C1, LN_C2, LN_V0, LN_V1, LN_V2, LN_U, LN_V, LN_SSR, LN_MIN_S, LN_VIS0,
+       LN_FIELDS };
+typedef struct lanes8 {
+    float t[LN_FIELDS][16];
+    int cell[16];
+    int idx[16];                    /* the pixel's index in the row */
+    int na;                         /* pending lanes */
+} lanes8;
+
 AVX2_FN static void slices_avx2(const ao_gtao_constants *k, const main_consts *mc, const main_tables *T,
-                                const obs_image_f32 *levels, const px_setup S[8], float out[8])
+                                const obs_image_f32 *levels, const lanes8 *P, float out[8])
 {
-    float t[20][8];
-    int cells[8];
-    for (int l = 0; l < 8; l++) {
-        for (int a = 0; a < 3; a++)
-            t[a][l] = S[l].n[a], t[3 + a][l] = S[l].C[a], t[6 + a][l] = S[l].V[a];
-        t[9][l] = S[l].u, t[10][l] = S[l].v, t[11][l] = S[l].ssr, t[12][l] = S[l].min_s, t[13][l] = S[l].vis0;
-        cells[l] = S[l].cell;
-    }
+    const float(*t)[16] = P->t;
+    const int *cells = P->cell;
 #define LD(i) _mm256_loadu_ps(t[i])
     const __m256 n0 = LD(0), n1 = LD(1), n2 = LD(2), C0 = LD(3), C1 = LD(4), C2 = LD(5);
     const __m256 V0 = LD(6), V1 = LD(7), V2 = LD(8), u = LD(9), v = LD(10), ssr = LD(11), min_s = LD(12);
@@ -1642,6 +1647,220 @@ typedef struct main_job {
     int avx2;                       /* 1: the 8-lane slice loop */
 } main_job;
 
+#if GTAO_AVX2
+/* ---- The 8-pixel set-up and finish (AVX2) ----------------------------------------------------------
+ * Lane l is pixel i + l of the row. setup8_avx2 is pixel_setup for G-buffer normals without
+ * gpu_packing, in the vector forms of its float operations in its order (the left-to-right dots,
+ * sqrt, division; no FMA); the surface lanes are compacted (in their order) into the pending lanes,
+ * which feed slices_avx2 directly. finish8_avx2 is pixel_finish of 8 lanes, with
+ * ao_gtao_final_power's x^2.2 in double 4 lanes at a time (the same table steps; the lanes its
+ * rounding test rejects, and other powers, call it per lane). */
+
+/* pixel_finish of the 8 lanes of acc; lanes 0..cnt-1 stored at o[idx[l]] */
+AVX2_FN static void finish8_avx2(const ao_gtao_constants *k, __m256 acc, const int *idx, int cnt, float *o)
+{
+    __m256 v = _mm256_div_ps(acc, _mm256_set1_ps((float)k->slice_count));
+    float vv[8];
+    if (f2u(k->final_value_power) == f2u(2.2f)) {
+        /* ao_gtao_final_power's domain [2^-126, 2); other lanes compute with x = 1 and call it */
+        const __m256 dom = _mm256_and_ps(_mm256_cmp_ps(v, _mm256_set1_ps(0x1p-126f), _CMP_GE_OQ),
+                                         _mm256_cmp_ps(v, _mm256_set1_ps(2.0f), _CMP_LT_OQ));
+        const __m256 x = _mm256_blendv_ps(_mm256_set1_ps(1.0f), v, dom);
+        const __m256i u = _mm256_castps_si256(x);
+        const __m256i ei = _mm256_add_epi32(_mm256_srli_epi32(u, 23), _mm256_set1_epi32(126 - 127));
+        const __m256i mb = _mm256_and_si256(u, _mm256_set1_epi32(0x7FFFFF));
+        const __m256i ii = _mm256_srli_epi32(mb, 16);
+        const __m256i lo16 = _mm256_and_si256(mb, _mm256_set1_epi32(0xFFFF));
+        __m128 res[2];
+        int ok = _mm256_movemask_ps(dom);
+        for (int h = 0; h < 2; h++) {
+            const __m128i i4 = h ? _mm256_extracti128_si256(ii, 1) : _mm256_castsi256_si128(ii);
+            const __m128i e4 = h ? _mm256_extracti128_si256(ei, 1) : _mm256_castsi256_si128(ei);
+            const __m128i m4 = h ? _mm256_extracti128_si256(lo16, 1) : _mm256_castsi256_si128(lo16);
+            const __m256d r = _mm256_mul_pd(_mm256_mul_pd(_mm256_cvtepi32_pd(m4), _mm256_set1_pd(0x1p-23)),
+                                            _mm256_i32gather_pd(POW22_T_INV, i4, 8));
+            __m256d q = _mm256_set1_pd(POW22_C[6]);
+            for (int c = 5; c >= 0; c--)
+                q = _mm256_add_pd(_mm256_set1_pd(POW22_C[c]), _mm256_mul_pd(r, q));
+            const __m256d y = _mm256_mul_pd(
+                _mm256_mul_pd(_mm256_i32gather_pd(POW22_T_MANT, i4, 8),
+                              _mm256_add_pd(_mm256_set1_pd(1.0), _mm256_mul_pd(r, q))),
+                _mm256_i32gather_pd(POW22_T_EXP, e4, 8));
+            const __m256d tol = _mm256_mul_pd(y, _mm256_set1_pd(0x1p-48));
+            const __m128 lo = _mm256_cvtpd_ps(_mm256_sub_pd(y, tol)), hi = _mm256_cvtpd_ps(_mm256_add_pd(y, tol));
+            ok &= ~((~_mm_movemask_ps(_mm_cmpeq_ps(lo, hi)) & 15) << (4 * h));
+            res[h] = lo;
+        }
+        _mm256_storeu_ps(vv, v);
+        __m256 pw = _mm256_insertf128_ps(_mm256_castps128_ps256(res[0]), res[1], 1);
+        if (ok != 0xFF) {
+            float pv[8];
+            _mm256_storeu_ps(pv, pw);
+            for (int l = 0; l < 8; l++)
+                if (!(ok & (1 << l)))
+                    pv[l] = ao_gtao_final_power(vv[l], k->final_value_power);
+            pw = _mm256_loadu_ps(pv);
+        }
+        v = pw;
+    } else {
+        _mm256_storeu_ps(vv, v);
+        for (int l = 0; l < 8; l++)
+            vv[l] = ao_gtao_final_power(vv[l], k->final_value_power);
+        v = _mm256_loadu_ps(vv);
+    }
+    v = v_max_a(_mm256_set1_ps(0.03f), v); /* hmax_fast(0.03f, v) */
+    if (k->gpu_packing) {
+        _mm256_storeu_ps(vv, v);
+        for (int l = 0; l < cnt; l++)
+            o[idx[l]] = unorm8(sat(vv[l] / AO_GTAO_OCCLUSION_TERM_SCALE));
+        return;
+    }
+    const __m256 sc = _mm256_set1_ps(AO_GTAO_OCCLUSION_TERM_SCALE);
+    v = _mm256_blendv_ps(sc, v, _mm256_cmp_ps(v, sc, _CMP_LT_OQ));
+    _mm256_storeu_ps(vv, v);
+    for (int l = 0; l < cnt; l++)
+        o[idx[l]] = vv[l];
+}
+
+/* the slice loops and finish of pending lanes 0..7, then lanes 8.. moved down */
+AVX2_FN static void lanes_run8(const main_job *J, lanes8 *P, float *o)
+{
+    float acc[8];
+    slices_avx2(J->k, &J->mc, J->tables, J->levels, P, acc);
+    finish8_avx2(J->k, _mm256_loadu_ps(acc), P->idx, 8, o);
+    P->na -= 8;
+    for (int f = 0; f < LN_FIELDS; f++)
+        _mm256_storeu_ps(&P->t[f][0], _mm256_loadu_ps(&P->t[f][8]));
+    _mm256_storeu_si256((__m256i *)&P->cell[0], _mm256_loadu_si256((const __m256i *)&P->cell[8]));
+    _mm256_storeu_si256((__m256i *)&P->idx[0], _mm256_loadu_si256((const __m256i *)&P->idx[8]));
+}
+
+/* one scalar pixel_setup result as the next pending lane */
+AVX2_FN static void lanes_push(const main_job *J, lanes8 *P, const px_setup *S, int i, float *o)
+{
+    const int l = P->na;
+    for (int a = 0; a < 3; a++)
+        P->t[LN_N0 + a][l] = S->n[a], P->t[LN_C0 + a][l] = S->C[a], P->t[LN_V0 + a][l] = S->V[a];
+    P->t[LN_U][l] = S->u, P->t[LN_V][l] = S->v, P->t[LN_SSR][l] = S->ssr, P->t[LN_MIN_S][l] = S->min_s;
+    P->t[LN_VIS0][l] = S->vis0;
+    P->cell[l] = S->cell, P->idx[l] = i;
+    if (++P->na == 8)
+        lanes_run8(J, P, o);
+}
+
+/* the row's last pending lanes: 2..7 padded with copies of lane 0 (results unused), 1 scalar */
+AVX2_FN static void lanes_drain(const main_job *J, lanes8 *P, float *o)
+{
+    const int na = P->na;
+    if (na >= 2) {
+        for (int l = na; l < 8; l++) {
+            for (int f = 0; f < LN_FIELDS; f++)
+                P->t[f][l] = P->t[f][0];
+            P->cell[l] = P->cell[0];
+        }
+        float acc[8];
+        slices_avx2(J->k, &J->mc, J->tables, J->levels, P, acc);
+        finish8_avx2(J->k, _mm256_loadu_ps(acc), P->idx, na, o);
+    } else if (na == 1) {
+        px_setup S;
+        for (int a = 0; a < 3; a++)
+            S.n[a] = P->t[LN_N0 + a][0], S.C[a] = P->t[LN_C0 + a][0], S.V[a] = P->t[LN_V0 + a][0];
+        S.u = P->t[LN_U][0], S.v = P->t[LN_V][0], S.ssr = P->t[LN_SSR][0], S.min_s = P->t[LN_MIN_S][0];
+        S.vis0 = P->t[LN_VIS0][0], S.cell = P->cell[0];
+        pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S), &o[P->idx[0]]);
+    }
+    P->na = 0;
+}
+
+/* pixel_setup of pixels i..i+7 of row y (x = rx0 + i ..), G-buffer normals, no gpu_packing */
+AVX2_FN static void setup8_avx2(const main_job *J, int y, int i, float *o, lanes8 *P, int64_t *bg, int64_t *deg)
+{
+    const ao_gtao_constants *k = J->k;
+    const int x = J->rx0 + i;
+    const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
+    const __m256 d = _mm256_loadu_ps(obs_image_f32_row(J->in->depth, y) + x);
+    const __m256 fg = _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_GT_OQ), _mm256_cmp_ps(d, inf, _CMP_LT_OQ));
+    const int fgm = _mm256_movemask_ps(fg);
+    const __m256 bgv = _mm256_set1_ps(1.0f); /* no gpu_packing */
+    if (!fgm) {
+        _mm256_storeu_ps(o + i, bgv);
+        *bg += 8;
+        return;
+    }
+#define ADD _mm256_add_ps
+#define SUB _mm256_sub_ps
+#define MUL _mm256_mul_ps
+#define DIV _mm256_div_ps
+#define DOT3(a0, a1, a2, b0, b1, b2) ADD(ADD(MUL(a0, b0), MUL(a1, b1)), MUL(a2, b2))
+    /* LoadNormal: z flipped, then the degenerate test and normalize3 */
+    __m256 n0 = _mm256_loadu_ps(obs_image_f32_row(J->in->normal[0], y) + x);
+    __m256 n1 = _mm256_loadu_ps(obs_image_f32_row(J->in->normal[1], y) + x);
+    __m256 n2 = _mm256_xor_ps(_mm256_loadu_ps(obs_image_f32_row(J->in->normal[2], y) + x), _mm256_set1_ps(-0.0f));
+    const __m256 l2 = DOT3(n0, n1, n2, n0, n1, n2);
+    const __m256 nok = _mm256_and_ps(_mm256_cmp_ps(l2, zero, _CMP_GT_OQ), _mm256_cmp_ps(l2, inf, _CMP_LT_OQ));
+    const int surf = fgm & _mm256_movemask_ps(nok);
+    *bg += 8 - __builtin_popcount((unsigned)fgm);
+    *deg += __builtin_popcount((unsigned)(fgm & ~surf));
+    if (surf != 0xFF)
+        _mm256_maskstore_ps(o + i, _mm256_castps_si256(_mm256_xor_ps(_mm256_castsi256_ps(_mm256_set1_epi32(-1)),
+                                                                     _mm256_and_ps(fg, nok))),
+                            bgv);
+    if (!surf)
+        return;
+    const __m256 nl = _mm256_sqrt_ps(l2);
+    n0 = DIV(n0, nl), n1 = DIV(n1, nl), n2 = DIV(n2, nl);
+    /* the centre pulled toward the camera, its view position and the view vector */
+    const __m256 vz = MUL(_mm256_loadu_ps(obs_image_f32_row(&J->levels[0], y) + x), _mm256_set1_ps(AO_GTAO_CENTER_Z_PULL));
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i xi = _mm256_add_epi32(_mm256_set1_epi32(x), lane);
+    const __m256 u = MUL(ADD(_mm256_cvtepi32_ps(xi), _mm256_set1_ps(0.5f)), _mm256_set1_ps(k->viewport_pixel_size[0]));
+    const __m256 v = _mm256_set1_ps(((float)y + 0.5f) * k->viewport_pixel_size[1]);
+    const __m256 a = ADD(MUL(_mm256_set1_ps(k->ndc_to_view_mul[0]), u), _mm256_set1_ps(k->ndc_to_view_add[0]));
+    const __m256 b = ADD(MUL(_mm256_set1_ps(k->ndc_to_view_mul[1]), v), _mm256_set1_ps(k->ndc_to_view_add[1]));
+    const __m256 C0 = k->orthographic ? a : MUL(a, vz), C1 = k->orthographic ? b : MUL(b, vz), C2 = vz;
+    const __m256 sgn = _mm256_set1_ps(-0.0f);
+    __m256 V0, V1, V2;
+    if (k->orthographic) {
+        V0 = zero, V1 = zero, V2 = _mm256_set1_ps(-1.0f);
+    } else {
+        V0 = _mm256_xor_ps(C0, sgn), V1 = _mm256_xor_ps(C1, sgn), V2 = _mm256_xor_ps(C2, sgn);
+        const __m256 vl = _mm256_sqrt_ps(DOT3(V0, V1, V2, V0, V1, V2));
+        V0 = DIV(V0, vl), V1 = DIV(V1, vl), V2 = DIV(V2, vl);
+    }
+    /* the screen-space radius, the small-radius fade and minS */
+    const __m256 psz = k->orthographic ? _mm256_set1_ps(k->ndc_to_view_mul_x_pixel_size[0])
+                                       : MUL(vz, _mm256_set1_ps(k->ndc_to_view_mul_x_pixel_size[0]));
+    const __m256 ssr = DIV(_mm256_set1_ps(J->mc.effect_radius), psz);
+    const __m256 vis0 = MUL(v_sat(DIV(SUB(_mm256_set1_ps(10.0f), ssr), _mm256_set1_ps(100.0f))), _mm256_set1_ps(0.5f));
+    const __m256 min_s = DIV(_mm256_set1_ps(J->mc.min_s_num), ssr);
+    const __m256i cell = _mm256_or_si256(_mm256_set1_epi32((y & 63) << 6), _mm256_and_si256(xi, _mm256_set1_epi32(63)));
+    const __m256i idx = _mm256_add_epi32(_mm256_set1_epi32(i), lane);
+#undef ADD
+#undef SUB
+#undef MUL
+#undef DIV
+#undef DOT3
+    /* compact the surface lanes (in order) onto the pending ones */
+    __m256i perm = lane;
+    if (surf != 0xFF) {
+        int pv[8] = {0}, c = 0;
+        for (int l = 0; l < 8; l++)
+            if (surf & (1 << l))
+                pv[c++] = l;
+        perm = _mm256_loadu_si256((const __m256i *)pv);
+    }
+    const __m256 f[LN_FIELDS] = {n0, n1, n2, C0, C1, C2, V0, V1, V2, u, v, ssr, min_s, vis0};
+    const int na = P->na;
+    for (int q = 0; q < LN_FIELDS; q++)
+        _mm256_storeu_ps(&P->t[q][na], _mm256_permutevar8x32_ps(f[q], perm));
+    _mm256_storeu_si256((__m256i *)&P->cell[na], _mm256_permutevar8x32_epi32(cell, perm));
+    _mm256_storeu_si256((__m256i *)&P->idx[na], _mm256_permutevar8x32_epi32(idx, perm));
+    P->na = na + __builtin_popcount((unsigned)surf);
+    if (P->na >= 8)
+        lanes_run8(J, P, o);
+}
+#endif
+
 static void main_row(void *user, int64_t task, int thread)
 {
     (void)thread;
@@ -1672,8 +1891,11 @@ static void main_row(void *user, int64_t task, int thread)
         const float *dr = obs_image_f32_row(J->in->depth, y);
         const float cl = AO_GTAO_DEPTH_CLAMP;
         const float bgv = J->k->gpu_packing ? unorm8(1.0f / AO_GTAO_OCCLUSION_TERM_SCALE) : 1.0f;
-        px_setup S[8];
-        int idx[8], na = 0;
+#if GTAO_AVX2
+        lanes8 P;
+        P.na = 0;
+        const int fast8 = J->k->normals_from_gbuffer && !J->k->gpu_packing;
+#endif
         float ech[64][4];
         for (int i0 = 0; i0 < rw; i0 += 64) {
             const int n = rw - i0 < 64 ? rw - i0 : 64;
@@ -1704,48 +1926,45 @@ static void main_row(void *user, int64_t task, int thread)
             }
             for (int j = 0; j < n; j++) {
                 const int i = i0 + j;
+#if GTAO_AVX2
+                if (J->avx2) {
+                    /* 8 pixels at a time (G-buffer normals, no gpu_packing), else pixel_setup */
+                    if (fast8 && j + 8 <= n) {
+                        setup8_avx2(J, y, i, o, &P, &bg, &deg);
+                        j += 7;
+                        continue;
+                    }
+                    if (is_background(dr[J->rx0 + i])) {
+                        o[i] = bgv;
+                        bg++;
+                        continue;
+                    }
+                    px_setup S1;
+                    const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, ech[j], &o[i], &S1);
+                    bg += c == 0;
+                    deg += c == 2;
+                    if (c == 1)
+                        lanes_push(J, &P, &S1, i, o);
+                    continue;
+                }
+#endif
                 if (is_background(dr[J->rx0 + i])) {
                     o[i] = bgv;
                     bg++;
                     continue;
                 }
-                const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, ech[j], &o[i], &S[na]);
+                px_setup S1;
+                const int c = pixel_setup(J->k, &J->mc, J->levels, J->in, J->rx0 + i, y, ech[j], &o[i], &S1);
                 bg += c == 0;
                 deg += c == 2;
-                if (c != 1)
-                    continue;
-                idx[na++] = i;
-#if GTAO_AVX2
-                if (na == 8 && J->avx2) {
-                    float acc[8];
-                    slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
-                    for (int l = 0; l < 8; l++)
-                        pixel_finish(J->k, acc[l], &o[idx[l]]);
-                    na = 0;
-                    continue;
-                }
-#endif
-                if (na == 8 || !J->avx2) {
-                    for (int l = 0; l < na; l++)
-                        pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
-                    na = 0;
-                }
+                if (c == 1)
+                    pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S1), &o[i]);
             }
         }
 #if GTAO_AVX2
-        /* the row's last 2..7: lanes padded with copies of the first (their results unused) */
-        if (na >= 2 && J->avx2) {
-            float acc[8];
-            for (int l = na; l < 8; l++)
-                S[l] = S[0];
-            slices_avx2(J->k, &J->mc, J->tables, J->levels, S, acc);
-            for (int l = 0; l < na; l++)
-                pixel_finish(J->k, acc[l], &o[idx[l]]);
-            na = 0;
-        }
+        if (J->avx2)
+            lanes_drain(J, &P, o);
 #endif
-        for (int l = 0; l < na; l++)
-            pixel_finish(J->k, pixel_slices(J->k, &J->mc, J->tables, J->levels, &S[l]), &o[idx[l]]);
     }
     J->counts[r][0] = bg;
     J->counts[r][1] = deg;
