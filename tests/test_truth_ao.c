@@ -14,6 +14,7 @@
 #include "scene_util.h"
 #include "test.h"
 #include "truth/truth.h"
+#include "truth/truth_internal.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -536,6 +537,44 @@ TEST(truth_scrambling_keeps_the_sequence_stratified)
         CHECK_MSG(exact >= 62 && worst <= 1.0 / N[k], "N = %d: %d of 64 seeds exact, worst %.3g", N[k], exact, worst);
     }
     run_free(&R);
+}
+
+/* The Owen scramble's SSE2 path (4 lanes, emulated 32-bit multiplies, bit reversal by masks)
+ * equals its scalar form for every value, seed and length, including the tail past a multiple of
+ * 4; and it is a nested scramble: values sharing their k leading bits map to outputs sharing
+ * their k leading bits, for every k, so nets stay nets. */
+TEST(truth_owen_scramble_simd_equals_scalar_and_is_nested)
+{
+    enum { N = 4099 };
+    static uint32_t v[N], seed[N], out[N];
+    uint64_t x = 0x9E3779B97F4A7C15ull;
+    for (int k = 0; k < N; k++) {
+        x = x * 6364136223846793005ull + 1442695040888963407ull;
+        v[k] = (uint32_t)(x >> 32);
+        seed[k] = (uint32_t)x;
+    }
+    v[0] = 0, seed[0] = 0, v[1] = 0xFFFFFFFFu, seed[1] = 0xFFFFFFFFu;
+    for (int n = 0; n <= 9; n++) {
+        truth_i_owen_scramble(v, seed, n, out);
+        for (int k = 0; k < n; k++)
+            CHECK(out[k] == truth_i_owen_scramble1(v[k], seed[k]));
+    }
+    truth_i_owen_scramble(v, seed, N, out);
+    int bad = 0;
+    for (int k = 0; k < N; k++)
+        bad += out[k] != truth_i_owen_scramble1(v[k], seed[k]);
+    CHECK_EQ_INT(bad, 0);
+    CHECK(truth_i_owen_scramble1(0, 0) == 0);
+    /* nested: the inputs are bit-reversed coordinates, so "leading" bits of a coordinate are the
+     * low bits of v; two coordinates agreeing in their top k bits agree after scrambling */
+    for (int k = 0; k < 2000; k++) {
+        uint32_t a = v[k], s0 = seed[7];
+        for (int bits = 1; bits < 32; bits += 5) {
+            uint32_t b = (a & ((1u << bits) - 1u)) | (v[k + 1] & ~((1u << bits) - 1u)); /* same low bits */
+            uint32_t oa = truth_i_owen_scramble1(a, s0), ob = truth_i_owen_scramble1(b, s0);
+            CHECK((oa >> (32 - bits)) == (ob >> (32 - bits)));
+        }
+    }
 }
 
 /* An oblique sphere: centre at distance D from p, at angle theta from the normal, entirely above

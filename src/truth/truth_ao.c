@@ -535,19 +535,74 @@ static inline uint32_t owen_reversed(uint32_t v, uint32_t seed)
     return v;
 }
 
+uint32_t truth_i_owen_scramble1(uint32_t v, uint32_t seed) { return bit_reverse32(owen_reversed(v, seed)); }
+
+/* The low 32 bits of a * c per lane (SSE2 has no pmulld: two pmuludq on the even and odd lanes). */
+static inline __m128i mullo32(__m128i a, __m128i c)
+{
+    __m128i even = _mm_mul_epu32(a, c), odd = _mm_mul_epu32(_mm_srli_si128(a, 4), _mm_srli_si128(c, 4));
+    return _mm_unpacklo_epi32(_mm_shuffle_epi32(even, _MM_SHUFFLE(0, 0, 2, 0)),
+                              _mm_shuffle_epi32(odd, _MM_SHUFFLE(0, 0, 2, 0)));
+}
+
+static inline __m128i swap_bits(__m128i v, int sh, uint32_t mask)
+{
+    const __m128i m = _mm_set1_epi32((int)mask);
+    return _mm_or_si128(_mm_slli_epi32(_mm_and_si128(v, m), sh), _mm_and_si128(_mm_srli_epi32(v, sh), m));
+}
+
+/* owen_reversed then bit_reverse32, 4 lanes: the same integer operations, so the same bits. */
+static inline __m128i owen_scramble4(__m128i v, __m128i seed)
+{
+    v = _mm_add_epi32(v, seed);
+    v = _mm_xor_si128(v, mullo32(v, _mm_set1_epi32((int)0x6c50b47cu)));
+    v = _mm_xor_si128(v, mullo32(v, _mm_set1_epi32((int)0xb82f1e52u)));
+    v = _mm_xor_si128(v, mullo32(v, _mm_set1_epi32((int)0xc7afe638u)));
+    v = _mm_xor_si128(v, mullo32(v, _mm_set1_epi32((int)0x8d22f6e6u)));
+    v = swap_bits(v, 1, 0x55555555u);
+    v = swap_bits(v, 2, 0x33333333u);
+    v = swap_bits(v, 4, 0x0F0F0F0Fu);
+    v = swap_bits(v, 8, 0x00FF00FFu);
+    return _mm_or_si128(_mm_slli_epi32(v, 16), _mm_srli_epi32(v, 16));
+}
+
+void truth_i_owen_scramble(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out)
+{
+    int k = 0;
+    for (; k + 4 <= n; k += 4)
+        _mm_storeu_si128((__m128i *)(out + k), owen_scramble4(_mm_loadu_si128((const __m128i *)(v + k)),
+                                                              _mm_loadu_si128((const __m128i *)(seed + k))));
+    for (; k < n; k++)
+        out[k] = truth_i_owen_scramble1(v[k], seed[k]);
+}
+
 /* One pixel's round of B samples, scrambled: ray k belongs to replicate r = k / (B/R) and takes
  * point i = k mod (B/R) of the round's points (round * B/R + i of the sequence), Owen-scrambled
  * with replicate r's two seeds (base 2) and digitally shifted with its base-3 shift. */
 static void pixel_points(const ao_job *J, thread_scratch *S, const px_state *s)
 {
     const int B = J->p.batch, R = J->p.replicates, m = B / R, B4 = (B + 3) & ~3;
-    for (int r = 0, k = 0; r < R; r++)
-        for (int i = 0; i < m; i++, k++) {
-            S->u0[k] = bit_reverse32(owen_reversed(S->b0[i], s->shift[r][0]));
-            S->u1[k] = bit_reverse32(owen_reversed(S->b1[i], s->shift[r][1]));
-            if (J->ei.volume)
-                S->u2[k] = radical_inverse3_shifted(S->b2[i], s->shift3[r]);
+    for (int k = 0, r = 0, i = 0; k < B4; k += 4) {
+        /* 4 rays at a time (owen_scramble4); padding lanes past B scramble 0 with seed 0, i.e. 0 */
+        _Alignas(16) uint32_t v0[4], s0[4], v1[4], s1[4];
+        for (int l = 0; l < 4; l++) {
+            const int in = k + l < B;
+            v0[l] = in ? S->b0[i] : 0u;
+            v1[l] = in ? S->b1[i] : 0u;
+            s0[l] = in ? s->shift[r][0] : 0u;
+            s1[l] = in ? s->shift[r][1] : 0u;
+            if (in && J->ei.volume)
+                S->u2[k + l] = radical_inverse3_shifted(S->b2[i], s->shift3[r]);
+            if (in && ++i == m) {
+                i = 0;
+                r++;
+            }
         }
+        _mm_store_si128((__m128i *)(S->u0 + k), owen_scramble4(_mm_load_si128((const __m128i *)v0),
+                                                               _mm_load_si128((const __m128i *)s0)));
+        _mm_store_si128((__m128i *)(S->u1 + k), owen_scramble4(_mm_load_si128((const __m128i *)v1),
+                                                               _mm_load_si128((const __m128i *)s1)));
+    }
     for (int k = B; k < B4; k++) /* padding: its directions are computed, never traced */
         S->u0[k] = S->u1[k] = S->u2[k] = 0u;
 }

@@ -31,6 +31,13 @@ typedef struct truth_ao_hooks {
     void *user;
 } truth_ao_hooks;
 
+/* The base-2 Owen scramble of truth_ao.c (docs/truth.md, "Sampling"), n values (any n >= 0):
+ * out[k] = bitreverse(LK(v[k], seed[k])), v[k] a coordinate bit-reversed, LK Burley's
+ * Laine-Karras permutation. SSE2, 4 at a time; truth_i_owen_scramble1 is its scalar form (the
+ * tests check they agree). */
+void truth_i_owen_scramble(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out);
+uint32_t truth_i_owen_scramble1(uint32_t v, uint32_t seed);
+
 /* truth_ao_render with hooks (NULL = none). */
 obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                               const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,
