@@ -1261,6 +1261,10 @@ TEST(truth_bad_parameters_are_refused)
     CASE("estimator out of range", estimator, TRUTH_AO_COUNT, OBS_STATUS_INVALID_ARGUMENT);
     CASE("normal out of range", normal, TRUTH_AO_NORMAL_COUNT, OBS_STATUS_INVALID_ARGUMENT);
     CASE("origin out of range", origin, TRUTH_AO_ORIGIN_COUNT, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("replicates 1", replicates, 1, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("replicates 33", replicates, 33, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("replicates not dividing the batch", replicates, 3, OBS_STATUS_INVALID_ARGUMENT);
+    CASE("error bar out of range", error_bar, TRUTH_AO_BAR_COUNT, OBS_STATUS_INVALID_ARGUMENT);
     /* obscurance and VOL need a finite radius */
     CASE("SAO with r = inf", estimator, TRUTH_AO_OBS_SAO_B, OBS_STATUS_INVALID_ARGUMENT);
     c[n - 1].p.radius = INFINITY;
@@ -1469,6 +1473,10 @@ TEST(truth_cli_writes_exr_with_mean_stderr_count)
     snprintf(args, sizeof args, "truth ao '%s' --estimator nope -o '%s'", scene, prefix);
     CHECK_EQ_INT(run_cli(args), 2);
     snprintf(args, sizeof args, "truth ao '%s' --radius -1 -o '%s'", scene, prefix);
+    CHECK_EQ_INT(run_cli(args), 2);
+    snprintf(args, sizeof args, "truth ao '%s' --replicates 3 -o '%s'", scene, prefix); /* does not divide 16 */
+    CHECK_EQ_INT(run_cli(args), 2);
+    snprintf(args, sizeof args, "truth ao '%s' --replicates x -o '%s'", scene, prefix);
     CHECK_EQ_INT(run_cli(args), 2);
     snprintf(args, sizeof args, "truth ao '%s' --estimator obs-sao --radius inf -o '%s'", scene, prefix);
     CHECK_EQ_INT(run_cli(args), 2);
