@@ -70,4 +70,14 @@ static inline glh_diff glb_compare_run(glh *g, obs_context *ctx, const glh_run *
     return d;
 }
 
+/* The bounds every port's comparison is held to (each test's comment gives its measured numbers):
+ * median <= 1e-7 and p99 <= 1e-6 (float rounding: llvmpipe's pow, cos, sin against libm's), and at
+ * most 0.2% of the surface pixels over 1e-3 (another Mesa's transcendentals may move a tap). */
+static inline void glb_check_agreement(const glh_diff *d, const char *what)
+{
+    CHECK(d->n > 2000);
+    CHECK_MSG(d->median <= 1e-7 && d->p99 <= 1e-6, "%s: median %g p99 %g", what, d->median, d->p99);
+    CHECK_MSG(d->over <= d->n / 500, "%s: %d of %d pixels differ by more than 1e-3", what, d->over, d->n);
+}
+
 #endif
