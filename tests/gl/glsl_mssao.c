@@ -17,8 +17,11 @@
  * ones as 0, w = 1; background and positions beyond 1e18 m cleared to 0), a tap on the pixel itself
  * contributes 0 (3: normalize(0) is NaN), all-zero upsampling weights fall back to bilinear (4), one
  * level skips the upsampling (8), background pixels get visibility 1 (2) and the output is clamped to
- * [0, 1] (10). Not ported: the orthographic extension and the final Gaussian (`blur`, the seed's, not
- * Hoang's): glsl_mssao_build refuses them. */
+ * [0, 1] (10). The `sorted` downsampling rule (preset kool) is fabmax/kool's GbufferDownsamplingPass as
+ * docs/ao/mssao.md gives it; the final blur (`blur`, preset thesis: the seed's Gaussian, not Hoang's)
+ * is glsl_gauss21.h over level 0 of the whole buffer, then the window with background kept at 1. Not
+ * ported: the orthographic extension (glsl_mssao_build refuses it). */
+#include "gl/glsl_gauss21.h"
 #include "gl/glsl_ports.h"
 
 #include <math.h>
@@ -71,6 +74,17 @@ static const char *const fs_down =
     "  norm[1] = T(hiResNormTex, xy2 + vec2(0.5, 0.5));\n"
     "  norm[2] = T(hiResNormTex, xy2 + vec2(0.5, -0.5));\n"
     "  norm[3] = T(hiResNormTex, xy2 + vec2(-0.5, -0.5));\n"
+    "  vec4 Pos, Norm;\n"
+    "#if SORTED\n"
+    "  /* fabmax/kool GbufferDownsamplingPass (the slides' rule): bubble-sort by linear depth -z,\n"
+    "     z4 - z1 < threshold: the average of the 2nd and 3rd, else the 2nd (docs/ao/mssao.md) */\n"
+    "  int ord[4] = int[4](0, 1, 2, 3);\n"
+    "  for (int i = 0; i < 3; i++) for (int j = i + 1; j < 4; j++)\n"
+    "    if (-pos[ord[j]].z < -pos[ord[i]].z) { int t = ord[i]; ord[i] = ord[j]; ord[j] = t; }\n"
+    "  float dRange = (-pos[ord[3]].z) - (-pos[ord[0]].z);\n"
+    "  if (dRange < dThreshold) { Pos = (pos[ord[1]] + pos[ord[2]]) / 2.0; Norm = (norm[ord[1]] + norm[ord[2]]) / 2.0; }\n"
+    "  else { Pos = pos[ord[1]]; Norm = norm[ord[1]]; }\n"
+    "#else\n"
     "  float maxZ = max(max(pos[0].z, pos[1].z), max(pos[2].z, pos[3].z));\n"
     "  float minZ = min(min(pos[0].z, pos[1].z), min(pos[2].z, pos[3].z));\n"
     "  int minPos = 0, maxPos = 0;\n"
@@ -78,9 +92,9 @@ static const char *const fs_down =
     "  float d = distance(pos[minPos].xyz, pos[maxPos].xyz);\n"
     "  ivec2 median = ivec2(0, 0); int index = 0;\n"
     "  for (int i = 0; i < 4 && index < 2; ++i) if (i != minPos && i != maxPos) median[index++] = i;\n"
-    "  vec4 Pos, Norm;\n"
     "  if (d < dThreshold) { Pos = (pos[median.x] + pos[median.y]) / 2.0; Norm = (norm[median.x] + norm[median.y]) / 2.0; }\n"
     "  else { Pos = pos[median.x]; Norm = norm[median.x]; }\n"
+    "#endif\n"
     "#if OUT_NORM\n"
     "  outv = Norm;\n"
     "#else\n"
@@ -205,6 +219,15 @@ static const char *const fs_blur =
     "  AO = vec4(ss / weight, 0.0);\n"
     "}\n";
 
+/* ---- with the final blur: the window of the blurred plane, background kept at 1 (blur.md) ---- */
+static const char *const fs_crop =
+    MS_COMMON
+    "layout(binding=0) uniform sampler2D blurred; layout(binding=1) uniform sampler2D depthTex;\n"
+    "uniform ivec2 Origin;\n"
+    "layout(location=0) out vec4 o;\n"
+    "void main() { ivec2 p = ivec2(gl_FragCoord.xy) + Origin;\n"
+    "  o = texelFetch(depthTex, p, 0).x > 0.0 ? texelFetch(blurred, p, 0) : vec4(1.0); }\n";
+
 typedef struct ms_tex {
     GLuint tex, fbo;
 } ms_tex;
@@ -225,8 +248,8 @@ int glsl_mssao_build(glh *g, obs_context *ctx, const ao_input *in, const ao_mssa
         return 0;
     }
     const ao_mssao_constants K = ao_mssao_constants_from_params(p, in);
-    if (K.orthographic || K.blur || K.downsample != AO_MSSAO_DOWNSAMPLE_HOANG) {
-        printf("  mssao port: the orthographic extension, the final Gaussian and the sorted rule are not ported\n");
+    if (K.orthographic) {
+        printf("  mssao port: the orthographic extension is not ported\n");
         return 0;
     }
     const int W = in->width, H = in->height, NL = K.levels;
@@ -274,8 +297,11 @@ int glsl_mssao_build(glh *g, obs_context *ctx, const ao_input *in, const ao_mssa
     char pre[128];
     GLuint pg_pos = glh_run_own_program(r, glh_program(g, fs_g0, "#define OUT_NORM 0\n"));
     GLuint pg_nrm = glh_run_own_program(r, glh_program(g, fs_g0, "#define OUT_NORM 1\n"));
-    GLuint pd_pos = glh_run_own_program(r, glh_program(g, fs_down, "#define OUT_NORM 0\n"));
-    GLuint pd_nrm = glh_run_own_program(r, glh_program(g, fs_down, "#define OUT_NORM 1\n"));
+    const int sorted = K.downsample == AO_MSSAO_DOWNSAMPLE_SORTED;
+    GLuint pd_pos = glh_run_own_program(r, glh_program(g, fs_down, sorted ? "#define OUT_NORM 0\n#define SORTED 1\n"
+                                                                          : "#define OUT_NORM 0\n#define SORTED 0\n"));
+    GLuint pd_nrm = glh_run_own_program(r, glh_program(g, fs_down, sorted ? "#define OUT_NORM 1\n#define SORTED 1\n"
+                                                                          : "#define OUT_NORM 1\n#define SORTED 0\n"));
     GLuint pblur = glh_run_own_program(r, glh_program(g, fs_blur, NULL));
     snprintf(pre, sizeof pre, "#define STAGE 2\n#define SAMPLES %d\n#define LEVELS %d\n", K.samples, NL);
     GLuint plast = glh_run_own_program(r, glh_program(g, fs_ao, pre));
@@ -329,8 +355,10 @@ int glsl_mssao_build(glh *g, obs_context *ctx, const ao_input *in, const ao_mssa
         glh_set1f(g, pr, "rMax", K.r_max);
         glh_set1f(g, pr, "r", K.r[0]);
         glh_setfv(g, pr, "poissonDisk", 1, 2 * K.samples, K.taps);
-        glh_set2i(g, pr, "Origin", in->x0, H - in->y0 - in->h);
-        out.tex = glh_run_own_texture(r, glh_texture(g, in->w, in->h, 1, GL_R32F, 1, NULL, GLH_ROWS_AS_IS,
+        /* with the final blur, level 0 over the whole buffer (the Gaussian reads 10 px around) */
+        const int ow = K.blur ? W : in->w, oh = K.blur ? H : in->h;
+        glh_set2i(g, pr, "Origin", K.blur ? 0 : in->x0, K.blur ? 0 : H - in->y0 - in->h);
+        out.tex = glh_run_own_texture(r, glh_texture(g, ow, oh, 1, GL_R32F, 1, NULL, GLH_ROWS_AS_IS,
                                                      GL_NEAREST, GL_CLAMP_TO_EDGE));
         out.fbo = out.tex ? glh_run_own_fbo(r, glh_framebuffer(g, out.tex, 0)) : 0;
         if (!out.fbo)
@@ -338,9 +366,24 @@ int glsl_mssao_build(glh *g, obs_context *ctx, const ao_input *in, const ao_mssa
         const GLuint up = NL > 1 ? (K.level_blur ? bl[1].tex : ao[1].tex) : pos[0].tex;
         const GLuint t[6] = {pos[0].tex, nm[0].tex, up, NL > 1 ? pos[1].tex : pos[0].tex,
                              NL > 1 ? nm[1].tex : nm[0].tex, td};
-        glh_run_add(r, "mssao aoLast.frag", pr, out.fbo, in->w, in->h, 6, t);
+        glh_run_add(r, "mssao aoLast.frag", pr, out.fbo, ow, oh, 6, t);
     }
     r->nkernel = r->npass;
+    if (K.blur) {
+        /* the seed's Gaussian (ao_blur_gaussian21), then the window with background kept at 1 */
+        GLuint pgauss[2];
+        ms_tex tmp, blr, win;
+        GLuint pcrop = glh_run_own_program(r, glh_program(g, fs_crop, NULL));
+        if (!glsl_gauss21_programs(g, r, pgauss) || !pcrop || !ms_target(g, r, W, H, &tmp) ||
+            !ms_target(g, r, W, H, &blr) || !ms_target(g, r, in->w, in->h, &win))
+            return 0;
+        glh_set2i(g, pcrop, "Origin", in->x0, H - in->y0 - in->h);
+        glh_run_add(r, "gaussian h", pgauss[0], tmp.fbo, W, H, 1, &out.tex);
+        glh_run_add(r, "gaussian v", pgauss[1], blr.fbo, W, H, 1, &tmp.tex);
+        const GLuint tc[2] = {blr.tex, td};
+        glh_run_add(r, "mssao window", pcrop, win.fbo, in->w, in->h, 2, tc);
+        out = win;
+    }
     r->out_fbo = out.fbo;
     r->out_w = in->w;
     r->out_h = in->h;

@@ -7,7 +7,7 @@
  *
  * The Alchemy pass is our kernel's estimator as docs/ao/alchemy.md states it ([McGuire11] section 3,
  * with the HPG12 SAO_AO.pix hash, spiral tapLocation and falloff-A range check), the Gaussian the
- * Movania/seed loop c += kernel[10 - i] * tap(i) (docs/ao/blur.md), both written here from those
+ * Movania/seed loop c += kernel[10 - i] * tap(i) (docs/ao/blur.md, glsl_gauss21.h), both written here from those
  * pages for the level textures (the same text as an Alchemy port would carry; kept local so that the
  * levels read the pyramid's textures). Uniforms: ao_alchemy_constants_from_params for each level's
  * input (the pixel model scaled by w_l / W, h_l / H as level_make does), ao_gauss21_kernel, the
@@ -18,6 +18,7 @@
  * gives visibility 1 and taps on it are skipped, a degenerate normal gives 1, the blend's meaning
  * (obscurance as alpha) and its clamp. Not ported: normals from depth (the levels would need
  * ao_normals_from_depth as a pass) and orthographic cameras: glsl_mssao_seed_build refuses them. */
+#include "gl/glsl_gauss21.h"
 #include "gl/glsl_ports.h"
 
 #include <math.h>
@@ -77,19 +78,6 @@ static const char *const fs_alchemy =
     "  o = vec4(clamp(A, 0.0, 1.0));\n"
     "}\n";
 
-/* ---- the seed's Gaussian, one direction (DIR (1,0) then (0,1) in GL pixels) ---- */
-static const char *const fs_gauss =
-    "#version 450\n"
-    "layout(binding=0) uniform sampler2D textureMap; uniform float kernel[21];\n"
-    "layout(location=0) out vec4 o;\n"
-    "void main() {\n"
-    "  ivec2 c = ivec2(gl_FragCoord.xy), last = textureSize(textureMap, 0) - 1;\n"
-    "  float colour = 0.0; int index = 20;\n"
-    "  for (int i = -10; i <= 10; i++)\n"
-    "    colour += kernel[index--] * texelFetch(textureMap, clamp(c + i * ivec2(DIR), ivec2(0), last), 0).x;\n"
-    "  o = vec4(colour);\n"
-    "}\n";
-
 /* ---- Figura 33's blend over the window (vUV of the full-screen quad over the full buffer) ---- */
 static const char *const fs_blend =
     "#version 450\n"
@@ -147,13 +135,9 @@ int glsl_mssao_seed_build(glh *g, obs_context *ctx, const ao_input *in, const ao
                                                     GL_CLAMP_TO_EDGE));
     free(buf);
     GLuint pgauss[2], pgb = 0, pblend;
-    pgauss[0] = glh_run_own_program(r, glh_program(g, fs_gauss, "#define DIR 1, 0\n"));
-    pgauss[1] = glh_run_own_program(r, glh_program(g, fs_gauss, "#define DIR 0, 1\n"));
     pblend = glh_run_own_program(r, glh_program(g, fs_blend, NULL));
-    if (!tg0 || !pgauss[0] || !pgauss[1] || !pblend)
+    if (!tg0 || !pblend || !glsl_gauss21_programs(g, r, pgauss))
         return 0;
-    for (int d = 0; d < 2; d++)
-        glh_setfv(g, pgauss[d], "kernel", 1, 2 * AO_GAUSS21_RADIUS + 1, ao_gauss21_kernel);
 
     GLuint gb[AO_MSSAO_SEED_LEVELS], raw[AO_MSSAO_SEED_LEVELS], tmp[AO_MSSAO_SEED_LEVELS], blr[AO_MSSAO_SEED_LEVELS];
     GLuint gbf[AO_MSSAO_SEED_LEVELS], rawf[AO_MSSAO_SEED_LEVELS], tmpf[AO_MSSAO_SEED_LEVELS], blrf[AO_MSSAO_SEED_LEVELS];

@@ -1,8 +1,8 @@
 /* test_gl_mssao.c: our MSSAO (Hoang's code, ao_mssao_compute) against its GLSL port (glsl_mssao.c:
  * the G-buffer, downsample.frag per level, aoFirst / ao / aoLast.frag coarse to fine, blur.frag per
  * coarse level) run on Mesa's llvmpipe, on the sphere scene at 160 x 120 and at an odd 161 x 91 with
- * a guard band: Hoang's defaults, without the level blur, 3 levels with 8 taps and dMax 1 m, one
- * level, and normals from depth. */
+ * a guard band: Hoang's defaults, without the level blur, the thesis preset (the final Gaussian),
+ * kool's sorted downsampling, 3 levels with 8 taps and dMax 1 m, one level, and normals from depth. */
 #include "gl/port_compare.h"
 
 static void mssao_case(glh *g, obs_context *ctx, const pc_scene *sc, const ao_mssao_params *p, const char *what,
@@ -40,6 +40,8 @@ TEST(mssao_matches_its_hoang_glsl_port_on_llvmpipe)
         mssao_case(&g, ctx, &sc, &p, "default (5 levels, level blur)", 1e-6, 1e-6, 0);
         p.level_blur = 0;
         mssao_case(&g, ctx, &sc, &p, "no level blur", 1e-6, 1e-6, 0);
+        CHECK(ao_mssao_params_preset("thesis", &p));
+        mssao_case(&g, ctx, &sc, &p, "thesis (dMax 2, final Gaussian)", 1e-6, 1e-6, 0);
         if (si == 0) {
             p = ao_mssao_params_default();
             p.levels = 3;
@@ -49,6 +51,8 @@ TEST(mssao_matches_its_hoang_glsl_port_on_llvmpipe)
             p = ao_mssao_params_default();
             p.levels = 1;
             mssao_case(&g, ctx, &sc, &p, "1 level", 1e-6, 1e-6, 0);
+            CHECK(ao_mssao_params_preset("kool", &p));
+            mssao_case(&g, ctx, &sc, &p, "kool (sorted downsampling)", 1e-6, 1e-6, 0);
             p = ao_mssao_params_default();
             p.normals = AO_MSSAO_NORMALS_DEPTH;
             mssao_case(&g, ctx, &sc, &p, "normals from depth", 1e-6, 1e-6, 0);
