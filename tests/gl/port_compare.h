@@ -56,4 +56,39 @@ static inline glh_diff pc_compare_run(glh *g, obs_context *ctx, glh_run *r, cons
     return d;
 }
 
+/* The whole check of one case: the port was built (built), its result agrees with ours over the
+ * mask within the bounds (median, p99, pixels over 1e-3). Frees r and ours. */
+static inline void pc_check_port(glh *g, obs_context *ctx, int built, glh_run *r, obs_image_f32 *ours,
+                                 const obs_image_f32 *mask, const char *label, double med_max, double p99_max,
+                                 int over_max)
+{
+    CHECK_MSG(built, "%s: the port was not built", label);
+    if (built) {
+        const glh_diff d = pc_compare_run(g, ctx, r, ours, mask, label);
+        CHECK(d.n > 1000);
+        CHECK_MSG(d.median <= med_max && d.p99 <= p99_max, "%s: median %.3g / p99 %.3g too large", label, d.median,
+                  d.p99);
+        CHECK_MSG(d.over >= 0 && d.over <= over_max, "%s: %d pixels differ by more than 1e-3", label, d.over);
+    }
+    glh_run_free(g, r);
+    obs_image_f32_free(ours);
+}
+
+/* The test sizes: 160 x 120 without a guard band, and an odd 161 x 91 with a 3 px guard band (the
+ * window is not the buffer). cases(g, ctx, sc, first) runs one size's cases (first: 160 x 120). */
+typedef void (*pc_cases_fn)(glh *g, obs_context *ctx, const pc_scene *sc, int first);
+static inline void pc_run_sizes(glh *g, pc_cases_fn cases)
+{
+    obs_context *ctx = obs_context_create();
+    const int sizes[2][3] = {{160, 120, 0}, {161, 91, 3}};
+    for (int si = 0; si < 2; si++) {
+        pc_scene sc;
+        pc_scene_make(ctx, sizes[si][0], sizes[si][1], sizes[si][2], 1, &sc);
+        cases(g, ctx, &sc, si == 0);
+        pc_scene_free(&sc);
+    }
+    glh_close(g);
+    obs_context_destroy(ctx);
+}
+
 #endif
