@@ -485,7 +485,10 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
     }
     fprintf(md, "- Scenes:");
     for (int i = 0; i < s->scenes.n; i++)
-        fprintf(md, " %s (unit %.3g m)%s", s->scenes.v[i], study_ao_scene_unit(s->scenes.v[i]), i + 1 < s->scenes.n ? "," : ".\n");
+        fprintf(md, " %s (unit %.3g m)%s", s->scenes.v[i], study_ao_scene_unit(s->scenes.v[i]), i + 1 < s->scenes.n ? "," : ".");
+    /* the scanned meshes' credit, which the Stanford repository asks of published images (data/README.md) */
+    fprintf(md, " The bunny is the Stanford bunny (Stanford Computer Graphics Laboratory), the dragon CGAL's "
+                "\"Chinese dragon\"; where each mesh comes from and its terms: data/README.md.\n");
     fprintf(md, "- Time: the median of %d runs after one warm-up, on %d threads; `total` is the AO pass with its "
                 "preparation, blur and the final blend (the G-buffer is timed separately).\n",
             s->o.runs, obs_pool_threads(pool));
