@@ -38,7 +38,8 @@ else
 fi
 
 # Meshes: the Stanford bunny, the Chinese dragon and the armadillo ship in libcgal-demo's data tarball.
-# We extract only those OFF files into data/cache (ignored by git); scripts/make_data converts them.
+# We extract only those OFF files into data/cache (ignored by git); the build's obscura_mkdata (target
+# obscura_data) converts them. data/README.md says where each comes from and under which terms.
 here="$(cd "$(dirname "$0")/.." && pwd)"
 cache="$here/data/cache"
 if [ ! -f "$cache/bunny00.off" ] || [ ! -f "$cache/ChineseDragon-10kv.off" ] || [ ! -f "$cache/armadillo.off" ]; then
@@ -53,4 +54,10 @@ if [ ! -f "$cache/bunny00.off" ] || [ ! -f "$cache/ChineseDragon-10kv.off" ] || 
   cp "$tmp"/data/meshes/*.off "$cache/"
   rm -rf "$tmp"
   echo "setup: meshes extracted to $cache"
+fi
+# The bytes the committed figures were made from: Debian 12's libcgal-demo 5.5.1-2 (data/meshes.sha256).
+# Another CGAL release may ship other files; the scenes still build from them, but they differ.
+if ! (cd "$cache" && sha256sum --quiet --check "$here/data/meshes.sha256" >/dev/null 2>&1); then
+  echo "setup: warning: data/cache/*.off differ from data/meshes.sha256 (Debian 12's libcgal-demo 5.5.1-2):" >&2
+  (cd "$cache" && sha256sum --check "$here/data/meshes.sha256" 2>&1 | grep -v ': OK$' >&2) || true
 fi

@@ -5,6 +5,7 @@
 #include "study/study.h"
 #include "study/study_ao.h"
 #include "ao/ao.h"
+#include "io/io.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -257,6 +258,18 @@ TEST(study_ao_quick_runs_resumes_and_reports)
     char *png = test_slurp(test_path(rep, "grid_bunny.png"), &plen);
     CHECK(png && plen > 100);
     free(png);
+    /* the grid labels itself: three 192-wide columns under a light title band (test_font.c checks
+     * the labels themselves) */
+    {
+        obs_context *ictx = obs_context_create();
+        io_image gi;
+        memset(&gi, 0, sizeof gi);
+        CHECK_OK(io_image_read(ictx, test_path(rep, "grid_bunny.png"), &gi), ictx);
+        CHECK_EQ_INT(gi.width, 3 * 192 + 2 * 4);
+        CHECK(gi.channel_count >= 3 && gi.f32 && gi.f32[0].data && fabsf(obs_image_f32_row(&gi.f32[0], 0)[0] - 0.85f) < 0.01f);
+        io_image_free(&gi);
+        obs_context_destroy(ictx);
+    }
     /* the budget table and each technique's best rank only informative configurations: none of
      * their points has its fit at a bound (the summary says which were left out) */
     {

@@ -63,4 +63,30 @@ obs_status study_ao_i_run_point(obs_context *ctx, obs_pool *pool, const ao_metho
                                 study_ao_i_frame *f, int runs, const obs_image_f32 *gt, obs_image_f32 *ao,
                                 study_ao_i_point *res);
 
+/* ---- image grids (study_ao_report.c; docs/study.md, "The report") ----
+ * A grid is a band of column titles at the top, then for each row a label band and the row's three
+ * cells side by side: the technique's AO, the matched ground truth, and |AO - GT| as an inferno
+ * heat map on [0, STUDY_AO_GRID_ERROR_MAX]. Bands are light grey with black text (obs_font.h), so
+ * they read on any image; the cells hold the images untouched. */
+#define STUDY_AO_GRID_ERROR_MAX 0.5 /* |AO - GT| at the top of the heat map; ours (issue 5's grids) */
+typedef struct study_ao_i_grid {
+    int cell_w, cell_h, rows;
+    int gap;           /* pixels between cells and between rows (background) */
+    int scale;         /* the font's integer scale: 1 at 192 wide, 2 at 480, 12 at 3840 */
+    int title_h;       /* height of the column-title band at the top */
+    int label_h;       /* height of each row's label band, directly above its cells */
+    int width, height; /* of the whole grid */
+} study_ao_i_grid;
+
+/* Lay out a grid of `rows` rows of cell_w x cell_h cells whose row labels are labels[0..rows-1]
+ * (one line each): the font scale grows with the cell width, and is lowered until the longest
+ * label and the column titles fit. */
+void study_ao_i_grid_layout(study_ao_i_grid *g, int cell_w, int cell_h, int rows, const char *const *labels);
+/* The top-left pixel of cell (row, col), col 0..2. */
+void study_ao_i_grid_cell_origin(const study_ao_i_grid *g, int row, int col, int *x, int *y);
+/* Draw the title band (column titles, the error colour bar and its scale) and each row's label
+ * band into rgb (3 linear planes of g->width x g->height, written by io_png_write as
+ * IO_PNG_LINEAR). Only band pixels are written; cells and gaps are left as they are. */
+void study_ao_i_grid_draw_labels(const study_ao_i_grid *g, obs_image_f32 rgb[3], const char *const *labels);
+
 #endif

@@ -3,6 +3,7 @@
  * MSSAO per level, and a closing summary, from the results table. docs/study.md, "The report". */
 #include "study_ao_internal.h"
 #include "../io/io.h"
+#include "../core/obs_font.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -117,27 +118,184 @@ static int aggregate(const study_table *t, int W, int H, const char *scene, agg 
     return n;
 }
 
+/* ---- image grids: layout and labels (study_ao_internal.h) ---- */
+
+/* The column titles; the error column continues with the colour bar and its scale. */
+static const char *const grid_titles[3] = {"AO (technique)", "ground truth (matched)", "|AO-GT| 0 "};
+#define GRID_BAR_CELLS 6   /* the error colour bar's width, in glyph cells */
+#define GRID_BAR_END " 0.5" /* its top label: STUDY_AO_GRID_ERROR_MAX */
+
+/* Band and text colours (linear, written as-is): black on light grey, distinct from the white gaps. */
+static const float grid_band[3] = {0.85f, 0.85f, 0.85f};
+static const float grid_ink[3] = {0.0f, 0.0f, 0.0f};
+
+/* An sRGB-encoded colour-map value decoded to linear (io_png_write with IO_PNG_LINEAR writes values
+ * as-is, and met_colormap_inferno gives sRGB): IEC 61966-2-1's decoding. */
+static float grid_srgb_decode(float v) { return v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f); }
+
+/* Row labels may have several lines, separated by '\n': the number of lines of `text`, and the
+ * width of its widest line at scale 1. */
+static int grid_text_lines(const char *text, int *widest)
+{
+    int lines = 1, w = 0, cur = 0;
+    for (const char *c = text; *c; c++) {
+        if (*c == '\n') {
+            lines++;
+            cur = 0;
+        } else
+            cur += OBS_FONT_GLYPH_W;
+        w = cur > w ? cur : w;
+    }
+    *widest = w;
+    return lines;
+}
+
+/* Draw the lines of `text` from (x, y) down, a blank of `scale` pixels between lines. */
+static void grid_draw_lines(obs_image_f32 rgb[3], int x, int y, int scale, const char *text)
+{
+    char line[256];
+    while (*text) {
+        size_t n = strcspn(text, "\n");
+        snprintf(line, sizeof line, "%.*s", (int)(n < sizeof line ? n : sizeof line - 1), text);
+        obs_font_draw(rgb, 3, x, y, scale, grid_ink, line);
+        y += (OBS_FONT_GLYPH_H + 1) * scale;
+        text += n + (text[n] == '\n');
+    }
+}
+
+void study_ao_i_grid_layout(study_ao_i_grid *g, int cell_w, int cell_h, int rows, const char *const *labels)
+{
+    memset(g, 0, sizeof *g);
+    g->cell_w = cell_w;
+    g->cell_h = cell_h;
+    g->rows = rows;
+    g->gap = 4;
+    /* the font grows with the cell: 8 px glyphs per 320 px of cell width, rounded (192: 1, 480: 2,
+     * 1920: 6, 3840: 12; our choice, about 3% of the width), then lowered until every line fits */
+    int s = (cell_w + 160) / 320;
+    s = s < 1 ? 1 : s;
+    const int width = 3 * cell_w + 2 * g->gap;
+    int lines = 1;
+    for (int i = 0; i < rows; i++) {
+        int w1;
+        const int n = grid_text_lines(labels[i], &w1);
+        lines = n > lines ? n : lines;
+        while (s > 1 && w1 * s > width - 4 * s)
+            s--;
+    }
+    for (int c = 0; c < 3; c++) {
+        const int w1 = obs_font_text_width(grid_titles[c], 1) +
+                       (c == 2 ? (GRID_BAR_CELLS * OBS_FONT_GLYPH_W + obs_font_text_width(GRID_BAR_END, 1)) : 0);
+        while (s > 1 && w1 * s > cell_w - 4 * s)
+            s--;
+    }
+    g->scale = s;
+    /* text plus 2s above and below; s between lines */
+    g->title_h = OBS_FONT_GLYPH_H * s + 4 * s;
+    g->label_h = lines * OBS_FONT_GLYPH_H * s + (lines - 1) * s + 4 * s;
+    g->width = width;
+    g->height = g->title_h + rows * (g->label_h + cell_h) + (rows > 0 ? rows - 1 : 0) * g->gap;
+}
+
+void study_ao_i_grid_cell_origin(const study_ao_i_grid *g, int row, int col, int *x, int *y)
+{
+    *x = col * (g->cell_w + g->gap);
+    *y = g->title_h + row * (g->label_h + g->cell_h + g->gap) + g->label_h;
+}
+
+void study_ao_i_grid_draw_labels(const study_ao_i_grid *g, obs_image_f32 rgb[3], const char *const *labels)
+{
+    const int s = g->scale, pad = 2 * s;
+    /* the title band: one title per column, the error column's colour bar and its scale */
+    obs_font_fill_rect(rgb, 3, 0, 0, g->width, g->title_h, grid_band);
+    for (int c = 0; c < 3; c++) {
+        int x = c * (g->cell_w + g->gap) + pad;
+        x = obs_font_draw(rgb, 3, x, pad, s, grid_ink, grid_titles[c]);
+        if (c != 2)
+            continue;
+        const int bw = GRID_BAR_CELLS * OBS_FONT_GLYPH_W * s, bh = OBS_FONT_GLYPH_H * s;
+        for (int i = 0; i < bw; i++) {
+            float heat[3], lin[3];
+            met_colormap_inferno((i + 0.5) / bw, heat);
+            for (int k = 0; k < 3; k++)
+                lin[k] = grid_srgb_decode(heat[k]);
+            obs_font_fill_rect(rgb, 3, x + i, pad, 1, bh, lin);
+        }
+        obs_font_draw(rgb, 3, x + bw, pad, s, grid_ink, GRID_BAR_END);
+    }
+    /* each row's label band, directly above its cells */
+    for (int i = 0; i < g->rows; i++) {
+        int x, y;
+        study_ao_i_grid_cell_origin(g, i, 0, &x, &y);
+        obs_font_fill_rect(rgb, 3, 0, y - g->label_h, g->width, g->label_h, grid_band);
+        grid_draw_lines(rgb, pad, y - g->label_h + pad, s, labels[i]);
+    }
+}
+
 /* An image grid: one row per technique (its AO, the ground truth, the error heat map |AO - GT| on
- * [0, 0.5]), for the chosen point of each. */
+ * [0, STUDY_AO_GRID_ERROR_MAX]), for the chosen point of each, each row labelled with the
+ * technique, its parameters, and its time and error from the table at MW x MH. */
 typedef struct grid_row {
     const ao_method *m;
     int samples, blur;
     double radius_units;
 } grid_row;
 
-static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_ao *s, const char *scene,
-                             const char *view, int W, int H, const grid_row *rows, int nrows, const char *path)
+/* The label of a grid row: the technique, its parameters, and the time and error of its point in
+ * this scene and view at MW x MH from the table (or "not measured"). */
+static void grid_row_label(const study_ao *s, const char *scene, const char *view, int MW, int MH,
+                           const grid_row *r, char *out, size_t size)
 {
+    const study_table *t = &s->table;
+    int64_t found = -1;
+    for (int64_t k = 0; k < t->rows && found < 0; k++)
+        if (!strcmp(study_table_get(t, k, col(t, "scene")), scene) &&
+            !strcmp(study_table_get(t, k, col(t, "view")), view) &&
+            !strcmp(study_table_get(t, k, col(t, "method")), r->m->name) &&
+            !strcmp(study_table_get(t, k, col(t, "status")), "ok") && study_table_num(t, k, col(t, "width")) == MW &&
+            study_table_num(t, k, col(t, "height")) == MH && study_table_num(t, k, col(t, "samples")) == r->samples &&
+            study_table_num(t, k, col(t, "radius_units")) == r->radius_units &&
+            study_table_num(t, k, col(t, "blur")) == r->blur)
+            found = k;
+    int n = snprintf(out, size, "%s: %d samples, radius %g m, blur %s\n", r->m->name, r->samples,
+                     r->radius_units * study_ao_scene_unit(scene), r->blur ? "on" : "off");
+    if (n < 0 || (size_t)n >= size)
+        return;
+    if (found < 0) {
+        snprintf(out + n, size - (size_t)n, "not measured at %dx%d", MW, MH);
+        return;
+    }
+    const double skill = study_table_num(t, found, col(t, "cal_skill_nc"));
+    n += snprintf(out + n, size - (size_t)n, "%.2f ms at %dx%d, calibrated RMSE %.3f",
+                  study_table_num(t, found, col(t, "total_ms")), MW, MH,
+                  study_table_num(t, found, col(t, "cal_rmse_nc")));
+    if (skill == skill && n > 0 && (size_t)n < size)
+        snprintf(out + n, size - (size_t)n, ", skill %.2f", skill);
+}
+
+static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_ao *s, const char *scene,
+                             const char *view, int W, int H, int MW, int MH, const grid_row *rows, int nrows,
+                             const char *path)
+{
+    char text[16][160];
+    const char *labels[16];
+    nrows = nrows > 16 ? 16 : nrows;
+    for (int i = 0; i < nrows; i++) {
+        grid_row_label(s, scene, view, MW, MH, &rows[i], text[i], sizeof text[i]);
+        labels[i] = text[i];
+    }
+    study_ao_i_grid g;
+    study_ao_i_grid_layout(&g, W, H, nrows, labels);
     study_ao_i_frame f;
     obs_status st = study_ao_i_frame_render(ctx, pool, s, scene, view, W, H, 1, &f);
-    const int gap = 4, GW = 3 * W + 2 * gap, GH = nrows * H + (nrows - 1) * gap;
     obs_image_f32 rgb[3] = {{0}, {0}, {0}};
     for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++) {
-        st = obs_image_f32_alloc(ctx, GW, GH, &rgb[c]);
-        for (int y = 0; st == OBS_STATUS_OK && y < GH; y++)
-            for (int x = 0; x < GW; x++)
-                obs_image_f32_row(&rgb[c], y)[x] = 1.0f;
+        st = obs_image_f32_alloc(ctx, g.width, g.height, &rgb[c]);
+        if (st == OBS_STATUS_OK)
+            obs_image_f32_fill(&rgb[c], 1.0f);
     }
+    if (st == OBS_STATUS_OK)
+        study_ao_i_grid_draw_labels(&g, rgb, labels);
     for (int i = 0; i < nrows && st == OBS_STATUS_OK; i++) {
         const ao_method *m = rows[i].m;
         unsigned char p[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
@@ -152,21 +310,21 @@ static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_ao *s
         st = study_ao_i_ground_truth(ctx, pool, s, scene, view, &f, m->truth_estimator(p), m->get_radius(p), 0, &gt, &se, NULL);
         if (st == OBS_STATUS_OK)
             st = study_ao_i_run_point(ctx, pool, m, p, &f, 1, NULL, &ao, &res);
+        int x0, y0;
+        study_ao_i_grid_cell_origin(&g, i, 0, &x0, &y0);
         for (int y = 0; st == OBS_STATUS_OK && y < H; y++)
             for (int x = 0; x < W; x++) {
-                const int yy = i * (H + gap) + y;
+                const int yy = y0 + y;
                 const int surf = obs_image_f32_row(&f.mask, y)[x] != 0.0f;
                 const float a = surf ? obs_image_f32_row(&ao, y)[x] : 0.0f;
-                const float g = surf ? obs_image_f32_row(&gt, y)[x] : 0.0f;
+                const float gv = surf ? obs_image_f32_row(&gt, y)[x] : 0.0f;
                 float heat[3];
-                met_colormap_inferno(surf ? fabs((double)a - g) / 0.5 : 0.0, heat);
+                met_colormap_inferno(surf ? fabs((double)a - gv) / STUDY_AO_GRID_ERROR_MAX : 0.0, heat);
                 for (int c = 0; c < 3; c++) {
-                    obs_image_f32_row(&rgb[c], yy)[x] = a;
-                    obs_image_f32_row(&rgb[c], yy)[W + gap + x] = g;
-                    /* the colour map is sRGB-encoded: decode (io_png_write encodes) */
-                    float v = heat[c];
-                    obs_image_f32_row(&rgb[c], yy)[2 * (W + gap) + x] =
-                        v <= 0.04045f ? v / 12.92f : powf((v + 0.055f) / 1.055f, 2.4f);
+                    obs_image_f32_row(&rgb[c], yy)[x0 + x] = a;
+                    obs_image_f32_row(&rgb[c], yy)[x0 + W + g.gap + x] = gv;
+                    /* the colour map is sRGB-encoded: decode (the PNG is written linear) */
+                    obs_image_f32_row(&rgb[c], yy)[x0 + 2 * (W + g.gap) + x] = grid_srgb_decode(heat[c]);
                 }
             }
         obs_image_f32_free(&ao);
@@ -327,7 +485,10 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
     }
     fprintf(md, "- Scenes:");
     for (int i = 0; i < s->scenes.n; i++)
-        fprintf(md, " %s (unit %.3g m)%s", s->scenes.v[i], study_ao_scene_unit(s->scenes.v[i]), i + 1 < s->scenes.n ? "," : ".\n");
+        fprintf(md, " %s (unit %.3g m)%s", s->scenes.v[i], study_ao_scene_unit(s->scenes.v[i]), i + 1 < s->scenes.n ? "," : ".");
+    /* the scanned meshes' credit, which the Stanford repository asks of published images (data/README.md) */
+    fprintf(md, " The bunny is the Stanford bunny (Stanford Computer Graphics Laboratory), the dragon CGAL's "
+                "\"Chinese dragon\"; where each mesh comes from and its terms: data/README.md.\n");
     fprintf(md, "- Time: the median of %d runs after one warm-up, on %d threads; `total` is the AO pass with its "
                 "preparation, blur and the final blend (the G-buffer is timed separately).\n",
             s->o.runs, obs_pool_threads(pool));
@@ -664,14 +825,17 @@ obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s)
     if (nbest > 0) {
         fprintf(md, "\n## Image grids\n\nEach row: the technique at its best point within %g ms (table above), the "
                     "matched ground truth, and |AO − ground truth| as a heat map from 0 (black) to 0.5 (yellow), "
-                    "inferno colour map.\n\n", big);
+                    "inferno colour map. The images label themselves: the column titles and the heat map's scale "
+                    "across the top, and above each row the technique, its samples, radius (metres) and blur, "
+                    "with that point's time, calibrated RMSE and skill in the scene's first view at %dx%d "
+                    "(from the table).\n\n", big, MW, MH);
         for (int sc = 0; sc < s->scenes.n && st == OBS_STATUS_OK; sc++) {
             char file[256];
             snprintf(file, sizeof file, "grid_%s.png", s->scenes.v[sc]);
             snprintf(path, sizeof path, "%s/%s", s->o.report_dir, file);
             /* grids at a reduced size (480 wide) so the page stays light */
             int GW = MW > 480 ? 480 : MW, GH = (int)lround((double)MH * GW / MW);
-            st = write_grid(ctx, pool, s, s->scenes.v[sc], s->views.v[0], GW, GH, best_rows, nbest, path);
+            st = write_grid(ctx, pool, s, s->scenes.v[sc], s->views.v[0], GW, GH, MW, MH, best_rows, nbest, path);
             fprintf(md, "**%s** (%s view, %dx%d; rows:", s->scenes.v[sc], s->views.v[0], GW, GH);
             for (int i = 0; i < nbest; i++)
                 fprintf(md, " %s%s", best_rows[i].m->name, i + 1 < nbest ? "," : ")");
