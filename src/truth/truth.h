@@ -36,14 +36,17 @@ typedef enum truth_scene_layout {
     TRUTH_SCENE_LAYOUT_COUNT
 } truth_scene_layout;
 
-/* Estimated Embree memory per triangle beyond its 12-byte index triple: the BVH (Embree 3,
- * medium quality). Measured with rtcSetDeviceMemoryMonitorFunction on the bunny and the dragon
- * (docs/truth.md, "The Embree scene"), rounded up. */
-#define TRUTH_SCENE_BVH_BYTES_PER_TRIANGLE 96
-/* Default flat_limit_bytes: 1 GiB of EXTRA memory for flattened copies of meshes drawn more than
- * once (a mesh drawn once costs the same either way). docs/truth.md, "The Embree scene": about
- * 9 M extra triangles, an eighth of the 8 GiB this project's reference VM has, where flat tracing
- * pays off (raw Embree traced the bunny ~1.8x faster flat than through one instance). */
+/* Estimated Embree memory per triangle beyond its 12-byte index triple and its vertices: the BVH.
+ * Measured with rtcSetDeviceMemoryMonitorFunction (Embree 3.13.5, bunny and dragon): 70 bytes
+ * kept after a medium or high build, 99 after a low one, 126 at the build's peak; 100 covers
+ * every quality's kept size (docs/truth.md, "The Embree scene"). */
+#define TRUTH_SCENE_BVH_BYTES_PER_TRIANGLE 100
+/* Default flat_limit_bytes: 1 GiB of EXTRA memory for the flattened copies of meshes drawn more
+ * than once (a mesh drawn once costs the same either way): about 9 M extra triangles at ~120
+ * bytes each. Past it a scene is one of massive instancing (a forest of one tree), where copies
+ * would cost gigabytes and the two-level scene is the point; below it flat tracing wins (issue 13:
+ * raw rtcOccluded1M traced the bench's bunny rays about 1.8x faster flat than through one
+ * instance; docs/truth.md). */
 #define TRUTH_SCENE_FLAT_LIMIT_BYTES ((int64_t)1 << 30)
 
 typedef struct truth_scene_options {
