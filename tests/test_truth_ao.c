@@ -172,21 +172,9 @@ static int64_t agreeing_stop(const truth_ao_params *p)
  * the self-intersection offset: a fine grid near the origin, the same grid moved to large
  * coordinates and tilted, and one huge two-triangle quad (Embree's plane test works on
  * v0 - origin, so a large triangle is the hard case). Both origins, both normals. */
-static void check_open_plane(const char *what, mesh_b *mb, const obs_mat4 *world, obs_vec3 eye, obs_vec3 target)
+static void check_open_plane_on(ao_run *Rp, const char *what, const char *layout)
 {
-    ao_run R;
-    memset(&R, 0, sizeof R);
-    mb_to_scene(mb, &R.scene);
-    R.scene.instances[0].world = *world;
-    obs_scene_update_bounds(&R.scene);
-    CHECK_MSG(run_setup(&R, eye, target, 40, 30), "%s: setup failed: %s", what, obs_context_last_error(R.ctx));
-    for (int layout = 0; layout < 2; layout++) {
-    if (layout == 1) { /* the same checks on the two-level scene (the default is flat) */
-        truth_scene_destroy(R.ts);
-        truth_scene_options so = truth_scene_options_default();
-        so.layout = TRUTH_SCENE_INSTANCED;
-        CHECK_OK(truth_scene_create_ex(R.ctx, &R.scene, &so, &R.ts), R.ctx);
-    }
+    ao_run R = *Rp;
     static const truth_ao_estimator est[] = {TRUTH_AO_COS, TRUTH_AO_UNIF, TRUTH_AO_OBS_SAO_B};
     static const float radii[] = {1.0f, INFINITY};
     for (int e = 0; e < 3; e++)
@@ -211,8 +199,8 @@ static void check_open_plane(const char *what, mesh_b *mb, const obs_mat4 *world
                             surface++;
                             CHECK_MSG(px(&res.mean, x, y) == 1.0f &&
                                           px(&res.std_error, x, y) == (float)truth_ao_error_floor(agreeing_stop(&p)),
-                                      "%s, %s, r=%g, origin %d, normal %d: pixel (%d,%d) mean %.9g se %g (a self-hit)",
-                                      what, truth_ao_estimator_name(est[e]), (double)radii[ri], org, nrm, x, y,
+                                      "%s (%s scene), %s, r=%g, origin %d, normal %d: pixel (%d,%d) mean %.9g se %g (a self-hit)",
+                                      what, layout, truth_ao_estimator_name(est[e]), (double)radii[ri], org, nrm, x, y,
                                       (double)px(&res.mean, x, y), (double)px(&res.std_error, x, y));
                             CHECK_EQ_INT(px(&res.count, x, y), agreeing_stop(&p));
                         }
@@ -223,7 +211,24 @@ static void check_open_plane(const char *what, mesh_b *mb, const obs_mat4 *world
                     CHECK_EQ_INT(res.stats.rays, (uint64_t)surface * 704);
                     truth_ao_result_free(&res);
                 }
-    }
+}
+
+
+static void check_open_plane(const char *what, mesh_b *mb, const obs_mat4 *world, obs_vec3 eye, obs_vec3 target)
+{
+    ao_run R;
+    memset(&R, 0, sizeof R);
+    mb_to_scene(mb, &R.scene);
+    R.scene.instances[0].world = *world;
+    obs_scene_update_bounds(&R.scene);
+    CHECK_MSG(run_setup(&R, eye, target, 40, 30), "%s: setup failed: %s", what, obs_context_last_error(R.ctx));
+    check_open_plane_on(&R, what, "flat");
+    /* the same checks on the two-level scene (the default is flat) */
+    truth_scene_destroy(R.ts);
+    truth_scene_options so = truth_scene_options_default();
+    so.layout = TRUTH_SCENE_INSTANCED;
+    CHECK_OK(truth_scene_create_ex(R.ctx, &R.scene, &so, &R.ts), R.ctx);
+    check_open_plane_on(&R, what, "two-level");
     run_free(&R);
 }
 
