@@ -25,6 +25,30 @@ TEST(philox_matches_random123_known_answers)
     }
 }
 
+TEST(rng_four_at_a_time_equals_one_at_a_time)
+{
+    /* obs_rng_u32x4_n (SSE2, 4 Philox calls at once) against obs_rng_u32x4, every count 0..37
+     * (the scalar tail included), pixels and seeds with high halves, sample indices that wrap */
+    static const uint64_t pixels[] = {0, 1, 2073599, 0x123456789abcdefull, ~0ull};
+    static const uint64_t seeds[] = {0, 7, 0xfedcba9876543210ull};
+    static const uint32_t starts[] = {0, 5, 0xFFFFFFFEu};
+    uint32_t got[37][4], want[4];
+    for (size_t a = 0; a < sizeof pixels / sizeof pixels[0]; a++)
+        for (size_t b = 0; b < sizeof seeds / sizeof seeds[0]; b++)
+            for (size_t c = 0; c < sizeof starts / sizeof starts[0]; c++)
+                for (int n = 0; n <= 37; n++) {
+                    memset(got, 0xAB, sizeof got);
+                    obs_rng_u32x4_n(pixels[a], starts[c], n, 3u * (uint32_t)c, seeds[b], got);
+                    for (int k = 0; k < n; k++) {
+                        obs_rng_u32x4(pixels[a], starts[c] + (uint32_t)k, 3u * (uint32_t)c, seeds[b], want);
+                        CHECK_MSG(!memcmp(got[k], want, sizeof want), "pixel %llu seed %llu sample %u: words differ",
+                                  (unsigned long long)pixels[a], (unsigned long long)seeds[b], starts[c] + (uint32_t)k);
+                    }
+                    if (n < 37)
+                        CHECK(got[n][0] == 0xABABABABu); /* nothing written past n */
+                }
+}
+
 TEST(rng_depends_only_on_pixel_sample_dimension_seed)
 {
     float a = obs_rng_float(12345, 7, 3, 42), b = obs_rng_float(12345, 7, 3, 42);

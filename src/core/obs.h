@@ -268,6 +268,13 @@ void obs_philox4x32_10(const uint32_t ctr[4], const uint32_t key[2], uint32_t ou
 /* Four independent 32-bit words keyed by (pixel index, sample index, dimension, seed).
  * The same key always gives the same words, whatever thread asks. */
 void obs_rng_u32x4(uint64_t pixel, uint32_t sample, uint32_t dimension, uint64_t seed, uint32_t out[4]);
+/* obs_rng_u32x4 for n consecutive samples sample0 .. sample0 + n - 1 (n >= 0) of one pixel,
+ * dimension and seed: out[k] = the words of sample sample0 + k, bit for bit. Four Philox calls at
+ * a time in SSE2 (baseline x86-64; integer arithmetic, so the same bits as the scalar form, which
+ * obs_rng_u32x4_n_scalar is and tests/test_core.c compares). */
+void obs_rng_u32x4_n(uint64_t pixel, uint32_t sample0, int n, uint32_t dimension, uint64_t seed, uint32_t (*out)[4]);
+void obs_rng_u32x4_n_scalar(uint64_t pixel, uint32_t sample0, int n, uint32_t dimension, uint64_t seed,
+                            uint32_t (*out)[4]);
 /* A uniform float in [0, 1) from the first word: (w >> 8) * 2^-24. */
 float obs_rng_float(uint64_t pixel, uint32_t sample, uint32_t dimension, uint64_t seed);
 /* A uniform double in [0, 1) from two words (53 bits). */

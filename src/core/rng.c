@@ -6,6 +6,7 @@
  * The known-answer vectors of Random123's kat_vectors file are checked in tests/test_core.c. */
 #include "obs.h"
 
+#include <emmintrin.h>
 #include <math.h>
 #include <pthread.h>
 
@@ -45,6 +46,59 @@ void obs_rng_u32x4(uint64_t pixel, uint32_t sample, uint32_t dimension, uint64_t
     uint32_t ctr[4] = {(uint32_t)pixel, (uint32_t)(pixel >> 32), sample, dimension};
     uint32_t key[2] = {(uint32_t)seed, (uint32_t)(seed >> 32)};
     obs_philox4x32_10(ctr, key, out);
+}
+
+void obs_rng_u32x4_n_scalar(uint64_t pixel, uint32_t sample0, int n, uint32_t dimension, uint64_t seed,
+                            uint32_t (*out)[4])
+{
+    for (int k = 0; k < n; k++)
+        obs_rng_u32x4(pixel, sample0 + (uint32_t)k, dimension, seed, out[k]);
+}
+
+/* hi and lo 32-bit halves of m * c, per lane: pmuludq multiplies lanes 0 and 2; the odd lanes are
+ * shifted down for a second one. */
+static inline void mulhilo4(__m128i c, __m128i m, __m128i *hi, __m128i *lo)
+{
+    __m128i even = _mm_mul_epu32(c, m), odd = _mm_mul_epu32(_mm_srli_epi64(c, 32), m);
+    /* even = (lo0, hi0, lo2, hi2), odd = (lo1, hi1, lo3, hi3) */
+    __m128i l02 = _mm_shuffle_epi32(even, _MM_SHUFFLE(3, 1, 2, 0)); /* lo0 lo2 hi0 hi2 */
+    __m128i l13 = _mm_shuffle_epi32(odd, _MM_SHUFFLE(3, 1, 2, 0));  /* lo1 lo3 hi1 hi3 */
+    *lo = _mm_unpacklo_epi32(l02, l13);                             /* lo0 lo1 lo2 lo3 */
+    *hi = _mm_unpackhi_epi32(l02, l13);                             /* hi0 hi1 hi2 hi3 */
+}
+
+void obs_rng_u32x4_n(uint64_t pixel, uint32_t sample0, int n, uint32_t dimension, uint64_t seed, uint32_t (*out)[4])
+{
+    const __m128i m0 = _mm_set1_epi32((int)PHILOX_M0), m1 = _mm_set1_epi32((int)PHILOX_M1);
+    int k = 0;
+    for (; k + 4 <= n; k += 4) {
+        /* four Philox4x32-10 calls on the counters (pixel lo, pixel hi, sample0 + k + lane, dim) */
+        __m128i c0 = _mm_set1_epi32((int)(uint32_t)pixel), c1 = _mm_set1_epi32((int)(uint32_t)(pixel >> 32));
+        __m128i c2 = _mm_add_epi32(_mm_set1_epi32((int)(sample0 + (uint32_t)k)), _mm_setr_epi32(0, 1, 2, 3));
+        __m128i c3 = _mm_set1_epi32((int)dimension);
+        uint32_t k0 = (uint32_t)seed, k1 = (uint32_t)(seed >> 32);
+        for (int round = 0; round < 10; round++) {
+            if (round > 0) {
+                k0 += PHILOX_W0;
+                k1 += PHILOX_W1;
+            }
+            __m128i hi0, lo0, hi1, lo1;
+            mulhilo4(c0, m0, &hi0, &lo0);
+            mulhilo4(c2, m1, &hi1, &lo1);
+            c0 = _mm_xor_si128(_mm_xor_si128(hi1, c1), _mm_set1_epi32((int)k0));
+            c1 = lo1;
+            c2 = _mm_xor_si128(_mm_xor_si128(hi0, c3), _mm_set1_epi32((int)k1));
+            c3 = lo0;
+        }
+        /* transpose the four lanes' (c0, c1, c2, c3) into out[k .. k + 3] */
+        __m128i t0 = _mm_unpacklo_epi32(c0, c1), t1 = _mm_unpackhi_epi32(c0, c1);
+        __m128i t2 = _mm_unpacklo_epi32(c2, c3), t3 = _mm_unpackhi_epi32(c2, c3);
+        _mm_storeu_si128((__m128i *)out[k], _mm_unpacklo_epi64(t0, t2));
+        _mm_storeu_si128((__m128i *)out[k + 1], _mm_unpackhi_epi64(t0, t2));
+        _mm_storeu_si128((__m128i *)out[k + 2], _mm_unpacklo_epi64(t1, t3));
+        _mm_storeu_si128((__m128i *)out[k + 3], _mm_unpackhi_epi64(t1, t3));
+    }
+    obs_rng_u32x4_n_scalar(pixel, sample0 + (uint32_t)k, n - k, dimension, seed, out + k);
 }
 
 float obs_rng_float(uint64_t pixel, uint32_t sample, uint32_t dimension, uint64_t seed)

@@ -1,8 +1,9 @@
 /* truth.h: the public header of obscura's ground-truth module (prefix truth_).
  *
- * An Embree 3 scene built from the same obs_scene the rasterizer draws: one Embree triangle
- * geometry per obs_mesh, placed by one instance per obs_instance with the same float transform,
- * so both see identical geometry. Used for primary-ray agreement tests now, and for ray-traced
+ * An Embree 3 scene built from the same obs_scene the rasterizer draws: by default one
+ * world-space Embree triangle geometry per obs_instance (its mesh's vertices through its float
+ * transform, computed in double), two-level instancing only where flattening would take too much
+ * memory (truth_scene_options), so both see the same geometry. Used for primary-ray agreement tests now, and for ray-traced
  * ambient-occlusion ground truth (docs/truth.md) next.
  *
  * Conventions: world space as in obs.h. Embree is built with the robust flag off and the
@@ -26,11 +27,62 @@ typedef enum truth_build_quality {
     TRUTH_BUILD_COUNT
 } truth_build_quality;
 
+/* How the Embree scene places the instances (docs/truth.md, "The Embree scene"). */
+typedef enum truth_scene_layout {
+    TRUTH_SCENE_AUTO = 0,      /* default: flattened, except meshes whose extra copies would take
+                                  the flattened memory over flat_limit_bytes (those stay two-level) */
+    TRUTH_SCENE_FLAT,          /* every instance flattened, whatever the memory */
+    TRUTH_SCENE_INSTANCED,     /* every instance two-level (one Embree instance per obs_instance) */
+    TRUTH_SCENE_LAYOUT_COUNT
+} truth_scene_layout;
+
+/* Estimated Embree memory per triangle beyond its 12-byte index triple and its vertices: the BVH.
+ * Measured with rtcSetDeviceMemoryMonitorFunction (Embree 3.13.5, bunny and dragon): 70 bytes
+ * kept after a medium or high build, 99 after a low one, 126 at the build's peak; 100 covers
+ * every quality's kept size (docs/truth.md, "The Embree scene"). */
+#define TRUTH_SCENE_BVH_BYTES_PER_TRIANGLE 100
+/* Default flat_limit_bytes: 1 GiB of EXTRA memory for the flattened copies of meshes drawn more
+ * than once (a mesh drawn once costs the same either way): about 9 M extra triangles at ~120
+ * bytes each. Past it a scene is one of massive instancing (a forest of one tree), where copies
+ * would cost gigabytes and the two-level scene is the point; below it flat tracing wins (issue 13:
+ * raw rtcOccluded1M traced the bench's bunny rays about 1.8x faster flat than through one
+ * instance; docs/truth.md). */
+#define TRUTH_SCENE_FLAT_LIMIT_BYTES ((int64_t)1 << 30)
+
+typedef struct truth_scene_options {
+    truth_build_quality quality;  /* default TRUTH_BUILD_MEDIUM */
+    truth_scene_layout layout;    /* default TRUTH_SCENE_AUTO */
+    int64_t flat_limit_bytes;     /* AUTO only: the most extra bytes (estimated as
+                                     truth_scene_mesh_bytes per extra copy) flattening may add;
+                                     >= 0; default TRUTH_SCENE_FLAT_LIMIT_BYTES */
+} truth_scene_options;
+
+truth_scene_options truth_scene_options_default(void);
+const char *truth_scene_layout_name(truth_scene_layout l); /* "auto", "flat", "instanced" ("?") */
+/* The estimate of one flattened copy of a mesh: 16 bytes a vertex, 12 + the BVH estimate a triangle. */
+int64_t truth_scene_mesh_bytes(const obs_mesh *mesh);
+
 /* Build the Embree scene. Non-finite vertices are kept out (their triangles are removed from
- * the Embree geometry by zeroing them to a degenerate triangle, which Embree never hits).
- * Returns OK, OUT_OF_MEMORY, INTERNAL (Embree error, with Embree's message). */
+ * the Embree geometry by zeroing them to a degenerate triangle, which Embree never hits); a
+ * flattened instance takes its vertices to world space in double, rounded once to float.
+ * truth_scene_create is truth_scene_create_ex with the default options and the given quality.
+ * Returns OK, INVALID_ARGUMENT (a NULL, an option out of range, an instance naming no mesh),
+ * OUT_OF_MEMORY, INTERNAL (Embree error, with Embree's message). */
 obs_status truth_scene_create(obs_context *ctx, const obs_scene *scene, truth_build_quality quality,
                               truth_scene **out);
+obs_status truth_scene_create_ex(obs_context *ctx, const obs_scene *scene, const truth_scene_options *options,
+                                 truth_scene **out);
+
+/* What was built. */
+typedef struct truth_scene_info {
+    uint32_t instances_flat;       /* instances flattened into world-space triangles */
+    uint32_t instances_two_level;  /* instances kept as Embree instances */
+    uint64_t triangles_flat;       /* world-space triangles in the top-level scene */
+    int64_t flat_extra_bytes;      /* estimated extra bytes of the flattened copies */
+    truth_build_quality quality;
+    unsigned scene_flags;          /* Embree's RTCSceneFlags of every scene (RTC_SCENE_FLAG_NONE) */
+} truth_scene_info;
+void truth_scene_get_info(const truth_scene *ts, truth_scene_info *info);
 void truth_scene_destroy(truth_scene *ts);
 
 /* Set FTZ and DAZ for the calling thread (Embree asks for it in every tracing thread). */

@@ -271,6 +271,7 @@ typedef struct thread_scratch {
     uint32_t *b0, *b1, *b2; /* the round's points of the sequence, B/R of them: b0, b1 its two base-2
                                coordinates bit-reversed (b0 = the index), b2 the index (base 3) */
     uint32_t *u0, *u1, *u2; /* one pixel's round, shifted: B rounded up to 4 of each (pixel_points) */
+    uint32_t *v0, *v1;     /* the round's points per ray k: b0, b1[k mod (B/R)] (B of each) */
     double *acc;           /* tile*tile pixels x nout x R replicate sums (px_state.acc) */
     float *lx, *ly, *lz;   /* local directions of one pixel's round */
     __m128 *d4;            /* world directions of one pixel's round, one (x, y, z, 0) per ray */
@@ -441,12 +442,15 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         return;
     }
     s->state = 1;
-    for (int r = 0; r < J->p.replicates; r++) {
-        uint32_t w[4];
-        obs_rng_u32x4(s->pixel, (uint64_t)r, 0, J->p.seed, w);
-        s->shift[r][0] = w[0];
-        s->shift[r][1] = w[1];
-        s->shift3[r] = ((uint64_t)w[3] << 32) | w[2];
+    {
+        /* replicate r's seeds: Philox(pixel, r, 0, seed), four calls at a time (same words) */
+        uint32_t w[TRUTH_AO_MAX_REPLICATES][4];
+        obs_rng_u32x4_n(s->pixel, 0, J->p.replicates, 0, J->p.seed, w);
+        for (int r = 0; r < J->p.replicates; r++) {
+            s->shift[r][0] = w[r][0];
+            s->shift[r][1] = w[r][1];
+            s->shift3[r] = ((uint64_t)w[r][3] << 32) | w[r][2];
+        }
     }
     /* Self-intersection offset (docs/truth.md): eps = k 2^-24 m along the geometric normal, where
      * m bounds the magnitudes whose float rounding decides on which side of the surface's plane
@@ -582,6 +586,33 @@ void truth_i_owen_scramble(const uint32_t *v, const uint32_t *seed, int n, uint3
 static void pixel_points(const ao_job *J, thread_scratch *S, const px_state *s)
 {
     const int B = J->p.batch, R = J->p.replicates, m = B / R, B4 = (B + 3) & ~3;
+    if (!J->ei.volume && (B & 3) == 0 && (m == 1 || m == 2 || (m & 3) == 0)) {
+        /* The same lanes without the per-lane loop: the round's points for rays k .. k+3 are
+         * S->v0/v1[k ..] (ao_tile lays them out once per round for all pixels), and the seeds of
+         * their replicates come from one or two loads of s->shift: m = 2 (the default 16 / 8),
+         * lanes (r, r, r+1, r+1); m = 1, lanes r .. r+3; m a multiple of 4, one replicate. */
+        for (int k = 0; k < B; k += 4) {
+            __m128i s0, s1;
+            if (m == 2) {
+                __m128i w = _mm_loadu_si128((const __m128i *)s->shift[k >> 1]); /* s0[r] s1[r] s0[r+1] s1[r+1] */
+                s0 = _mm_shuffle_epi32(w, _MM_SHUFFLE(2, 2, 0, 0));
+                s1 = _mm_shuffle_epi32(w, _MM_SHUFFLE(3, 3, 1, 1));
+            } else if (m == 1) {
+                __m128i a = _mm_loadu_si128((const __m128i *)s->shift[k]);     /* s0[r] s1[r] s0[r+1] s1[r+1] */
+                __m128i b = _mm_loadu_si128((const __m128i *)s->shift[k + 2]); /* s0[r+2] s1[r+2] s0[r+3] s1[r+3] */
+                a = _mm_shuffle_epi32(a, _MM_SHUFFLE(3, 1, 2, 0));             /* s0[r] s0[r+1] s1[r] s1[r+1] */
+                b = _mm_shuffle_epi32(b, _MM_SHUFFLE(3, 1, 2, 0));
+                s0 = _mm_unpacklo_epi64(a, b);
+                s1 = _mm_unpackhi_epi64(a, b);
+            } else {
+                s0 = _mm_set1_epi32((int)s->shift[k / m][0]);
+                s1 = _mm_set1_epi32((int)s->shift[k / m][1]);
+            }
+            _mm_store_si128((__m128i *)(S->u0 + k), owen_scramble4(_mm_load_si128((const __m128i *)(S->v0 + k)), s0));
+            _mm_store_si128((__m128i *)(S->u1 + k), owen_scramble4(_mm_load_si128((const __m128i *)(S->v1 + k)), s1));
+        }
+        return;
+    }
     for (int k = 0, r = 0, i = 0; k < B4; k += 4) {
         /* 4 rays at a time (owen_scramble4); padding lanes past B scramble 0 with seed 0, i.e. 0 */
         _Alignas(16) uint32_t v0[4], s0[4], v1[4], s1[4];
@@ -781,6 +812,10 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             S->b0[i] = idx;                       /* van der Corput, bit-reversed back */
             S->b1[i] = bit_reverse32(sobol2(idx)); /* Sobol' dim 2, bit-reversed */
             S->b2[i] = idx;
+        }
+        for (int k = 0; k < B; k++) {
+            S->v0[k] = S->b0[k % m];
+            S->v1[k] = S->b1[k % m];
         }
         int nr = 0;
         for (int a = 0; a < nactive; a++) {
@@ -1160,10 +1195,12 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         S->u0 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
         S->u1 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
         S->u2 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        S->v0 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
+        S->v1 = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * B4);
         const size_t per_px = (size_t)nout * (size_t)p->replicates;
         S->acc = (double *)obs_aligned_alloc(sizeof(double) * tile_px * per_px);
         if (!S->px || !S->active || !S->rays || !S->b0 || !S->b1 || !S->b2 || !S->lx || !S->ly || !S->lz || !S->d4 ||
-            !S->u0 || !S->u1 || !S->u2 || !S->acc)
+            !S->u0 || !S->u1 || !S->u2 || !S->v0 || !S->v1 || !S->acc)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
         else
             for (size_t k = 0; k < tile_px; k++)
@@ -1259,6 +1296,8 @@ done:
             obs_aligned_free(J->scratch[t].u0);
             obs_aligned_free(J->scratch[t].u1);
             obs_aligned_free(J->scratch[t].u2);
+            obs_aligned_free(J->scratch[t].v0);
+            obs_aligned_free(J->scratch[t].v1);
             obs_aligned_free(J->scratch[t].acc);
         }
     obs_aligned_free(J->scratch);

@@ -14,12 +14,20 @@ typedef struct RTCRayHit RTCRayHit;
 
 struct truth_scene {
     RTCDevice device;
-    RTCScene top;
-    RTCScene *meshes;        /* one Embree scene per obs_mesh */
+    RTCScene top;            /* the one scene traced: a triangle geometry per flattened instance,
+                                an instance geometry per two-level one; geomID = instance index */
+    RTCScene *meshes;        /* per obs_mesh: its object-space Embree scene when some instance
+                                draws it two-level, else NULL */
     uint32_t mesh_count;
     obs_mat4 *normal_world;  /* per instance: normal matrix of the world transform */
+    unsigned char *flat;     /* per instance: 1 flattened (world-space triangles), 0 two-level */
+    float *ng_sign;          /* per instance: sign(det) of its 3x3 (truth_intersect1's ng) */
     uint32_t instance_count;
-    /* geomID of each instance in the top scene equals its instance index */
+    uint32_t instances_two_level;
+    uint64_t triangles_flat;
+    int64_t flat_extra_bytes;
+    truth_build_quality quality;
+    enum RTCSceneFlags scene_flags;
 };
 
 /* Hooks into truth_ao_render for the benchmark: ray_sink, when set, is called with the rays of
