@@ -385,3 +385,118 @@ TEST(ao_external_refuses_nonfinite_intrinsics_and_repairs_non_unit_normals)
     obs_image_f32_free(&nz);
     obs_context_destroy(ctx);
 }
+
+/* ---- EXR data window != display window (issue 13, item 5) ---------------------------------- */
+
+static uint32_t dw_le32(const unsigned char *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+static void dw_put32(unsigned char *p, int32_t v)
+{
+    uint32_t u = (uint32_t)v;
+    p[0] = (unsigned char)u, p[1] = (unsigned char)(u >> 8), p[2] = (unsigned char)(u >> 16), p[3] = (unsigned char)(u >> 24);
+}
+
+/* Rewrite an EXR written by io_exr_write (one part, scanlines) so that its data window is
+ * (x0, y0)..(x0+w-1, y0+h-1) and its display window (0, 0)..(dw-1, dh-1): the two box2i
+ * attributes, and each chunk's first scanline (shifted by y0; chunks of `lines` rows). */
+static int dw_rewrite(unsigned char *b, size_t n, int x0, int y0, int w, int h, int dw, int dh)
+{
+    size_t pos = 8;
+    int found = 0;
+    while (pos < n && b[pos]) {
+        const char *name = (const char *)b + pos;
+        size_t tpos = pos + strlen(name) + 1;
+        const char *type = (const char *)b + tpos;
+        size_t spos = tpos + strlen(type) + 1, vpos = spos + 4;
+        uint32_t len = dw_le32(b + spos);
+        if (!strcmp(type, "box2i") && (!strcmp(name, "dataWindow") || !strcmp(name, "displayWindow"))) {
+            int data = !strcmp(name, "dataWindow");
+            dw_put32(b + vpos, data ? x0 : 0);
+            dw_put32(b + vpos + 4, data ? y0 : 0);
+            dw_put32(b + vpos + 8, data ? x0 + w - 1 : dw - 1);
+            dw_put32(b + vpos + 12, data ? y0 + h - 1 : dh - 1);
+            found++;
+        }
+        pos = vpos + len;
+    }
+    if (found != 2 || pos + 1 + 8 > n)
+        return 0;
+    /* the offset table follows the header's terminating 0; each chunk starts with its first y */
+    const int lines = 16; /* io_exr_write writes ZIP: 16 scanlines per chunk */
+    size_t table = pos + 1;
+    for (int c = 0; c < (h + lines - 1) / lines; c++) {
+        uint64_t off = 0;
+        for (int k = 7; k >= 0; k--)
+            off = off << 8 | b[table + 8 * (size_t)c + (size_t)k];
+        if (off + 4 > n)
+            return 0;
+        dw_put32(b + off, (int32_t)dw_le32(b + off) + y0);
+    }
+    return 1;
+}
+
+/* docs/ao/README.md, "External G-buffers": an EXR is read over its data window; the display window
+ * and the data window's origin are ignored. So pixel (0, 0) of the image, and of the G-buffer, is
+ * the data window's first pixel, its size is the data window's, and the intrinsics (fx, fy, cx,
+ * cy) must describe the data window's pixels. Both a crop (8x4 at (3, 2) of a 24x16 display) and
+ * an overscan (40x1 starting at x = -5, wider than the display, like the fuzz_gbuffer slow units),
+ * from a file and from memory. */
+TEST(ao_external_exr_is_read_over_its_data_window_not_its_display_window)
+{
+    obs_context *ctx = obs_context_create();
+    const struct { int x0, y0, w, h; } cases[] = {{3, 2, 8, 4}, {-5, 0, 40, 1}};
+    for (int c = 0; c < 2; c++) {
+        const int W = cases[c].w, H = cases[c].h;
+        obs_image_f32 z = {0};
+        CHECK_OK(obs_image_f32_alloc(ctx, W, H, &z), ctx);
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                obs_image_f32_row(&z, y)[x] = 1.0f + (float)(x + 100 * y) / 64.0f;
+        io_channel ch = {"Z", IO_PIXEL_FLOAT, &z, NULL};
+        const char *path = test_path(test_tmpdir(), c == 0 ? "dw_crop.exr" : "dw_overscan.exr");
+        CHECK_OK(io_exr_write(ctx, path, &ch, 1, NULL, 0), ctx);
+        char *data = NULL;
+        size_t len = 0;
+        CHECK_OK(io_read_file(ctx, path, 1 << 24, &data, &len), ctx);
+        CHECK(dw_rewrite((unsigned char *)data, len, cases[c].x0, cases[c].y0, W, H, 24, 16));
+        FILE *f = fopen(path, "wb");
+        CHECK(f && fwrite(data, 1, len, f) == len);
+        if (f)
+            fclose(f);
+        for (int mem = 0; mem < 2; mem++) {
+            io_image im;
+            obs_context_clear_error(ctx);
+            if (mem)
+                CHECK_OK(io_image_read_memory(ctx, "dw.exr", data, len, &im), ctx);
+            else
+                CHECK_OK(io_image_read(ctx, path, &im), ctx);
+            CHECK_EQ_INT(im.width, W);
+            CHECK_EQ_INT(im.height, H);
+            CHECK_EQ_INT(im.channel_count, 1);
+            int same = 1;
+            for (int y = 0; y < H; y++)
+                same &= memcmp(obs_image_f32_row(&im.f32[0], y), obs_image_f32_row(&z, y), sizeof(float) * W) == 0;
+            CHECK_MSG(same, "case %d (%s): the pixels are not the data window's, in order", c, mem ? "memory" : "file");
+            ao_intrinsics k = ao_intrinsics_unknown();
+            k.fx = k.fy = 20.0;
+            k.cx = 0.5 * W;
+            k.cy = 0.5 * H;
+            ao_external_options o = ao_external_options_default();
+            o.intrinsics = &k;
+            ao_external e;
+            CHECK_OK(ao_external_from_image(ctx, &im, &o, &e), ctx);
+            CHECK_EQ_INT(e.input.width, W);
+            CHECK_EQ_INT(e.input.height, H);
+            CHECK(e.input.x0 == 0 && e.input.y0 == 0 && e.input.w == W && e.input.h == H);
+            CHECK(obs_image_f32_row(&e.depth, 0)[0] == 1.0f);
+            CHECK(obs_image_f32_row(&e.depth, H - 1)[W - 1] == obs_image_f32_row(&z, H - 1)[W - 1]);
+            ao_external_free(&e);
+            io_image_free(&im);
+        }
+        free(data);
+        obs_image_f32_free(&z);
+    }
+    obs_context_destroy(ctx);
+}

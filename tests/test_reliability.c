@@ -265,6 +265,11 @@ TEST(reliability_every_limit_refusal_names_its_flag_and_writes_nothing)
         {"--max-pixels", {"compare", exr, exr, "--max-pixels", "100", "--json", cj}},
         {"--max-memory", {"compare", exr, exr, "--max-memory", "10000", "--heatmap", hp}},
         {"--max-pixels", {"--max-pixels", "100", "compare", png, png}},
+        /* the samples-per-pixel limit (obs_limits.max_samples, F7): its default, and lowered
+         * before and after the command */
+        {"--max-spp", {"truth", "ao", box, "--size", "8x8", "--max-samples", "2000000", "-o", o}},
+        {"--max-spp", {"--max-spp", "1024", "truth", "ao", box, "--size", "8x8", "--max-samples", "2048", "-o", o}},
+        {"--max-spp", {"truth", "ao", box, "--size", "8x8", "--max-samples", "128", "--max-spp", "64", "-o", o}},
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         char tag[32];
@@ -279,13 +284,35 @@ TEST(reliability_every_limit_refusal_names_its_flag_and_writes_nothing)
         CHECK_MSG(count_entries(tmp("out"), NULL) == 0, "case %zu wrote into out/", c);
     }
     CHECK_EQ_INT(count_entries(tmp("in"), NULL), before);
+}
 
-    /* Known gap (docs/reliability.md): the samples-per-pixel limit (obs_limits.max_samples,
-     * 2^20) has no command-line flag that raises it; the refusal names the limit. */
-    const char *s[] = {"truth", "ao", box, "--size", "8x8", "--max-samples", "2000000", "-o", o, NULL};
-    CHECK_EQ_INT(run_cli(s, "samples"), 4);
-    CHECK(file_contains(errf("samples"), "max_samples"));
-    CHECK(count_entries(tmp("out"), NULL) == 0);
+/* F7 (docs/reliability.md): --max-spp is the limit on samples per pixel (obs_limits.max_samples,
+ * default 2^20); truth ao's --max-samples is the request checked against it. Raising the limit
+ * lets a request over the default run; the same request at the default limit is refused. */
+TEST(reliability_max_spp_flag_raises_the_samples_per_pixel_limit)
+{
+    char box[4200], o[4200];
+    snprintf(box, sizeof box, "%s", scene("closed_box.glb"));
+    snprintf(o, sizeof o, "%s", tmp("spp/x"));
+    mkdir(tmp("spp"), 0777);
+    /* over the default: refused, naming the flag and the limit, nothing written */
+    const char *refused[] = {"truth", "ao", box, "--size", "4x4", "--min-samples", "16", "--max-samples", "2000000",
+                             "--target-error", "0.5", "-o", o, NULL};
+    CHECK_EQ_INT(run_cli(refused, "spp_refused"), 4);
+    CHECK(file_contains(errf("spp_refused"), "--max-spp"));
+    CHECK(file_contains(errf("spp_refused"), "max_samples"));
+    CHECK_EQ_INT(count_entries(tmp("spp"), NULL), 0);
+    /* the same request with the limit raised (a global flag, before the command): it runs; an
+     * error bar target of 0.5 stops every pixel after its first 16 samples */
+    const char *raised[] = {"--quiet", "--max-spp", "2097152", "truth", "ao", box, "--size", "4x4", "--min-samples",
+                            "16", "--max-samples", "2000000", "--target-error", "0.5", "-o", o, NULL};
+    CHECK_EQ_INT(run_cli(raised, "spp_raised"), 0);
+    CHECK(count_entries(tmp("spp"), NULL) > 0);
+    CHECK(file_contains(tmp("spp/x.json"), "\"max_samples\": 2000000"));
+    /* a bad value is a usage error naming the flag */
+    const char *bad[] = {"--max-spp", "0", "truth", "ao", box, "-o", o, NULL};
+    CHECK_EQ_INT(run_cli(bad, "spp_bad"), 2);
+    CHECK(file_contains(errf("spp_bad"), "--max-spp"));
 }
 
 /* ---- JSON strings that are not UTF-8 (fuzz_json finding) ------------------------------------ */

@@ -607,8 +607,8 @@ obs_status ao_crytek_compute_constants_isa(obs_context *ctx, obs_pool *pool, con
  *
  * The Alchemy screen-space ambient obscurance algorithm [McGuire11] (McGuire, Osman, Bukowski,
  * Hennessy, HPG 2011): per pixel, s taps on a screen-space disk of the projected world radius r,
- * placed on the Alchemy/SAO spiral with the per-pixel hash of the HPG11/HPG12 lineage
- * (ao_sao_spin, GL pixel coordinates), and
+ * placed on SAO's HPG12 spiral with its per-pixel hash (ao_sao_spin, GL pixel coordinates; SAO_AO.pix
+ * credits the hash to the Alchemy paper; the HPG11 paper's own pattern is not verified), and
  *   A = max(0, 1 - (2 sigma / s) * sum_i max(0, v_i.n + z_C beta) / (v_i.v_i + epsilon))^k
  * with v_i = Q_i - C (camera space, z_C < 0), taps with v_i.v_i >= r^2 skipped (as SAO_AO.pix's
  * falloff A, "From the HPG12 paper"; optional), n the pixel's unit normal (the G-buffer's when the

@@ -7,10 +7,14 @@
  * v_i = Q_i - C ([McGuire11] section 3, the estimator; the seed thesis prints it as its Figura 25;
  * a secondary design note numbers it eq. 10; docs/ao/alchemy.md says what was and was not verified).
  *
- * The tap pattern is the HPG11/HPG12 lineage's, in GL pixel coordinates (x_gl = x, y_gl = H-1-y of
+ * The tap pattern is SAO's (HPG12, [McGuire12]), in GL pixel coordinates (x_gl = x, y_gl = H-1-y of
  * the full buffer): the per-pixel rotation ao_sao_spin ("Hash function used in the HPG12 AlchemyAO
  * paper", SAO_AO.pix) and SAO's spiral tapLocation: alpha = (i + 0.5)/s, angle = alpha (tau 6.28) +
- * spin, ssR = alpha * ssDiskRadius, tap = ssC + ivec2(ssR (cos, sin)). Depth is read at level 0 (Alchemy
+ * spin, ssR = alpha * ssDiskRadius, tap = ssC + ivec2(ssR (cos, sin)). Only this HPG12 pattern is
+ * verified (SAO_AO.pix copies). The HPG11 paper's own sample construction is NOT verified (its
+ * body could not be read): the hash is HPG11's only on SAO_AO.pix's word, and whether HPG11 used a
+ * spiral at all is unknown. This is a deviation candidate, documented in docs/ao/alchemy.md
+ * ("Differences from the paper", "Tap pattern"). Depth is read at level 0 (Alchemy
  * has no MIP pyramid), clamped to the buffer like a CLAMP_TO_EDGE texel fetch.
  *
  * Arithmetic is float32 in the estimator's order (the build uses -ffp-contract=off); cos/sin are
@@ -828,7 +832,7 @@ static obs_status m_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
 
 const ao_method ao_i_method_alchemy = {
     .name = "alchemy",
-    .title = "Alchemy screen-space ambient obscurance [McGuire11], on the HPG11/HPG12 spiral",
+    .title = "Alchemy screen-space ambient obscurance [McGuire11], on SAO's HPG12 spiral",
     .doc = "docs/ao/alchemy.md",
     .params_size = sizeof(ao_alchemy_params),
     .params_default = m_default,

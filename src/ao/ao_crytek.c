@@ -262,7 +262,11 @@ static inline int is_surface(float d) { return d > 0.0f && d < INFINITY; } /* Na
 
 /* The tap texel along one axis: clamp(floor(v), 0, n - 1), NaN -> 0 (CLAMP_TO_EDGE, GL_NEAREST).
  * Deviation from the compute port, which truncates `(int2)(S.xy * size)` and does not clamp (an
- * out-of-range SRV load returns 0 in D3D): the brief's GL clamp-to-edge rule. */
+ * out-of-range SRV load returns 0 in D3D): the brief's GL clamp-to-edge rule.
+ * Deviation from the D3D9 listing (copy 18810930753): its g_SceneDepthSampler has
+ * ADDRESSU = ADDRESSV = Border and no BorderColor, i.e. D3D9's default border colour 0, so an
+ * off-screen tap reads depth 0 and counts 0.5 (fRangeIsInvalid = saturate((dP - 0) / 0) = 1, then
+ * lerp(., 0.5, 1)); here it reads the edge texel. docs/ao/crytek.md, "Differences", "addressing". */
 static inline int texel(float v, int n)
 {
     if (!(v >= 0.0f))
@@ -389,7 +393,10 @@ __attribute__((always_inline)) static inline float pixel_ao_body(const crytek_jo
             Sx = u + kx * (R0 - ax * R2) / Sz;
             Sy = v + ky * (R1 - ay * R2) / Sz;
         }
-        /* fSceneDepthS = tex2D(depth, S.xy), clamp to edge (GL rows up) */
+        /* fSceneDepthS = tex2D(depth, S.xy), clamp to edge (GL rows up). Deviation: the D3D9
+         * listing's sampler uses border addressing with border 0 (an off-screen tap counts 0.5,
+         * and a linear footprint half off the edge blends toward depth 0); see texel() and
+         * docs/ao/crytek.md, "Differences", "addressing". */
         const float dS = fetch(&G, W, H, Sx * size0, Sy * size1, linear);
         if (!is_surface(dS)) {
             /* Deviation from the listing (which has no sky test): sky taps are visible (1) or

@@ -29,6 +29,8 @@ static const char *usage_text =
     "  --max-triangles N   refuse scenes over N triangles (default 268435456)\n"
     "  --max-vertices N    refuse scenes over N vertices (default 268435456)\n"
     "  --max-memory BYTES  refuse single allocations over BYTES (default 17179869184)\n"
+    "  --max-spp N         refuse Monte Carlo runs over N samples per pixel (default 1048576): the\n"
+    "                      limit on 'truth ao --max-samples'\n"
     "  --help              this text; 'obscura <command> --help' for a command's options\n"
     "  --version           print the version\n"
     "\n"
@@ -77,10 +79,12 @@ int cli_parse_size(const char *s, int *w, int *h) { return obs_parse_size(s, RAS
 
 int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i)
 {
-    static const char *names[] = {"--max-pixels", "--max-triangles", "--max-vertices", "--max-memory"};
+    /* --max-spp raises obs_limits.max_samples: --max-samples is already truth ao's per-pixel
+     * count (the request), this is the limit the request is checked against. */
+    static const char *names[] = {"--max-pixels", "--max-triangles", "--max-vertices", "--max-memory", "--max-spp"};
     int64_t *fields[] = {&g->limits.max_image_pixels, &g->limits.max_triangles, &g->limits.max_vertices,
-                         &g->limits.max_memory_bytes};
-    for (int k = 0; k < 4; k++) {
+                         &g->limits.max_memory_bytes, &g->limits.max_samples};
+    for (int k = 0; k < 5; k++) {
         if (strcmp(argv[*i], names[k]) != 0)
             continue;
         long long v;

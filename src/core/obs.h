@@ -71,7 +71,8 @@ typedef struct obs_limits {
     int64_t max_triangles;        /* per scene; default 2^28; --max-triangles */
     int64_t max_vertices;         /* per scene; default 2^28; --max-vertices */
     int64_t max_memory_bytes;     /* estimate for one allocation group; default 16 GiB; --max-memory */
-    int64_t max_samples;          /* Monte Carlo samples per pixel; default 2^20; --max-samples */
+    int64_t max_samples;          /* Monte Carlo samples per pixel; default 2^20; --max-spp (the limit on
+                                     truth ao's --max-samples) */
     int64_t max_voxels;           /* volume voxels; default 2^31; --max-voxels */
 } obs_limits;
 

@@ -172,7 +172,9 @@ typedef struct io_image {
     int attr_count;
 } io_image;
 
-/* Read any image OpenImageIO can read (EXR in particular): the first subimage's data window.
+/* Read any image OpenImageIO can read (EXR in particular): the first subimage's data window
+ * (width x height = the data window's; pixel (0, 0) = its first pixel; the data window's origin
+ * and the display window are not reported; docs/ao/README.md, "External G-buffers").
  * Values come back exactly as stored (alpha is not multiplied in). Checks the size against ctx's
  * max_image_pixels and max_memory_bytes before allocating. Returns OK, IO_ERROR (missing or
  * unreadable), PARSE_ERROR (anything OpenImageIO cannot decode), UNSUPPORTED (deep or volume

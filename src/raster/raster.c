@@ -874,6 +874,17 @@ static void resolve_tri_setup(const render_state *rs, uint32_t inst, uint32_t pr
         }
     }
     r->material = m->material >= 0 ? (uint32_t)m->material : RAST_ID_NONE;
+    /* The depth range of the visible piece (F8): the vertices' linear depths (-z: view space
+     * looks down -z, for both projections), within the clip range the piece was cut to. */
+    double zmin = -v0.z, zmax = -v0.z;
+    zmin = -v1.z < zmin ? -v1.z : zmin;
+    zmax = -v1.z > zmax ? -v1.z : zmax;
+    zmin = -v2.z < zmin ? -v2.z : zmin;
+    zmax = -v2.z > zmax ? -v2.z : zmax;
+    r->z_lo = zmin > rs->znear ? zmin : rs->znear;
+    r->z_hi = zmax < rs->zfar ? zmax : rs->zfar;
+    r->t_lo = r->z_lo - RAST_I_DEPTH_RANGE_SLACK * fabs(r->z_lo);
+    r->t_hi = r->z_hi + RAST_I_DEPTH_RANGE_SLACK * fabs(r->z_hi);
 }
 
 
@@ -958,8 +969,16 @@ static void resolve_row(const render_state *rs, int y, int x0, int n, const uint
             b1 = r->m1.x * ax + r->m1.y * ay - r->m1.z * t - r->c1;
             b2 = r->m2.x * ax + r->m2.y * ay - r->m2.z * t - r->c2;
         }
-        if (!(t > 0.0) || !isfinite(t)) /* edge-on under snapping: fall back to the raster key */
+        if (!(t > 0.0 && t >= r->t_lo && t <= r->t_hi)) {
+            /* Edge-on under snapping (F8): the plane (nearly) holds the eye, and the exact depth
+             * is <= 0, not finite, or outside the piece's own depth range (beyond the slack).
+             * Fall back to the raster key, clamped into that range. */
             t = rs->ortho ? -(double)key[i] : 1.0 / (double)key[i];
+            if (!(t >= r->z_lo)) /* NaN too */
+                t = r->z_lo;
+            if (t > r->z_hi)
+                t = r->z_hi;
+        }
         const float flip = (face_forward && nd > 0.0) ? -1.0f : 1.0f;
         if (o.depth) o.depth[i] = (float)t;
         if (o.ndc) o.ndc[i] = (float)rast_ndc_depth_from_linear(rs->vc, conv, t);

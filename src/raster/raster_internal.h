@@ -39,10 +39,23 @@ static inline float rast_i_key(const rast_i_tri *t, int x, int y)
  * The hit of ray o + t d with the triangle's plane n.p = n.v0 is t = (n.v0 - n.o) / (n.d); the
  * barycentrics of the hit P are u = (P - v0).m1, v = (P - v0).m2 with the dual basis
  * m1 = (e2 x n)/|n|^2, m2 = (n x e1)/|n|^2 (so that P - v0 = u e1 + v e2). All in double. */
+/* How far (relative) a pixel's exact plane depth may leave its triangle's vertex depth range and
+ * still be kept as it is. Snapping (1/256 px) lets a covered pixel centre lie up to ~1/362 px
+ * outside the true triangle, where the plane depth legitimately extrapolates a little beyond the
+ * vertices' range: keeping those as they are leaves the output of ordinary scenes unchanged. Only
+ * a (nearly) edge-on triangle, whose plane (nearly) holds the eye, moves its plane depth by more
+ * than this over such a distance (hard-cases F8: depth 1.01 for a triangle spanning 3.3-8.3). */
+#define RAST_I_DEPTH_RANGE_SLACK 1e-4
+
 typedef struct resolve_tri {
     uint32_t inst, prim;
     obs_dvec3 v0, n, m1, m2, nunit;
     double n_v0, c1, c2;   /* n.v0, v0.m1, v0.m2 */
+    double z_lo, z_hi;     /* the visible piece's depth range: the vertices' linear depths within
+                              [znear, zfar] (docs/raster.md, "Depth of edge-on triangles") */
+    double t_lo, t_hi;     /* the plane depths accepted as they are: [z_lo, z_hi] widened by
+                              RAST_I_DEPTH_RANGE_SLACK (relative); outside it the depth is the
+                              raster key's, clamped into [z_lo, z_hi] */
     float vn[3][3];        /* unit view-space vertex normals (when has_vn) */
     int has_vn;
     uint32_t material;

@@ -170,9 +170,11 @@ int rast_i_resolve4_avx2(const resolve_tri *r, out_rows *o, int i, int px0, doub
                                          _mm256_mul_pd(_mm256_set1_pd(r->m2.z), t)),
                            _mm256_set1_pd(r->c2));
     }
-    /* The scalar fallback (t <= 0, NaN or infinite: an edge-on triangle) is left to the caller. */
-    __m256d ok = _mm256_and_pd(_mm256_cmp_pd(t, _mm256_setzero_pd(), _CMP_GT_OQ),
-                               _mm256_cmp_pd(t, _mm256_set1_pd(INFINITY), _CMP_LT_OQ));
+    /* The scalar fallback (t <= 0, NaN, or outside [t_lo, t_hi]: an edge-on triangle, F8) is
+     * left to the caller. */
+    __m256d ok = _mm256_and_pd(_mm256_and_pd(_mm256_cmp_pd(t, _mm256_setzero_pd(), _CMP_GT_OQ),
+                                             _mm256_cmp_pd(t, _mm256_set1_pd(r->t_lo), _CMP_GE_OQ)),
+                               _mm256_cmp_pd(t, _mm256_set1_pd(r->t_hi), _CMP_LE_OQ));
     if (_mm256_movemask_pd(ok) != 0xF)
         return 0;
     _mm256_storeu_pd(o->depth_exact, t);

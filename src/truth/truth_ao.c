@@ -1048,7 +1048,8 @@ static obs_status validate(obs_context *ctx, const truth_scene *ts, const obs_sc
     int64_t lim = obs_context_limits(ctx)->max_samples;
     if (p->max_samples > lim)
         return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
-                         "truth_ao_render: max samples %lld per pixel is over the limit %lld (obs_limits.max_samples)",
+                         "truth_ao_render: max samples %lld per pixel is over the limit of %lld "
+                         "(obs_limits.max_samples; raise it with --max-spp)",
                          (long long)p->max_samples, (long long)lim);
     return OBS_STATUS_OK;
 }

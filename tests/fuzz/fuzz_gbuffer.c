@@ -15,7 +15,14 @@
  *     that ao_input_validate accepts, depth > 0 or +inf everywhere (unusable values counted);
  *   - every method on an image of at most 64x64 pixels returns OK, or INVALID_ARGUMENT /
  *     LIMIT_EXCEEDED with a message, and when OK, out and out_raw are finite and in [0, 1];
- *   - ao_blend_lambert gives values in [0, 1]. */
+ *   - ao_blend_lambert gives values in [0, 1].
+ *
+ * Size bound (issue 13): the methods run on images of at most 64x64 pixels, and the image itself
+ * is bounded too, so the target keeps hundreds of executions a second under the sanitizers: an
+ * image whose EXR data window (first part's header) or PNG IHDR size has more than 64x64 pixels
+ * is skipped before decoding (units with a 983,064 x 1 data window and a 24 x 16 display window
+ * took ~29 s each), and the context's max_image_pixels is 64*64*16 values, which io_image's own
+ * header check applies to any data window this scan misses. */
 #include "fuzz.h"
 
 #include "ao/ao.h"
@@ -110,6 +117,43 @@ static void run_methods(obs_context *ctx, const ao_input *in)
     obs_image_f32_free(&blend);
 }
 
+#define FUZZ_GBUFFER_MAX_PIXELS (64 * 64)
+
+static uint32_t le32(const uint8_t *p) { return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24; }
+static uint32_t be32(const uint8_t *p) { return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | (uint32_t)p[3]; }
+
+/* Whether the image's declared size is over FUZZ_GBUFFER_MAX_PIXELS: the EXR dataWindow (box2i) of
+ * the first header, or the PNG IHDR width x height. Anything this scan cannot read (no magic,
+ * a header cut short) is left to the reader. */
+static int image_too_large(const uint8_t *d, size_t n)
+{
+    if (n >= 24 && !memcmp(d, "\x89PNG\r\n\x1a\n", 8) && !memcmp(d + 12, "IHDR", 4))
+        return (uint64_t)be32(d + 16) * be32(d + 20) > FUZZ_GBUFFER_MAX_PIXELS;
+    if (n < 8 || le32(d) != 20000630u) /* the EXR magic number */
+        return 0;
+    size_t pos = 8;
+    while (pos < n && d[pos]) {
+        const uint8_t *name = d + pos, *nz = memchr(name, 0, n - pos);
+        if (!nz)
+            return 0;
+        size_t tpos = (size_t)(nz - d) + 1;
+        const uint8_t *tz = tpos < n ? memchr(d + tpos, 0, n - tpos) : NULL;
+        if (!tz || (size_t)(tz - d) + 5 > n)
+            return 0;
+        size_t vpos = (size_t)(tz - d) + 5;
+        uint32_t len = le32(tz + 1);
+        if (len > n - vpos)
+            return 0;
+        if (!strcmp((const char *)name, "dataWindow") && !strcmp((const char *)d + tpos, "box2i") && len == 16) {
+            int64_t w = (int64_t)(int32_t)le32(d + vpos + 8) - (int32_t)le32(d + vpos) + 1;
+            int64_t h = (int64_t)(int32_t)le32(d + vpos + 12) - (int32_t)le32(d + vpos + 4) + 1;
+            return w > 0 && h > 0 && w * h > FUZZ_GBUFFER_MAX_PIXELS;
+        }
+        pos = vpos + len;
+    }
+    return 0;
+}
+
 int obs_fuzz_gbuffer(const uint8_t *data, size_t size)
 {
     if (size < 3)
@@ -120,7 +164,12 @@ int obs_fuzz_gbuffer(const uint8_t *data, size_t size)
         jl = size - 3;
     const uint8_t *json = data + 3, *img = data + 3 + jl;
     const size_t img_size = size - 3 - jl;
+    if (image_too_large(img, img_size))
+        return 0;
     obs_context *ctx = fuzz_context();
+    obs_limits lim = *obs_context_limits(ctx);
+    lim.max_image_pixels = FUZZ_GBUFFER_MAX_PIXELS * 16; /* values: a 64x64 G-buffer of up to 16 channels */
+    obs_context_set_limits(ctx, &lim);
 
     ao_intrinsics K = ao_intrinsics_unknown();
     int have_k = 0;
