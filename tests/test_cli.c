@@ -248,3 +248,48 @@ TEST(cli_info_describes_scenes_and_images)
     CHECK_EQ_INT(run_cli(c, "none"), 3);
     CHECK(file_contains(errf("none"), "none.exr"));
 }
+
+TEST(cli_output_ending_in_exr_names_the_exr_and_a_bare_prefix_still_works)
+{
+    /* gbuffer, ao and truth: "-o dir/x.exr" writes dir/x.exr and its siblings beside it (never
+     * x.exr.exr); "-o dir/y" writes dir/y.exr as before; "-o dir/z.EXR" writes dir/z.EXR as typed */
+    struct {
+        const char *tag;
+        const char *args[16];
+        const char *siblings[4];
+    } cmds[] = {
+        {"gbuffer", {"gbuffer", scene("plane.glb"), "--size", "32x24", "-o", NULL}, {"_normal.png", "_depth.png", ".json", NULL}},
+        {"ao", {"ao", "--method", "sao", "--scene", scene("plane.glb"), "--size", "32x24", "-o", NULL}, {".png", "_blend.png", ".json", NULL}},
+        {"truth", {"truth", "ao", scene("plane.glb"), "--size", "16x12", "--max-samples", "16", "--min-samples", "16", "-o", NULL},
+         {".png", ".json", NULL}},
+    };
+    for (int c = 0; c < 3; c++) {
+        int n = 0;
+        while (cmds[c].args[n])
+            n++;
+        /* the argument, the stem of the siblings, the EXR's path */
+        const char *forms[3][3] = {{"named.exr", "named", "named.exr"}, {"bare", "bare", "bare.exr"},
+                                   {"upper.EXR", "upper", "upper.EXR"}};
+        for (int f = 0; f < 3; f++) {
+            char arg[4200], stem[4200], tag[64], p[4300];
+            snprintf(arg, sizeof arg, "%s/%s/%s", test_tmpdir(), cmds[c].tag, forms[f][0]);
+            snprintf(stem, sizeof stem, "%s/%s/%s", test_tmpdir(), cmds[c].tag, forms[f][1]);
+            cmds[c].args[n] = arg;
+            cmds[c].args[n + 1] = NULL;
+            snprintf(tag, sizeof tag, "%s_%d", cmds[c].tag, f);
+            int rc = run_cli(cmds[c].args, tag);
+            CHECK_MSG(rc == 0, "%s -o %s: exit %d", cmds[c].tag, forms[f][0], rc);
+            snprintf(p, sizeof p, "%s/%s/%s", test_tmpdir(), cmds[c].tag, forms[f][2]);
+            CHECK_MSG(exists(p), "%s: %s missing", cmds[c].tag, p);
+            snprintf(p, sizeof p, "%s.exr.exr", stem);
+            CHECK_MSG(!exists(p), "%s: %s written", cmds[c].tag, p);
+            snprintf(p, sizeof p, "%s.EXR.exr", stem);
+            CHECK_MSG(!exists(p), "%s: %s written", cmds[c].tag, p);
+            for (int s = 0; cmds[c].siblings[s]; s++) {
+                snprintf(p, sizeof p, "%s%s", stem, cmds[c].siblings[s]);
+                CHECK_MSG(exists(p), "%s: %s missing", cmds[c].tag, p);
+            }
+            cmds[c].args[n] = NULL;
+        }
+    }
+}

@@ -47,6 +47,12 @@ obs_status cli_pick_camera(obs_context *ctx, const obs_scene *scene, const char 
 /* mkdir -p for the directory part of path (outputs may name new directories). */
 obs_status cli_make_parent_dirs(obs_context *ctx, const char *path);
 
+/* The output prefix from -o: an argument ending in ".exr" (any case) is the EXR's own path, and
+ * the prefix is its stem ("out.exr" -> "out": out.exr, out.png, out.json); any other argument is
+ * the prefix itself. Copies into buf and the EXR's extension as typed (".exr" or e.g. ".EXR") into
+ * exr_ext; returns buf, or NULL when arg does not fit in size bytes. */
+const char *cli_output_prefix(const char *arg, char *buf, size_t size, char exr_ext[5]);
+
 /* Write the common sidecar fields (version, revision, command line). */
 void cli_json_header(io_json *j, const char *command, int argc, char **argv);
 
