@@ -293,3 +293,61 @@ TEST(cli_output_ending_in_exr_names_the_exr_and_a_bare_prefix_still_works)
         }
     }
 }
+
+/* Write plane z of a G-buffer EXR as a one-channel PFM ("Pf", little-endian, rows bottom to top). */
+static int write_pfm_from_exr(const char *exr, const char *pfm)
+{
+    obs_context *ctx = obs_context_create();
+    io_image im;
+    int ok = 0;
+    if (io_image_read(ctx, exr, &im) == OBS_STATUS_OK) {
+        int z = io_image_find_channel(&im, "Z");
+        FILE *f = fopen(pfm, "wb");
+        if (z >= 0 && f) {
+            fprintf(f, "Pf\n%d %d\n-1.0\n", im.width, im.height);
+            for (int y = im.height - 1; y >= 0; y--)
+                fwrite(obs_image_f32_row(&im.f32[z], y), sizeof(float), (size_t)im.width, f);
+            ok = 1;
+        }
+        if (f)
+            ok = fclose(f) == 0 && ok;
+        io_image_free(&im);
+    }
+    obs_context_destroy(ctx);
+    return ok;
+}
+
+TEST(cli_ao_gbuffer_one_channel_image_is_used_as_depth_and_logged)
+{
+    /* a GPU engineer's depth buffer as a one-channel PFM (read as channel 'Y'): used as depth,
+     * the log says so, and SAO's AO equals the one computed from the EXR's Z channel */
+    const char *g[] = {"gbuffer", scene("sphere_on_plane.glb"), "-o", tmp("g.exr"), "--size", "64x48", NULL};
+    CHECK_EQ_INT(run_cli(g, "g"), 0);
+    CHECK(write_pfm_from_exr(tmp("g.exr"), tmp("depth.pfm")));
+    const char *a[] = {"ao", "--method", "sao", "--gbuffer", tmp("depth.pfm"), "--intrinsics", tmp("g.json"),
+                       "--depth-kind", "linear", "-o", tmp("from_pfm.exr"), NULL};
+    int rc = run_cli(a, "pfm");
+    CHECK_MSG(rc == 0, "exit %d", rc);
+    CHECK(file_contains(errf("pfm"), "only channel 'Y' is used as depth"));
+    const char *b[] = {"ao", "--method", "sao", "--gbuffer", tmp("g.exr"), "-o", tmp("from_exr.exr"), NULL};
+    CHECK_EQ_INT(run_cli(b, "exr"), 0);
+    CHECK(!file_contains(errf("exr"), "used as depth"));
+    obs_context *ctx = obs_context_create();
+    io_image p, e;
+    CHECK_OK(io_image_read(ctx, tmp("from_pfm.exr"), &p), ctx);
+    CHECK_OK(io_image_read(ctx, tmp("from_exr.exr"), &e), ctx);
+    int cp = io_image_find_channel(&p, "AO"), ce = io_image_find_channel(&e, "AO");
+    CHECK(cp >= 0 && ce >= 0 && p.width == e.width && p.height == e.height);
+    int64_t differ = 0, valid = 0;
+    for (int y = 0; y < p.height && cp >= 0 && ce >= 0; y++)
+        for (int x = 0; x < p.width; x++) {
+            float u = obs_image_f32_row(&p.f32[cp], y)[x], v = obs_image_f32_row(&e.f32[ce], y)[x];
+            differ += !(u == v || (isnan(u) && isnan(v)));
+            valid += isfinite(v) && v < 1.0f;
+        }
+    CHECK_MSG(differ == 0, "%lld pixels differ", (long long)differ);
+    CHECK(valid > 100); /* some occlusion, so the comparison means something */
+    io_image_free(&p);
+    io_image_free(&e);
+    obs_context_destroy(ctx);
+}
