@@ -44,6 +44,10 @@ int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i);
 obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene);
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *scene, const char *which, obs_camera *out);
 
+/* NOT_FOUND (exit 3) naming the file when no instance draws a triangle: gbuffer, ao --scene and
+ * truth refuse an empty scene rather than write an empty image with exit 0 (docs/cli.md). */
+obs_status cli_require_triangles(obs_context *ctx, const obs_scene *scene);
+
 /* mkdir -p for the directory part of path (outputs may name new directories). */
 obs_status cli_make_parent_dirs(obs_context *ctx, const char *path);
 

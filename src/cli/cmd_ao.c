@@ -354,6 +354,8 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     if (scene_path) {
         st = cli_load_scene(ctx, scene_path, &scene);
         if (st == OBS_STATUS_OK)
+            st = cli_require_triangles(ctx, &scene);
+        if (st == OBS_STATUS_OK)
             st = cli_pick_camera(ctx, &scene, camera, &cam);
         if (st != OBS_STATUS_OK) {
             code = cli_fail(ctx, st);

@@ -159,6 +159,8 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     obs_status st = cli_load_scene(ctx, scene_path, &scene);
     obs_camera cam;
     if (st == OBS_STATUS_OK)
+        st = cli_require_triangles(ctx, &scene);
+    if (st == OBS_STATUS_OK)
         st = cli_pick_camera(ctx, &scene, camera, &cam);
     if (st != OBS_STATUS_OK) {
         code = cli_fail(ctx, st);

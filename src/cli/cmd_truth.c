@@ -217,6 +217,8 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     double t_load = obs_time_now();
     obs_status st = cli_load_scene(ctx, scene_path, &scene);
     if (st == OBS_STATUS_OK)
+        st = cli_require_triangles(ctx, &scene);
+    if (st == OBS_STATUS_OK)
         st = cli_pick_camera(ctx, &scene, camera, &cam);
     if (st != OBS_STATUS_OK) {
         code = cli_fail(ctx, st);

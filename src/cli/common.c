@@ -14,6 +14,20 @@ obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene)
     return io_gltf_load(ctx, path, &opt, scene);
 }
 
+obs_status cli_require_triangles(obs_context *ctx, const obs_scene *s)
+{
+    uint64_t drawn = 0;
+    for (uint32_t i = 0; i < s->instance_count; i++)
+        if (s->instances[i].mesh < s->mesh_count)
+            drawn += s->meshes[s->instances[i].mesh].triangle_count;
+    if (drawn > 0)
+        return OBS_STATUS_OK;
+    return obs_error(ctx, OBS_STATUS_NOT_FOUND,
+                     "%s: the scene has no triangles to render (%u meshes, %u instances in the scene's node tree); "
+                     "an empty G-buffer would look like a result",
+                     s->source, s->mesh_count, s->instance_count);
+}
+
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *s, const char *which, obs_camera *out)
 {
     if (which && which[0]) {
