@@ -1358,8 +1358,8 @@ obs_status Loader::accessor(int index, const std::string &what, int kind, Access
                                               : " (or, with KHR_mesh_quantization, normalized BYTE or SHORT VEC3)");
         if (quantized && !quantization_)
             return fail(OBS_STATUS_PARSE_ERROR,
-                        "accessor %d (%s): %s%s VEC3 needs KHR_mesh_quantization, which the file does not list in "
-                        "extensionsUsed",
+                        "accessor %d (%s): wrong component type %s%s VEC3 without KHR_mesh_quantization (the file "
+                        "does not list it in extensionsUsed)",
                         index, what.c_str(), a.normalized ? "normalized " : "", component_name(ct));
         elem = 3 * static_cast<uint64_t>(tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(ct)));
     } else {
