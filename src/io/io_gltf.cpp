@@ -304,6 +304,14 @@ bool no_image_decode(tinygltf::Image *, const int, std::string *, std::string *,
 
 const char *component_name(int ct);
 
+/* "<path>: <message>" into the context's error; the loaders' fail() */
+obs_status fail_v(obs_context *ctx, const char *path, obs_status st, const char *fmt, va_list ap)
+{
+    char msg[900];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    return obs_error(ctx, st, "%s: %s", path, msg);
+}
+
 /* ---- before tinygltf: version, required extensions, Draco and meshopt --------------------------
  *
  * The JSON is read once here with nlohmann::json (the parser tinygltf itself uses), so that
@@ -458,12 +466,11 @@ private:
 
 obs_status Preflight::fail(obs_status st, const char *fmt, ...)
 {
-    char msg[900];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
+    obs_status r = fail_v(ctx_, path_, st, fmt, ap);
     va_end(ap);
-    return obs_error(ctx_, st, "%s: %s", path_, msg);
+    return r;
 }
 
 /* glTF 2.0 spec 5.2 (asset): version is required; minVersion is the least version a loader must
@@ -797,7 +804,8 @@ obs_status Preflight::draco_primitive(size_t mi, size_t pi, Json &prim, std::vec
     if (st != OBS_STATUS_OK)
         return st;
     Json &ia = accs[static_cast<size_t>(idx_acc)];
-    if (!json_uint(ia, "count", UINT64_MAX, &idx_count) || !json_uint(ia, "componentType", 0, &idx_ct) ||
+    if (!json_uint(ia, "count", UINT64_MAX, &idx_count) || idx_count == UINT64_MAX ||
+        !json_uint(ia, "componentType", 0, &idx_ct) ||
         (idx_ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && idx_ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
          idx_ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
         return fail(OBS_STATUS_PARSE_ERROR, "%s: indices accessor %llu needs a count and an unsigned componentType",
@@ -1111,12 +1119,11 @@ enum { KIND_POSITION = 0, KIND_NORMAL = 1, KIND_INDEX = 2 };
 
 obs_status Loader::fail(obs_status st, const char *fmt, ...)
 {
-    char msg[900];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
+    obs_status r = fail_v(ctx_, path_, st, fmt, ap);
     va_end(ap);
-    return obs_error(ctx_, st, "%s: %s", path_, msg);
+    return r;
 }
 
 obs_status Loader::read_file(std::vector<unsigned char> &bytes)
