@@ -6,6 +6,11 @@
  * So this file
  *   - reads the file itself, checks the GLB container strictly and the JSON nesting depth
  *     (tinygltf converts "extras" recursively) before handing the bytes to tinygltf;
+ *   - reads the JSON once itself (Preflight, nlohmann::json) to refuse other glTF versions and
+ *     unsupported required extensions by name, and to decode EXT_meshopt_compression
+ *     (libmeshoptimizer) and KHR_draco_mesh_compression (libdraco) into plain buffers, sizes
+ *     checked before allocation, so tinygltf and the checks below see ordinary glTF 2.0;
+ *   - reads KHR_mesh_quantization's integer and normalized attributes (docs/gltf.md);
  *   - gives tinygltf file-system callbacks that accept regular files only, resolve external
  *     buffers next to the .gltf only (not in the current directory), and cap their size;
  *   - gives tinygltf an image loader that decodes nothing (we need no textures);
