@@ -9,6 +9,8 @@ PKGS=(
   libembree-dev            # Embree 3: ground truth ray tracing (build-notes.md)
   libopenimageio-dev openimageio-tools python3-imath  # EXR/PNG I/O; python3-imath silences Imath's CMake warning
   libtinygltf-dev          # glTF 2.0 loader (compiled library in Debian)
+  libdraco-dev libmeshoptimizer-dev  # KHR_draco_mesh_compression and EXT_meshopt_compression decoders (glTF)
+  nlohmann-json3-dev       # JSON parser for the glTF check before tinygltf (the one tinygltf is built with)
   clang-14 libclang-rt-14-dev  # ASan/UBSan/libFuzzer (tests)
 )
 if [ "${1:-}" = "--dev" ]; then

@@ -206,7 +206,9 @@ TEST(ao_input_validation_and_external_errors)
     CHECK_OK(obs_image_u32_alloc(ctx, 8, 6, &u), ctx);
     io_channel ch[2] = {{"albedo", IO_PIXEL_FLOAT, &d, NULL}, {"depth", IO_PIXEL_UINT, NULL, &u}};
     const char *path = test_path(test_tmpdir(), "bad.exr");
-    CHECK_OK(io_exr_write(ctx, path, ch, 1, NULL, 0), ctx);
+    /* two float channels, neither named as depth (a single channel would be taken as depth) */
+    io_channel two[2] = {{"albedo", IO_PIXEL_FLOAT, &d, NULL}, {"rough", IO_PIXEL_FLOAT, &d, NULL}};
+    CHECK_OK(io_exr_write(ctx, path, two, 2, NULL, 0), ctx);
     io_image im;
     CHECK_OK(io_image_read(ctx, path, &im), ctx);
     ao_external e;

@@ -248,3 +248,106 @@ TEST(cli_info_describes_scenes_and_images)
     CHECK_EQ_INT(run_cli(c, "none"), 3);
     CHECK(file_contains(errf("none"), "none.exr"));
 }
+
+TEST(cli_output_ending_in_exr_names_the_exr_and_a_bare_prefix_still_works)
+{
+    /* gbuffer, ao and truth: "-o dir/x.exr" writes dir/x.exr and its siblings beside it (never
+     * x.exr.exr); "-o dir/y" writes dir/y.exr as before; "-o dir/z.EXR" writes dir/z.EXR as typed */
+    struct {
+        const char *tag;
+        const char *args[16];
+        const char *siblings[4];
+    } cmds[] = {
+        {"gbuffer", {"gbuffer", scene("plane.glb"), "--size", "32x24", "-o", NULL}, {"_normal.png", "_depth.png", ".json", NULL}},
+        {"ao", {"ao", "--method", "sao", "--scene", scene("plane.glb"), "--size", "32x24", "-o", NULL}, {".png", "_blend.png", ".json", NULL}},
+        {"truth", {"truth", "ao", scene("plane.glb"), "--size", "16x12", "--max-samples", "16", "--min-samples", "16", "-o", NULL},
+         {".png", ".json", NULL}},
+    };
+    for (int c = 0; c < 3; c++) {
+        int n = 0;
+        while (cmds[c].args[n])
+            n++;
+        /* the argument, the stem of the siblings, the EXR's path */
+        const char *forms[3][3] = {{"named.exr", "named", "named.exr"}, {"bare", "bare", "bare.exr"},
+                                   {"upper.EXR", "upper", "upper.EXR"}};
+        for (int f = 0; f < 3; f++) {
+            char arg[4200], stem[4200], tag[64], p[4300];
+            snprintf(arg, sizeof arg, "%s/%s/%s", test_tmpdir(), cmds[c].tag, forms[f][0]);
+            snprintf(stem, sizeof stem, "%s/%s/%s", test_tmpdir(), cmds[c].tag, forms[f][1]);
+            cmds[c].args[n] = arg;
+            cmds[c].args[n + 1] = NULL;
+            snprintf(tag, sizeof tag, "%s_%d", cmds[c].tag, f);
+            int rc = run_cli(cmds[c].args, tag);
+            CHECK_MSG(rc == 0, "%s -o %s: exit %d", cmds[c].tag, forms[f][0], rc);
+            snprintf(p, sizeof p, "%s/%s/%s", test_tmpdir(), cmds[c].tag, forms[f][2]);
+            CHECK_MSG(exists(p), "%s: %s missing", cmds[c].tag, p);
+            snprintf(p, sizeof p, "%s.exr.exr", stem);
+            CHECK_MSG(!exists(p), "%s: %s written", cmds[c].tag, p);
+            snprintf(p, sizeof p, "%s.EXR.exr", stem);
+            CHECK_MSG(!exists(p), "%s: %s written", cmds[c].tag, p);
+            for (int s = 0; cmds[c].siblings[s]; s++) {
+                snprintf(p, sizeof p, "%s%s", stem, cmds[c].siblings[s]);
+                CHECK_MSG(exists(p), "%s: %s missing", cmds[c].tag, p);
+            }
+            cmds[c].args[n] = NULL;
+        }
+    }
+}
+
+/* Write plane z of a G-buffer EXR as a one-channel PFM ("Pf", little-endian, rows bottom to top). */
+static int write_pfm_from_exr(const char *exr, const char *pfm)
+{
+    obs_context *ctx = obs_context_create();
+    io_image im;
+    int ok = 0;
+    if (io_image_read(ctx, exr, &im) == OBS_STATUS_OK) {
+        int z = io_image_find_channel(&im, "Z");
+        FILE *f = fopen(pfm, "wb");
+        if (z >= 0 && f) {
+            fprintf(f, "Pf\n%d %d\n-1.0\n", im.width, im.height);
+            for (int y = im.height - 1; y >= 0; y--)
+                fwrite(obs_image_f32_row(&im.f32[z], y), sizeof(float), (size_t)im.width, f);
+            ok = 1;
+        }
+        if (f)
+            ok = fclose(f) == 0 && ok;
+        io_image_free(&im);
+    }
+    obs_context_destroy(ctx);
+    return ok;
+}
+
+TEST(cli_ao_gbuffer_one_channel_image_is_used_as_depth_and_logged)
+{
+    /* a GPU engineer's depth buffer as a one-channel PFM (read as channel 'Y'): used as depth,
+     * the log says so, and SAO's AO equals the one computed from the EXR's Z channel */
+    const char *g[] = {"gbuffer", scene("sphere_on_plane.glb"), "-o", tmp("g.exr"), "--size", "64x48", NULL};
+    CHECK_EQ_INT(run_cli(g, "g"), 0);
+    CHECK(write_pfm_from_exr(tmp("g.exr"), tmp("depth.pfm")));
+    const char *a[] = {"ao", "--method", "sao", "--gbuffer", tmp("depth.pfm"), "--intrinsics", tmp("g.json"),
+                       "--depth-kind", "linear", "-o", tmp("from_pfm.exr"), NULL};
+    int rc = run_cli(a, "pfm");
+    CHECK_MSG(rc == 0, "exit %d", rc);
+    CHECK(file_contains(errf("pfm"), "only channel 'Y' is used as depth"));
+    const char *b[] = {"ao", "--method", "sao", "--gbuffer", tmp("g.exr"), "-o", tmp("from_exr.exr"), NULL};
+    CHECK_EQ_INT(run_cli(b, "exr"), 0);
+    CHECK(!file_contains(errf("exr"), "used as depth"));
+    obs_context *ctx = obs_context_create();
+    io_image p, e;
+    CHECK_OK(io_image_read(ctx, tmp("from_pfm.exr"), &p), ctx);
+    CHECK_OK(io_image_read(ctx, tmp("from_exr.exr"), &e), ctx);
+    int cp = io_image_find_channel(&p, "AO"), ce = io_image_find_channel(&e, "AO");
+    CHECK(cp >= 0 && ce >= 0 && p.width == e.width && p.height == e.height);
+    int64_t differ = 0, valid = 0;
+    for (int y = 0; y < p.height && cp >= 0 && ce >= 0; y++)
+        for (int x = 0; x < p.width; x++) {
+            float u = obs_image_f32_row(&p.f32[cp], y)[x], v = obs_image_f32_row(&e.f32[ce], y)[x];
+            differ += !(u == v || (isnan(u) && isnan(v)));
+            valid += isfinite(v) && v < 1.0f;
+        }
+    CHECK_MSG(differ == 0, "%lld pixels differ", (long long)differ);
+    CHECK(valid > 100); /* some occlusion, so the comparison means something */
+    io_image_free(&p);
+    io_image_free(&e);
+    obs_context_destroy(ctx);
+}

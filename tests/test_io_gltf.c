@@ -667,10 +667,10 @@ TEST(gltf_non_triangle_mode_is_unsupported)
 TEST(gltf_required_unknown_extension_is_unsupported)
 {
     gl_parts p = default_parts(EXT_BUFFERS);
-    p.extra = ",\"extensionsUsed\":[\"KHR_draco_mesh_compression\"],"
-              "\"extensionsRequired\":[\"KHR_draco_mesh_compression\"]";
-    const char *path = write_gltf("draco.gltf", &p, NULL);
-    CHECK(expect_failure(path, NULL, OBS_STATUS_UNSUPPORTED, OBS_STATUS_OK, "KHR_draco_mesh_compression"));
+    p.extra = ",\"extensionsUsed\":[\"EXT_mesh_gpu_instancing\"],"
+              "\"extensionsRequired\":[\"EXT_mesh_gpu_instancing\"]";
+    const char *path = write_gltf("instancing.gltf", &p, NULL);
+    CHECK(expect_failure(path, NULL, OBS_STATUS_UNSUPPORTED, OBS_STATUS_OK, "EXT_mesh_gpu_instancing"));
     /* a required extension that only affects materials does not stop the load */
     p.extra = ",\"extensionsUsed\":[\"KHR_materials_emissive_strength\"],"
               "\"extensionsRequired\":[\"KHR_materials_emissive_strength\"]";

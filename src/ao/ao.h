@@ -128,7 +128,8 @@ typedef enum ao_external_normals {
 } ao_external_normals;
 
 typedef struct ao_external_options {
-    const char *depth_channel;      /* NULL: "Z" if present, else "Zndc", else "depth", else "R" */
+    const char *depth_channel;      /* NULL: "Z" if present, else "Zndc", else "depth", else "R", else
+                                       the image's only channel when it has exactly one (logged) */
     ao_depth_kind depth_kind;       /* AO_DEPTH_KIND_AUTO: see the enum */
     ao_external_normals normals;    /* default AUTO */
     const char *normal_prefix;      /* NULL = "N" (channels N.X, N.Y, N.Z) */

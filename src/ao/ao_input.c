@@ -399,6 +399,14 @@ obs_status ao_external_from_image(obs_context *ctx, const io_image *im, const ao
         static const char *names[] = {"Z", "Zndc", "depth", "R"};
         for (int i = 0; i < 4 && dc < 0; i++)
             dc = find_channel(im, names[i]);
+        if (dc < 0 && im->channel_count == 1) {
+            /* a GPU depth buffer often arrives as a one-channel image (a PFM reads as channel
+             * 'Y'): with nothing else to choose from, its only channel is the depth */
+            dc = 0;
+            obs_log(ctx, OBS_LOG_WARN, "external G-buffer: no Z, Zndc, depth or R channel; the image's only channel "
+                                       "'%s' is used as depth",
+                    im->names[0]);
+        }
         if (dc < 0) {
             char list[512] = "";
             for (int c = 0; c < im->channel_count && strlen(list) < 400; c++) {

@@ -44,8 +44,18 @@ int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i);
 obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene);
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *scene, const char *which, obs_camera *out);
 
+/* NOT_FOUND (exit 3) naming the file when no instance draws a triangle: gbuffer, ao --scene and
+ * truth refuse an empty scene rather than write an empty image with exit 0 (docs/cli.md). */
+obs_status cli_require_triangles(obs_context *ctx, const obs_scene *scene);
+
 /* mkdir -p for the directory part of path (outputs may name new directories). */
 obs_status cli_make_parent_dirs(obs_context *ctx, const char *path);
+
+/* The output prefix from -o: an argument ending in ".exr" (any case) is the EXR's own path, and
+ * the prefix is its stem ("out.exr" -> "out": out.exr, out.png, out.json); any other argument is
+ * the prefix itself. Copies into buf and the EXR's extension as typed (".exr" or e.g. ".EXR") into
+ * exr_ext; returns buf, or NULL when arg does not fit in size bytes. */
+const char *cli_output_prefix(const char *arg, char *buf, size_t size, char exr_ext[5]);
 
 /* Write the common sidecar fields (version, revision, command line). */
 void cli_json_header(io_json *j, const char *command, int argc, char **argv);

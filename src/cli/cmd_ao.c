@@ -35,7 +35,9 @@ static const char *ao_help =
     "output:\n"
     "  -o, --output PREFIX    PREFIX.exr (channels AO, AO.raw, Z), PREFIX.png (AO preview),\n"
     "                         PREFIX_blend.png (AO times a Lambert-plus-ambient shading), PREFIX.json\n"
-    "                         (default prefix: ao); missing directories are created\n"
+    "                         (default prefix: ao); -o out.exr names the EXR itself and the rest go\n"
+    "                         beside it (out.png, out_blend.png, out.json); missing directories are\n"
+    "                         created\n"
     "AO is visibility: 1 = unoccluded. AO.raw is before the blur (equal to AO with --no-blur).\n"
     "The preview is AO quantised linearly (gamma 1.0), background black. The blend is\n"
     "AO * (0.25 + 0.75 max(0, n.l)) with the view-space light l = normalize(0.35, 0.6, 0.72) (from the\n"
@@ -198,6 +200,7 @@ static const char *depth_kind_name(ao_depth_kind k)
 int cmd_ao(cli_globals *g, int argc, char **argv)
 {
     const char *method = NULL, *scene_path = NULL, *gbuffer_path = NULL, *prefix = "ao", *camera = "";
+    char prefix_buf[4000], exr_ext[5] = ".exr";
     const char *intrinsics_path = NULL;
     int W = 1920, H = 1080, size_given = 0, guard = 0, infinite_far = 0, gbuffer_normals = 1;
     ao_external_options xo = ao_external_options_default();
@@ -259,8 +262,10 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
             if (!v) return cli_usage_error("--gbuffer needs an image path");
             gbuffer_path = v; i++;
         } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix", a);
-            prefix = v; i++;
+            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
+            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
+            if (!prefix) return cli_usage_error("%s: path too long", a);
+            i++;
         } else if (!strcmp(a, "--camera")) {
             if (!v) return cli_usage_error("--camera needs a name or index");
             camera = v; i++;
@@ -348,6 +353,8 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     /* ---- Input ---- */
     if (scene_path) {
         st = cli_load_scene(ctx, scene_path, &scene);
+        if (st == OBS_STATUS_OK)
+            st = cli_require_triangles(ctx, &scene);
         if (st == OBS_STATUS_OK)
             st = cli_pick_camera(ctx, &scene, camera, &cam);
         if (st != OBS_STATUS_OK) {
@@ -480,7 +487,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     char path[4200];
     st = cli_make_parent_dirs(ctx, prefix);
     if (st == OBS_STATUS_OK) {
-        snprintf(path, sizeof path, "%s.exr", prefix);
+        snprintf(path, sizeof path, "%s%s", prefix, exr_ext);
         st = io_exr_write(ctx, path, ch, 3, at, na);
     }
     if (st == OBS_STATUS_OK) {
@@ -607,7 +614,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
         goto done;
     }
     if (!g->quiet)
-        fprintf(stderr, "obscura: wrote %s.exr, %s.png, %s_blend.png, %s.json\n", prefix, prefix, prefix, prefix);
+        fprintf(stderr, "obscura: wrote %s%s, %s.png, %s_blend.png, %s.json\n", prefix, exr_ext, prefix, prefix, prefix);
 done:
     free(intr_text);
     io_json_free(&j);

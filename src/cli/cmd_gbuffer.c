@@ -11,7 +11,8 @@
 static const char *gbuffer_help =
     "usage: obscura gbuffer SCENE [options]\n"
     "  -o, --output PREFIX   write PREFIX.exr, PREFIX_normal.png, PREFIX_depth.png, PREFIX.json\n"
-    "                        (default: gbuffer); missing directories are created\n"
+    "                        (default: gbuffer); -o out.exr names the EXR itself and the rest go\n"
+    "                        beside it (out_normal.png, ...); missing directories are created\n"
     "  --camera NAME|INDEX   camera to use (default: 'default', else the first, else a framing one)\n"
     "  --size WxH            inner image size (default 1920x1080, or 1920 wide at the camera's aspect)\n"
     "  --guard G             guard band in pixels around the image (default 0)\n"
@@ -79,6 +80,7 @@ static void json_camera(io_json *j, const obs_camera *c)
 int cmd_gbuffer(cli_globals *g, int argc, char **argv)
 {
     const char *scene_path = NULL, *prefix = "gbuffer", *camera = "";
+    char prefix_buf[4000], exr_ext[5] = ".exr";
     rast_params p = rast_params_default();
     int size_given = 0, keep_guard = 0, infinite_far = 0;
     for (int i = 1; i < argc; i++) {
@@ -88,8 +90,10 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
             fputs(gbuffer_help, stdout);
             return CLI_EXIT_OK;
         } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix", a);
-            prefix = v; i++;
+            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
+            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
+            if (!prefix) return cli_usage_error("%s: path too long", a);
+            i++;
         } else if (!strcmp(a, "--camera")) {
             if (!v) return cli_usage_error("--camera needs a name or index");
             camera = v; i++;
@@ -154,6 +158,8 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     int code = CLI_EXIT_OK;
     obs_status st = cli_load_scene(ctx, scene_path, &scene);
     obs_camera cam;
+    if (st == OBS_STATUS_OK)
+        st = cli_require_triangles(ctx, &scene);
     if (st == OBS_STATUS_OK)
         st = cli_pick_camera(ctx, &scene, camera, &cam);
     if (st != OBS_STATUS_OK) {
@@ -257,7 +263,7 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     char path[4200];
     st = cli_make_parent_dirs(ctx, prefix);
     if (st == OBS_STATUS_OK) {
-        snprintf(path, sizeof path, "%s.exr", prefix);
+        snprintf(path, sizeof path, "%s%s", prefix, exr_ext);
         st = io_exr_write(ctx, path, ch, nch, at, na);
     }
     /* PNG previews: normals as 0.5 n + 0.5, depth as a near-white / far-black ramp (both written
@@ -363,7 +369,7 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
         goto done;
     }
     if (!g->quiet)
-        fprintf(stderr, "obscura: wrote %s.exr, %s_normal.png, %s_depth.png, %s.json\n", prefix, prefix, prefix, prefix);
+        fprintf(stderr, "obscura: wrote %s%s, %s_normal.png, %s_depth.png, %s.json\n", prefix, exr_ext, prefix, prefix, prefix);
 done:
     io_json_free(&j);
     rast_gbuffer_free(&gb);

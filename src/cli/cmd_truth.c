@@ -15,7 +15,8 @@
 static const char *truth_help =
     "usage: obscura truth ao SCENE [options]\n"
     "  -o, --output PREFIX   write PREFIX.exr, PREFIX.png, PREFIX.json (default: truth_ao);\n"
-    "                        missing directories are created\n"
+    "                        -o out.exr names the EXR itself and the rest go beside it (out.png,\n"
+    "                        out.json); missing directories are created\n"
     "  --camera NAME|INDEX   camera to use (default: 'default', else the first, else a framing one)\n"
     "  --size WxH            image size (default 1920x1080, or 1920 wide at the camera's aspect)\n"
     "  --estimator NAME      cos (default): cosine-weighted visibility within the radius (GT-cos, XeGTAO's)\n"
@@ -115,6 +116,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     if (strcmp(argv[1], "ao") != 0)
         return cli_usage_error("truth: unknown kind '%s' (only 'truth ao' exists)", argv[1]);
     const char *scene_path = NULL, *prefix = "truth_ao", *camera = "";
+    char prefix_buf[4000], exr_ext[5] = ".exr";
     truth_ao_params p = truth_ao_params_default();
     truth_build_quality build = TRUTH_BUILD_MEDIUM;
     truth_scene_layout layout = TRUTH_SCENE_AUTO;
@@ -128,8 +130,10 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
             fputs(truth_help, stdout);
             return CLI_EXIT_OK;
         } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix", a);
-            prefix = v; i++;
+            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
+            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
+            if (!prefix) return cli_usage_error("%s: path too long", a);
+            i++;
         } else if (!strcmp(a, "--camera")) {
             if (!v) return cli_usage_error("--camera needs a name or index");
             camera = v; i++;
@@ -222,6 +226,8 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     obs_camera cam;
     double t_load = obs_time_now();
     obs_status st = cli_load_scene(ctx, scene_path, &scene);
+    if (st == OBS_STATUS_OK)
+        st = cli_require_triangles(ctx, &scene);
     if (st == OBS_STATUS_OK)
         st = cli_pick_camera(ctx, &scene, camera, &cam);
     if (st != OBS_STATUS_OK) {
@@ -327,7 +333,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     char path[4200];
     st = cli_make_parent_dirs(ctx, prefix);
     if (st == OBS_STATUS_OK) {
-        snprintf(path, sizeof path, "%s.exr", prefix);
+        snprintf(path, sizeof path, "%s%s", prefix, exr_ext);
         st = io_exr_write(ctx, path, ch, 4, at, na);
     }
     if (st == OBS_STATUS_OK) { /* the preview: AO.mean, background (count 0) black */
@@ -421,7 +427,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         goto done;
     }
     if (!g->quiet)
-        fprintf(stderr, "obscura: wrote %s.exr, %s.png, %s.json\n", prefix, prefix, prefix);
+        fprintf(stderr, "obscura: wrote %s%s, %s.png, %s.json\n", prefix, exr_ext, prefix, prefix);
 done:
     io_json_free(&j);
     obs_image_f32_free(&preview);

@@ -5,12 +5,27 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 
 obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene)
 {
     io_gltf_options opt = io_gltf_options_default();
     return io_gltf_load(ctx, path, &opt, scene);
+}
+
+obs_status cli_require_triangles(obs_context *ctx, const obs_scene *s)
+{
+    uint64_t drawn = 0;
+    for (uint32_t i = 0; i < s->instance_count; i++)
+        if (s->instances[i].mesh < s->mesh_count)
+            drawn += s->meshes[s->instances[i].mesh].triangle_count;
+    if (drawn > 0)
+        return OBS_STATUS_OK;
+    return obs_error(ctx, OBS_STATUS_NOT_FOUND,
+                     "%s: the scene has no triangles to render (%u meshes, %u instances in the scene's node tree); "
+                     "an empty G-buffer would look like a result",
+                     s->source, s->mesh_count, s->instance_count);
 }
 
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *s, const char *which, obs_camera *out)
@@ -55,4 +70,20 @@ obs_status cli_make_parent_dirs(obs_context *ctx, const char *path)
         return OBS_STATUS_OK;
     *slash = '\0';
     return io_make_dirs(ctx, buf);
+}
+
+const char *cli_output_prefix(const char *arg, char *buf, size_t size, char exr_ext[5])
+{
+    memcpy(exr_ext, ".exr", 5);
+    size_t n = strlen(arg);
+    if (n + 1 > size)
+        return NULL;
+    memcpy(buf, arg, n + 1);
+    /* "out.exr" names the EXR itself (as oiiotool, pbrt and Blender users type it): the stem is
+     * the prefix, so the PNG and JSON go beside it. A bare ".exr" (no stem) stays a prefix. */
+    if (n > 4 && strcasecmp(buf + n - 4, ".exr") == 0 && buf[n - 5] != '/') {
+        memcpy(exr_ext, buf + n - 4, 5);   /* keep the case the user typed: "out.EXR" is the path */
+        buf[n - 4] = '\0';
+    }
+    return buf;
 }

@@ -6,6 +6,11 @@
  * So this file
  *   - reads the file itself, checks the GLB container strictly and the JSON nesting depth
  *     (tinygltf converts "extras" recursively) before handing the bytes to tinygltf;
+ *   - reads the JSON once itself (Preflight, nlohmann::json) to refuse other glTF versions and
+ *     unsupported required extensions by name, and to decode EXT_meshopt_compression
+ *     (libmeshoptimizer) and KHR_draco_mesh_compression (libdraco) into plain buffers, sizes
+ *     checked before allocation, so tinygltf and the checks below see ordinary glTF 2.0;
+ *   - reads KHR_mesh_quantization's integer and normalized attributes (docs/gltf.md);
  *   - gives tinygltf file-system callbacks that accept regular files only, resolve external
  *     buffers next to the .gltf only (not in the current directory), and cap their size;
  *   - gives tinygltf an image loader that decodes nothing (we need no textures);
@@ -21,12 +26,17 @@
 
 #include <tiny_gltf.h>
 
+#include <draco/compression/decode.h>
+#include <meshoptimizer.h>
+#include <nlohmann/json.hpp>
+
 #include <cerrno>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <memory>
 #include <new>
 #include <string>
 #include <vector>
@@ -297,6 +307,751 @@ bool no_image_decode(tinygltf::Image *, const int, std::string *, std::string *,
     return true; /* textures are not used by obscura: keep the bytes undecoded */
 }
 
+const char *component_name(int ct);
+
+/* "<path>: <message>" into the context's error; the loaders' fail() */
+obs_status fail_v(obs_context *ctx, const char *path, obs_status st, const char *fmt, va_list ap)
+{
+    char msg[900];
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    return obs_error(ctx, st, "%s: %s", path, msg);
+}
+
+/* ---- before tinygltf: version, required extensions, Draco and meshopt --------------------------
+ *
+ * The JSON is read once here with nlohmann::json (the parser tinygltf itself uses), so that
+ *   - an unsupported asset.version / asset.minVersion and an unsupported required extension are
+ *     refused in our words, naming the version or the extension, before tinygltf's own checks;
+ *   - EXT_meshopt_compression bufferViews and KHR_draco_mesh_compression primitives are decoded
+ *     into plain buffers (data: URIs) and the document is rewritten without the extension, so
+ *     that everything tinygltf and our range checks see afterwards is ordinary glTF 2.0.
+ * Every size a decoder will write (count * byteStride, Draco's point and face counts) is checked
+ * against the declared bufferView or accessor and against the context's limits before the
+ * buffer is allocated. */
+
+using Json = nlohmann::json;
+
+/* extensions obscura reads, or may ignore because they change only what obscura does not read */
+bool extension_supported(const std::string &e)
+{
+    static const char *const exact[] = {"KHR_lights_punctual", "KHR_mesh_quantization", "KHR_draco_mesh_compression",
+                                        "EXT_meshopt_compression"};
+    static const char *const harmless_prefixes[] = {"KHR_materials_", "KHR_texture_", "EXT_texture_"};
+    for (const char *x : exact)
+        if (e == x)
+            return true;
+    for (const char *pre : harmless_prefixes)
+        if (e.compare(0, strlen(pre), pre) == 0)
+            return true;
+    return false;
+}
+
+/* "MAJOR.MINOR" (glTF 2.0 spec 5.2, asset.version pattern ^[0-9]+\.[0-9]+$) */
+bool parse_version(const std::string &s, long *major, long *minor)
+{
+    const char *p = s.c_str();
+    char *end;
+    if (!(*p >= '0' && *p <= '9'))
+        return false;
+    errno = 0;
+    *major = strtol(p, &end, 10);
+    if (*end != '.' || !(end[1] >= '0' && end[1] <= '9') || errno)
+        return false;
+    *minor = strtol(end + 1, &end, 10);
+    return *end == '\0' && !errno;
+}
+
+/* a non-negative integer member (absent: def); false when present but not such an integer */
+bool json_uint(const Json &obj, const char *key, uint64_t def, uint64_t *out)
+{
+    auto it = obj.find(key);
+    if (it == obj.end()) {
+        *out = def;
+        return true;
+    }
+    if (it->is_number_unsigned()) {
+        *out = it->get<uint64_t>();
+        return true;
+    }
+    if (it->is_number_integer() && it->get<int64_t>() >= 0) {
+        *out = static_cast<uint64_t>(it->get<int64_t>());
+        return true;
+    }
+    return false;
+}
+
+const char kB64[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+
+std::string base64_data_uri(const std::vector<unsigned char> &d)
+{
+    std::string s = "data:application/octet-stream;base64,";
+    s.reserve(s.size() + (d.size() + 2) / 3 * 4);
+    size_t i = 0;
+    for (; i + 2 < d.size(); i += 3) {
+        uint32_t v = (uint32_t(d[i]) << 16) | (uint32_t(d[i + 1]) << 8) | d[i + 2];
+        s += kB64[v >> 18];
+        s += kB64[(v >> 12) & 63];
+        s += kB64[(v >> 6) & 63];
+        s += kB64[v & 63];
+    }
+    if (i < d.size()) {
+        uint32_t v = uint32_t(d[i]) << 16;
+        if (i + 1 < d.size())
+            v |= uint32_t(d[i + 1]) << 8;
+        s += kB64[v >> 18];
+        s += kB64[(v >> 12) & 63];
+        s += i + 1 < d.size() ? kB64[(v >> 6) & 63] : '=';
+        s += '=';
+    }
+    return s;
+}
+
+/* decode the base64 part of a data: URI (RFC 4648 alphabet, '=' padding optional) */
+bool base64_decode(const std::string &s, size_t from, std::vector<unsigned char> *out)
+{
+    uint32_t acc = 0;
+    int bits = 0;
+    for (size_t i = from; i < s.size(); i++) {
+        char c = s[i];
+        int v;
+        if (c >= 'A' && c <= 'Z') v = c - 'A';
+        else if (c >= 'a' && c <= 'z') v = c - 'a' + 26;
+        else if (c >= '0' && c <= '9') v = c - '0' + 52;
+        else if (c == '+') v = 62;
+        else if (c == '/') v = 63;
+        else if (c == '=') break;
+        else return false;
+        acc = (acc << 6) | static_cast<uint32_t>(v);
+        bits += 6;
+        if (bits >= 8) {
+            bits -= 8;
+            out->push_back(static_cast<unsigned char>(acc >> bits));
+        }
+    }
+    return true;
+}
+
+class Preflight {
+public:
+    Preflight(obs_context *ctx, const char *path, const obs_limits &lim, FsState &fs, std::vector<unsigned char> &bytes,
+              bool binary)
+        : ctx_(ctx), path_(path), lim_(lim), fs_(fs), bytes_(bytes), binary_(binary)
+    {
+    }
+    /* *len: the GLB length (binary) in and out */
+    obs_status run(uint32_t *glb_len);
+
+private:
+    obs_status fail(obs_status st, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+    obs_status check_asset();
+    obs_status check_required();
+    obs_status buffer_data(uint64_t index, const std::vector<unsigned char> **out);
+    obs_status slice(uint64_t buffer, uint64_t offset, uint64_t length, const std::string &what,
+                     const unsigned char **out);
+    obs_status reserve(uint64_t bytes, const std::string &what);
+    obs_status meshopt();
+    obs_status draco();
+    obs_status draco_primitive(size_t mi, size_t pi, Json &prim, std::vector<unsigned char> &out,
+                               std::vector<bool> &decoded);
+    obs_status rebuild(uint32_t *glb_len);
+
+    obs_context *ctx_;
+    const char *path_;
+    obs_limits lim_;
+    FsState &fs_;
+    std::vector<unsigned char> &bytes_;
+    bool binary_;
+    Json doc_;
+    const unsigned char *bin_ = nullptr; /* the GLB BIN chunk */
+    uint64_t bin_len_ = 0;
+    std::vector<std::vector<unsigned char>> loaded_; /* buffers read for decoding */
+    std::vector<bool> have_loaded_;
+    uint64_t decoded_bytes_ = 0;
+};
+
+obs_status Preflight::fail(obs_status st, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    obs_status r = fail_v(ctx_, path_, st, fmt, ap);
+    va_end(ap);
+    return r;
+}
+
+/* glTF 2.0 spec 5.2 (asset): version is required; minVersion is the least version a loader must
+ * support. obscura reads 2.x (a 2.x file without a minVersion above 2.0 loads in a 2.0 loader). */
+obs_status Preflight::check_asset()
+{
+    auto asset = doc_.find("asset");
+    if (asset == doc_.end() || !asset->is_object())
+        return fail(OBS_STATUS_PARSE_ERROR, "no 'asset' object (glTF 2.0 requires asset.version)");
+    auto ver = asset->find("version");
+    if (ver == asset->end() || !ver->is_string())
+        return fail(OBS_STATUS_PARSE_ERROR, "asset.version is missing or not a string (glTF 2.0 requires it)");
+    const std::string v = ver->get<std::string>();
+    long major = 0, minor = 0;
+    if (!parse_version(v, &major, &minor))
+        return fail(OBS_STATUS_PARSE_ERROR, "asset.version '%s' is not of the form MAJOR.MINOR", one_line(v, 40).c_str());
+    if (major != 2)
+        return fail(OBS_STATUS_UNSUPPORTED,
+                    "glTF version %s is not supported: obscura reads glTF 2.x (convert a 1.0 file to 2.0 first, e.g. "
+                    "with Blender or the Khronos glTF 1.0-to-2.0 converter)",
+                    one_line(v, 40).c_str());
+    auto minv = asset->find("minVersion");
+    if (minv != asset->end()) {
+        if (!minv->is_string())
+            return fail(OBS_STATUS_PARSE_ERROR, "asset.minVersion is not a string");
+        const std::string m = minv->get<std::string>();
+        long mmaj = 0, mmin = 0;
+        if (!parse_version(m, &mmaj, &mmin))
+            return fail(OBS_STATUS_PARSE_ERROR, "asset.minVersion '%s' is not of the form MAJOR.MINOR",
+                        one_line(m, 40).c_str());
+        if (mmaj != 2 || mmin > 0)
+            return fail(OBS_STATUS_UNSUPPORTED,
+                        "asset.minVersion %s: the file needs a glTF %s loader; obscura reads glTF 2.0",
+                        one_line(m, 40).c_str(), one_line(m, 40).c_str());
+    }
+    return OBS_STATUS_OK;
+}
+
+/* glTF 2.0 spec 3.12: a loader MUST refuse a file whose extensionsRequired it does not support. */
+obs_status Preflight::check_required()
+{
+    auto req = doc_.find("extensionsRequired");
+    if (req == doc_.end())
+        return OBS_STATUS_OK;
+    if (!req->is_array())
+        return fail(OBS_STATUS_PARSE_ERROR, "extensionsRequired is not an array");
+    for (const Json &e : *req) {
+        if (!e.is_string())
+            return fail(OBS_STATUS_PARSE_ERROR, "extensionsRequired holds a non-string");
+        const std::string name = e.get<std::string>();
+        if (!extension_supported(name))
+            return fail(OBS_STATUS_UNSUPPORTED,
+                        "requires the extension %s, which obscura does not support (supported: KHR_mesh_quantization, "
+                        "KHR_draco_mesh_compression, EXT_meshopt_compression, KHR_lights_punctual; KHR_materials_*, "
+                        "KHR_texture_* and EXT_texture_* are ignored)",
+                        one_line(name, 80).c_str());
+    }
+    return OBS_STATUS_OK;
+}
+
+/* count bytes more of decoded data, within --max-memory */
+obs_status Preflight::reserve(uint64_t bytes, const std::string &what)
+{
+    uint64_t total;
+    if (!add_u64(decoded_bytes_, bytes, &total) || total > static_cast<uint64_t>(lim_.max_memory_bytes) ||
+        total > 0xFFFFFFFFull)
+        return fail(OBS_STATUS_LIMIT_EXCEEDED, "%s: %llu bytes of decoded data (%llu so far) over the limit of %lld "
+                                               "(--max-memory; at most 4 GiB per file)",
+                    what.c_str(), static_cast<unsigned long long>(bytes),
+                    static_cast<unsigned long long>(decoded_bytes_), static_cast<long long>(lim_.max_memory_bytes));
+    decoded_bytes_ = total;
+    return OBS_STATUS_OK;
+}
+
+/* the bytes of buffer `index` as the file stores them: the GLB BIN chunk, a data: URI or a file
+ * beside the .gltf (through the same file-system rules as tinygltf's callbacks) */
+obs_status Preflight::buffer_data(uint64_t index, const std::vector<unsigned char> **out)
+{
+    auto bufs = doc_.find("buffers");
+    if (bufs == doc_.end() || !bufs->is_array() || index >= bufs->size())
+        return fail(OBS_STATUS_PARSE_ERROR, "buffer %llu out of range (%zu buffers)",
+                    static_cast<unsigned long long>(index), bufs != doc_.end() && bufs->is_array() ? bufs->size() : 0);
+    if (loaded_.size() != bufs->size()) {
+        loaded_.assign(bufs->size(), std::vector<unsigned char>());
+        have_loaded_.assign(bufs->size(), false);
+    }
+    std::vector<unsigned char> &d = loaded_[static_cast<size_t>(index)];
+    if (have_loaded_[static_cast<size_t>(index)]) {
+        *out = &d;
+        return OBS_STATUS_OK;
+    }
+    const Json &b = (*bufs)[static_cast<size_t>(index)];
+    uint64_t byte_length;
+    if (!b.is_object() || !json_uint(b, "byteLength", UINT64_MAX, &byte_length) || byte_length == UINT64_MAX)
+        return fail(OBS_STATUS_PARSE_ERROR, "buffer %llu: no valid byteLength", static_cast<unsigned long long>(index));
+    auto uri = b.find("uri");
+    if (uri == b.end()) {
+        if (!(binary_ && index == 0 && bin_))
+            return fail(OBS_STATUS_PARSE_ERROR, "buffer %llu has no uri and is not the GLB BIN chunk",
+                        static_cast<unsigned long long>(index));
+        if (byte_length > bin_len_)
+            return fail(OBS_STATUS_PARSE_ERROR, "buffer 0: byteLength %llu > GLB BIN chunk length %llu",
+                        static_cast<unsigned long long>(byte_length), static_cast<unsigned long long>(bin_len_));
+        d.assign(bin_, bin_ + byte_length);
+    } else {
+        if (!uri->is_string())
+            return fail(OBS_STATUS_PARSE_ERROR, "buffer %llu: uri is not a string", static_cast<unsigned long long>(index));
+        const std::string u = uri->get<std::string>();
+        if (u.compare(0, 5, "data:") == 0) {
+            size_t comma = u.find(";base64,");
+            if (comma == std::string::npos || !base64_decode(u, comma + 8, &d))
+                return fail(OBS_STATUS_PARSE_ERROR, "buffer %llu: malformed data: URI (base64 expected)",
+                            static_cast<unsigned long long>(index));
+        } else {
+            const std::string p = fs_.base.empty() ? u : fs_.base + "/" + u;
+            std::string err;
+            if (fs_.memory)
+                return fail(OBS_STATUS_IO_ERROR, "buffer %llu ('%s'): an external buffer cannot be resolved when "
+                                                 "loading from memory",
+                            static_cast<unsigned long long>(index), one_line(u, 200).c_str());
+            if (!fs_file_exists(p, &fs_) || !fs_read(&d, &err, p, &fs_))
+                return fail(OBS_STATUS_IO_ERROR, "buffer %llu: cannot read '%s'%s%s", static_cast<unsigned long long>(index),
+                            one_line(p, 300).c_str(), err.empty() ? "" : ": ", one_line(err).c_str());
+        }
+        if (d.size() < byte_length)
+            return fail(OBS_STATUS_PARSE_ERROR, "buffer %llu: %zu bytes, fewer than its byteLength %llu",
+                        static_cast<unsigned long long>(index), d.size(), static_cast<unsigned long long>(byte_length));
+    }
+    have_loaded_[static_cast<size_t>(index)] = true;
+    *out = &d;
+    return OBS_STATUS_OK;
+}
+
+obs_status Preflight::slice(uint64_t buffer, uint64_t offset, uint64_t length, const std::string &what,
+                            const unsigned char **out)
+{
+    const std::vector<unsigned char> *d;
+    obs_status st = buffer_data(buffer, &d);
+    if (st != OBS_STATUS_OK)
+        return st;
+    uint64_t end;
+    if (!add_u64(offset, length, &end) || end > d->size())
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: byteOffset %llu + byteLength %llu > buffer %llu size %zu", what.c_str(),
+                    static_cast<unsigned long long>(offset), static_cast<unsigned long long>(length),
+                    static_cast<unsigned long long>(buffer), d->size());
+    *out = d->data() + offset;
+    return OBS_STATUS_OK;
+}
+
+/* EXT_meshopt_compression (Khronos extension spec, "Specifying compressed views" and "Filters"):
+ * each compressed bufferView is decoded into its fallback buffer at its own byteOffset; the
+ * fallback buffers then carry the decoded bytes as data: URIs. */
+obs_status Preflight::meshopt()
+{
+    auto views = doc_.find("bufferViews");
+    if (views == doc_.end() || !views->is_array())
+        return OBS_STATUS_OK;
+    auto bufs = doc_.find("buffers");
+    const size_t nbuf = bufs != doc_.end() && bufs->is_array() ? bufs->size() : 0;
+    std::vector<std::vector<unsigned char>> target(nbuf);
+    std::vector<bool> is_target(nbuf, false), is_source(nbuf, false);
+    for (size_t vi = 0; vi < views->size(); vi++) {
+        Json &bv = (*views)[vi];
+        if (!bv.is_object())
+            continue;
+        auto exts = bv.find("extensions");
+        if (exts == bv.end() || !exts->is_object())
+            continue;
+        auto mo = exts->find("EXT_meshopt_compression");
+        if (mo == exts->end())
+            continue;
+        const std::string what = "bufferView " + std::to_string(vi) + " (EXT_meshopt_compression)";
+        if (!mo->is_object())
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: not an object", what.c_str());
+        uint64_t src, off, len, stride, count, tgt, toff, tlen;
+        if (!json_uint(*mo, "buffer", UINT64_MAX, &src) || !json_uint(*mo, "byteOffset", 0, &off) ||
+            !json_uint(*mo, "byteLength", UINT64_MAX, &len) || !json_uint(*mo, "byteStride", UINT64_MAX, &stride) ||
+            !json_uint(*mo, "count", UINT64_MAX, &count) || src == UINT64_MAX || len == UINT64_MAX ||
+            stride == UINT64_MAX || count == UINT64_MAX)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: buffer, byteLength, byteStride and count must be integers >= 0",
+                        what.c_str());
+        if (!json_uint(bv, "buffer", UINT64_MAX, &tgt) || !json_uint(bv, "byteOffset", 0, &toff) ||
+            !json_uint(bv, "byteLength", UINT64_MAX, &tlen) || tgt == UINT64_MAX || tlen == UINT64_MAX)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: the bufferView's buffer and byteLength must be integers >= 0",
+                        what.c_str());
+        const std::string mode = mo->contains("mode") && (*mo)["mode"].is_string() ? (*mo)["mode"].get<std::string>() : "";
+        const std::string filter =
+            mo->contains("filter") && (*mo)["filter"].is_string() ? (*mo)["filter"].get<std::string>() : "NONE";
+        /* the decoders' preconditions (meshoptimizer.h), checked here rather than asserted there */
+        if (mode == "ATTRIBUTES") {
+            if (stride == 0 || stride > 256 || stride % 4 != 0)
+                return fail(OBS_STATUS_PARSE_ERROR, "%s: ATTRIBUTES byteStride %llu is not a multiple of 4 in [4, 256]",
+                            what.c_str(), static_cast<unsigned long long>(stride));
+            if (!(filter == "NONE" || (filter == "OCTAHEDRAL" && (stride == 4 || stride == 8)) ||
+                  (filter == "QUATERNION" && stride == 8) || filter == "EXPONENTIAL"))
+                return fail(OBS_STATUS_PARSE_ERROR, "%s: filter %s with byteStride %llu is not valid", what.c_str(),
+                            one_line(filter, 40).c_str(), static_cast<unsigned long long>(stride));
+        } else if (mode == "TRIANGLES" || mode == "INDICES") {
+            if (stride != 2 && stride != 4)
+                return fail(OBS_STATUS_PARSE_ERROR, "%s: %s byteStride %llu is neither 2 nor 4", what.c_str(),
+                            mode.c_str(), static_cast<unsigned long long>(stride));
+            if (mode == "TRIANGLES" && count % 3 != 0)
+                return fail(OBS_STATUS_PARSE_ERROR, "%s: TRIANGLES count %llu is not a multiple of 3", what.c_str(),
+                            static_cast<unsigned long long>(count));
+            if (filter != "NONE")
+                return fail(OBS_STATUS_PARSE_ERROR, "%s: filter %s on %s data", what.c_str(),
+                            one_line(filter, 40).c_str(), mode.c_str());
+        } else {
+            return fail(OBS_STATUS_UNSUPPORTED, "%s: mode '%s' is not ATTRIBUTES, TRIANGLES or INDICES", what.c_str(),
+                        one_line(mode, 40).c_str());
+        }
+        /* sizes before allocation: the decoded view must fit the declared view, the view its buffer */
+        uint64_t size, tend;
+        if (!mul_u64(count, stride, &size) || size > tlen)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: count %llu * byteStride %llu > the bufferView's byteLength %llu",
+                        what.c_str(), static_cast<unsigned long long>(count), static_cast<unsigned long long>(stride),
+                        static_cast<unsigned long long>(tlen));
+        if (tgt >= nbuf)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: buffer %llu out of range (%zu buffers)", what.c_str(),
+                        static_cast<unsigned long long>(tgt), nbuf);
+        uint64_t tbuf_len;
+        if (!json_uint((*bufs)[static_cast<size_t>(tgt)], "byteLength", UINT64_MAX, &tbuf_len) ||
+            tbuf_len == UINT64_MAX || !add_u64(toff, tlen, &tend) || tend > tbuf_len)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: byteOffset %llu + byteLength %llu is not inside buffer %llu",
+                        what.c_str(), static_cast<unsigned long long>(toff), static_cast<unsigned long long>(tlen),
+                        static_cast<unsigned long long>(tgt));
+        if (src == tgt)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: buffer %llu is both the compressed source and the target",
+                        what.c_str(), static_cast<unsigned long long>(src));
+        const unsigned char *data = nullptr;
+        obs_status st = slice(src, off, len, what, &data);
+        if (st != OBS_STATUS_OK)
+            return st;
+        is_source[static_cast<size_t>(src < nbuf ? src : 0)] = true;
+        std::vector<unsigned char> &t = target[static_cast<size_t>(tgt)];
+        if (!is_target[static_cast<size_t>(tgt)]) {
+            if ((st = reserve(tbuf_len, "buffer " + std::to_string(tgt))) != OBS_STATUS_OK)
+                return st;
+            t.assign(static_cast<size_t>(tbuf_len), 0);
+            is_target[static_cast<size_t>(tgt)] = true;
+        }
+        unsigned char *dst = t.data() + toff;
+        int rc;
+        if (mode == "ATTRIBUTES")
+            rc = meshopt_decodeVertexBuffer(dst, static_cast<size_t>(count), static_cast<size_t>(stride), data,
+                                            static_cast<size_t>(len));
+        else if (mode == "TRIANGLES")
+            rc = meshopt_decodeIndexBuffer(dst, static_cast<size_t>(count), static_cast<size_t>(stride), data,
+                                           static_cast<size_t>(len));
+        else
+            rc = meshopt_decodeIndexSequence(dst, static_cast<size_t>(count), static_cast<size_t>(stride), data,
+                                             static_cast<size_t>(len));
+        if (rc != 0)
+            return fail(OBS_STATUS_PARSE_ERROR,
+                        "%s: the %s data does not decode (meshoptimizer %d.%d error %d: corrupt data or a codec "
+                        "version newer than this meshoptimizer)",
+                        what.c_str(), mode.c_str(), MESHOPTIMIZER_VERSION / 100, MESHOPTIMIZER_VERSION % 100, rc);
+        if (filter == "OCTAHEDRAL")
+            meshopt_decodeFilterOct(dst, static_cast<size_t>(count), static_cast<size_t>(stride));
+        else if (filter == "QUATERNION")
+            meshopt_decodeFilterQuat(dst, static_cast<size_t>(count), static_cast<size_t>(stride));
+        else if (filter == "EXPONENTIAL")
+            meshopt_decodeFilterExp(dst, static_cast<size_t>(count), static_cast<size_t>(stride));
+        exts->erase("EXT_meshopt_compression");
+        if (exts->empty())
+            bv.erase("extensions");
+    }
+    for (size_t b = 0; b < nbuf; b++) {
+        if (!is_target[b])
+            continue;
+        if (is_source[b])
+            return fail(OBS_STATUS_PARSE_ERROR, "buffer %zu is both a source and a target of EXT_meshopt_compression", b);
+        Json &buf = (*bufs)[b];
+        buf["uri"] = base64_data_uri(target[b]);
+        std::vector<unsigned char>().swap(target[b]);
+        auto exts = buf.find("extensions");
+        if (exts != buf.end() && exts->is_object()) {
+            exts->erase("EXT_meshopt_compression");
+            if (exts->empty())
+                buf.erase("extensions");
+        }
+    }
+    return OBS_STATUS_OK;
+}
+
+/* KHR_draco_mesh_compression (Khronos extension spec): the primitive's bufferView holds a Draco
+ * mesh; its attributes map glTF attribute names to Draco unique ids, and the primitive's
+ * accessors give the decoded types and counts. POSITION and NORMAL (FLOAT VEC3) and the indices
+ * are decoded; other attributes are not read by obscura and stay without a bufferView. */
+obs_status Preflight::draco_primitive(size_t mi, size_t pi, Json &prim, std::vector<unsigned char> &out,
+                                      std::vector<bool> &decoded)
+{
+    const std::string what =
+        "mesh " + std::to_string(mi) + " primitive " + std::to_string(pi) + " (KHR_draco_mesh_compression)";
+    Json &ext = prim["extensions"]["KHR_draco_mesh_compression"];
+    uint64_t bvi;
+    if (!ext.is_object() || !json_uint(ext, "bufferView", UINT64_MAX, &bvi) || bvi == UINT64_MAX ||
+        !ext.contains("attributes") || !ext["attributes"].is_object())
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: needs a bufferView and an attributes object", what.c_str());
+    Json &views = doc_["bufferViews"];
+    if (!views.is_array() || bvi >= views.size() || !views[static_cast<size_t>(bvi)].is_object())
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: bufferView %llu out of range", what.c_str(),
+                    static_cast<unsigned long long>(bvi));
+    const Json &bv = views[static_cast<size_t>(bvi)];
+    uint64_t buf, off, len;
+    if (!json_uint(bv, "buffer", UINT64_MAX, &buf) || !json_uint(bv, "byteOffset", 0, &off) ||
+        !json_uint(bv, "byteLength", UINT64_MAX, &len) || buf == UINT64_MAX || len == UINT64_MAX)
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: bufferView %llu needs buffer and byteLength", what.c_str(),
+                    static_cast<unsigned long long>(bvi));
+    Json &accs = doc_["accessors"];
+    if (!accs.is_array())
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: no accessors", what.c_str());
+    if (decoded.size() != accs.size())
+        decoded.assign(accs.size(), false);
+    if (!prim.contains("attributes") || !prim["attributes"].is_object())
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: no attributes", what.c_str());
+    /* the accessors the decoded data goes to, and their counts against the limits, first */
+    auto acc_at = [&](const Json &idx, const char *name, uint64_t *ai) -> obs_status {
+        if (!idx.is_number_unsigned() || idx.get<uint64_t>() >= accs.size() || !accs[idx.get<size_t>()].is_object())
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: %s accessor out of range", what.c_str(), name);
+        *ai = idx.get<uint64_t>();
+        if (decoded[static_cast<size_t>(*ai)])
+            return fail(OBS_STATUS_UNSUPPORTED, "%s: accessor %llu (%s) is shared with another Draco primitive",
+                        what.c_str(), static_cast<unsigned long long>(*ai), name);
+        return OBS_STATUS_OK;
+    };
+    if (!prim.contains("indices"))
+        return fail(OBS_STATUS_UNSUPPORTED, "%s: a Draco primitive without indices", what.c_str());
+    uint64_t idx_acc, idx_count, idx_ct;
+    obs_status st = acc_at(prim["indices"], "indices", &idx_acc);
+    if (st != OBS_STATUS_OK)
+        return st;
+    Json &ia = accs[static_cast<size_t>(idx_acc)];
+    if (!json_uint(ia, "count", UINT64_MAX, &idx_count) || idx_count == UINT64_MAX ||
+        !json_uint(ia, "componentType", 0, &idx_ct) ||
+        (idx_ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE && idx_ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT &&
+         idx_ct != TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT))
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: indices accessor %llu needs a count and an unsigned componentType",
+                    what.c_str(), static_cast<unsigned long long>(idx_acc));
+    if (idx_count / 3 > static_cast<uint64_t>(lim_.max_triangles))
+        return fail(OBS_STATUS_LIMIT_EXCEEDED, "%s: %llu triangles over the limit of %lld (raise it with --max-triangles)",
+                    what.c_str(), static_cast<unsigned long long>(idx_count / 3), static_cast<long long>(lim_.max_triangles));
+    const unsigned char *data = nullptr;
+    if ((st = slice(buf, off, len, what, &data)) != OBS_STATUS_OK)
+        return st;
+
+    /* decode */
+    draco::DecoderBuffer db;
+    db.Init(reinterpret_cast<const char *>(data), static_cast<size_t>(len));
+    auto type = draco::Decoder::GetEncodedGeometryType(&db);
+    if (!type.ok() || type.value() != draco::TRIANGULAR_MESH)
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: bufferView %llu is not a Draco triangle mesh%s%s", what.c_str(),
+                    static_cast<unsigned long long>(bvi), type.ok() ? "" : ": ",
+                    type.ok() ? "" : one_line(type.status().error_msg_string()).c_str());
+    draco::Decoder dec;
+    auto res = dec.DecodeMeshFromBuffer(&db);
+    if (!res.ok())
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: Draco cannot decode bufferView %llu: %s", what.c_str(),
+                    static_cast<unsigned long long>(bvi), one_line(res.status().error_msg_string()).c_str());
+    std::unique_ptr<draco::Mesh> mesh = std::move(res).value();
+    const uint64_t npts = mesh->num_points(), nfaces = mesh->num_faces();
+    if (nfaces * 3 != idx_count)
+        return fail(OBS_STATUS_PARSE_ERROR, "%s: Draco decoded %llu faces, the indices accessor %llu says %llu indices",
+                    what.c_str(), static_cast<unsigned long long>(nfaces), static_cast<unsigned long long>(idx_acc),
+                    static_cast<unsigned long long>(idx_count));
+    if (npts > static_cast<uint64_t>(lim_.max_vertices))
+        return fail(OBS_STATUS_LIMIT_EXCEEDED, "%s: %llu vertices over the limit of %lld (raise it with --max-vertices)",
+                    what.c_str(), static_cast<unsigned long long>(npts), static_cast<long long>(lim_.max_vertices));
+
+    auto add_view = [&](size_t from, uint64_t acc) {
+        Json v = Json::object();
+        v["buffer"] = doc_["buffers"].size(); /* the buffer appended at the end of draco() */
+        v["byteOffset"] = from;
+        v["byteLength"] = out.size() - from;
+        views.push_back(v);
+        Json &a = accs[static_cast<size_t>(acc)];
+        a["bufferView"] = views.size() - 1;
+        a["byteOffset"] = 0;
+        decoded[static_cast<size_t>(acc)] = true;
+        while (out.size() % 4)
+            out.push_back(0);
+    };
+    /* indices, in the accessor's component type */
+    const uint64_t isz = idx_ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ? 1 : idx_ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT ? 2 : 4;
+    const uint64_t imax = isz == 1 ? 0xFFull : isz == 2 ? 0xFFFFull : 0xFFFFFFFFull;
+    if ((st = reserve(idx_count * isz, what)) != OBS_STATUS_OK)
+        return st;
+    size_t from = out.size();
+    out.resize(from + static_cast<size_t>(idx_count * isz));
+    unsigned char *ip = out.data() + from;
+    for (draco::FaceIndex f(0); f < mesh->num_faces(); ++f) {
+        const draco::Mesh::Face &face = mesh->face(f);
+        for (int k = 0; k < 3; k++) {
+            uint64_t v = face[k].value();
+            if (v >= npts || v > imax)
+                return fail(OBS_STATUS_PARSE_ERROR, "%s: decoded index %llu does not fit (%llu points, %s indices)",
+                            what.c_str(), static_cast<unsigned long long>(v), static_cast<unsigned long long>(npts),
+                            component_name(static_cast<int>(idx_ct)));
+            if (isz == 1) {
+                *ip = static_cast<unsigned char>(v);
+            } else if (isz == 2) {
+                uint16_t s = static_cast<uint16_t>(v);
+                memcpy(ip, &s, 2);
+            } else {
+                uint32_t s = static_cast<uint32_t>(v);
+                memcpy(ip, &s, 4);
+            }
+            ip += isz;
+        }
+    }
+    add_view(from, idx_acc);
+    /* POSITION and NORMAL as FLOAT VEC3 */
+    for (const char *name : {"POSITION", "NORMAL"}) {
+        if (!ext["attributes"].contains(name) || !prim["attributes"].contains(name))
+            continue;
+        uint64_t acc, count, ct;
+        if ((st = acc_at(prim["attributes"][name], name, &acc)) != OBS_STATUS_OK)
+            return st;
+        Json &a = accs[static_cast<size_t>(acc)];
+        if (!json_uint(a, "count", UINT64_MAX, &count) || !json_uint(a, "componentType", 0, &ct) ||
+            !a.contains("type") || a["type"] != "VEC3")
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: %s accessor %llu needs a count, componentType and type VEC3",
+                        what.c_str(), name, static_cast<unsigned long long>(acc));
+        if (ct != TINYGLTF_COMPONENT_TYPE_FLOAT)
+            return fail(OBS_STATUS_UNSUPPORTED, "%s: %s accessor %llu is %s; Draco attributes are read as FLOAT only",
+                        what.c_str(), name, static_cast<unsigned long long>(acc), component_name(static_cast<int>(ct)));
+        if (count != npts)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: %s accessor %llu count %llu != %llu decoded points", what.c_str(),
+                        name, static_cast<unsigned long long>(acc), static_cast<unsigned long long>(count),
+                        static_cast<unsigned long long>(npts));
+        const Json &id = ext["attributes"][name];
+        if (!id.is_number_unsigned() || id.get<uint64_t>() > UINT32_MAX)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: %s: Draco attribute id is not an unsigned integer", what.c_str(), name);
+        const draco::PointAttribute *att = mesh->GetAttributeByUniqueId(id.get<uint32_t>());
+        if (!att || att->num_components() != 3)
+            return fail(OBS_STATUS_PARSE_ERROR, "%s: %s: the Draco mesh has no 3-component attribute with id %llu",
+                        what.c_str(), name, static_cast<unsigned long long>(id.get<uint64_t>()));
+        if ((st = reserve(npts * 12, what)) != OBS_STATUS_OK)
+            return st;
+        from = out.size();
+        out.resize(from + static_cast<size_t>(npts * 12));
+        float *fp = reinterpret_cast<float *>(out.data() + from); /* vector data: aligned for float */
+        for (draco::PointIndex p(0); p < mesh->num_points(); ++p) {
+            draco::AttributeValueIndex vi = att->mapped_index(p);
+            if (vi.value() >= att->size() || !att->ConvertValue<float>(vi, 3, fp + 3 * p.value()))
+                return fail(OBS_STATUS_PARSE_ERROR, "%s: %s value %u does not convert", what.c_str(), name, p.value());
+        }
+        add_view(from, acc);
+    }
+    prim["extensions"].erase("KHR_draco_mesh_compression");
+    if (prim["extensions"].empty())
+        prim.erase("extensions");
+    return OBS_STATUS_OK;
+}
+
+obs_status Preflight::draco()
+{
+    auto meshes = doc_.find("meshes");
+    if (meshes == doc_.end() || !meshes->is_array())
+        return OBS_STATUS_OK;
+    std::vector<unsigned char> out;
+    std::vector<bool> decoded;
+    bool any = false;
+    for (size_t mi = 0; mi < meshes->size(); mi++) {
+        Json &m = (*meshes)[mi];
+        if (!m.is_object() || !m.contains("primitives") || !m["primitives"].is_array())
+            continue;
+        for (size_t pi = 0; pi < m["primitives"].size(); pi++) {
+            Json &prim = m["primitives"][pi];
+            if (!prim.is_object() || !prim.contains("extensions") || !prim["extensions"].is_object() ||
+                !prim["extensions"].contains("KHR_draco_mesh_compression"))
+                continue;
+            if (!doc_.contains("buffers") || !doc_["buffers"].is_array())
+                return fail(OBS_STATUS_PARSE_ERROR, "Draco primitives but no buffers");
+            obs_status st = draco_primitive(mi, pi, prim, out, decoded);
+            if (st != OBS_STATUS_OK)
+                return st;
+            any = true;
+        }
+    }
+    if (any) {
+        Json b = Json::object();
+        b["byteLength"] = out.size() ? out.size() : 4;
+        if (out.empty())
+            out.assign(4, 0);
+        b["uri"] = base64_data_uri(out);
+        doc_["buffers"].push_back(b);
+    }
+    return OBS_STATUS_OK;
+}
+
+/* the rewritten document: the JSON text for a .gltf, or a GLB with the new JSON chunk and the
+ * original BIN chunk */
+obs_status Preflight::rebuild(uint32_t *glb_len)
+{
+    for (const char *key : {"extensionsRequired", "extensionsUsed"}) {
+        auto it = doc_.find(key);
+        if (it == doc_.end() || !it->is_array())
+            continue;
+        Json keep = Json::array();
+        for (const Json &e : *it)
+            if (!(e == "KHR_draco_mesh_compression" || e == "EXT_meshopt_compression"))
+                keep.push_back(e);
+        *it = keep;
+    }
+    std::string js = doc_.dump();
+    if (!binary_) {
+        if (js.size() > 0xFFFFFFFFull)
+            return fail(OBS_STATUS_LIMIT_EXCEEDED, "decoded document over 4 GiB");
+        bytes_.assign(js.begin(), js.end());
+        return OBS_STATUS_OK;
+    }
+    while (js.size() % 4)
+        js += ' ';
+    uint64_t total = 12 + 8 + js.size() + (bin_ ? 8 + bin_len_ : 0);
+    if (total > 0xFFFFFFFFull)
+        return fail(OBS_STATUS_LIMIT_EXCEEDED, "decoded GLB over 4 GiB");
+    std::vector<unsigned char> g;
+    g.reserve(static_cast<size_t>(total));
+    auto le32 = [&g](uint64_t v) {
+        for (int k = 0; k < 4; k++)
+            g.push_back(static_cast<unsigned char>(v >> (8 * k)));
+    };
+    g.insert(g.end(), {'g', 'l', 'T', 'F'});
+    le32(2);
+    le32(total);
+    le32(js.size());
+    le32(0x4E4F534Au);
+    g.insert(g.end(), js.begin(), js.end());
+    if (bin_) {
+        le32(bin_len_);
+        le32(0x004E4942u);
+        g.insert(g.end(), bin_, bin_ + bin_len_);
+    }
+    bytes_.swap(g);
+    *glb_len = static_cast<uint32_t>(total);
+    return OBS_STATUS_OK;
+}
+
+obs_status Preflight::run(uint32_t *glb_len)
+{
+    const unsigned char *js = bytes_.data();
+    size_t jn = bytes_.size();
+    if (binary_) { /* check_glb has proven the chunk layout */
+        jn = rd_le32(&bytes_[12]);
+        js = &bytes_[20];
+        uint64_t off = 20 + jn;
+        if (off + 8 <= *glb_len) {
+            bin_len_ = rd_le32(&bytes_[static_cast<size_t>(off)]);
+            bin_ = &bytes_[static_cast<size_t>(off) + 8];
+        }
+    }
+    doc_ = Json::parse(js, js + jn, nullptr, false);
+    if (doc_.is_discarded() || !doc_.is_object())
+        return OBS_STATUS_OK; /* malformed JSON: tinygltf reports it in its own words */
+    obs_status st;
+    if ((st = check_asset()) != OBS_STATUS_OK || (st = check_required()) != OBS_STATUS_OK)
+        return st;
+    bool compressed = false;
+    const std::string text(reinterpret_cast<const char *>(js), jn);
+    if (text.find("EXT_meshopt_compression") != std::string::npos) {
+        if ((st = meshopt()) != OBS_STATUS_OK)
+            return st;
+        compressed = true;
+    }
+    if (text.find("KHR_draco_mesh_compression") != std::string::npos) {
+        if ((st = draco()) != OBS_STATUS_OK)
+            return st;
+        compressed = true;
+    }
+    if (!compressed)
+        return OBS_STATUS_OK;
+    loaded_.clear();
+    return rebuild(glb_len);
+}
+
 /* ---- the loader ------------------------------------------------------------------------------ */
 
 struct AccessorView {
@@ -304,6 +1059,7 @@ struct AccessorView {
     uint64_t stride = 0;
     uint64_t count = 0;
     int component_type = 0;
+    bool normalized = false;
 };
 
 class Loader {
@@ -325,6 +1081,7 @@ private:
     obs_status read_file(std::vector<unsigned char> &bytes);
     obs_status check_glb(const std::vector<unsigned char> &bytes, uint32_t *length);
     obs_status parse(std::vector<unsigned char> &bytes);
+    obs_status preflight(std::vector<unsigned char> &bytes, bool binary, uint32_t *glb_len);
     obs_status check_extensions();
     obs_status accessor(int index, const std::string &what, int kind, AccessorView *v);
     obs_status load_meshes();
@@ -356,22 +1113,22 @@ private:
     tinygltf::Model model_;
     FsState fs_;
     uint64_t total_vertices_ = 0, total_triangles_ = 0;
+    bool quantization_ = false; /* KHR_mesh_quantization in extensionsUsed */
     std::vector<std::vector<uint32_t>> mesh_map_; /* glTF mesh -> obs mesh indices */
     std::vector<obs_instance> instances_;
     std::vector<obs_camera> cameras_;
     std::vector<obs_light> lights_;
 };
 
-enum { KIND_VEC3F = 0, KIND_INDEX = 1 };
+enum { KIND_POSITION = 0, KIND_NORMAL = 1, KIND_INDEX = 2 };
 
 obs_status Loader::fail(obs_status st, const char *fmt, ...)
 {
-    char msg[900];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(msg, sizeof msg, fmt, ap);
+    obs_status r = fail_v(ctx_, path_, st, fmt, ap);
     va_end(ap);
-    return obs_error(ctx_, st, "%s: %s", path_, msg);
+    return r;
 }
 
 obs_status Loader::read_file(std::vector<unsigned char> &bytes)
@@ -473,6 +1230,18 @@ obs_status Loader::check_glb(const std::vector<unsigned char> &b, uint32_t *leng
     return OBS_STATUS_OK;
 }
 
+obs_status Loader::preflight(std::vector<unsigned char> &bytes, bool binary, uint32_t *glb_len)
+{
+    try {
+        Preflight p(ctx_, path_, lim_, fs_, bytes, binary);
+        return p.run(glb_len);
+    } catch (const std::bad_alloc &) {
+        return fail(OBS_STATUS_OUT_OF_MEMORY, "out of memory while reading the glTF JSON or decoding compressed data");
+    } catch (const std::exception &e) {
+        return fail(OBS_STATUS_PARSE_ERROR, "malformed glTF JSON: %s", one_line(e.what()).c_str());
+    }
+}
+
 obs_status Loader::parse(std::vector<unsigned char> &bytes)
 {
     obs_status st = read_file(bytes);
@@ -505,10 +1274,15 @@ obs_status Loader::parse(std::vector<unsigned char> &bytes)
         st = check_glb(bytes, &len);
         if (st != OBS_STATUS_OK)
             return st;
+        if ((st = preflight(bytes, true, &len)) != OBS_STATUS_OK)
+            return st;
         ok = gltf.LoadBinaryFromMemory(&model_, &err, &warn, bytes.data(), len, fs_.base);
     } else {
         if (!json_depth_ok(bytes.data(), bytes.size(), kMaxJsonDepth))
             return fail(OBS_STATUS_PARSE_ERROR, "JSON nested deeper than %d levels", kMaxJsonDepth);
+        uint32_t unused = 0;
+        if ((st = preflight(bytes, false, &unused)) != OBS_STATUS_OK)
+            return st;
         ok = gltf.LoadASCIIFromString(&model_, &err, &warn, reinterpret_cast<const char *>(bytes.data()),
                                       static_cast<unsigned int>(bytes.size()), fs_.base);
     }
@@ -576,12 +1350,30 @@ obs_status Loader::accessor(int index, const std::string &what, int kind, Access
         return fail(OBS_STATUS_UNSUPPORTED, "accessor %d (%s): sparse accessors are not supported", index,
                     what.c_str());
     uint64_t elem;
-    if (kind == KIND_VEC3F) {
-        if (a.componentType != TINYGLTF_COMPONENT_TYPE_FLOAT || a.type != TINYGLTF_TYPE_VEC3 || a.normalized)
-            return fail(OBS_STATUS_PARSE_ERROR, "accessor %d (%s): wrong component type %s %s%s, expected FLOAT VEC3",
-                        index, what.c_str(), component_name(a.componentType), type_name(a.type),
-                        a.normalized ? " normalized" : "");
-        elem = 12;
+    if (kind == KIND_POSITION || kind == KIND_NORMAL) {
+        /* FLOAT VEC3; with KHR_mesh_quantization (its README, "Extending Mesh Attributes") also
+         * POSITION as (UNSIGNED_)BYTE or (UNSIGNED_)SHORT, normalized or not, and NORMAL as
+         * normalized BYTE or SHORT */
+        const int ct = a.componentType;
+        const bool small_int = ct == TINYGLTF_COMPONENT_TYPE_BYTE || ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE ||
+                               ct == TINYGLTF_COMPONENT_TYPE_SHORT || ct == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT;
+        const bool is_float = ct == TINYGLTF_COMPONENT_TYPE_FLOAT && !a.normalized;
+        const bool quantized = kind == KIND_POSITION ? small_int
+                                                     : a.normalized && (ct == TINYGLTF_COMPONENT_TYPE_BYTE ||
+                                                                        ct == TINYGLTF_COMPONENT_TYPE_SHORT);
+        if (a.type != TINYGLTF_TYPE_VEC3 || !(is_float || quantized))
+            return fail(OBS_STATUS_PARSE_ERROR,
+                        "accessor %d (%s): wrong component type %s %s%s, expected FLOAT VEC3%s", index, what.c_str(),
+                        component_name(ct), type_name(a.type), a.normalized ? " normalized" : "",
+                        kind == KIND_POSITION ? " (or, with KHR_mesh_quantization, BYTE, UNSIGNED_BYTE, SHORT or "
+                                                "UNSIGNED_SHORT VEC3, normalized or not)"
+                                              : " (or, with KHR_mesh_quantization, normalized BYTE or SHORT VEC3)");
+        if (quantized && !quantization_)
+            return fail(OBS_STATUS_PARSE_ERROR,
+                        "accessor %d (%s): wrong component type %s%s VEC3 without KHR_mesh_quantization (the file "
+                        "does not list it in extensionsUsed)",
+                        index, what.c_str(), a.normalized ? "normalized " : "", component_name(ct));
+        elem = 3 * static_cast<uint64_t>(tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(ct)));
     } else {
         if (a.type != TINYGLTF_TYPE_SCALAR || a.normalized ||
             (a.componentType != TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE &&
@@ -600,6 +1392,7 @@ obs_status Loader::accessor(int index, const std::string &what, int kind, Access
 
     v->count = count;
     v->component_type = a.componentType;
+    v->normalized = a.normalized;
     v->stride = elem;
     v->base = nullptr;
     if (a.bufferView == -1)
@@ -648,14 +1441,47 @@ const char *mode_name(int mode)
     }
 }
 
+/* One component of a quantized attribute as float. Normalized integers follow the glTF 2.0 spec,
+ * 3.11 "Animations" table of normalized types (also KHR_mesh_quantization's README):
+ * f = max(c / 127, -1), c / 255, max(c / 32767, -1), c / 65535; others are the integer value. */
+float dequantize(const unsigned char *p, int ct, bool normalized)
+{
+    switch (ct) {
+    case TINYGLTF_COMPONENT_TYPE_BYTE: {
+        int8_t c;
+        memcpy(&c, p, 1);
+        return normalized ? std::fmax(c / 127.0f, -1.0f) : static_cast<float>(c);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: return normalized ? p[0] / 255.0f : static_cast<float>(p[0]);
+    case TINYGLTF_COMPONENT_TYPE_SHORT: {
+        int16_t c;
+        memcpy(&c, p, 2);
+        return normalized ? std::fmax(c / 32767.0f, -1.0f) : static_cast<float>(c);
+    }
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: {
+        uint16_t c;
+        memcpy(&c, p, 2);
+        return normalized ? c / 65535.0f : static_cast<float>(c);
+    }
+    default: return 0.0f; /* not reached: accessor() admits only these and FLOAT */
+    }
+}
+
 void read_vec3f(const AccessorView &v, float *dst)
 {
     if (!v.base) {
         memset(dst, 0, static_cast<size_t>(v.count) * 12);
         return;
     }
+    if (v.component_type == TINYGLTF_COMPONENT_TYPE_FLOAT) {
+        for (uint64_t i = 0; i < v.count; i++)
+            memcpy(dst + 3 * i, v.base + i * v.stride, 12);
+        return;
+    }
+    const uint64_t cs = static_cast<uint64_t>(tinygltf::GetComponentSizeInBytes(static_cast<uint32_t>(v.component_type)));
     for (uint64_t i = 0; i < v.count; i++)
-        memcpy(dst + 3 * i, v.base + i * v.stride, 12);
+        for (uint64_t k = 0; k < 3; k++)
+            dst[3 * i + k] = dequantize(v.base + i * v.stride + k * cs, v.component_type, v.normalized);
 }
 
 obs_status Loader::load_primitive(int mi, int pi, const tinygltf::Primitive &prim)
@@ -680,13 +1506,13 @@ obs_status Loader::load_primitive(int mi, int pi, const tinygltf::Primitive &pri
                     model_.materials.size());
 
     AccessorView pos, nrm, idx;
-    obs_status st = accessor(pos_it->second, "POSITION of " + desc, KIND_VEC3F, &pos);
+    obs_status st = accessor(pos_it->second, "POSITION of " + desc, KIND_POSITION, &pos);
     if (st != OBS_STATUS_OK)
         return st;
     auto nrm_it = prim.attributes.find("NORMAL");
     bool has_normals = nrm_it != prim.attributes.end();
     if (has_normals) {
-        st = accessor(nrm_it->second, "NORMAL of " + desc, KIND_VEC3F, &nrm);
+        st = accessor(nrm_it->second, "NORMAL of " + desc, KIND_NORMAL, &nrm);
         if (st != OBS_STATUS_OK)
             return st;
         if (nrm.count != pos.count)
@@ -1191,12 +2017,9 @@ obs_status Loader::commit()
  * Extensions that only change textures or shading inputs obscura does not read are harmless. */
 obs_status Loader::check_extensions()
 {
-    static const char *const harmless_prefixes[] = {"KHR_materials_", "KHR_texture_", "EXT_texture_"};
+    /* Preflight has refused these already; this is the check on what tinygltf parsed */
     for (const std::string &e : model_.extensionsRequired) {
-        bool ok = e == "KHR_lights_punctual";
-        for (const char *pre : harmless_prefixes)
-            ok = ok || e.compare(0, strlen(pre), pre) == 0;
-        if (!ok)
+        if (!extension_supported(e))
             return fail(OBS_STATUS_UNSUPPORTED, "requires the extension %s, which obscura does not support", e.c_str());
     }
     if (!model_.skins.empty())
@@ -1223,6 +2046,8 @@ obs_status Loader::run()
         return st;
     if ((st = check_extensions()) != OBS_STATUS_OK)
         return st;
+    for (const std::string &e : model_.extensionsUsed)
+        quantization_ = quantization_ || e == "KHR_mesh_quantization";
     if ((st = check_node_graph()) != OBS_STATUS_OK)
         return st;
     if ((st = load_materials()) != OBS_STATUS_OK)
