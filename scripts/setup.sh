@@ -12,12 +12,12 @@ PKGS=(
   libdraco-dev libmeshoptimizer-dev  # KHR_draco_mesh_compression and EXT_meshopt_compression decoders (glTF)
   nlohmann-json3-dev       # JSON parser for the glTF check before tinygltf (the one tinygltf is built with)
   clang-14 libclang-rt-14-dev  # ASan/UBSan/libFuzzer (tests)
+  # Headless GL on Mesa's llvmpipe: the GLSL ports' match tests (tests/gl, must run in CI), the
+  # benchmark's GLSL side (bench/gl_bench.c) and the llvmpipe peer (../shared/tools/llvmpipe-peer)
+  libegl-dev libopengl-dev libgl-dev zlib1g-dev libegl-mesa0 libgl1-mesa-dri
 )
 if [ "${1:-}" = "--dev" ]; then
   PKGS+=(valgrind linux-perf hyperfine gnuplot-nox)
-  # the llvmpipe peer (../shared/tools/llvmpipe-peer) that test ao_sao_matches_llvmpipe_peer builds
-  # and runs; without them that test is skipped, so CI does not need them
-  PKGS+=(libegl-dev libopengl-dev libgl-dev zlib1g-dev libegl-mesa0 libgl1-mesa-dri)
 fi
 
 missing=()
