@@ -369,14 +369,15 @@ uint32_t ao_i_mt19937_next(ao_i_mt19937 *m)
 }
 
 /* GL_RGBA16_SNORM upload of gl_ssao initMisc: (signed short)(SCALE * v), SCALE = 1 << 15,
- * truncation toward zero. 32768 * 1.0 does not fit a short (C++ leaves it undefined); we clamp
- * to 32767 (not reached by the 16 texels of any direction count 1..32). */
-static int16_t snorm16_encode(float v)
+ * truncation toward zero (v a float, or the SDK's double jitter: the product is exact either way).
+ * 32768 * 1.0 does not fit a short (C++ leaves it undefined); we clamp to 32767 (not reached by the
+ * 16 texels of any direction count 1..32, nor by a jitter < 1). */
+static int16_t snorm16_encode(double v)
 {
-    float s = 32768.0f * v;
-    if (s >= 32767.0f)
+    const double s = 32768.0 * v;
+    if (s >= 32767.0)
         return 32767;
-    if (s <= -32768.0f)
+    if (s <= -32768.0)
         return -32768;
     return (int16_t)s;
 }
@@ -386,6 +387,17 @@ static float snorm16_decode(int16_t c)
 {
     float f = (float)((double)c / 32767.0);
     return f < -1.0f ? -1.0f : f;
+}
+
+/* Texel i of a random texture: the shorts to upload (may be NULL) and the decoded floats (may be NULL). */
+static void noise_store(int i, const int16_t q[4], int16_t *shorts, float (*texels)[4])
+{
+    for (int ch = 0; ch < 4; ch++) {
+        if (shorts)
+            shorts[4 * i + ch] = q[ch];
+        if (texels)
+            texels[i][ch] = snorm16_decode(q[ch]);
+    }
 }
 
 void ao_hbao_noise_texture(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4],
@@ -404,25 +416,8 @@ void ao_hbao_noise_texture(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE * AO_
         float c, s;
         ao_i_cos_sin(angle, &c, &s);
         const int16_t q[4] = {snorm16_encode(c), snorm16_encode(s), snorm16_encode(r2), 0};
-        for (int ch = 0; ch < 4; ch++) {
-            if (shorts)
-                shorts[4 * i + ch] = q[ch];
-            if (texels)
-                texels[i][ch] = snorm16_decode(q[ch]);
-        }
+        noise_store(i, q, shorts, texels);
     }
-}
-
-/* (signed short)(SCALE * v) of a double v (the SDK's jitter channel): truncation toward zero,
- * 32768 clamped to 32767 (not reached: v < 1). */
-static int16_t snorm16_encode_d(double v)
-{
-    const double s = 32768.0 * v;
-    if (s >= 32767.0)
-        return 32767;
-    if (s <= -32768.0)
-        return -32768;
-    return (int16_t)s;
 }
 
 /* (signed short)(SCALE * v) of a float v in [-1, 1] as the SDK's compiler (MSVC, x86/x64) converts
@@ -458,13 +453,8 @@ void ao_hbao_noise_texture_sdk(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE_S
         ao_i_cos_sin(angle, &c, &s);
         /* f[i+2] = (signed short)(SCALE*rng.randExc()): int * double, exact, truncated */
         const double r2 = (double)ao_i_mt19937_next(&m) * (1.0 / 4294967296.0);
-        const int16_t q[4] = {snorm16_encode_msvc(c), snorm16_encode_msvc(s), snorm16_encode_d(r2), 0};
-        for (int ch = 0; ch < 4; ch++) {
-            if (shorts)
-                shorts[4 * i + ch] = q[ch];
-            if (texels)
-                texels[i][ch] = snorm16_decode(q[ch]);
-        }
+        const int16_t q[4] = {snorm16_encode_msvc(c), snorm16_encode_msvc(s), snorm16_encode(r2), 0};
+        noise_store(i, q, shorts, texels);
     }
 }
 
