@@ -92,6 +92,32 @@ TEST(hbao_classic_plus_and_blur_match_their_glsl_ports_on_llvmpipe)
             CHECK_MSG(df.median <= 1e-6 && df.p99 <= 1e-5, "%s: median %g / p99 %g too large", name, df.median, df.p99);
             CHECK_MSG(df.over <= df.n / 1000, "%s: %d pixels differ by more than 1e-3", name, df.over);
         }
+        /* the benchmark's view (glsl_port_hbao_classic / _plus at their presets' defaults): the kernel
+         * passes against ours_kernel, then ours_blur on llvmpipe's kernel output against the blur passes */
+        const glsl_port *ports[2] = {&glsl_port_hbao_classic, &glsl_port_hbao_plus};
+        for (int pi = 0; pi < 2 && si == 0; pi++) {
+            glh_run r;
+            CHECK_MSG(ports[pi]->build(&g, ctx, &in, &r), "%s: the port does not build", ports[pi]->variant);
+            CHECK(r.nkernel == 1 && r.npass == 3);
+            glh_run_draw(&g, &r, 0, r.npass);
+            glh_run k = r;
+            k.out_fbo = r.pass[r.nkernel - 1].fbo;
+            obs_image_f32 kgl = {0}, bgl = {0}, kours = {0}, bours = {0};
+            CHECK_OK(glh_run_read(&g, &k, ctx, &kgl), ctx);
+            CHECK_OK(glh_run_read(&g, &r, ctx, &bgl), ctx);
+            CHECK_OK(ports[pi]->ours_kernel(ctx, NULL, &in, &kours), ctx);
+            CHECK_OK(ports[pi]->ours_blur(ctx, NULL, &in, &kgl, &bours), ctx);
+            glh_diff dk = glh_compare(&kours, &kgl, &gb.depth, 1e-3f), db = glh_compare(&bours, &bgl, NULL, 1e-3f);
+            printf("  port %s: kernel median %.3g p99 %.3g max %.3g (> 1e-3: %d); blur alone max %.3g\n",
+                   ports[pi]->variant, dk.median, dk.p99, dk.max, dk.over, db.max);
+            CHECK_MSG(dk.median <= 1e-6 && dk.p99 <= 1e-5 && dk.over <= dk.n / 1000, "%s kernel", ports[pi]->variant);
+            CHECK_MSG(db.max <= 1e-5, "%s blur alone: max %g", ports[pi]->variant, db.max);
+            obs_image_f32_free(&kgl);
+            obs_image_f32_free(&bgl);
+            obs_image_f32_free(&kours);
+            obs_image_f32_free(&bours);
+            glh_run_free(&g, &r);
+        }
         obs_image_f32_free(&d);
         rast_gbuffer_free(&gb);
     }
