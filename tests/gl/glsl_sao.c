@@ -11,7 +11,11 @@
  *            texture (previousMIPNumber a uniform).
  *   AO       SAO_AO.pix with falloff B ("Recommended"), NUM_SAMPLES / NUM_SPIRAL_TURNS /
  *            LOG_MAX_OFFSET / MAX_MIP_LEVEL compile-time as there (so 1.0 / NUM_SAMPLES and
- *            NUM_SPIRAL_TURNS * 6.28 fold in float, as in ours). Ours where sao.md says so:
+ *            NUM_SPIRAL_TURNS * 6.28 fold in float, as in ours); alpha and angle in tapLocation
+ *            are `precise`, i.e. evaluated in the order SAO_AO.pix writes them (GLSL otherwise lets
+ *            the compiler reassociate: Mesa folds (1.0 / NUM_SAMPLES) * (NUM_SPIRAL_TURNS * 6.28)
+ *            into one constant, which moves a tap angle by an ulp and, where ssR * cos lands within
+ *            1e-3 of an integer, the tap by a texel: sao.md "GLSL port"). Ours where sao.md says so:
  *            the normal is normalize(cross(dFdxFine(C), dFdyFine(C))) (difference 1), the MIP clamp
  *            uses max(textureSize(CSZ, 0) >> mip, 1) - 1 (difference 3: llvmpipe's textureSize with a
  *            per-lane lod is wrong), z == 0 is background with A = 1 (decided after the derivatives,
@@ -72,8 +76,8 @@ static const char *const fs_ao =
 "  return P;\n"
 "}\n"
 "vec2 tapLocation(int sampleNumber, float spinAngle, out float ssR) {\n"
-"  float alpha = float(sampleNumber + 0.5) * (1.0 / NUM_SAMPLES);\n"
-"  float angle = alpha * (NUM_SPIRAL_TURNS * 6.28) + spinAngle;\n"
+"  precise float alpha = float(sampleNumber + 0.5) * (1.0 / NUM_SAMPLES);\n"
+"  precise float angle = alpha * (NUM_SPIRAL_TURNS * 6.28) + spinAngle;\n"
 "  ssR = alpha;\n"
 "  return vec2(cos(angle), sin(angle));\n"
 "}\n"
