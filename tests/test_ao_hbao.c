@@ -61,9 +61,27 @@ TEST(hbao_flat_open_plane_is_fully_visible)
 
 /* ---- the random texture and the pattern --------------------------------------------------------- */
 
+TEST(mt19937_matches_its_published_reference_outputs)
+{
+    ao_i_mt19937 m;
+    /* ISO C++ [rand.predef]: the 10000th output of a default-constructed std::mt19937 (seed 5489)
+     * is 4123659995; its first is 3499211612 */
+    ao_i_mt19937_seed(&m, 5489u);
+    uint32_t v = ao_i_mt19937_next(&m), last = v;
+    CHECK(v == 3499211612u);
+    for (int i = 1; i < 10000; i++)
+        last = ao_i_mt19937_next(&m);
+    CHECK_MSG(last == 4123659995u, "10000th output %u", (unsigned)last);
+    /* init_genrand(0) (MTRand::seed(0), std::mt19937(0)): 2357136044, 2546248239, 3071714933 */
+    ao_i_mt19937_seed(&m, 0u);
+    CHECK(ao_i_mt19937_next(&m) == 2357136044u);
+    CHECK(ao_i_mt19937_next(&m) == 2546248239u);
+    CHECK(ao_i_mt19937_next(&m) == 3071714933u);
+}
+
 TEST(hbao_noise_texture_is_mt19937_seed_0_in_snorm16)
 {
-    /* MT19937 init_genrand(0): the first outputs are 2357136044, 2546248239 (std::mt19937(0)) */
+    /* gl_ssao's 4 x 4: r = float(genrand * 2^-32); MT19937 init_genrand(0) starts 2357136044, 2546248239 */
     const double r1 = (double)(float)(2357136044.0 / 4294967296.0);
     const double r2 = (double)(float)(2546248239.0 / 4294967296.0);
     int16_t sh[64];
@@ -85,6 +103,48 @@ TEST(hbao_noise_texture_is_mt19937_seed_0_in_snorm16)
             CHECK_MSG(ang >= -1e-4 && ang < 2.0 * OBS_PI / nd + 1e-4, "N_d %d texel %d angle %g", nd, i, ang);
             CHECK_NEAR(t[i][0] * t[i][0] + t[i][1] * t[i][1], 1.0, 2e-4);
             CHECK(t[i][2] >= 0.0f && t[i][2] <= 1.0f && t[i][3] == 0.0f);
+        }
+    }
+}
+
+TEST(hbao_sdk_noise_texture_is_update_dirs_mt19937_seed_0)
+{
+    enum { N = AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK };
+    static int16_t sh[N * 4];
+    static float t[N][4];
+    /* HorizonBasedAOEngine.cpp UpdateDirs with m_NumDirs 16: per texel, angle = float(2pi_f * randExc / 16)
+     * in double, (short)(32768 cosf / sinf), (short)(32768 randExc) = genrand >> 17 */
+    ao_hbao_noise_texture_sdk(16, sh, t);
+    ao_i_mt19937 m;
+    ao_i_mt19937_seed(&m, 0u);
+    int bad = 0, wrapped = 0;
+    for (int i = 0; i < N; i++) {
+        const uint32_t g1 = ao_i_mt19937_next(&m), g2 = ao_i_mt19937_next(&m);
+        const float ang = (float)((double)(2.0f * 3.141592654f) * ((double)g1 / 4294967296.0) / 16.0);
+        int c = (int)(32768.0f * (float)cos((double)ang));
+        const int s = (int)(32768.0f * (float)sin((double)ang));
+        /* cosf = 1.0 gives 32768, which a short cannot hold: MSVC keeps the low 16 bits, -32768 */
+        wrapped += c == 32768;
+        c = c == 32768 ? -32768 : c;
+        bad += sh[4 * i] != c || sh[4 * i + 1] != s || sh[4 * i + 2] != (int)(g2 >> 17) || sh[4 * i + 3] != 0;
+        bad += t[i][2] != (float)((double)(g2 >> 17) / 32767.0);
+        bad += sh[4 * i] == -32768 && t[i][0] != -1.0f;
+    }
+    CHECK_EQ_INT(bad, 0);
+    printf("  N_d 16: %d of 4096 texels have cosf(angle) = 1 (stored -32768)\n", wrapped);
+    /* texel 0 by hand: genrand 2357136044, 2546248239 */
+    CHECK_EQ_INT(sh[2], (int)(2546248239u >> 17));
+    /* every N_d: unit rotations within [0, 2 pi / N_d), jitter in [0, 1) */
+    for (int nd = 1; nd <= 32; nd *= 2) {
+        ao_hbao_noise_texture_sdk(nd, sh, t);
+        for (int i = 0; i < N; i++) {
+            CHECK_NEAR(t[i][0] * t[i][0] + t[i][1] * t[i][1], 1.0, 2e-4);
+            CHECK(t[i][2] >= 0.0f && t[i][2] < 1.0f && t[i][3] == 0.0f);
+            if (sh[4 * i] == -32768 || sh[4 * i + 1] == -32768) /* wrapped (cosf or sinf = 1): not a rotation in range */
+                continue;
+            double ang = atan2(t[i][1], t[i][0]);
+            ang = ang < -1e-4 ? ang + 2.0 * OBS_PI : ang;
+            CHECK_MSG(ang >= -1e-4 && ang < 2.0 * OBS_PI / nd + 1e-4, "N_d %d texel %d angle %g", nd, i, ang);
         }
     }
 }
@@ -111,11 +171,23 @@ TEST(hbao_pattern_constants_and_noise_index_match_the_shaders)
     const float u = 3.5f / 40.0f, v = 5.5f / 30.0f;
     CHECK_NEAR((u * k.uv_to_view[0] + k.uv_to_view[2]) * 3.0f, (3.5 - 20.0) / 25.0 * 3.0, 1e-6);
     CHECK_NEAR((v * k.uv_to_view[1] + k.uv_to_view[3]) * 3.0f, -(5.5 - 15.0) / 25.0 * 3.0, 1e-6);
-    /* noise index: CLASSIC D3D rows (y & 3), PLUS GL rows ((H - 1 - y) & 3) */
-    CHECK_EQ_INT(ao_hbao_noise_index(&k, 3, 5), 1 * 4 + 3);
+    /* noise index: CLASSIC D3D rows, the SDK's 64 x 64 ((y & 63) * 64 + (x & 63)); with gl_ssao's
+     * 4 x 4 (y & 3); PLUS GL rows ((H - 1 - y) & 3) */
+    CHECK_EQ_INT(k.noise, AO_HBAO_NOISE_SDK);
+    CHECK_EQ_INT(k.noise_size, 64);
+    CHECK_EQ_INT(ao_hbao_noise_index(&k, 3, 5), 5 * 64 + 3);
+    CHECK_EQ_INT(ao_hbao_noise_index(&k, 70, 129), 1 * 64 + 6);
+    {
+        ao_hbao_params q4 = p;
+        q4.noise = AO_HBAO_NOISE_GL_SSAO;
+        const ao_hbao_constants k4 = ao_hbao_constants_from_params(&q4, &s.in);
+        CHECK_EQ_INT(k4.noise_size, 4);
+        CHECK_EQ_INT(ao_hbao_noise_index(&k4, 3, 5), 1 * 4 + 3);
+    }
     ao_hbao_params q;
     CHECK(ao_hbao_params_preset("plus", &q));
     ao_hbao_constants kp = ao_hbao_constants_from_params(&q, &s.in);
+    CHECK_EQ_INT(kp.noise, AO_HBAO_NOISE_GL_SSAO);
     CHECK_EQ_INT(ao_hbao_noise_index(&kp, 3, 5), ((30 - 1 - 5) & 3) * 4 + 3);
     CHECK_EQ_INT(kp.num_dirs, 8);
     CHECK_EQ_INT(kp.num_steps, 4);
@@ -139,7 +211,9 @@ TEST(hbao_pattern_constants_and_noise_index_match_the_shaders)
     int n = m->constants_to_json(&p, &s.in, buf, sizeof buf);
     CHECK(n > 0 && n < (int)sizeof buf);
     CHECK(m->constants_to_json(&p, &s.in, NULL, 0) == n);
-    CHECK(strstr(buf, "\"g_Contrast\"") && strstr(buf, "\"g_Dirs\"") && strstr(buf, "random_texture_rgba16_snorm"));
+    CHECK(strstr(buf, "\"g_Contrast\"") && strstr(buf, "\"g_Dirs\"") && strstr(buf, "\"random_texture\": \"dx10-sdk\""));
+    CHECK(m->constants_to_json(&q, &s.in, buf, sizeof buf) < (int)sizeof buf);
+    CHECK(strstr(buf, "random_texture_rgba16_snorm"));
     obs_image_f32_free(&s.depth);
     obs_context_destroy(ctx);
 }
@@ -195,12 +269,12 @@ TEST(hbao_step_occludes_by_the_horizon_formula)
         q.attenuation = 1.0f;
         obs_image_f32 o1, r1;
         CHECK_OK(hb_run(ctx, NULL, &in, &q, &o1, &r1, NULL), ctx);
-        float tex[16][4];
-        ao_hbao_noise_texture(1, NULL, tex);
+        static float tex[64 * 64][4]; /* the classic default: the SDK's 64 x 64 texture, D3D rows */
+        ao_hbao_noise_texture_sdk(1, NULL, tex);
         int checked = 0;
         for (int y0 = 3; y0 < 13; y0++)
             for (int x0 = 18; x0 < 32; x0++) {
-                const float *rd = tex[(y0 & 3) * 4 + (x0 & 3)];
+                const float *rd = tex[(y0 & 63) * 64 + (x0 & 63)];
                 const double dx = 10.0 * rd[0], dy = 10.0 * rd[1];
                 const int ox = (int)nearbyint(rd[2] * dx) + (int)nearbyint(dx);
                 const int oy = (int)nearbyint(rd[2] * dy) + (int)nearbyint(dy);
@@ -503,462 +577,7 @@ TEST(hbao_window_with_guard_band_equals_full_buffer_cropped)
     obs_context_destroy(ctx);
 }
 
-/* ---- against Mesa llvmpipe -------------------------------------------------------------------
- * The two reference shaders, re-typed in GLSL 4.50 (gl_ssao hbao.frag.glsl with AO_DEINTERLEAVED 0
- * as is, uniforms instead of its UBO; HorizonBasedAOEngine.fx HORIZON_BASED_AO_PS(false, 1) and
- * AccumulatedHorizonOcclusion translated from HLSL: D3D texUV = (x, 1 - y_gl) interpolated, the
- * depth uploaded in D3D row order, round -> roundEven, Load(pos & 63) -> texelFetch((x, H - y_gl) & 3),
- * with hbao.md's difference 1), run on llvmpipe through EGL loaded with dlopen (no link-time
- * dependency) with our constants and random texture, compared with ao_hbao_compute. Background is
- * given a finite far depth (500 m) on both sides so that no +inf arithmetic is involved. Where EGL,
- * GL 4.5 or llvmpipe is unavailable the test prints why and passes. */
-#if defined(__has_include)
-#if __has_include(<EGL/egl.h>) && __has_include(<GL/glcorearb.h>) && __has_include(<dlfcn.h>)
-#define HBAO_HAVE_GL_HEADERS 1
-#endif
-#endif
-
-/* Under AddressSanitizer the in-process Mesa (uninstrumented, with its LLVM JIT) may keep
- * allocations past eglTerminate that LeakSanitizer would report against this test: skip there. */
-#if defined(__SANITIZE_ADDRESS__)
-#define HBAO_UNDER_ASAN 1
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-#define HBAO_UNDER_ASAN 1
-#endif
-#endif
-
-#ifdef HBAO_HAVE_GL_HEADERS
-#include <EGL/egl.h>
-#include <EGL/eglext.h>
-#include <GL/glcorearb.h>
-#include <dlfcn.h>
-
-static const char *const gl_vs =
-"#version 450\n"
-"out vec2 texCoord; out vec2 texUV;\n"
-"void main(){ vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2); gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);\n"
-"  texCoord = p; texUV = vec2(p.x, 1.0 - p.y); }\n";
-
-static const char *const gl_fs_plus =
-"#version 450\n"
-"#define M_PI 3.14159265f\n"
-"uniform float RadiusToScreen; uniform float NegInvR2; uniform float NDotVBias; uniform float AOMultiplier;\n"
-"uniform float PowExponent; uniform vec2 InvFullResolution; uniform vec4 projInfo; uniform int projOrtho;\n"
-"layout(binding=0) uniform sampler2D texLinearDepth; layout(binding=1) uniform sampler2D texRandom;\n"
-"in vec2 texCoord; layout(location=0) out vec4 out_Color;\n"
-"const float NUM_STEPS = NSTEPS; const float NUM_DIRECTIONS = NDIRS;\n"
-"vec3 UVToView(vec2 uv, float eye_z){ return vec3((uv * projInfo.xy + projInfo.zw) * (projOrtho != 0 ? 1. : eye_z), eye_z); }\n"
-"vec3 FetchViewPos(vec2 UV){ float ViewDepth = textureLod(texLinearDepth,UV,0).x; return UVToView(UV, ViewDepth); }\n"
-"vec3 MinDiff(vec3 P, vec3 Pr, vec3 Pl){ vec3 V1 = Pr - P; vec3 V2 = P - Pl; return (dot(V1,V1) < dot(V2,V2)) ? V1 : V2; }\n"
-"vec3 ReconstructNormal(vec2 UV, vec3 P){\n"
-"  vec3 Pr = FetchViewPos(UV + vec2(InvFullResolution.x, 0)); vec3 Pl = FetchViewPos(UV + vec2(-InvFullResolution.x, 0));\n"
-"  vec3 Pt = FetchViewPos(UV + vec2(0, InvFullResolution.y)); vec3 Pb = FetchViewPos(UV + vec2(0, -InvFullResolution.y));\n"
-"  return normalize(cross(MinDiff(P, Pr, Pl), MinDiff(P, Pt, Pb))); }\n"
-"float Falloff(float DistanceSquare){ return DistanceSquare * NegInvR2 + 1.0; }\n"
-"float ComputeAO(vec3 P, vec3 N, vec3 S){ vec3 V = S - P; float VdotV = dot(V, V); float NdotV = dot(N, V) * 1.0/sqrt(VdotV);\n"
-"  return clamp(NdotV - NDotVBias,0,1) * clamp(Falloff(VdotV),0,1); }\n"
-"vec2 RotateDirection(vec2 Dir, vec2 CosSin){ return vec2(Dir.x*CosSin.x - Dir.y*CosSin.y, Dir.x*CosSin.y + Dir.y*CosSin.x); }\n"
-"vec4 GetJitter(){ return textureLod(texRandom, (gl_FragCoord.xy / 4.0), 0); }\n"
-"float ComputeCoarseAO(vec2 FullResUV, float RadiusPixels, vec4 Rand, vec3 ViewPosition, vec3 ViewNormal){\n"
-"  float StepSizePixels = RadiusPixels / (NUM_STEPS + 1); const float Alpha = 2.0 * M_PI / NUM_DIRECTIONS; float AO = 0;\n"
-"  for (float DirectionIndex = 0; DirectionIndex < NUM_DIRECTIONS; ++DirectionIndex) {\n"
-"    float Angle = Alpha * DirectionIndex; vec2 Direction = RotateDirection(vec2(cos(Angle), sin(Angle)), Rand.xy);\n"
-"    float RayPixels = (Rand.z * StepSizePixels + 1.0);\n"
-"    for (float StepIndex = 0; StepIndex < NUM_STEPS; ++StepIndex) {\n"
-"      vec2 SnappedUV = round(RayPixels * Direction) * InvFullResolution + FullResUV; vec3 S = FetchViewPos(SnappedUV);\n"
-"      RayPixels += StepSizePixels; AO += ComputeAO(ViewPosition, ViewNormal, S); } }\n"
-"  AO *= AOMultiplier / (NUM_DIRECTIONS * NUM_STEPS); return clamp(1.0 - AO * 2.0,0,1); }\n"
-"void main(){ vec2 uv = texCoord; vec3 ViewPosition = FetchViewPos(uv); vec3 ViewNormal = -ReconstructNormal(uv, ViewPosition);\n"
-"  float RadiusPixels = RadiusToScreen / (projOrtho != 0 ? 1.0 : ViewPosition.z); vec4 Rand = GetJitter();\n"
-"  float AO = ComputeCoarseAO(uv, RadiusPixels, Rand, ViewPosition, ViewNormal); out_Color = vec4(pow(AO, PowExponent)); }\n";
-
-static const char *const gl_fs_classic =
-"#version 450\n"
-"#define M_PI 3.14159265f\n"
-"uniform vec2 g_Dirs[32]; uniform float g_NumSteps; uniform float g_NumDir; uniform float g_R; uniform float g_inv_R;\n"
-"uniform float g_sqr_R; uniform float g_AngleBias; uniform float g_Attenuation; uniform float g_Contrast;\n"
-"uniform vec2 g_FocalLen; uniform vec2 g_InvResolution; uniform vec2 g_Resolution; uniform vec4 uvToView; uniform float g_H;\n"
-"layout(binding=0) uniform sampler2D tLinDepth; layout(binding=1) uniform sampler2D tRandom;\n"
-"in vec2 texUV; layout(location=0) out vec4 out_Color;\n"
-"float tangentPS(vec3 P, vec3 S){ return (P.z - S.z) / length(S.xy - P.xy); }\n"
-"vec3 uv_to_eye(vec2 uv, float eye_z){ return vec3((uv * uvToView.xy + uvToView.zw) * eye_z, eye_z); }\n"
-"vec3 fetch_eye_pos(vec2 uv){ float z = textureLod(tLinDepth, uv, 0).x; return uv_to_eye(uv, z); }\n"
-"float length2(vec3 v){ return dot(v, v); }\n"
-"vec3 min_diff(vec3 P, vec3 Pr, vec3 Pl){ vec3 V1 = Pr - P; vec3 V2 = P - Pl; return (length2(V1) < length2(V2)) ? V1 : V2; }\n"
-"float falloff(float r){ return 1.0f - g_Attenuation*r*r; }\n"
-"vec2 snap_uv_offset(vec2 uv){ return roundEven(uv * g_Resolution) * g_InvResolution; }\n"
-"float tangentT(vec3 T){ return -T.z / length(T.xy); }\n"
-"float AccumulatedHorizonOcclusion(vec2 deltaUV, vec2 uv0, vec3 P, float numSteps, float randstep, vec3 dPdu, vec3 dPdv){\n"
-"  vec2 uv = uv0 + snap_uv_offset( randstep * deltaUV ); deltaUV = snap_uv_offset( deltaUV );\n"
-"  vec3 T = deltaUV.x * dPdu + deltaUV.y * dPdv;\n"
-"  float phi = atan(tangentT(T)) + g_AngleBias; if (!(phi < M_PI*0.5)) return 0.0; /* hbao.md difference 1 */\n"
-"  float tanH = tan(phi); float sinH = tanH / sqrt(1.0f + tanH*tanH); float ao = 0;\n"
-"  for(float j = 1; j <= numSteps; ++j) { uv += deltaUV; vec3 S = fetch_eye_pos(uv); float d2 = length2(S - P);\n"
-"    if (d2 < g_sqr_R) { float tanS = tangentPS(P, S);\n"
-"      if(tanS > tanH) { float sinS = tanS / sqrt(1.0f + tanS*tanS); float r = sqrt(d2) * g_inv_R;\n"
-"        ao += falloff(r) * (sinS - sinH); tanH = tanS; sinH = sinS; } } }\n"
-"  return ao; }\n"
-"void main(){ vec3 P = fetch_eye_pos(texUV);\n"
-"  vec2 step_size = 0.5 * g_R * g_FocalLen / P.z;\n"
-"  float numSteps = min ( g_NumSteps, min(step_size.x * g_Resolution.x, step_size.y * g_Resolution.y));\n"
-"  if( numSteps < 1.0 ) { out_Color = vec4(1.0); return; }\n"
-"  step_size = step_size / ( numSteps + 1 );\n"
-"  vec3 Pr = fetch_eye_pos(texUV + vec2(g_InvResolution.x, 0)); vec3 Pl = fetch_eye_pos(texUV + vec2(-g_InvResolution.x, 0));\n"
-"  vec3 Pt = fetch_eye_pos(texUV + vec2(0, g_InvResolution.y)); vec3 Pb = fetch_eye_pos(texUV + vec2(0, -g_InvResolution.y));\n"
-"  vec3 dPdu = min_diff(P, Pr, Pl); vec3 dPdv = min_diff(P, Pt, Pb) * (g_Resolution.y * g_InvResolution.x);\n"
-"  ivec2 pos = ivec2(int(gl_FragCoord.x), int(g_H - gl_FragCoord.y));\n"
-"  vec3 rand_Dir = texelFetch(tRandom, ivec2(pos.x & 3, pos.y & 3), 0).xyz; float ao = 0;\n"
-"  for (float d = 0; d < g_NumDir; ++d) { vec2 deltaUV = vec2(g_Dirs[int(d)].x*rand_Dir.x - g_Dirs[int(d)].y*rand_Dir.y,\n"
-"      g_Dirs[int(d)].x*rand_Dir.y + g_Dirs[int(d)].y*rand_Dir.x) * step_size.xy;\n"
-"    ao += AccumulatedHorizonOcclusion(deltaUV, texUV, P, numSteps, rand_Dir.z, dPdu, dPdv); }\n"
-"  out_Color = vec4(clamp(1.0 - ao / g_NumDir * g_Contrast, 0.0, 1.0)); }\n";
-
-/* The blur: gl_ssao bilateralblur.frag.glsl, with HBAO+'s ProcessRadius1 depth slope under SLOPE 1
- * (Blur_Common.hlsl, the non-adaptive path it uses for KERNEL_RADIUS 2) */
-static const char *const gl_fs_blur =
-"#version 450\n"
-"uniform float g_Sharpness; uniform vec2 g_InvResolutionDirection; uniform float BlurFalloff;\n"
-"layout(binding=0) uniform sampler2D texSource; layout(binding=1) uniform sampler2D texLinearDepth;\n"
-"in vec2 texCoord; layout(location=0) out vec4 out_Color;\n"
-"float BlurW(float r, float d, float slope, float center_d) { d -= slope * r; float ddiff = (d - center_d) * g_Sharpness;\n"
-"  return exp2(-r*r*BlurFalloff - ddiff*ddiff); }\n"
-"void main(){ float center_c = texture(texSource, texCoord).x; float center_d = texture(texLinearDepth, texCoord).x;\n"
-"  float c_total = center_c; float w_total = 1.0;\n"
-"  for (int side = 0; side < 2; side++) { vec2 dir = side == 0 ? g_InvResolutionDirection : -g_InvResolutionDirection;\n"
-"    float slope = SLOPE != 0 ? texture(texLinearDepth, texCoord + dir).x - center_d : 0.0;\n"
-"    for (float r = 1; r <= KERNEL_RADIUS; ++r) { vec2 uv = texCoord + dir * r; float c = texture(texSource, uv).x;\n"
-"      float d = texture(texLinearDepth, uv).x; float w = BlurW(r, d, slope, center_d); w_total += w; c_total += c*w; } }\n"
-"  out_Color = vec4(c_total/w_total); }\n";
-
-#define HB_GL_FUNCS(X)                                                                                   \
-    X(PFNGLGETSTRINGPROC, glGetString) X(PFNGLCREATESHADERPROC, glCreateShader)                          \
-    X(PFNGLSHADERSOURCEPROC, glShaderSource) X(PFNGLCOMPILESHADERPROC, glCompileShader)                  \
-    X(PFNGLGETSHADERIVPROC, glGetShaderiv) X(PFNGLGETSHADERINFOLOGPROC, glGetShaderInfoLog)              \
-    X(PFNGLCREATEPROGRAMPROC, glCreateProgram) X(PFNGLATTACHSHADERPROC, glAttachShader)                  \
-    X(PFNGLLINKPROGRAMPROC, glLinkProgram) X(PFNGLGETPROGRAMIVPROC, glGetProgramiv)                      \
-    X(PFNGLUSEPROGRAMPROC, glUseProgram) X(PFNGLGETUNIFORMLOCATIONPROC, glGetUniformLocation)            \
-    X(PFNGLUNIFORM1FPROC, glUniform1f) X(PFNGLUNIFORM2FVPROC, glUniform2fv) X(PFNGLUNIFORM4FVPROC, glUniform4fv) \
-    X(PFNGLUNIFORM1IPROC, glUniform1i) X(PFNGLGENVERTEXARRAYSPROC, glGenVertexArrays)                    \
-    X(PFNGLBINDVERTEXARRAYPROC, glBindVertexArray) X(PFNGLGENTEXTURESPROC, glGenTextures)                \
-    X(PFNGLBINDTEXTUREPROC, glBindTexture) X(PFNGLTEXIMAGE2DPROC, glTexImage2D)                          \
-    X(PFNGLTEXPARAMETERIPROC, glTexParameteri) X(PFNGLTEXSTORAGE2DPROC, glTexStorage2D)                  \
-    X(PFNGLGENFRAMEBUFFERSPROC, glGenFramebuffers) X(PFNGLBINDFRAMEBUFFERPROC, glBindFramebuffer)        \
-    X(PFNGLFRAMEBUFFERTEXTUREPROC, glFramebufferTexture) X(PFNGLVIEWPORTPROC, glViewport)                \
-    X(PFNGLACTIVETEXTUREPROC, glActiveTexture) X(PFNGLDRAWARRAYSPROC, glDrawArrays)                      \
-    X(PFNGLREADPIXELSPROC, glReadPixels) X(PFNGLFINISHPROC, glFinish) X(PFNGLUNIFORM2FPROC, glUniform2f)
-
-typedef struct hb_gl {
-#define HB_DECL(T, n) T n;
-    HB_GL_FUNCS(HB_DECL)
-#undef HB_DECL
-} hb_gl;
-
-static unsigned hb_prog(const hb_gl *g, const char *fs)
-{
-    GLuint v = g->glCreateShader(GL_VERTEX_SHADER), f = g->glCreateShader(GL_FRAGMENT_SHADER), p = g->glCreateProgram();
-    g->glShaderSource(v, 1, &gl_vs, NULL);
-    g->glCompileShader(v);
-    g->glShaderSource(f, 1, &fs, NULL);
-    g->glCompileShader(f);
-    GLint ok = 0;
-    char log[2048];
-    g->glGetShaderiv(f, GL_COMPILE_STATUS, &ok);
-    if (!ok) {
-        g->glGetShaderInfoLog(f, sizeof log, NULL, log);
-        printf("  shader: %s\n", log);
-        return 0;
-    }
-    g->glAttachShader(p, v);
-    g->glAttachShader(p, f);
-    g->glLinkProgram(p);
-    g->glGetProgramiv(p, GL_LINK_STATUS, &ok);
-    return ok ? p : 0;
-}
-
-static int hb_cmpf(const void *a, const void *b)
-{
-    const float x = *(const float *)a, y = *(const float *)b;
-    return x < y ? -1 : x > y;
-}
-
-TEST(hbao_matches_reference_shaders_on_llvmpipe)
-{
-#ifdef HBAO_UNDER_ASAN
-    printf("  skipped: AddressSanitizer build (Mesa in-process)\n");
-    fflush(stdout);
-    exit(77); /* ctest reports it as skipped (tests/CMakeLists.txt) */
-#endif
-    setenv("LIBGL_ALWAYS_SOFTWARE", "1", 0);
-    setenv("GALLIUM_DRIVER", "llvmpipe", 0);
-    void *lib = dlopen("libEGL.so.1", RTLD_NOW | RTLD_LOCAL);
-    if (!lib) {
-        printf("  skipped: no libEGL.so.1\n");
-        fflush(stdout);
-        exit(77); /* ctest reports it as skipped (tests/CMakeLists.txt) */
-    }
-    PFNEGLGETPROCADDRESSPROC gpa = (PFNEGLGETPROCADDRESSPROC)dlsym(lib, "eglGetProcAddress");
-    PFNEGLGETPLATFORMDISPLAYPROC getdpy = gpa ? (PFNEGLGETPLATFORMDISPLAYPROC)gpa("eglGetPlatformDisplay") : NULL;
-    PFNEGLINITIALIZEPROC einit = (PFNEGLINITIALIZEPROC)dlsym(lib, "eglInitialize");
-    PFNEGLBINDAPIPROC ebind = (PFNEGLBINDAPIPROC)dlsym(lib, "eglBindAPI");
-    PFNEGLCHOOSECONFIGPROC echoose = (PFNEGLCHOOSECONFIGPROC)dlsym(lib, "eglChooseConfig");
-    PFNEGLCREATECONTEXTPROC ecreate = (PFNEGLCREATECONTEXTPROC)dlsym(lib, "eglCreateContext");
-    PFNEGLMAKECURRENTPROC ecurrent = (PFNEGLMAKECURRENTPROC)dlsym(lib, "eglMakeCurrent");
-    PFNEGLDESTROYCONTEXTPROC edestroy = (PFNEGLDESTROYCONTEXTPROC)dlsym(lib, "eglDestroyContext");
-    PFNEGLTERMINATEPROC eterm = (PFNEGLTERMINATEPROC)dlsym(lib, "eglTerminate");
-    if (!getdpy || !einit || !ebind || !echoose || !ecreate || !ecurrent || !edestroy || !eterm) {
-        printf("  skipped: EGL 1.5 entry points missing\n");
-        fflush(stdout);
-        exit(77); /* ctest reports it as skipped (tests/CMakeLists.txt) */
-    }
-    EGLDisplay dpy = getdpy(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, NULL);
-    if (dpy == EGL_NO_DISPLAY || !einit(dpy, NULL, NULL)) {
-        printf("  skipped: no surfaceless EGL display\n");
-        fflush(stdout);
-        exit(77); /* ctest reports it as skipped (tests/CMakeLists.txt) */
-    }
-    ebind(EGL_OPENGL_API);
-    const EGLint ca[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
-    EGLint nc = 0;
-    EGLConfig cfg;
-    const EGLint xa[] = {EGL_CONTEXT_MAJOR_VERSION, 4, EGL_CONTEXT_MINOR_VERSION, 5, EGL_CONTEXT_OPENGL_PROFILE_MASK,
-                         EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT, EGL_NONE};
-    EGLContext gctx = EGL_NO_CONTEXT;
-    if (echoose(dpy, ca, &cfg, 1, &nc) && nc > 0)
-        gctx = ecreate(dpy, cfg, EGL_NO_CONTEXT, xa);
-    if (gctx == EGL_NO_CONTEXT || !ecurrent(dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, gctx)) {
-        printf("  skipped: no GL 4.5 core context\n");
-        eterm(dpy);
-        fflush(stdout);
-        exit(77); /* ctest reports it as skipped (tests/CMakeLists.txt) */
-    }
-    hb_gl g;
-    int have = 1;
-#define HB_LOAD(T, n) have = have && (g.n = (T)gpa(#n)) != NULL;
-    HB_GL_FUNCS(HB_LOAD)
-#undef HB_LOAD
-    const char *renderer = have ? (const char *)g.glGetString(GL_RENDERER) : NULL;
-    if (!renderer || !strstr(renderer, "llvmpipe")) {
-        printf("  skipped: renderer is %s, not llvmpipe\n", renderer ? renderer : "(none)");
-        ecurrent(dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-        edestroy(dpy, gctx);
-        eterm(dpy);
-        fflush(stdout);
-        exit(77); /* ctest reports it as skipped (tests/CMakeLists.txt) */
-    }
-    printf("  %s, %s\n", renderer, (const char *)g.glGetString(GL_VERSION));
-
-    obs_context *ctx = obs_context_create();
-    obs_scene s;
-    tu_ao_scene(&s);
-    const int sizes[2][2] = {{160, 120}, {161, 91}};
-    for (int si = 0; si < 2; si++) {
-        const int W = sizes[si][0], H = sizes[si][1];
-        rast_gbuffer gb;
-        CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), W, H, 0, &gb), ctx);
-        ao_input in;
-        CHECK_OK(ao_input_from_gbuffer(ctx, &gb, 0, &in), ctx);
-        obs_image_f32 d;
-        CHECK_OK(obs_image_f32_alloc(ctx, W, H, &d), ctx);
-        for (int y = 0; y < H; y++)
-            for (int x = 0; x < W; x++) {
-                const float v = px(&gb.depth, x, y);
-                obs_image_f32_row(&d, y)[x] = v < INFINITY ? v : 500.0f;
-            }
-        in.depth = &d;
-        float *up = (float *)malloc(sizeof(float) * (size_t)(W * H)), *res = (float *)malloc(sizeof(float) * (size_t)(W * H));
-        float *diff = (float *)malloc(sizeof(float) * (size_t)(W * H));
-        GLuint vao, tz, tr, to, fb;
-        g.glGenVertexArrays(1, &vao);
-        g.glBindVertexArray(vao);
-        g.glGenTextures(1, &tz);
-        g.glGenTextures(1, &tr);
-        g.glGenTextures(1, &to);
-        g.glBindTexture(GL_TEXTURE_2D, to);
-        g.glTexStorage2D(GL_TEXTURE_2D, 1, GL_R32F, W, H);
-        g.glGenFramebuffers(1, &fb);
-        g.glBindFramebuffer(GL_FRAMEBUFFER, fb);
-        g.glFramebufferTexture(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, to, 0);
-        g.glViewport(0, 0, W, H);
-        for (int var = 0; var < 2; var++) {
-            ao_hbao_params p;
-            CHECK(ao_hbao_params_preset(var ? "plus" : "default", &p));
-            p.blur = 0;
-            p.radius = 0.5f;
-            p.pow_exponent = 1.5f;
-            p.small_scale_ao = 0.0f; /* gl_ssao's form */
-            const ao_hbao_constants k = ao_hbao_constants_from_params(&p, &in);
-            obs_image_f32 out, raw;
-            CHECK_OK(hb_run(ctx, NULL, &in, &p, &out, &raw, NULL), ctx);
-            /* depth rows: PLUS bottom row first (GL), CLASSIC our rows (t = D3D v) */
-            for (int y = 0; y < H; y++)
-                for (int x = 0; x < W; x++)
-                    up[y * W + x] = px(&d, x, var ? H - 1 - y : y);
-            g.glBindTexture(GL_TEXTURE_2D, tz);
-            g.glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, W, H, 0, GL_RED, GL_FLOAT, up);
-            g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-            g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-            g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-            g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-            int16_t sh[64];
-            ao_hbao_noise_texture(k.num_dirs, sh, NULL);
-            g.glBindTexture(GL_TEXTURE_2D, tr);
-            g.glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16_SNORM, 4, 4, 0, GL_RGBA, GL_SHORT, sh);
-            g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-            g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-            GLuint pr;
-            if (var) {
-                char src[8192];
-                const char *f = gl_fs_plus;
-                char *t = src;
-                while (*f) { /* the compile-time NUM_STEPS, NUM_DIRECTIONS */
-                    if (!strncmp(f, "NSTEPS", 6)) {
-                        t += sprintf(t, "%d.0", k.num_steps);
-                        f += 6;
-                    } else if (!strncmp(f, "NDIRS", 5)) {
-                        t += sprintf(t, "%d.0", k.num_dirs);
-                        f += 5;
-                    } else {
-                        *t++ = *f++;
-                    }
-                }
-                *t = 0;
-                pr = hb_prog(&g, src);
-                CHECK(pr != 0);
-                g.glUseProgram(pr);
-                g.glUniform1f(g.glGetUniformLocation(pr, "RadiusToScreen"), k.radius_to_screen);
-                g.glUniform1f(g.glGetUniformLocation(pr, "NegInvR2"), k.neg_inv_R2);
-                g.glUniform1f(g.glGetUniformLocation(pr, "NDotVBias"), k.ndotv_bias);
-                g.glUniform1f(g.glGetUniformLocation(pr, "AOMultiplier"), k.ao_multiplier);
-                g.glUniform1f(g.glGetUniformLocation(pr, "PowExponent"), k.pow_exponent);
-                g.glUniform2fv(g.glGetUniformLocation(pr, "InvFullResolution"), 1, k.inv_resolution);
-                g.glUniform4fv(g.glGetUniformLocation(pr, "projInfo"), 1, k.uv_to_view);
-                g.glUniform1i(g.glGetUniformLocation(pr, "projOrtho"), 0);
-            } else {
-                pr = hb_prog(&g, gl_fs_classic);
-                CHECK(pr != 0);
-                g.glUseProgram(pr);
-                g.glUniform2fv(g.glGetUniformLocation(pr, "g_Dirs"), k.num_dirs, &k.dirs[0][0]);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_NumSteps"), (float)k.num_steps);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_NumDir"), (float)k.num_dirs);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_R"), k.R);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_inv_R"), k.inv_R);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_sqr_R"), k.sqr_R);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_AngleBias"), k.angle_bias);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_Attenuation"), k.attenuation);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_Contrast"), k.contrast);
-                g.glUniform2fv(g.glGetUniformLocation(pr, "g_FocalLen"), 1, k.focal_len);
-                g.glUniform2fv(g.glGetUniformLocation(pr, "g_InvResolution"), 1, k.inv_resolution);
-                g.glUniform2fv(g.glGetUniformLocation(pr, "g_Resolution"), 1, k.resolution);
-                g.glUniform4fv(g.glGetUniformLocation(pr, "uvToView"), 1, k.uv_to_view);
-                g.glUniform1f(g.glGetUniformLocation(pr, "g_H"), (float)H);
-            }
-            g.glActiveTexture(GL_TEXTURE0);
-            g.glBindTexture(GL_TEXTURE_2D, tz);
-            g.glActiveTexture(GL_TEXTURE1);
-            g.glBindTexture(GL_TEXTURE_2D, tr);
-            g.glDrawArrays(GL_TRIANGLES, 0, 3);
-            g.glReadPixels(0, 0, W, H, GL_RED, GL_FLOAT, res);
-            g.glFinish();
-            int n = 0, big = 0;
-            double mx = 0.0;
-            for (int y = 0; y < H; y++)
-                for (int x = 0; x < W; x++) {
-                    if (!(px(&gb.depth, x, y) < INFINITY))
-                        continue;
-                    const float e = fabsf(res[(H - 1 - y) * W + x] - px(&out, x, y));
-                    diff[n++] = e;
-                    big += e > 1e-3f;
-                    mx = e > mx ? e : mx;
-                }
-            qsort(diff, (size_t)n, sizeof(float), hb_cmpf);
-            printf("  %s %dx%d: %d surface pixels, |ours - llvmpipe| median %.3g, p99 %.3g, max %.3g, > 1e-3: %d\n",
-                   var ? "plus" : "classic", W, H, n, (double)diff[n / 2], (double)diff[(int)(0.99 * n)], mx, big);
-            /* measured (Mesa 22.3.6, LLVM 15): max 1.6e-6 (classic), 4.2e-6 (plus), none over 1e-3 */
-            CHECK(n > 1000);
-            CHECK_MSG(diff[n / 2] <= 1e-6f && diff[(int)(0.99 * n)] <= 1e-5f, "%s: median / p99 too large", var ? "plus" : "classic");
-            CHECK_MSG(big <= n / 1000, "%s: %d pixels differ by more than 1e-3", var ? "plus" : "classic", big);
-            obs_image_f32_free(&out);
-            obs_image_f32_free(&raw);
-        }
-        /* the blur on the classic AO: gl_ssao's (radius 3, sigma 1.5, sharpness 40) and HBAO+'s
-         * radius 2 with the depth slope (sigma 1.5, sharpness 16) */
-        for (int bi = 0; bi < 2 && si == 0; bi++) {
-            const int R = bi ? 2 : 3, slope = bi;
-            const float sharp = bi ? 16.0f : 40.0f, sigma = 1.5f;
-            ao_hbao_params p = ao_hbao_params_default();
-            p.blur = 0;
-            p.radius = 0.5f;
-            obs_image_f32 a0, raw, bl;
-            CHECK_OK(hb_run(ctx, NULL, &in, &p, &a0, &raw, NULL), ctx);
-            CHECK_OK(obs_image_f32_alloc(ctx, W, H, &bl), ctx);
-            CHECK_OK(ao_hbao_blur(ctx, NULL, &a0, &d, 0, 0, R, sigma, sharp, slope, &bl), ctx);
-            char src[4096], defs[64];
-            snprintf(defs, sizeof defs, "#version 450\n#define KERNEL_RADIUS %d.0\n#define SLOPE %d\n", R, slope);
-            snprintf(src, sizeof src, "%s%s", defs, strchr(gl_fs_blur, '\n') + 1);
-            GLuint pr = hb_prog(&g, src);
-            CHECK(pr != 0);
-            GLuint ta, tdz, tt, ft;
-            g.glGenTextures(1, &ta);
-            g.glGenTextures(1, &tdz);
-            g.glGenTextures(1, &tt);
-            GLuint texs[3] = {ta, tdz, tt};
-            for (int ti = 0; ti < 3; ti++) {
-                if (ti < 2)
-                    for (int y = 0; y < H; y++)
-                        for (int x = 0; x < W; x++)
-                            up[y * W + x] = px(ti ? &d : &a0, x, H - 1 - y);
-                g.glBindTexture(GL_TEXTURE_2D, texs[ti]);
-                g.glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, W, H, 0, GL_RED, GL_FLOAT, ti < 2 ? up : NULL);
-                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
-                g.glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
-            }
-            g.glGenFramebuffers(1, &ft);
-            g.glBindFramebuffer(GL_FRAMEBUFFER, ft);
-            g.glFramebufferTexture(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, tt, 0);
-            g.glUseProgram(pr);
-            g.glUniform1f(g.glGetUniformLocation(pr, "g_Sharpness"), sharp);
-            g.glUniform1f(g.glGetUniformLocation(pr, "BlurFalloff"), 1.0f / (2.0f * sigma * sigma));
-            g.glUniform2f(g.glGetUniformLocation(pr, "g_InvResolutionDirection"), 1.0f / (float)W, 0.0f);
-            g.glActiveTexture(GL_TEXTURE0);
-            g.glBindTexture(GL_TEXTURE_2D, ta);
-            g.glActiveTexture(GL_TEXTURE1);
-            g.glBindTexture(GL_TEXTURE_2D, tdz);
-            g.glDrawArrays(GL_TRIANGLES, 0, 3);
-            g.glBindFramebuffer(GL_FRAMEBUFFER, fb);
-            g.glUniform2f(g.glGetUniformLocation(pr, "g_InvResolutionDirection"), 0.0f, 1.0f / (float)H);
-            g.glActiveTexture(GL_TEXTURE0);
-            g.glBindTexture(GL_TEXTURE_2D, tt);
-            g.glDrawArrays(GL_TRIANGLES, 0, 3);
-            g.glReadPixels(0, 0, W, H, GL_RED, GL_FLOAT, res);
-            g.glFinish();
-            double mx = 0.0;
-            for (int y = 0; y < H; y++)
-                for (int x = 0; x < W; x++) {
-                    const double e = fabs((double)res[(H - 1 - y) * W + x] - (double)px(&bl, x, y));
-                    mx = e > mx ? e : mx;
-                }
-            printf("  blur radius %d slope %d %dx%d: |ours - llvmpipe| max %.3g over all pixels\n", R, slope, W, H, mx);
-            CHECK_MSG(mx <= 1e-5, "blur %d: max %g", bi, mx);
-            obs_image_f32_free(&a0);
-            obs_image_f32_free(&raw);
-            obs_image_f32_free(&bl);
-        }
-        free(up);
-        free(res);
-        free(diff);
-        obs_image_f32_free(&d);
-        rast_gbuffer_free(&gb);
-    }
-    obs_scene_free(&s);
-    obs_context_destroy(ctx);
-    ecurrent(dpy, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-    edestroy(dpy, gctx);
-    eterm(dpy);
-}
-#endif /* HBAO_HAVE_GL_HEADERS */
+/* ---- against Mesa llvmpipe: tests/gl/test_gl_hbao.c (the ports are in tests/gl/glsl_hbao.c) ---- */
 
 /* ---- determinism and hard cases --------------------------------------------------------------- */
 

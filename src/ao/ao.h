@@ -779,8 +779,10 @@ void ao_alchemy_tap_offset(const ao_alchemy_constants *k, int x_gl, int y_gl, fl
 #define AO_HBAO_MAX_DIRECTIONS 32
 #define AO_HBAO_MAX_STEPS 32
 #define AO_HBAO_MAX_BLUR_RADIUS 16
-#define AO_HBAO_NOISE_SIZE 4                 /* the random texture is 4 x 4 (gl_ssao AO_RANDOMTEX_SIZE;
-                                                ao.md 1.6); the DX10 sample's is 64 x 64 (hbao.md) */
+#define AO_HBAO_NOISE_SIZE 4                 /* gl_ssao's random texture is 4 x 4 (AO_RANDOMTEX_SIZE;
+                                                ao.md 1.6) */
+#define AO_HBAO_NOISE_SIZE_SDK 64            /* the DX10 SDK sample's is 64 x 64 (HorizonBasedAOEngine.cpp
+                                                UpdateDirs; the .fx reads it at pos & 63) */
 
 typedef enum ao_hbao_variant {
     AO_HBAO_VARIANT_CLASSIC = 0,    /* default: DX10 SDK HorizonBasedAOEngine.fx, quality mode 1 */
@@ -797,6 +799,14 @@ typedef enum ao_hbao_normals {
     AO_HBAO_NORMALS_COUNT
 } ao_hbao_normals;
 
+/* The random (jitter) texture. */
+typedef enum ao_hbao_noise {
+    AO_HBAO_NOISE_AUTO = 0,         /* default: the variant's reference: SDK for CLASSIC, GL_SSAO for PLUS */
+    AO_HBAO_NOISE_SDK,              /* 64 x 64, the DX10 SDK sample's UpdateDirs (ao_hbao_noise_texture_sdk) */
+    AO_HBAO_NOISE_GL_SSAO,          /* 4 x 4, gl_ssao's Sample::initMisc (ao_hbao_noise_texture) */
+    AO_HBAO_NOISE_COUNT
+} ao_hbao_noise;
+
 typedef struct ao_hbao_params {
     ao_hbao_variant variant;
     float radius;           /* R: world-space radius of influence, metres */
@@ -811,6 +821,7 @@ typedef struct ao_hbao_params {
                                CoarseAO_PS: the first step weighs 2 * small_scale_ao, the others 1
                                (LargeScaleAO 1), and RadiusPixels < 1 gives 1 */
     ao_hbao_normals normals;
+    ao_hbao_noise noise;    /* the random texture; AUTO = the variant's reference (hbao.md) */
     int blur;               /* 1: ao_hbao_blur after the AO pass */
     int blur_radius;        /* KERNEL_RADIUS: taps 1..R each side, point-sampled */
     float blur_sharpness;   /* per metre of linear depth */
@@ -849,6 +860,8 @@ typedef struct ao_hbao_constants {
     int full_width, full_height;
     int variant, orthographic, normals_from_gbuffer;
     int num_dirs, num_steps;        /* g_NumDir, g_NumSteps / NUM_DIRECTIONS, NUM_STEPS */
+    int noise;                      /* the resolved random texture: AO_HBAO_NOISE_SDK or _GL_SSAO */
+    int noise_size;                 /* its width and height: 64 (SDK) or 4 (gl_ssao) */
     float uv_to_view[4];            /* CLASSIC (W/fx, -H/fy, -cx/fx, cy/fy); PLUS = gl_ssao projInfo
                                        (W/fx, H/fy, -cx/fx, -(H - cy)/fy) */
     float resolution[2], inv_resolution[2];   /* g_Resolution, g_InvResolution / InvFullResolution */
@@ -858,7 +871,8 @@ typedef struct ao_hbao_constants {
     float angle_bias, tan_angle_bias; /* g_AngleBias (radians), g_TanAngleBias */
     float attenuation;              /* g_Attenuation */
     float contrast;                 /* g_Contrast = m_Contrast / (1 - sin(g_AngleBias)) */
-    float dirs[AO_HBAO_MAX_DIRECTIONS][2]; /* cb0 g_Dirs[d] = (cos, sin)(2 pi d / N_d) */
+    float dirs[AO_HBAO_MAX_DIRECTIONS][2]; /* cb0 g_Dirs[d] = (cosf, sinf)(inc * d), inc = 2 pi_f / N_d in
+                                       float (UpdateDirs) */
     /* PLUS (HBAOData) */
     float radius_to_screen;         /* RadiusToScreen = R * 0.5 / tan(fovy/2) * H = R fy (HBAO+) */
     float R2, neg_inv_R2;           /* R2, NegInvR2 = -1 / R2 */
@@ -879,22 +893,37 @@ typedef struct ao_hbao_constants {
 /* The pure params -> constants step. Params are assumed validated. */
 ao_hbao_constants ao_hbao_constants_from_params(const ao_hbao_params *p, const ao_input *in);
 
-/* The 4 x 4 random texture, (cos(alpha), sin(alpha), jitter, 0) per texel, for num_dirs
- * directions. Generated exactly as gl_ssao's Sample::initMisc (which the DX10 sample's UpdateDirs
- * also follows, at 64 x 64): MT19937 (Matsumoto-Nishimura, init_genrand(0)), per texel i = 0..15
- * in order: r1 = float(genrand_int32() * 2^-32), r2 = the same; alpha = 2.f * pi_f * r1 / float(num_dirs)
- * in float; (cosf, sinf)(alpha) correctly rounded; stored as RGBA16_SNORM: c = (short)(32768 * v)
- * truncated (clamped to 32767), decoded v' = c / 32767 (GL's SNORM rule; the value we use).
- * Texel i has texture coordinates (i % 4, i / 4) in upload order (GL: row i/4 from the BOTTOM;
- * D3D: from the TOP). shorts (may be NULL) gets the 64 int16 to upload; texels the decoded
- * floats. num_dirs in [1, 32]. */
+/* The 4 x 4 random texture of gl_ssao, (cos(alpha), sin(alpha), jitter, 0) per texel, for num_dirs
+ * directions, exactly as gl_ssao's Sample::initMisc: MT19937 (Matsumoto-Nishimura,
+ * init_genrand(0)), per texel i = 0..15 in order: r1 = float(genrand_int32() * 2^-32), r2 = the
+ * same; alpha = 2.f * pi_f * r1 / float(num_dirs) in float; (cosf, sinf)(alpha) correctly rounded;
+ * stored as RGBA16_SNORM: c = (short)(32768 * v) truncated (clamped to 32767), decoded
+ * v' = c / 32767 (GL's SNORM rule; the value we use). Texel i has texture coordinates
+ * (i % 4, i / 4) in upload order (GL: row i/4 from the BOTTOM; D3D: from the TOP). shorts (may be
+ * NULL) gets the 64 int16 to upload; texels the decoded floats. num_dirs in [1, 32]. */
 void ao_hbao_noise_texture(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4],
                            float texels[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE][4]);
 
-/* The texel index a pixel reads, in the variant's own pixel coordinates: CLASSIC
- * tRandom.Load(int3(SV_Position.x & 3, SV_Position.y & 3)) with D3D y (our row y); PLUS
- * texture(texRandom, gl_FragCoord.xy / 4) (REPEAT, NEAREST) with GL y (y_gl = H - 1 - y).
- * Returns (iy & 3) * 4 + (ix & 3). */
+/* The 64 x 64 random texture of the DX10 SDK sample (HorizonBasedAOEngine.cpp UpdateDirs, read in
+ * full for hbao.md): MTRand seeded with 0 (init_genrand(0)), then for texel i = 0 .. 4095 in order
+ *   float angle = 2.0f*D3DX_PI * rng.randExc() / (float)m_NumDirs;   (double arithmetic, rounded
+ *                                                                     to float once)
+ *   f[4i] = (short)(SCALE*cos(angle)); f[4i+1] = (short)(SCALE*sin(angle));   (cosf/sinf of the float
+ *                                                                     angle; SCALE = 1 << 15)
+ *   f[4i+2] = (short)(SCALE*rng.randExc());                           (double: genrand >> 17)
+ *   f[4i+3] = 0;
+ * randExc = genrand_int32() * 2^-32 in double, D3DX_PI = 3.141592654f; truncation toward zero,
+ * 32768 * 1.0 clamped to 32767 (not reached for N_d 1 .. 32). Uploaded as
+ * DXGI_FORMAT_R16G16B16A16_SNORM with a pitch of 64 texels: texel i is (i % 64, i / 64), row 0 at
+ * the TOP (D3D); decoded c / 32767 (D3D10 SNORM, -32768 -> -1). shorts (may be NULL) gets the
+ * 16384 int16, texels the decoded floats. num_dirs in [1, 32]. */
+void ao_hbao_noise_texture_sdk(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK * 4],
+                               float texels[AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK][4]);
+
+/* The texel index a pixel reads, in the variant's own pixel coordinates, for the resolved texture
+ * of size n = k->noise_size: CLASSIC tRandom.Load(int3(SV_Position.x & 63, SV_Position.y & 63))
+ * (n = 64; & 3 with gl_ssao's) with D3D y (our row y); PLUS texture(texRandom, gl_FragCoord.xy / n)
+ * (REPEAT, NEAREST) with GL y (y_gl = H - 1 - y). Returns (iy & (n-1)) * n + (ix & (n-1)). */
 int ao_hbao_noise_index(const ao_hbao_constants *k, int x, int y);
 
 typedef struct ao_hbao_stats {

@@ -165,6 +165,9 @@ obs_status ao_hbao_params_validate(obs_context *ctx, const ao_hbao_params *p)
                          (double)p->small_scale_ao);
     if ((unsigned)p->normals >= AO_HBAO_NORMALS_COUNT)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: unknown normals mode %d", (int)p->normals);
+    if ((unsigned)p->noise >= AO_HBAO_NOISE_COUNT)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: unknown noise texture %d (auto, sdk, gl-ssao)",
+                         (int)p->noise);
     if (p->blur != 0 && p->blur != 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "hbao: blur %d must be 0 or 1", p->blur);
     if (p->blur_radius < 1 || p->blur_radius > AO_HBAO_MAX_BLUR_RADIUS)
@@ -193,12 +196,16 @@ int ao_hbao_params_to_string(const ao_hbao_params *p, char *buf, size_t size)
 {
     return snprintf(buf, size,
                     "variant=%s radius=%.9g directions=%d steps=%d angle_bias_deg=%.9g attenuation=%.9g "
-                    "contrast=%.9g ndotv_bias=%.9g pow_exponent=%.9g small_scale_ao=%.9g normals=%s blur=%d blur_radius=%d "
+                    "contrast=%.9g ndotv_bias=%.9g pow_exponent=%.9g small_scale_ao=%.9g normals=%s noise=%s blur=%d blur_radius=%d "
                     "blur_sharpness=%.9g blur_sigma=%.9g blur_depth_slope=%d",
                     p->variant == AO_HBAO_VARIANT_PLUS ? "plus" : "classic", (double)p->radius, resolved_dirs(p),
                     resolved_steps(p), (double)p->angle_bias_deg, (double)p->attenuation, (double)p->contrast,
                     (double)p->ndotv_bias, (double)p->pow_exponent, (double)p->small_scale_ao,
-                    p->normals == AO_HBAO_NORMALS_GBUFFER ? "gbuffer" : "depth", p->blur, p->blur_radius,
+                    p->normals == AO_HBAO_NORMALS_GBUFFER ? "gbuffer" : "depth",
+                    (p->noise == AO_HBAO_NOISE_SDK || (p->noise == AO_HBAO_NOISE_AUTO && p->variant != AO_HBAO_VARIANT_PLUS))
+                        ? "sdk"
+                        : "gl-ssao",
+                    p->blur, p->blur_radius,
                     (double)p->blur_sharpness, (double)resolved_sigma(p), p->blur_depth_slope);
 }
 
@@ -290,12 +297,18 @@ ao_hbao_constants ao_hbao_constants_from_params(const ao_hbao_params *p, const a
     k.attenuation = p->attenuation;
     /* UpdateContrast: g_Contrast = m_Contrast / (1.0f - sin(angleBias)) (verification.md 2) */
     k.contrast = p->contrast / (1.0f - f_sin(k.angle_bias));
-    /* cb0 g_Dirs: N_d evenly spaced angles 2 pi d / N_d (UpdateDirs), rounded to float once */
-    for (int d = 0; d < k.num_dirs; d++) {
-        const double a = 2.0 * OBS_PI * (double)d / (double)k.num_dirs;
-        k.dirs[d][0] = (float)cos(a);
-        k.dirs[d][1] = (float)sin(a);
+    /* cb0 g_Dirs (HorizonBasedAOEngine.cpp UpdateDirs): float inc = 2.0f * D3DX_PI / (float)m_NumDirs;
+     * float angle = inc*(float)(i/2); dirs = cos(angle), sin(angle) (C++ float overloads: cosf, sinf) */
+    {
+        const float inc = 2.0f * 3.141592654f / (float)k.num_dirs;
+        for (int d = 0; d < k.num_dirs; d++)
+            ao_i_cos_sin(inc * (float)d, &k.dirs[d][0], &k.dirs[d][1]);
     }
+    /* the random texture: AUTO = the variant's reference (CLASSIC the SDK's 64 x 64, PLUS gl_ssao's 4 x 4) */
+    k.noise = p->noise == AO_HBAO_NOISE_AUTO
+                  ? (p->variant == AO_HBAO_VARIANT_PLUS ? AO_HBAO_NOISE_GL_SSAO : AO_HBAO_NOISE_SDK)
+                  : (int)p->noise;
+    k.noise_size = k.noise == AO_HBAO_NOISE_SDK ? AO_HBAO_NOISE_SIZE_SDK : AO_HBAO_NOISE_SIZE;
     /* PLUS HBAOData (HBAO+ SetAORadiusConstants / SetAOParameters; gl_ssao prepareHbaoData):
      * RadiusToScreen = R * 0.5f / TanHalfFovy * Height = R fy; R2; NegInvR2 = -1 / R2;
      * AOMultiplier = 1 / (1 - NDotVBias). Orthographic: gl_ssao projScale = H / projInfo[1] = fy. */
@@ -326,31 +339,28 @@ ao_hbao_constants ao_hbao_constants_from_params(const ao_hbao_params *p, const a
  * The random texture
  * ============================================================================================== */
 
-/* MT19937 [Matsumoto98], init_genrand / genrand_int32: the generator of Wagner's MTRand
- * (MersenneTwister.h) that gl_ssao's noise/mersennetwister1.h provides; MTRand::seed(0). */
-typedef struct mt19937 {
-    uint32_t s[624];
-    int i;
-} mt19937;
-
-static void mt_seed(mt19937 *m, uint32_t seed)
+/* MT19937 [Matsumoto98], init_genrand / genrand_int32 (mt19937ar.c): the generator of Wagner's
+ * MTRand (MersenneTwister.h) that both references use, MTRand::seed(0): the DX10 SDK sample's
+ * HorizonBasedAOEngine.cpp (a global MTRand rng, rng.seed((unsigned)0) in UpdateDirs) and
+ * gl_ssao's noise/mersennetwister1.h. Tested against the published outputs (ao_internal.h). */
+void ao_i_mt19937_seed(ao_i_mt19937 *m, uint32_t seed)
 {
     m->s[0] = seed;
-    for (int i = 1; i < 624; i++)
+    for (int i = 1; i < 624; i++) /* mt[i] = 1812433253 * (mt[i-1] ^ (mt[i-1] >> 30)) + i */
         m->s[i] = 1812433253u * (m->s[i - 1] ^ (m->s[i - 1] >> 30)) + (uint32_t)i;
     m->i = 624;
 }
 
-static uint32_t mt_next(mt19937 *m)
+uint32_t ao_i_mt19937_next(ao_i_mt19937 *m)
 {
-    if (m->i >= 624) {
+    if (m->i >= 624) { /* regenerate the 624 words: UPPER_MASK 0x80000000, LOWER_MASK 0x7fffffff, MATRIX_A */
         for (int k = 0; k < 624; k++) {
             uint32_t y = (m->s[k] & 0x80000000u) | (m->s[(k + 1) % 624] & 0x7fffffffu);
             m->s[k] = m->s[(k + 397) % 624] ^ (y >> 1) ^ ((y & 1u) ? 0x9908b0dfu : 0u);
         }
         m->i = 0;
     }
-    uint32_t y = m->s[m->i++];
+    uint32_t y = m->s[m->i++]; /* tempering */
     y ^= y >> 11;
     y ^= (y << 7) & 0x9d2c5680u;
     y ^= (y << 15) & 0xefc60000u;
@@ -359,14 +369,15 @@ static uint32_t mt_next(mt19937 *m)
 }
 
 /* GL_RGBA16_SNORM upload of gl_ssao initMisc: (signed short)(SCALE * v), SCALE = 1 << 15,
- * truncation toward zero. 32768 * 1.0 does not fit a short (C++ leaves it undefined); we clamp
- * to 32767 (not reached by the 16 texels of any direction count 1..32). */
-static int16_t snorm16_encode(float v)
+ * truncation toward zero (v a float, or the SDK's double jitter: the product is exact either way).
+ * 32768 * 1.0 does not fit a short (C++ leaves it undefined); we clamp to 32767 (not reached by the
+ * 16 texels of any direction count 1..32, nor by a jitter < 1). */
+static int16_t snorm16_encode(double v)
 {
-    float s = 32768.0f * v;
-    if (s >= 32767.0f)
+    const double s = 32768.0 * v;
+    if (s >= 32767.0)
         return 32767;
-    if (s <= -32768.0f)
+    if (s <= -32768.0)
         return -32768;
     return (int16_t)s;
 }
@@ -378,37 +389,83 @@ static float snorm16_decode(int16_t c)
     return f < -1.0f ? -1.0f : f;
 }
 
+/* Texel i of a random texture: the shorts to upload (may be NULL) and the decoded floats (may be NULL). */
+static void noise_store(int i, const int16_t q[4], int16_t *shorts, float (*texels)[4])
+{
+    for (int ch = 0; ch < 4; ch++) {
+        if (shorts)
+            shorts[4 * i + ch] = q[ch];
+        if (texels)
+            texels[i][ch] = snorm16_decode(q[ch]);
+    }
+}
+
 void ao_hbao_noise_texture(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4],
                            float texels[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE][4])
 {
     if (num_dirs < 1)
         num_dirs = 1;
-    mt19937 m;
-    mt_seed(&m, 0u);
+    ao_i_mt19937 m;
+    ao_i_mt19937_seed(&m, 0u);
     for (int i = 0; i < AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE; i++) {
         /* float Rand1 = rng.randExc(); float Rand2 = rng.randExc();  (double(randInt()) * 2^-32) */
-        const float r1 = (float)((double)mt_next(&m) * (1.0 / 4294967296.0));
-        const float r2 = (float)((double)mt_next(&m) * (1.0 / 4294967296.0));
+        const float r1 = (float)((double)ao_i_mt19937_next(&m) * (1.0 / 4294967296.0));
+        const float r2 = (float)((double)ao_i_mt19937_next(&m) * (1.0 / 4294967296.0));
         /* float Angle = 2.f * nv_pi * Rand1 / numDir; (cosf, sinf)(Angle) */
         const float angle = 2.0f * HBAO_PI_F * r1 / (float)num_dirs;
         float c, s;
         ao_i_cos_sin(angle, &c, &s);
         const int16_t q[4] = {snorm16_encode(c), snorm16_encode(s), snorm16_encode(r2), 0};
-        for (int ch = 0; ch < 4; ch++) {
-            if (shorts)
-                shorts[4 * i + ch] = q[ch];
-            if (texels)
-                texels[i][ch] = snorm16_decode(q[ch]);
-        }
+        noise_store(i, q, shorts, texels);
+    }
+}
+
+/* (signed short)(SCALE * v) of a float v in [-1, 1] as the SDK's compiler (MSVC, x86/x64) converts
+ * it: float -> 32-bit int (truncation, cvttss2si), then the low 16 bits. 32768 * 1.0 = 32768 does not
+ * fit a short (undefined in C++): it becomes -32768, which decodes to -1. This happens where
+ * cosf(angle) rounds to 1 (angle < 2.5e-4 rad: 4 of the 4096 texels for N_d = 16), turning that
+ * texel's rotation by pi (hbao.md, "The random texture"). */
+static int16_t snorm16_encode_msvc(float v)
+{
+    const float s = 32768.0f * v; /* exact */
+    const int32_t i = (int32_t)s; /* |s| <= 32768 */
+    const uint32_t lo = (uint32_t)i & 0xFFFFu;
+    return lo >= 0x8000u ? (int16_t)((int32_t)lo - 65536) : (int16_t)lo;
+}
+
+void ao_hbao_noise_texture_sdk(int num_dirs, int16_t shorts[AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK * 4],
+                               float texels[AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK][4])
+{
+    if (num_dirs < 1)
+        num_dirs = 1;
+    ao_i_mt19937 m;
+    ao_i_mt19937_seed(&m, 0u); /* rng.seed((unsigned)0) */
+    /* D3DX_PI = ((FLOAT)3.141592654f); 2.0f*D3DX_PI in float (exact doubling) */
+    const double two_pi_f = (double)(2.0f * 3.141592654f);
+    for (int i = 0; i < AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK; i++) {
+        /* float angle = 2.0f*D3DX_PI * rng.randExc() / (float)m_NumDirs;  float * double -> double,
+         * / float -> double, assigned to float (one rounding) */
+        const double r1 = (double)ao_i_mt19937_next(&m) * (1.0 / 4294967296.0);
+        const float angle = (float)(two_pi_f * r1 / (double)(float)num_dirs);
+        /* f[i] = (signed short)(SCALE*cos(angle)): cos of a float is C++'s float overload (cosf),
+         * SCALE * float in float (exact: a power of two), truncated */
+        float c, s;
+        ao_i_cos_sin(angle, &c, &s);
+        /* f[i+2] = (signed short)(SCALE*rng.randExc()): int * double, exact, truncated */
+        const double r2 = (double)ao_i_mt19937_next(&m) * (1.0 / 4294967296.0);
+        const int16_t q[4] = {snorm16_encode_msvc(c), snorm16_encode_msvc(s), snorm16_encode(r2), 0};
+        noise_store(i, q, shorts, texels);
     }
 }
 
 int ao_hbao_noise_index(const ao_hbao_constants *k, int x, int y)
 {
-    /* CLASSIC: tRandom.Load(int3((int)IN.pos.x & 63, (int)IN.pos.y & 63, 0)) (4 x 4 here), D3D rows;
-     * PLUS: textureLod(texRandom, gl_FragCoord.xy / AO_RANDOMTEX_SIZE, 0), REPEAT + NEAREST, GL rows */
+    /* CLASSIC: tRandom.Load(int3((int)IN.pos.x & 63, (int)IN.pos.y & 63, 0)), D3D rows (64 x 64: the
+     * SDK's; & 3 with gl_ssao's 4 x 4); PLUS: textureLod(texRandom, gl_FragCoord.xy / AO_RANDOMTEX_SIZE, 0),
+     * REPEAT + NEAREST, GL rows */
+    const int n = k->noise_size == AO_HBAO_NOISE_SIZE_SDK ? AO_HBAO_NOISE_SIZE_SDK : AO_HBAO_NOISE_SIZE;
     const int iy = k->variant == AO_HBAO_VARIANT_PLUS ? k->full_height - 1 - y : y;
-    return (iy & 3) * AO_HBAO_NOISE_SIZE + (x & 3);
+    return (iy & (n - 1)) * n + (x & (n - 1));
 }
 
 /* ================================================================================================
@@ -419,7 +476,7 @@ typedef struct hbao_job {
     const ao_hbao_constants *k;
     const ao_input *in;
     const obs_image_f32 *z;        /* linear depth, background = +inf, full buffer, our rows */
-    float noise[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE][4];
+    float noise[AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK][4]; /* the resolved texture (first 16 for 4 x 4) */
     int rx0, ry0;                  /* region origin (our coordinates) */
     obs_image_f32 *ao;             /* region-sized, our rows */
     int64_t (*counts)[3];          /* per row: background, small radius, degenerate normal */
@@ -1748,7 +1805,10 @@ obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     /* ---- 1. Clean depth (background = +inf) and the random texture ---- */
     double t0 = obs_time_now();
     st = clean_depth(ctx, pool, in->depth, &z);
-    ao_hbao_noise_texture(k.num_dirs, NULL, J->noise);
+    if (k.noise == AO_HBAO_NOISE_SDK)
+        ao_hbao_noise_texture_sdk(k.num_dirs, NULL, J->noise);
+    else
+        ao_hbao_noise_texture(k.num_dirs, NULL, J->noise);
     double t1 = obs_time_now();
 
     /* ---- 2. AO over the window plus the blur's reach ---- */
@@ -1835,6 +1895,8 @@ _Static_assert(sizeof(ao_hbao_params) <= AO_PARAMS_MAX_SIZE, "AO_PARAMS_MAX_SIZE
 
 static const char *const hbao_variant_names[] = {"classic", "plus", NULL};
 static const char *const hbao_normals_names[] = {"depth", "gbuffer", NULL};
+static const char *const hbao_noise_names[] = {"auto", "sdk", "gl-ssao", NULL};
+_Static_assert(sizeof(ao_hbao_noise) == sizeof(int), "enum params are read as int");
 
 #define HB_F(field) offsetof(ao_hbao_params, field)
 static const ao_param_desc hbao_param_descs[] = {
@@ -1854,6 +1916,8 @@ static const ao_param_desc hbao_param_descs[] = {
      "plus: 0 = gl_ssao's sum; > 0 = HBAO+ SmallScaleAO (first step weighs 2x this)"},
     {"normals", AO_PARAM_ENUM, HB_F(normals), 0, 0, hbao_normals_names,
      "depth: the shader's reconstruction from depth (reference); gbuffer: the G-buffer's"},
+    {"noise", AO_PARAM_ENUM, HB_F(noise), 0, 0, hbao_noise_names,
+     "random texture: auto (classic: sdk, plus: gl-ssao), sdk (DX10 SDK 64 x 64), gl-ssao (4 x 4)"},
     {"blur", AO_PARAM_BOOL, HB_F(blur), 0, 1, NULL, "the HBAO+ cross-bilateral blur (ao_hbao_blur)"},
     {"blur-radius", AO_PARAM_INT, HB_F(blur_radius), 1, AO_HBAO_MAX_BLUR_RADIUS, NULL, "blur KERNEL_RADIUS (px)"},
     {"blur-sharpness", AO_PARAM_FLOAT, HB_F(blur_sharpness), 0, 1e30, NULL, "blur depth sharpness (per m)"},
@@ -1929,11 +1993,32 @@ static int m_constants_json(const void *p, const ao_input *in, char *buf, size_t
              (double)K.ao_multiplier, (double)K.pow_exponent, K.orthographic, (double)K.alpha,
              (double)K.small_scale_amount, (double)K.large_scale_amount);
     }
-    int16_t sh[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4];
-    ao_hbao_noise_texture(K.num_dirs, sh, NULL);
-    jcat(buf, size, &len, "\"random_texture_rgba16_snorm\": [");
-    for (int i = 0; i < AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4; i++)
-        jcat(buf, size, &len, "%s%d", i ? ", " : "", (int)sh[i]);
+    if (K.noise == AO_HBAO_NOISE_SDK) {
+        /* 16384 shorts: the generator instead (ao_hbao_noise_texture_sdk), and its first texel */
+        int16_t t0[4];
+        {
+            int16_t *tmp = (int16_t *)malloc(sizeof(int16_t) * AO_HBAO_NOISE_SIZE_SDK * AO_HBAO_NOISE_SIZE_SDK * 4);
+            if (tmp) {
+                ao_hbao_noise_texture_sdk(K.num_dirs, tmp, NULL);
+                memcpy(t0, tmp, sizeof t0);
+                free(tmp);
+            } else {
+                memset(t0, 0, sizeof t0);
+            }
+        }
+        jcat(buf, size, &len,
+             "\"random_texture\": \"dx10-sdk\", \"random_texture_size\": 64, \"random_texture_format\": "
+             "\"R16G16B16A16_SNORM\", \"random_texture_generator\": \"HorizonBasedAOEngine.cpp UpdateDirs: MT19937 "
+             "init_genrand(0); per texel (cos, sin)(float(2pi_f * genrand/2^32 / N_d)), genrand/2^32, 0; "
+             "(short)(32768 v)\", \"random_texture_texel0\": [%d, %d, %d, %d",
+             (int)t0[0], (int)t0[1], (int)t0[2], (int)t0[3]);
+    } else {
+        int16_t sh[AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4];
+        ao_hbao_noise_texture(K.num_dirs, sh, NULL);
+        jcat(buf, size, &len, "\"random_texture\": \"gl-ssao\", \"random_texture_size\": 4, \"random_texture_rgba16_snorm\": [");
+        for (int i = 0; i < AO_HBAO_NOISE_SIZE * AO_HBAO_NOISE_SIZE * 4; i++)
+            jcat(buf, size, &len, "%s%d", i ? ", " : "", (int)sh[i]);
+    }
     jcat(buf, size, &len,
          "], \"blur\": %d, \"blur_KERNEL_RADIUS\": %d, \"blur_Sharpness\": %.9g, \"blur_BlurFalloff\": %.9g, "
          "\"blur_USE_DEPTH_SLOPE\": %d}",

@@ -11,6 +11,17 @@
  * docs/ao/sao.md), using only IEEE double + - * (identical on every platform). */
 void ao_i_cos_sin(float angle, float *c, float *s);
 
+/* MT19937 [Matsumoto98]: init_genrand(seed) and genrand_int32, the generator of Wagner's MTRand
+ * (MersenneTwister.h: MTRand::seed(s), randInt) used by the HBAO random textures (ao_hbao.c).
+ * Reference outputs: seed 5489, the 10000th output is 4123659995 (ISO C++ [rand.predef]); seed 0
+ * starts 2357136044, 2546248239. */
+typedef struct ao_i_mt19937 {
+    uint32_t s[624];
+    int i;
+} ao_i_mt19937;
+void ao_i_mt19937_seed(ao_i_mt19937 *m, uint32_t seed);
+uint32_t ao_i_mt19937_next(ao_i_mt19937 *m);
+
 /* floor((float)log2(x)) for x > 0: the floor of the correctly rounded float log2 (which rounds
  * up to the next integer for x a few ulps below a power of two). x <= 0 or NaN: INT32_MIN;
  * +inf: INT32_MAX. */
