@@ -1,9 +1,12 @@
 /* ao_sao_avx2.c: the SAO AO pass with AVX2, 8 pixels at a time. Compiled with -mavx2 only (no
  * FMA), selected at run time (ao_i_sao_isa_available; OBS_ISA=scalar forces the scalar path).
+ * ao_sao_avx512.c compiles this file again (AO_I_SAO_AVX512_BUILD) as ao_i_sao_row_avx512, whose
+ * cos/sin run on 8 doubles in one AVX-512F register (cos_sin_pd8) instead of two 4-wide halves;
+ * the rest, and the blur (compiled here only), are the same.
  *
  * Lanes: 8 horizontally adjacent pixels (gx .. gx+7) of one GL row; every float lane runs the
  * scalar kernel's operations (ao_sao.c, sao_row_impl) in the same order, so the two paths agree
- * bit for bit (tests/test_ao_sao.c, sao_avx2_and_scalar_paths_are_bit_identical):
+ * bit for bit (tests/test_ao_sao.c, sao_simd_and_scalar_paths_are_bit_identical):
  *   - +, -, *, /, sqrt are IEEE in both; no FMA (-ffp-contract=off, no -mfma);
  *   - the scalar maxf(a, b) = a > b ? a : b is exactly MAXPS(a, b) (NaN or equal: b);
  *   - int -> float is CVTDQ2PS (round to nearest even), as the scalar cast;
@@ -20,7 +23,16 @@
 #include "ao_sao_internal.h"
 #include "ao_internal.h"
 
-#if defined(OBS_HAVE_AVX2)
+#if defined(OBS_HAVE_AVX2) && (!defined(AO_I_SAO_AVX512_BUILD) || defined(AO_I_SAO_HAVE_AVX512))
+#if defined(AO_I_SAO_AVX512_BUILD)
+/* ao_sao_avx512.c: this kernel again, its cos/sin on 8 doubles in one register */
+#pragma GCC target("avx2,avx512f")
+#define SAO_WIDE 1
+#define SAO_ROW_FN ao_i_sao_row_avx512
+#else
+#define SAO_WIDE 0
+#define SAO_ROW_FN ao_i_sao_row_avx2
+#endif
 #include <immintrin.h>
 #include <math.h>
 #include <string.h>
@@ -73,13 +85,60 @@ static inline void cos_sin_pd(__m256d x, __m128 *c, __m128 *s)
     *s = _mm_xor_ps(s0, _mm_castsi128_ps(sneg));
 }
 
+#if SAO_WIDE
+/* cos_sin_pd on 8 doubles (AVX-512F): the same operations in the same order per lane, so the same
+ * bits; the 8 float results and quadrants then fill one 256-bit register each. */
+static inline void cos_sin_pd8(__m512d x, __m256 *c, __m256 *s)
+{
+    const __m512d P1 = _mm512_set1_pd(0x1.921fbp+0), P2 = _mm512_set1_pd(0x1.5110bp-22),
+                  P3 = _mm512_set1_pd(0x1.18469800p-44), P4 = _mm512_set1_pd(0x1.3198a2e037073p-69);
+    const __m512d TWO_OVER_PI = _mm512_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = _mm512_set1_pd(0x1.8p52);
+    const __m512d kd = _mm512_sub_pd(_mm512_add_pd(_mm512_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);
+    __m512d r = _mm512_sub_pd(x, _mm512_mul_pd(kd, P1));
+    r = _mm512_sub_pd(r, _mm512_mul_pd(kd, P2));
+    r = _mm512_sub_pd(r, _mm512_mul_pd(kd, P3));
+    r = _mm512_sub_pd(r, _mm512_mul_pd(kd, P4));
+    const __m512d z = _mm512_mul_pd(r, r);
+#define C_(v) _mm512_set1_pd(v)
+#define MA_(a, b, c) _mm512_add_pd((a), _mm512_mul_pd((b), (c)))
+    __m512d ps = MA_(C_(AO_I_SIN_S5), z, C_(AO_I_SIN_S6));
+    ps = MA_(C_(AO_I_SIN_S4), z, ps);
+    ps = MA_(C_(AO_I_SIN_S3), z, ps);
+    ps = MA_(C_(AO_I_SIN_S2), z, ps);
+    ps = MA_(C_(AO_I_SIN_S1), z, ps);
+    const __m512d sn = _mm512_add_pd(r, _mm512_mul_pd(_mm512_mul_pd(r, z), ps));
+    __m512d pc = MA_(C_(AO_I_COS_C5), z, C_(AO_I_COS_C6));
+    pc = MA_(C_(AO_I_COS_C4), z, pc);
+    pc = MA_(C_(AO_I_COS_C3), z, pc);
+    pc = MA_(C_(AO_I_COS_C2), z, pc);
+    pc = MA_(C_(AO_I_COS_C1), z, pc);
+    const __m512d cs = _mm512_add_pd(_mm512_sub_pd(C_(1.0), _mm512_mul_pd(C_(0.5), z)),
+                                     _mm512_mul_pd(_mm512_mul_pd(z, z), pc));
+#undef MA_
+#undef C_
+    const __m256 csf = _mm512_cvtpd_ps(cs), snf = _mm512_cvtpd_ps(sn);
+    const __m256i q = _mm512_cvtpd_epi32(kd);
+    const __m256 swap = _mm256_castsi256_ps(_mm256_slli_epi32(q, 31));
+    const __m256 c0 = _mm256_blendv_ps(csf, snf, swap), s0 = _mm256_blendv_ps(snf, csf, swap);
+    const __m256i sgn = _mm256_set1_epi32((int)0x80000000u);
+    const __m256i cneg = _mm256_and_si256(_mm256_slli_epi32(_mm256_add_epi32(q, _mm256_set1_epi32(1)), 30), sgn);
+    const __m256i sneg = _mm256_and_si256(_mm256_slli_epi32(q, 30), sgn);
+    *c = _mm256_xor_ps(c0, _mm256_castsi256_ps(cneg));
+    *s = _mm256_xor_ps(s0, _mm256_castsi256_ps(sneg));
+}
+#endif
+
 static inline void cos_sin_ps(__m256 angle, __m256 *c, __m256 *s, const int check_big)
 {
+#if SAO_WIDE
+    cos_sin_pd8(_mm512_cvtps_pd(angle), c, s);
+#else
     __m128 c_lo, s_lo, c_hi, s_hi;
     cos_sin_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(angle)), &c_lo, &s_lo);
     cos_sin_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(angle, 1)), &c_hi, &s_hi);
     *c = _mm256_insertf128_ps(_mm256_castps128_ps256(c_lo), c_hi, 1);
     *s = _mm256_insertf128_ps(_mm256_castps128_ps256(s_lo), s_hi, 1);
+#endif
     /* ao_i_cos_sin sends !(|x| < 3e9) (large or NaN) to libm: redo those lanes with it (the
      * row skips this test when no angle can get there) */
     if (!check_big)
@@ -156,8 +215,10 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
     const obs_image_f32 *L0 = &J->levels[0];
     const float *base = L0->data;
     const int W = L0->width, H = L0->height;
-    const int gy = J->ry0 + task;
-    float *out = obs_image_f32_row(J->ao, task);
+    int row, i0, i1, slot;
+    ao_i_sao_segment(J, task, &row, &i0, &i1, &slot);
+    const int gy = J->ry0 + row;
+    float *out = obs_image_f32_row(J->ao, row);
     int64_t n_bg = 0, n_degen = 0, n_minr = 0;
     const int N = k->num_samples;
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -199,8 +260,8 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
     const __m256i wm1_0 = _mm256_set1_epi32(J->lvl_wm1[0]), hm1_0 = _mm256_set1_epi32(J->lvl_hm1[0]),
                   stride_0 = _mm256_set1_epi32(J->lvl_stride[0]);
 
-    for (int i = 0; i < J->ao->width; i += 8) {
-        const int gx0 = J->rx0 + i, n = J->ao->width - i < 8 ? J->ao->width - i : 8;
+    for (int i = i0; i < i1; i += 8) {
+        const int gx0 = J->rx0 + i, n = i1 - i < 8 ? i1 - i : 8;
         const __m256i vgx = _mm256_add_epi32(_mm256_set1_epi32(gx0), lane);
         const __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane));
         /* ---- Centre ---- */
@@ -404,12 +465,12 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
         else
             _mm256_maskstore_ps(out + i, _mm256_castps_si256(valid), A);
     }
-    J->counts[task][0] = n_bg;
-    J->counts[task][1] = n_degen;
-    J->counts[task][2] = n_minr;
+    J->counts[slot][0] = n_bg;
+    J->counts[slot][1] = n_degen;
+    J->counts[slot][2] = n_minr;
 }
 
-void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task)
+void SAO_ROW_FN(const ao_i_sao_job *J, int task)
 {
     const ao_sao_constants *k = J->k;
     const int hq = k->variant == AO_SAO_VARIANT_G3D_HQ, mip = k->max_mip > 0;
@@ -425,6 +486,7 @@ void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task)
         sao_row_avx2_impl(J, task, 1, 0, 1);
 }
 
+#if !SAO_WIDE /* the blur has no cos/sin: ao_sao_avx512.c uses this one */
 /* ---- the blur: 8 destination pixels (gx .. gx+7) of one row per step ------------------------------ */
 
 /* SAO_blur.pix as ao_i_sao_blur_row_scalar, same operations in the same order per lane: taps are
@@ -509,6 +571,8 @@ void ao_i_sao_blur_row_avx2(const ao_i_sao_blur_job *J, int task)
             _mm256_maskstore_ps(o + i, _mm256_castps_si256(valid), res);
     }
 }
+
+#endif /* !SAO_WIDE */
 
 #else
 typedef int ao_sao_avx2_unused; /* ISO C: a translation unit is not empty */
