@@ -59,9 +59,8 @@ typedef struct ao_i_sao_job {
     obs_image_f32 *ao;             /* region-sized, GL order */
     /* The pass's tasks are row segments of seg_w columns (a multiple of 8), taken tile by tile:
      * tiles of seg_w x seg_h pixels in row-major order, and the seg_h segments of a tile in row
-     * order (ao_i_sao_segment), so that the two threads' taps read the same few hundred KB of the
-     * CSZ buffer instead of a band of full rows (a tap reaches up to the disk radius, ~50 px at
-     * 1080p). Any tiling gives the same bytes: every pixel is computed on its own. */
+     * order (ao_i_sao_segment). Any tiling gives the same bytes: every pixel is computed on its
+     * own. ao_sao.c uses whole rows (SAO_SEG_W, measured there). */
     int seg_w, seg_h, segs_x;
     int64_t (*counts)[3];          /* per segment (row * segs_x + column segment): background,
                                     * degenerate normal, below min radius */
