@@ -1,28 +1,132 @@
 #!/usr/bin/env bash
 # bench/run.sh: obscura's benchmarks, one command. Builds Release if needed, then runs
+#   side:    (the default) GLSL on Mesa llvmpipe against obscura, SIDE BY SIDE: the GLSL programs
+#            and obscura run ALTERNATING in one run, PAIRS pairs (default 5), on the bunny at
+#            1920x1080 with 2 threads; prints each pass's per-pair times, the medians and the
+#            median of the per-pair ratios (GLSL / obscura), and writes bench/results/side.txt.
+#            The llvmpipe peer (../shared/tools/llvmpipe-peer) is built into the build tree.
 #   gbuffer: obscura_bench gbuffer on the bunny and the dragon at 1920x1080 and 1280x720 with 1 and
 #            2 threads (median of 20 timed frames after 5 warm-up frames per run);
 #   ao:      obscura_bench ao for every registered AO method, its reference blur off and on, on the
 #            bunny (the llvmpipe peer's framing) at 1920x1080 and 1280x720 with 1 and 2 threads
 #            (median of 9 timed runs after 2 warm-up runs per run), plus SAO as the peer's `sao`
 #            stage (level 0 only, no blur);
-# REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
+#   all:     side, gbuffer and ao.
+# gbuffer and ao: REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
 # repetitions of each run's median, which this script prints at the end.
-# Usage: bench/run.sh [gbuffer|ao|all] [--quick]
-#   (REPS=... THREADS="1 2" SIZES="1920x1080 1280x720" METHODS="sao gtao" override)
+# Usage: bench/run.sh [side|gbuffer|ao|all] [--quick]
+#   (side: PAIRS=5 THREADS=2 SIZE=1920x1080 FRAMES=20 WARMUP=5 PASSES="gbuffer sao sao_blur";
+#    gbuffer/ao: REPS=... THREADS="1 2" SIZES="1920x1080 1280x720" METHODS="sao gtao" override)
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 build="${BUILD:-$here/build}"
 if [ ! -x "$build/obscura_bench" ]; then "$here/scripts/build.sh" "$build"; fi
-what="all"; quick=0
+what="side"; quick=0
 for a in "$@"; do
-  case "$a" in gbuffer|ao|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [gbuffer|ao|all] [--quick]" >&2; exit 2 ;; esac
+  case "$a" in side|gbuffer|ao|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [side|gbuffer|ao|all] [--quick]" >&2; exit 2 ;; esac
 done
 reps="${REPS:-5}"; threads="${THREADS:-1 2}"; sizes="${SIZES:-1920x1080 1280x720}"; frames=20; aoreps=9
 if [ "$quick" = 1 ]; then reps=1; sizes="640x360"; frames=3; aoreps=3; fi
 mkdir -p "$here/bench/results"
-header() { echo "# $(date -u +%Y-%m-%dT%H:%MZ) $(uname -m) $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs) nproc=$(nproc)"; }
+header() { echo "# $(date -u +%Y-%m-%dT%H:%MZ) $(uname -m) $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs) nproc=$(nproc) load1=$(cut -d' ' -f1 /proc/loadavg)"; }
+
+# ================================================================================================
+# side: GLSL against obscura, alternating
+# ================================================================================================
+# Each pass is one entry of PASS_TABLE: name | GLSL command | GLSL parse | obscura command |
+# obscura parse. A command is a shell command line (eval'd); its output goes through the parse,
+# which prints that pass's milliseconds. Commands shared by several passes run once per pair (the
+# peer times all its stages in one run, obscura_bench ao times SAO's kernel and blur in one).
+# Parses: peer_stage STAGE (the peer's `RESULT ... stage=STAGE median_ms=X`), field NAME (the
+# first RESULT line's NAME=X, as obscura_bench prints), gl_pass PASS (`RESULT PASS median_ms=X`,
+# as the project's own GL harness tests/gl prints). A pass whose GLSL program is missing is
+# skipped with a note. To add a kernel timed by the GL harness, add an entry such as
+#   "gtao|\"\$gl_harness\" --pass gtao \$gl_args|gl_pass gtao|\$obs_ao --method gtao --blur off|field kernel_ms"
+side_run() {
+  local pairs="${PAIRS:-5}" t="${THREADS:-2}" size="${SIZE:-1920x1080}" fr="${FRAMES:-20}" wu="${WARMUP:-5}"
+  local aoreps_side="${AOREPS:-$fr}"
+  if [ "$quick" = 1 ]; then pairs=1; size="640x360"; fr=3; wu=1; aoreps_side=3; fi
+  case "$t" in *" "*) echo "side: THREADS must be one number (got '$t')" >&2; exit 2 ;; esac
+  local W="${size%x*}" H="${size#*x}"
+  local peerdir="${PEER_DIR:-$here/../shared/tools/llvmpipe-peer}" mesh_off="${MESH_OFF:-$here/data/cache/bunny00.off}"
+  local mesh_glb="$build/data/bunny.glb"
+  # ---- the llvmpipe peer, built from its own Makefile into the build tree (never into its folder) ----
+  peer="$build/llvmpipe-peer/peer"
+  if [ ! -x "$peer" ] || [ "$peerdir/peer.c" -nt "$peer" ]; then
+    mkdir -p "$build/llvmpipe-peer"
+    make -s -C "$build/llvmpipe-peer" -f "$peerdir/Makefile" VPATH="$peerdir" peer >&2 ||
+      { echo "side: cannot build the llvmpipe peer from $peerdir (EGL/Mesa packages: see its README)" >&2; exit 3; }
+  fi
+  [ -f "$mesh_off" ] || { echo "side: $mesh_off missing (scripts/setup.sh fetches the meshes)" >&2; exit 3; }
+  # ---- the GLSL programs and obscura's commands the entries use ----
+  gl_harness="${GL_HARNESS:-$build/obscura_gl_bench}"   # tests/gl: one timed GLSL port per pass
+  gl_args="--mesh $mesh_glb --w $W --h $H --frames $fr --warmup $wu"
+  glsl_peer="LIBGL_ALWAYS_SOFTWARE=1 GALLIUM_DRIVER=llvmpipe LP_NUM_THREADS=$t \"$peer\" \"$mesh_off\" --w $W --h $H --frames $fr --warmup $wu"
+  obs_gbuffer="\"$build/obscura_bench\" gbuffer \"$mesh_glb\" --outputs peer --size ${W}x$H --threads $t --reps $fr --warmup $wu"
+  obs_ao="\"$build/obscura_bench\" ao \"$mesh_glb\" --size ${W}x$H --threads $t --reps $aoreps_side --warmup 2"
+  # ---- the passes: name | GLSL command | GLSL parse | obscura command | obscura parse ----
+  local PASS_TABLE=(
+    "gbuffer|$glsl_peer|peer_stage gbuffer|$obs_gbuffer|field median_ms"
+    "sao|$glsl_peer|peer_stage sao|$obs_ao --method sao --set max-mip=0 --blur on|field kernel_ms"
+    "sao_blur|$glsl_peer|peer_stage blur|$obs_ao --method sao --set max-mip=0 --blur on|field blur_ms"
+  )
+  local want="${PASSES:-$(printf '%s\n' "${PASS_TABLE[@]}" | cut -d'|' -f1 | xargs)}"
+  local out="$here/bench/results/side.txt"
+  {
+    header
+    echo "# side by side: $pairs pairs, ${W}x$H, $t threads, GLSL first in each pair; passes: $want"
+    for p in $(seq 1 "$pairs"); do
+      declare -A cache=()
+      for e in "${PASS_TABLE[@]}"; do
+        IFS='|' read -r name gcmd gparse ocmd oparse <<<"$e"
+        case " $want " in *" $name "*) ;; *) continue ;; esac
+        local gbin; gbin=$(eval "set -- $gcmd"; for w in "$@"; do case "$w" in *=*) ;; *) echo "$w"; break ;; esac; done)
+        if [ ! -x "$gbin" ]; then [ "$p" = 1 ] && echo "# $name: skipped, no GLSL program $gbin"; continue; fi
+        # GLSL side, then obscura's (each command once per pair)
+        local side g o
+        for side in g o; do
+          local cmd; if [ $side = g ]; then cmd="$gcmd"; else cmd="$ocmd"; fi
+          if [ -z "${cache[$cmd]+x}" ]; then cache[$cmd]="$(eval "$cmd" 2>/dev/null | grep '^RESULT' || true)"; fi
+        done
+        g=$(printf '%s\n' "${cache[$gcmd]}" | parse $gparse)
+        o=$(printf '%s\n' "${cache[$ocmd]}" | parse $oparse)
+        echo "PAIR pair=$p pass=$name glsl_ms=${g:-nan} obscura_ms=${o:-nan}"
+      done
+      unset cache
+    done
+  } | tee "$out"
+  python3 - "$out" <<'PY' || true
+import sys, re, statistics as S, collections
+bars = {"gbuffer": 4.0}  # issue 13: G-buffer >= 4x, every kernel and blur >= 3x
+d = collections.defaultdict(list)
+for line in open(sys.argv[1]):
+    if line.startswith("PAIR"):
+        kv = dict(re.findall(r"(\w+)=(\S+)", line))
+        try: d[kv["pass"]].append((float(kv["glsl_ms"]), float(kv["obscura_ms"])))
+        except ValueError: pass
+print("| pass | obscura ms | GLSL (llvmpipe) ms | ratio (median of pairs) | pairs min-max | bar |")
+print("|---|---|---|---|---|---|")
+for k, v in d.items():
+    r = [g / o for g, o in v if o > 0]
+    bar = bars.get(k, 3.0)
+    print(f"| {k} | {S.median(o for _, o in v):.2f} | {S.median(g for g, _ in v):.2f} | {S.median(r):.2f}x | "
+          f"{min(r):.2f}-{max(r):.2f} | >= {bar:g}x {'met' if S.median(r) >= bar else 'NOT met'} |")
+PY
+}
+
+# parse KIND ARG < RESULT lines: the pass's milliseconds
+parse() {
+  case "$1" in
+    peer_stage) awk -v s="$2" '{ for (i = 1; i <= NF; i++) if ($i == "stage=" s) { for (j = 1; j <= NF; j++) if ($j ~ /^median_ms=/) { sub(/^median_ms=/, "", $j); print $j; exit } } }' ;;
+    field) awk -v f="$2" '{ for (i = 1; i <= NF; i++) if (index($i, f "=") == 1) { print substr($i, length(f) + 2); exit } }' ;;
+    gl_pass) awk -v s="$2" '$1 == "RESULT" && $2 == s { for (i = 3; i <= NF; i++) if ($i ~ /^median_ms=/) { sub(/^median_ms=/, "", $i); print $i; exit } }' ;;
+    *) echo "parse: unknown kind $1" >&2; return 2 ;;
+  esac
+}
+
+if [ "$what" = side ] || [ "$what" = all ]; then side_run; fi
+[ "$what" = side ] && exit 0
 
 if [ "$what" != ao ]; then
   out="$here/bench/results/gbuffer.txt"

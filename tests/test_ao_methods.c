@@ -247,6 +247,53 @@ TEST(ao_methods_output_identical_for_1_2_8_threads)
     obs_context_destroy(ctx);
 }
 
+/* Methods keep their planes in the context between calls (ao_gtao.c's and ao_sao.c's workspaces,
+ * ao_i_ws_* for MSSAO, MSSAO seed, HBAO, UE4): a call in a context that has run other sizes and
+ * settings before (memory reused, grown, not zeroed where documented) gives the bytes of the same
+ * call in a fresh context. Sizes shrink then grow, so that reused memory holds an earlier call's
+ * data past the new planes' extent. */
+TEST(ao_methods_repeated_calls_in_one_context_give_fresh_context_bytes)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    tu_ao_scene(&s);
+    const int sizes[3][2] = {{83, 61}, {40, 29}, {97, 71}};
+    rast_gbuffer gb[3];
+    ao_input in[3];
+    for (int i = 0; i < 3; i++) {
+        CHECK_OK(tu_render_depth_normal(ctx, &s, tu_ao_camera(), sizes[i][0], sizes[i][1], 4, &gb[i]), ctx);
+        CHECK_OK(ao_input_from_gbuffer(ctx, &gb[i], 1, &in[i]), ctx);
+    }
+    obs_pool *pool = obs_pool_create(2);
+    for (const ao_method *const *mp = ao_methods(); *mp; mp++) {
+        const ao_method *m = *mp;
+        for (int round = 0; round < 2; round++)
+            for (int i = 0; i < 3; i++) {
+                const int blur = (i + round) % 2;
+                params_buf p;
+                m->params_default(p.b);
+                m->set_blur(p.b, blur);
+                obs_image_f32 out[2], raw[2];
+                obs_context *fresh = obs_context_create();
+                CHECK_OK(run(ctx, pool, m, p.b, &in[i], &out[0], &raw[0]), ctx);
+                CHECK_OK(run(fresh, pool, m, p.b, &in[i], &out[1], &raw[1]), fresh);
+                CHECK_MSG(tu_same_plane(&out[0], &out[1]) && tu_same_plane(&raw[0], &raw[1]),
+                          "%s, %dx%d, blur %d, round %d: a reused context differs from a fresh one", m->name,
+                          sizes[i][0], sizes[i][1], blur, round);
+                obs_context_destroy(fresh);
+                for (int t = 0; t < 2; t++) {
+                    obs_image_f32_free(&out[t]);
+                    obs_image_f32_free(&raw[t]);
+                }
+            }
+    }
+    obs_pool_destroy(pool);
+    for (int i = 0; i < 3; i++)
+        rast_gbuffer_free(&gb[i]);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
 /* ---- hard cases -------------------------------------------------------------------------------- */
 
 TEST(ao_methods_hard_cases_stay_finite_and_in_unit_range)

@@ -782,8 +782,9 @@ TEST(sao_trig_and_log2_match_correctly_rounded_libm)
 
 #include "ao/ao_sao_internal.h"
 
-/* Run both paths on in with p (scalar on 1 thread, AVX2 on 3) and compare the raw and final
- * planes and the counts byte for byte; report the first differing pixel. */
+/* Run the scalar path (1 thread) and each SIMD path this build and CPU have (AVX2, AVX512; 3
+ * threads) on in with k and compare the raw and final planes and the counts byte for byte;
+ * report the first differing pixel. */
 static void sao_paths_agree_k(obs_context *ctx, const ao_input *in, const ao_sao_constants k, const char *what)
 {
     obs_image_f32 o[2] = {{0}}, r[2] = {{0}};
@@ -795,30 +796,37 @@ static void sao_paths_agree_k(obs_context *ctx, const ao_input *in, const ao_sao
     ao_i_sao_isa used = AO_I_SAO_ISA_AUTO;
     CHECK_OK(ao_i_sao_compute_isa(ctx, NULL, in, &k, &o[0], &r[0], &st[0], AO_I_SAO_ISA_SCALAR, &used), ctx);
     CHECK(used == AO_I_SAO_ISA_SCALAR);
-    obs_pool *pool = obs_pool_create(3);
-    CHECK_OK(ao_i_sao_compute_isa(ctx, pool, in, &k, &o[1], &r[1], &st[1], AO_I_SAO_ISA_AVX2, &used), ctx);
-    obs_pool_destroy(pool);
-    CHECK(used == AO_I_SAO_ISA_AVX2);
-    int64_t bad = 0;
-    for (int y = 0; y < in->h; y++)
-        for (int x = 0; x < in->w; x++) {
-            const float a = obs_image_f32_row(&r[0], y)[x], b = obs_image_f32_row(&r[1], y)[x];
-            const float fa = obs_image_f32_row(&o[0], y)[x], fb = obs_image_f32_row(&o[1], y)[x];
-            if (memcmp(&a, &b, 4) || memcmp(&fa, &fb, 4)) {
-                if (!bad)
-                    fprintf(stderr, "%s: first difference at (%d,%d): raw scalar %.9g avx2 %.9g, final %.9g %.9g\n",
-                            what, x, y, (double)a, (double)b, (double)fa, (double)fb);
-                bad++;
+    const ao_i_sao_isa simd[2] = {AO_I_SAO_ISA_AVX2, AO_I_SAO_ISA_AVX512};
+    const char *simd_name[2] = {"AVX2", "AVX512"};
+    for (int s = 0; s < 2; s++) {
+        if (!ao_i_sao_isa_available(simd[s]))
+            continue;
+        obs_pool *pool = obs_pool_create(3);
+        CHECK_OK(ao_i_sao_compute_isa(ctx, pool, in, &k, &o[1], &r[1], &st[1], simd[s], &used), ctx);
+        obs_pool_destroy(pool);
+        CHECK(used == simd[s]);
+        int64_t bad = 0;
+        for (int y = 0; y < in->h; y++)
+            for (int x = 0; x < in->w; x++) {
+                const float a = obs_image_f32_row(&r[0], y)[x], b = obs_image_f32_row(&r[1], y)[x];
+                const float fa = obs_image_f32_row(&o[0], y)[x], fb = obs_image_f32_row(&o[1], y)[x];
+                if (memcmp(&a, &b, 4) || memcmp(&fa, &fb, 4)) {
+                    if (!bad)
+                        fprintf(stderr, "%s: first difference at (%d,%d): raw scalar %.9g %s %.9g, final %.9g %.9g\n",
+                                what, x, y, (double)a, simd_name[s], (double)b, (double)fa, (double)fb);
+                    bad++;
+                }
             }
-        }
-    CHECK_MSG(bad == 0, "%s: %lld pixels differ between the scalar and AVX2 paths", what, (long long)bad);
-    CHECK_MSG(st[0].pixels_background == st[1].pixels_background &&
-                  st[0].pixels_degenerate_normal == st[1].pixels_degenerate_normal &&
-                  st[0].pixels_below_min_radius == st[1].pixels_below_min_radius,
-              "%s: counts differ: background %lld/%lld, degenerate %lld/%lld, min radius %lld/%lld", what,
-              (long long)st[0].pixels_background, (long long)st[1].pixels_background,
-              (long long)st[0].pixels_degenerate_normal, (long long)st[1].pixels_degenerate_normal,
-              (long long)st[0].pixels_below_min_radius, (long long)st[1].pixels_below_min_radius);
+        CHECK_MSG(bad == 0, "%s: %lld pixels differ between the scalar and %s paths", what, (long long)bad,
+                  simd_name[s]);
+        CHECK_MSG(st[0].pixels_background == st[1].pixels_background &&
+                      st[0].pixels_degenerate_normal == st[1].pixels_degenerate_normal &&
+                      st[0].pixels_below_min_radius == st[1].pixels_below_min_radius,
+                  "%s (%s): counts differ: background %lld/%lld, degenerate %lld/%lld, min radius %lld/%lld", what,
+                  simd_name[s], (long long)st[0].pixels_background, (long long)st[1].pixels_background,
+                  (long long)st[0].pixels_degenerate_normal, (long long)st[1].pixels_degenerate_normal,
+                  (long long)st[0].pixels_below_min_radius, (long long)st[1].pixels_below_min_radius);
+    }
     for (int i = 0; i < 2; i++) {
         obs_image_f32_free(&o[i]);
         obs_image_f32_free(&r[i]);
@@ -830,12 +838,14 @@ static void sao_paths_agree(obs_context *ctx, const ao_input *in, const ao_sao_p
     sao_paths_agree_k(ctx, in, ao_sao_constants_from_params(p, in), what);
 }
 
-TEST(sao_avx2_and_scalar_paths_are_bit_identical)
+TEST(sao_simd_and_scalar_paths_are_bit_identical)
 {
     if (!ao_i_sao_isa_available(AO_I_SAO_ISA_AVX2)) {
         printf("AVX2 path not compiled or not supported here: nothing to compare\n");
         return;
     }
+    if (!ao_i_sao_isa_available(AO_I_SAO_ISA_AVX512))
+        printf("AVX512 path not compiled or not supported here: AVX2 against scalar only\n");
     obs_context *ctx = obs_context_create();
     /* 1. the sphere over the ground (odd sizes, a guard band: the region starts at odd columns) */
     obs_scene s;

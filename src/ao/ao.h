@@ -399,8 +399,10 @@ typedef struct ao_sao_stats {
  * the AO before the blur. The AO pass runs over the window plus the blur's reach (stride * R
  * pixels each side, inside the buffer), so that the result equals a GPU running both passes
  * over the whole buffer and cropping. stats may be NULL. The AO pass and the blur run on AVX2
- * when the build and the CPU have it (the environment's OBS_ISA=scalar forces the scalar path);
- * both paths give the same bytes (docs/ao/sao.md, "Speed").
+ * when the build and the CPU have it, the AO pass's cos/sin on AVX-512F where the CPU also has
+ * that (the environment's OBS_ISA=scalar forces the scalar path, OBS_ISA=avx2 at most AVX2); all
+ * paths give the same bytes (docs/ao/sao.md, "Speed"). The call keeps its planes in ctx for the
+ * next call with ctx (freed by obs_context_destroy or obs_context_scratch_release).
  * Returns: OK; INVALID_ARGUMENT (input, params, plane sizes, or normals = GBUFFER without
  * normals); OUT_OF_MEMORY; LIMIT_EXCEEDED. */
 obs_status ao_sao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_sao_params *params,
@@ -939,6 +941,8 @@ typedef struct ao_hbao_stats {
  * window plus the blur's reach (blur_radius pixels each side, inside the buffer), so that the
  * result equals a GPU running both passes over the whole buffer and cropping. Values in [0, 1].
  * Returns: OK; INVALID_ARGUMENT (input, params, plane sizes, normals = GBUFFER without normals);
+ * The call keeps its planes in ctx for the next call with ctx (no fresh pages per call; freed by
+ * obs_context_destroy or obs_context_scratch_release).
  * OUT_OF_MEMORY. */
 obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_hbao_params *params,
                            obs_image_f32 *out, obs_image_f32 *out_raw, ao_hbao_stats *stats);
@@ -1109,6 +1113,8 @@ ao_ue4_constants ao_ue4_constants_from_params(const ao_ue4_params *p, const ao_i
  * params->blur, the Gaussian; out_raw (may be NULL) the AO before the Gaussian. The AO pass runs over
  * the window plus the Gaussian's reach (10 px), aligned to 2x2 quads when the quad blur is on; the
  * coarse levels (levels > 1) over their whole planes.
+ * The call keeps its planes in ctx for the next call with ctx (no fresh pages per call; freed by
+ * obs_context_destroy or obs_context_scratch_release).
  * stats may be NULL. Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
 obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats);
@@ -1474,6 +1480,8 @@ typedef struct ao_mssao_stats {
 /* MSSAO over the input's window. out (required) and out_raw (optional) are w x h planes in our
  * row order; out gets the final-blurred AO when params->blur, else the raw AO. Coarse levels are
  * computed over the whole buffer; level 0 over the window plus the final blur's reach.
+ * The call keeps its planes in ctx for the next call with ctx (no fresh pages per call; freed by
+ * obs_context_destroy or obs_context_scratch_release).
  * Returns OK; INVALID_ARGUMENT; OUT_OF_MEMORY; LIMIT_EXCEEDED. */
 obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *params,
                             obs_image_f32 *out, obs_image_f32 *out_raw, ao_mssao_stats *stats);
@@ -1533,6 +1541,8 @@ typedef struct ao_mssao_seed_stats {
 /* The multi-resolution AO over in's window. out (required) gets the blend of the blurred levels
  * (of the raw levels when !params->alchemy.blur), out_raw (optional) the blend of the raw levels.
  * Level 0 is computed over the window plus the blur's reach; levels 1-4 over their whole image.
+ * The call keeps its planes in ctx for the next call with ctx (no fresh pages per call; freed by
+ * obs_context_destroy or obs_context_scratch_release).
  * Returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY, LIMIT_EXCEEDED. */
 obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
                                  const ao_mssao_seed_params *params, obs_image_f32 *out, obs_image_f32 *out_raw,

@@ -95,6 +95,12 @@ static void gauss_band(void *user, int64_t task, int thread)
 
 obs_status ao_blur_gaussian21(obs_context *ctx, obs_pool *pool, const obs_image_f32 *in, obs_image_f32 *out)
 {
+    return ao_i_blur_gaussian21_ws(ctx, pool, NULL, in, out);
+}
+
+obs_status ao_i_blur_gaussian21_ws(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const obs_image_f32 *in,
+                                   obs_image_f32 *out)
+{
     if (!in || !out || !in->data || !out->data)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ao_blur_gaussian21: NULL plane");
     if (in->data == out->data)
@@ -104,14 +110,16 @@ obs_status ao_blur_gaussian21(obs_context *ctx, obs_pool *pool, const obs_image_
                          "ao_blur_gaussian21: planes must have the same non-zero size (in %dx%d, out %dx%d)",
                          in->width, in->height, out->width, out->height);
     obs_image_f32 tmp = {0};
-    obs_status st = obs_image_f32_alloc(ctx, in->width, in->height, &tmp);
+    obs_status st = ws ? ao_i_ws_plane(ctx, ws, in->width, in->height, &tmp)
+                       : obs_image_f32_alloc(ctx, in->width, in->height, &tmp);
     if (st != OBS_STATUS_OK)
         return st;
     gauss_job h = {in, &tmp, 0}, v = {&tmp, out, 1};
     const int64_t bands = (in->height + GAUSS_ROWS_PER_TASK - 1) / GAUSS_ROWS_PER_TASK;
     obs_pool_run(pool, bands, gauss_band, &h);
     obs_pool_run(pool, bands, gauss_band, &v);
-    obs_image_f32_free(&tmp);
+    if (!ws)
+        obs_image_f32_free(&tmp);
     return OBS_STATUS_OK;
 }
 

@@ -1728,9 +1728,12 @@ static void clean_row(void *user, int64_t task, int thread)
         d[x] = (s[x] > 0.0f && s[x] < INFINITY) ? s[x] : INFINITY; /* background: +inf */
 }
 
-static obs_status clean_depth(obs_context *ctx, obs_pool *pool, const obs_image_f32 *src, obs_image_f32 *dst)
+/* dst: a fresh plane, or the workspace's when ws is set (ao_i_ws_plane) */
+static obs_status clean_depth(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const obs_image_f32 *src,
+                              obs_image_f32 *dst)
 {
-    obs_status st = obs_image_f32_alloc(ctx, src->width, src->height, dst);
+    obs_status st = ws ? ao_i_ws_plane(ctx, ws, src->width, src->height, dst)
+                       : obs_image_f32_alloc(ctx, src->width, src->height, dst);
     if (st != OBS_STATUS_OK)
         return st;
     clean_job J = {src, dst};
@@ -1760,7 +1763,7 @@ obs_status ao_hbao_blur(obs_context *ctx, obs_pool *pool, const obs_image_f32 *a
     const int ry0 = y0 - radius < 0 ? 0 : y0 - radius;
     const int ry1 = y0 + out->height - 1 + radius > H - 1 ? H - 1 : y0 + out->height - 1 + radius;
     obs_image_f32 z = {0}, tmp = {0};
-    obs_status st = clean_depth(ctx, pool, depth, &z);
+    obs_status st = clean_depth(ctx, pool, NULL, depth, &z);
     if (st == OBS_STATUS_OK)
         st = obs_image_f32_alloc(ctx, out->width, ry1 - ry0 + 1, &tmp);
     if (st == OBS_STATUS_OK) {
@@ -1775,6 +1778,8 @@ obs_status ao_hbao_blur(obs_context *ctx, obs_pool *pool, const obs_image_f32 *a
 /* ================================================================================================
  * The whole pass
  * ============================================================================================== */
+
+static const char hbao_workspace_key; /* its address names our slot in the context */
 
 obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_hbao_params *params,
                            obs_image_f32 *out, obs_image_f32 *out_raw, ao_hbao_stats *stats)
@@ -1796,15 +1801,21 @@ obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
         memset(stats, 0, sizeof *stats);
     const ao_hbao_constants k = ao_hbao_constants_from_params(params, in);
     const int W = in->width, H = in->height;
+    /* The planes and counts come from the workspace kept in the context between calls
+     * (ao_i_ws_*: zeroed as fresh planes, without a fresh plane's page faults) */
+    ao_i_ws *ws = ao_i_ws_take(ctx, &hbao_workspace_key);
     hbao_job *J = (hbao_job *)calloc(1, sizeof *J);
     obs_image_f32 z = {0}, raw = {0}, hpass = {0}, vpass = {0};
     int64_t(*counts)[3] = NULL;
-    if (!J)
+    if (!J || !ws) {
+        free(J);
+        ao_i_ws_put(ctx, &hbao_workspace_key, ws);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "hbao: out of memory");
+    }
 
     /* ---- 1. Clean depth (background = +inf) and the random texture ---- */
     double t0 = obs_time_now();
-    st = clean_depth(ctx, pool, in->depth, &z);
+    st = clean_depth(ctx, pool, ws, in->depth, &z);
     if (k.noise == AO_HBAO_NOISE_SDK)
         ao_hbao_noise_texture_sdk(k.num_dirs, NULL, J->noise);
     else
@@ -1817,9 +1828,9 @@ obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     const int ry0 = in->y0 - m < 0 ? 0 : in->y0 - m, ry1 = in->y0 + in->h - 1 + m > H - 1 ? H - 1 : in->y0 + in->h - 1 + m;
     const int rw = rx1 - rx0 + 1, rh = ry1 - ry0 + 1;
     if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, rw, rh, &raw);
+        st = ao_i_ws_plane(ctx, ws, rw, rh, &raw);
     if (st == OBS_STATUS_OK) {
-        counts = (int64_t(*)[3])calloc((size_t)rh, sizeof *counts);
+        counts = (int64_t(*)[3])ao_i_ws_buf(ws, (size_t)rh * sizeof *counts, 1);
         if (!counts)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "hbao: out of memory");
     }
@@ -1840,9 +1851,9 @@ obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
     const obs_image_f32 *final = &raw;
     int fx0 = rx0, fy0 = ry0;
     if (st == OBS_STATUS_OK && k.blur) {
-        st = obs_image_f32_alloc(ctx, in->w, rh, &hpass);
+        st = ao_i_ws_plane(ctx, ws, in->w, rh, &hpass);
         if (st == OBS_STATUS_OK)
-            st = obs_image_f32_alloc(ctx, in->w, in->h, &vpass);
+            st = ao_i_ws_plane(ctx, ws, in->w, in->h, &vpass);
         if (st == OBS_STATUS_OK) {
             blur_run(pool, &raw, rx0, ry0, &z, &hpass, in->x0, ry0, 0, k.blur_radius, k.blur_depth_slope,
                      k.blur_falloff, k.blur_sharpness);
@@ -1876,12 +1887,8 @@ obs_status ao_hbao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
             stats->seconds_blur = t3 - t2;
         }
     }
-    free(counts);
     free(J);
-    obs_image_f32_free(&vpass);
-    obs_image_f32_free(&hpass);
-    obs_image_f32_free(&raw);
-    obs_image_f32_free(&z);
+    ao_i_ws_put(ctx, &hbao_workspace_key, ws); /* z, raw, hpass, vpass and counts are its */
     return st;
 }
 

@@ -33,6 +33,28 @@ int ao_i_floor_log2f(float x);
 struct ao_input;
 void ao_i_background_to_one(const struct ao_input *in, int y, float *row);
 
+/* A call's scratch kept between calls (ao_workspace.c), for the methods whose planes were fresh
+ * allocations per call (MSSAO, MSSAO seed, HBAO, UE4): page faults cost ~13 us per 4 KiB page on
+ * the development VM, more than the kernels' arithmetic on a coarse level. The i-th plane (buffer)
+ * a call asks for reuses the memory of the i-th plane (buffer) of the previous call with the same
+ * context and key, grown when needed. ao_i_ws_plane returns a plane exactly as obs_image_f32_alloc
+ * does (the same size checks and errors, rows of 16-float multiples, ALL zeroed), so a kernel sees
+ * the same bytes as with a fresh plane and its output cannot change; zeroing memory already
+ * mapped costs ~1/50 of first-touching it. The planes belong to the workspace: never free them.
+ * Usage: ws = ao_i_ws_take(ctx, &key) (NULL: out of memory); ao_i_ws_plane / ao_i_ws_buf ...;
+ * ao_i_ws_put(ctx, &key, ws) on every path out (parks it in ctx, obs_context_scratch_put). */
+#include "core/obs.h"
+typedef struct ao_i_ws ao_i_ws;
+ao_i_ws *ao_i_ws_take(obs_context *ctx, const void *key);
+void ao_i_ws_put(obs_context *ctx, const void *key, ao_i_ws *ws);
+obs_status ao_i_ws_plane(obs_context *ctx, ao_i_ws *ws, int width, int height, obs_image_f32 *out);
+/* bytes of memory (64-byte aligned, obs_aligned_alloc), zeroed when zero is set (calloc's
+ * contract), else not (malloc's); NULL when out of memory. */
+void *ao_i_ws_buf(ao_i_ws *ws, size_t bytes, int zero);
+/* ao_blur_gaussian21 with its intermediate plane from ws (NULL: a fresh one) */
+obs_status ao_i_blur_gaussian21_ws(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const obs_image_f32 *in,
+                                   obs_image_f32 *out);
+
 /* The method descriptors (ao.h, "The method registry"), one per technique file; ao_methods.c lists
  * them. */
 struct ao_method;

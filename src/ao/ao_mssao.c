@@ -206,25 +206,33 @@ void ao_mssao_levels_free(ao_mssao_levels *lv)
 /* Allocate the planes of one level: gbuf, position z and the normals (what the blur and the
  * upsampling read); full (the kept levels), also position x, y, the validity and own (the packed
  * texels hold x, y, z, w for the kernels); ao, the AO planes; blur, the blurred ones. */
-static obs_status level_alloc(obs_context *ctx, ao_mssao_level *L, int w, int h, int gbuf, int full, int ao, int blur)
+/* A zeroed plane: the workspace's when ws is set (ao_i_ws_plane; then the workspace owns it), else a
+ * fresh one (ao_mssao_compute_levels, whose planes go to the caller). */
+static obs_status ms_plane(obs_context *ctx, ao_i_ws *ws, int w, int h, obs_image_f32 *out)
+{
+    return ws ? ao_i_ws_plane(ctx, ws, w, h, out) : obs_image_f32_alloc(ctx, w, h, out);
+}
+
+static obs_status level_alloc(obs_context *ctx, ao_i_ws *ws, ao_mssao_level *L, int w, int h, int gbuf, int full,
+                              int ao, int blur)
 {
     obs_status st = OBS_STATUS_OK;
     L->width = w;
     L->height = h;
     for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++) {
         if (full || (gbuf && c == 2))
-            st = obs_image_f32_alloc(ctx, w, h, &L->pos[c]);
+            st = ms_plane(ctx, ws, w, h, &L->pos[c]);
         if (st == OBS_STATUS_OK && (gbuf || full))
-            st = obs_image_f32_alloc(ctx, w, h, &L->normal[c]);
+            st = ms_plane(ctx, ws, w, h, &L->normal[c]);
         if (st == OBS_STATUS_OK && ao)
-            st = obs_image_f32_alloc(ctx, w, h, &L->ao[c]);
+            st = ms_plane(ctx, ws, w, h, &L->ao[c]);
         if (st == OBS_STATUS_OK && blur)
-            st = obs_image_f32_alloc(ctx, w, h, &L->ao_blur[c]);
+            st = ms_plane(ctx, ws, w, h, &L->ao_blur[c]);
     }
     if (st == OBS_STATUS_OK && full)
-        st = obs_image_f32_alloc(ctx, w, h, &L->valid);
+        st = ms_plane(ctx, ws, w, h, &L->valid);
     if (st == OBS_STATUS_OK && ao && full)
-        st = obs_image_f32_alloc(ctx, w, h, &L->own);
+        st = ms_plane(ctx, ws, w, h, &L->own);
     return st;
 }
 
@@ -1362,10 +1370,12 @@ static int64_t sum_rows(const int64_t *a, int n)
 }
 
 /* Run MSSAO. Level 0 over the region [rx0, rx0+rw) x [ry0, ry0+rh) (our row order) into vis
- * (rw x rh). keep: keep every level's planes (and fill level 0's AO planes and vis_gl). */
-static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *P,
-                            const ao_mssao_constants *K, int rx0, int ry0, obs_image_f32 *vis, ao_mssao_levels *lv,
-                            ao_mssao_stats *stats)
+ * (rw x rh). keep: keep every level's planes (and fill level 0's AO planes and vis_gl). ws: the
+ * workspace every plane and buffer comes from (then lv's planes are the workspace's: never free
+ * them), or NULL for fresh ones. */
+static obs_status mssao_run(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const ao_input *in,
+                            const ao_mssao_params *P, const ao_mssao_constants *K, int rx0, int ry0,
+                            obs_image_f32 *vis, ao_mssao_levels *lv, ao_mssao_stats *stats)
 {
     const int W = in->width, H = in->height, NL = K->levels;
     const int avx2 = ms_use_avx2(W, H);
@@ -1387,14 +1397,16 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
     } else {
         own_nrm = 1;
         for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++)
-            st = obs_image_f32_alloc(ctx, W, H, &nrm[c]);
+            st = ms_plane(ctx, ws, W, H, &nrm[c]);
         if (st == OBS_STATUS_OK)
             st = ao_normals_from_depth(ctx, pool, in, nrm);
     }
     const int maxh = H > 0 ? H : 1;
     if (st == OBS_STATUS_OK) {
-        rows = (int64_t *)calloc((size_t)maxh, sizeof *rows);
-        counts = (int64_t(*)[2])calloc((size_t)vis->height, sizeof *counts);
+        rows = ws ? (int64_t *)ao_i_ws_buf(ws, (size_t)maxh * sizeof *rows, 1)
+                  : (int64_t *)calloc((size_t)maxh, sizeof *rows);
+        counts = ws ? (int64_t(*)[2])ao_i_ws_buf(ws, (size_t)vis->height * sizeof *counts, 1)
+                    : (int64_t(*)[2])calloc((size_t)vis->height, sizeof *counts);
         if (!rows || !counts)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
     }
@@ -1406,11 +1418,12 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
         /* Speed: level 0's positions and validity live only in its packed texels (g0_row writes
          * them there), unless every plane is kept: 4 full-size planes fewer to allocate and fill. */
         const int keep = lv->count < 0;
-        st = level_alloc(ctx, L, K->level_width[l], K->level_height[l], l > 0 || keep, keep, l > 0 || keep,
+        st = level_alloc(ctx, ws, L, K->level_width[l], K->level_height[l], l > 0 || keep, keep, l > 0 || keep,
                          l > 0 && K->level_blur);
         if (st != OBS_STATUS_OK)
             break;
-        pk[l] = (float *)obs_aligned_alloc(sizeof(float) * 4 * (size_t)L->width * (size_t)L->height);
+        const size_t pk_bytes = sizeof(float) * 4 * (size_t)L->width * (size_t)L->height;
+        pk[l] = ws ? (float *)ao_i_ws_buf(ws, pk_bytes, 0) : (float *)obs_aligned_alloc(pk_bytes);
         if (!pk[l]) {
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
             break;
@@ -1482,13 +1495,15 @@ static obs_status mssao_run(obs_context *ctx, obs_pool *pool, const ao_input *in
         stats->seconds_prepare = t1 - t0;
         stats->seconds_kernel = t2 - t1;
     }
-    free(rows);
-    free(counts);
-    for (int l = 0; l < AO_MSSAO_MAX_LEVELS; l++)
-        obs_aligned_free(pk[l]);
-    if (own_nrm)
-        for (int c = 0; c < 3; c++)
-            obs_image_f32_free(&nrm[c]);
+    if (!ws) { /* else they are the workspace's */
+        free(rows);
+        free(counts);
+        for (int l = 0; l < AO_MSSAO_MAX_LEVELS; l++)
+            obs_aligned_free(pk[l]);
+        if (own_nrm)
+            for (int c = 0; c < 3; c++)
+                obs_image_f32_free(&nrm[c]);
+    }
     return st;
 }
 
@@ -1516,7 +1531,7 @@ obs_status ao_mssao_compute_levels(obs_context *ctx, obs_pool *pool, const ao_in
         st = obs_image_f32_alloc(ctx, in->width, in->height, &out->visibility);
     if (st == OBS_STATUS_OK) {
         out->count = -1; /* marker for mssao_run: keep everything */
-        st = mssao_run(ctx, pool, in, params, &K, 0, 0, &vis, out, NULL);
+        st = mssao_run(ctx, pool, NULL, in, params, &K, 0, 0, &vis, out, NULL);
         out->count = K.levels;
     }
     obs_image_f32_free(&vis);
@@ -1524,6 +1539,8 @@ obs_status ao_mssao_compute_levels(obs_context *ctx, obs_pool *pool, const ao_in
         ao_mssao_levels_free(out);
     return st;
 }
+
+static const char mssao_workspace_key; /* its address names our slot in the context */
 
 obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_mssao_params *params,
                             obs_image_f32 *out, obs_image_f32 *out_raw, ao_mssao_stats *stats)
@@ -1544,25 +1561,30 @@ obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
     if (K.blur)
         ao_blur_reach(in, AO_GAUSS21_RADIUS, rect);
     obs_image_f32 raw = {0}, blurred = {0};
+    /* Every plane and buffer of the call comes from the workspace kept in the context between calls
+     * (ao_i_ws_*: zeroed as fresh planes, without a fresh plane's page faults) */
+    ao_i_ws *ws = ao_i_ws_take(ctx, &mssao_workspace_key);
     ao_mssao_levels *lv = (ao_mssao_levels *)calloc(1, sizeof *lv);
-    if (!lv)
+    if (!lv || !ws) {
+        free(lv);
+        ao_i_ws_put(ctx, &mssao_workspace_key, ws);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao: out of memory");
+    }
     /* Speed: without the final blur the region is the window, and level 0 writes straight into out */
     obs_image_f32 *level0 = K.blur ? &raw : out;
     if (K.blur)
-        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &raw);
+        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], &raw);
     if (st == OBS_STATUS_OK)
-        st = mssao_run(ctx, pool, in, params, &K, rect[0], rect[1], level0, lv, stats);
-    ao_mssao_levels_free(lv);
-    free(lv);
+        st = mssao_run(ctx, pool, ws, in, params, &K, rect[0], rect[1], level0, lv, stats);
+    free(lv); /* its planes are the workspace's */
 
     /* ---- 4. The optional final blur (the seed's 21-tap Gaussian), then the window ---- */
     const obs_image_f32 *final = level0;
     double t0 = obs_time_now();
     if (st == OBS_STATUS_OK && K.blur) {
-        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &blurred);
+        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], &blurred);
         if (st == OBS_STATUS_OK)
-            st = ao_blur_gaussian21(ctx, pool, &raw, &blurred);
+            st = ao_i_blur_gaussian21_ws(ctx, pool, ws, &raw, &blurred);
         final = &blurred;
     }
     if (stats)
@@ -1579,8 +1601,7 @@ obs_status ao_mssao_compute(obs_context *ctx, obs_pool *pool, const ao_input *in
                        sizeof(float) * (size_t)in->w);
         }
     }
-    obs_image_f32_free(&blurred);
-    obs_image_f32_free(&raw);
+    ao_i_ws_put(ctx, &mssao_workspace_key, ws); /* raw and blurred are its */
     return st;
 }
 

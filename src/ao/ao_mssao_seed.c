@@ -128,13 +128,6 @@ typedef struct level_buf {
     ao_input in;
 } level_buf;
 
-static void level_free(level_buf *L)
-{
-    obs_image_f32_free(&L->depth);
-    for (int a = 0; a < 3; a++)
-        obs_image_f32_free(&L->normal[a]);
-}
-
 typedef struct down_job {
     const ao_input *in;
     level_buf *L;
@@ -157,17 +150,16 @@ static void down_row(void *user, int64_t task, int thread)
 }
 
 /* Level l's G-buffer and its ao_input (the whole level is its window). */
-static obs_status level_make(obs_context *ctx, obs_pool *pool, const ao_input *in, int l, level_buf *L)
+/* Planes from the workspace ws (ao_i_ws_plane, zeroed as fresh ones; the workspace owns them). */
+static obs_status level_make(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const ao_input *in, int l, level_buf *L)
 {
     memset(L, 0, sizeof *L);
     ao_mssao_seed_level_size(in->width, in->height, l, &L->w, &L->h);
-    obs_status st = obs_image_f32_alloc(ctx, L->w, L->h, &L->depth);
+    obs_status st = ao_i_ws_plane(ctx, ws, L->w, L->h, &L->depth);
     for (int a = 0; a < 3 && st == OBS_STATUS_OK && in->normal[0]; a++)
-        st = obs_image_f32_alloc(ctx, L->w, L->h, &L->normal[a]);
-    if (st != OBS_STATUS_OK) {
-        level_free(L);
+        st = ao_i_ws_plane(ctx, ws, L->w, L->h, &L->normal[a]);
+    if (st != OBS_STATUS_OK)
         return st;
-    }
     down_job J = {in, L, l};
     obs_pool_run(pool, L->h, down_row, &J);
     ao_input *li = &L->in;
@@ -187,10 +179,11 @@ static obs_status level_make(obs_context *ctx, obs_pool *pool, const ao_input *i
     return OBS_STATUS_OK;
 }
 
-/* One level's AO: raw over rect (level coordinates) and, with the blur, blurred; both rect-sized. */
-static obs_status level_ao(obs_context *ctx, obs_pool *pool, const ao_input *li, const ao_alchemy_params *ap,
-                           const int rect[4], obs_image_f32 *raw, obs_image_f32 *blurred, int64_t counts[2],
-                           double *t_ao, double *t_blur)
+/* One level's AO: raw over rect (level coordinates) and, with the blur, blurred; both rect-sized,
+ * from the workspace ws, as every plane here. */
+static obs_status level_ao(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const ao_input *li,
+                           const ao_alchemy_params *ap, const int rect[4], obs_image_f32 *raw, obs_image_f32 *blurred,
+                           int64_t counts[2], double *t_ao, double *t_blur)
 {
     const ao_alchemy_constants k = ao_alchemy_constants_from_params(ap, li);
     obs_image_f32 rec[3];
@@ -200,28 +193,26 @@ static obs_status level_ao(obs_context *ctx, obs_pool *pool, const ao_input *li,
     double t0 = obs_time_now();
     if (!k.normals_from_gbuffer) {
         for (int a = 0; a < 3 && st == OBS_STATUS_OK; a++)
-            st = obs_image_f32_alloc(ctx, li->width, li->height, &rec[a]);
+            st = ao_i_ws_plane(ctx, ws, li->width, li->height, &rec[a]);
         if (st == OBS_STATUS_OK)
             st = ao_normals_from_depth(ctx, pool, li, rec);
         for (int a = 0; a < 3; a++)
             nrm[a] = &rec[a];
     }
     if (st == OBS_STATUS_OK)
-        st = obs_image_f32_alloc(ctx, rect[2], rect[3], raw);
+        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], raw);
     if (st == OBS_STATUS_OK)
         st = ao_alchemy_raw(ctx, pool, li, &k, nrm, rect, raw, counts);
     double t1 = obs_time_now();
     if (st == OBS_STATUS_OK && ap->blur) {
-        st = obs_image_f32_alloc(ctx, rect[2], rect[3], blurred);
+        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], blurred);
         if (st == OBS_STATUS_OK)
-            st = ao_blur_gaussian21(ctx, pool, raw, blurred);
+            st = ao_i_blur_gaussian21_ws(ctx, pool, ws, raw, blurred);
     }
     double t2 = obs_time_now();
     *t_ao += t1 - t0;
     *t_blur += t2 - t1;
-    for (int a = 0; a < 3; a++)
-        obs_image_f32_free(&rec[a]);
-    return st;
+    return st; /* rec[] are the workspace's */
 }
 
 /* ================================================================================================
@@ -302,6 +293,8 @@ static void blend_row(void *user, int64_t task, int thread)
  * The whole pass
  * ============================================================================================== */
 
+static const char seed_workspace_key; /* its address names our slot in the context */
+
 obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_input *in,
                                  const ao_mssao_seed_params *params, obs_image_f32 *out, obs_image_f32 *out_raw,
                                  ao_mssao_seed_stats *stats)
@@ -334,18 +327,23 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
     int rect0[4];
     ao_blur_reach(in, ap->blur ? AO_GAUSS21_RADIUS : 0, rect0);
     int64_t c[2] = {0, 0};
-    st = level_ao(ctx, pool, in, ap, rect0, &raw[0], &blr[0], c, &t_ao, &t_blur);
+    /* Every plane and buffer of the call comes from the workspace kept in the context between calls
+     * (ao_i_ws_*: zeroed as fresh planes, without a fresh plane's page faults) */
+    ao_i_ws *ws = ao_i_ws_take(ctx, &seed_workspace_key);
+    if (!ws)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao-seed: out of memory");
+    st = level_ao(ctx, pool, ws, in, ap, rect0, &raw[0], &blr[0], c, &t_ao, &t_blur);
     bg += c[0];
     computed += (int64_t)rect0[2] * rect0[3];
     /* ---- Levels 1..4: the point-sampled G-buffer, the whole level ---- */
     for (int l = 1; l < AO_MSSAO_SEED_LEVELS && st == OBS_STATUS_OK; l++) {
         double t0 = obs_time_now();
-        st = level_make(ctx, pool, in, l, &L[l]);
+        st = level_make(ctx, pool, ws, in, l, &L[l]);
         t_prep += obs_time_now() - t0;
         if (st != OBS_STATUS_OK)
             break;
         const int rect[4] = {0, 0, L[l].w, L[l].h};
-        st = level_ao(ctx, pool, &L[l].in, ap, rect, &raw[l], &blr[l], c, &t_ao, &t_blur);
+        st = level_ao(ctx, pool, ws, &L[l].in, ap, rect, &raw[l], &blr[l], c, &t_ao, &t_blur);
         bg += c[0];
         computed += (int64_t)L[l].w * L[l].h;
     }
@@ -358,7 +356,7 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
         memcpy(J.rect0, rect0, sizeof rect0);
         memcpy(J.I, params->level_intensity, sizeof J.I);
         /* the column half of every level's bilinear lookup, once per call (same bits as per pixel) */
-        lin_tap *cols = (lin_tap *)malloc(sizeof(lin_tap) * (size_t)in->w * (AO_MSSAO_SEED_LEVELS - 1));
+        lin_tap *cols = (lin_tap *)ao_i_ws_buf(ws, sizeof(lin_tap) * (size_t)in->w * (AO_MSSAO_SEED_LEVELS - 1), 0);
         if (!cols)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao-seed: out of memory");
         for (int l = 1; l < AO_MSSAO_SEED_LEVELS && cols; l++) {
@@ -377,7 +375,6 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
             if (cols)
                 obs_pool_run(pool, in->h, blend_row, &J);
         }
-        free(cols);
     }
     if (stats && st == OBS_STATUS_OK) {
         stats->pixels_computed = computed;
@@ -387,11 +384,7 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
         stats->seconds_blur = t_blur;
         stats->seconds_blend = obs_time_now() - t0;
     }
-    for (int l = 0; l < AO_MSSAO_SEED_LEVELS; l++) {
-        obs_image_f32_free(&raw[l]);
-        obs_image_f32_free(&blr[l]);
-        level_free(&L[l]);
-    }
+    ao_i_ws_put(ctx, &seed_workspace_key, ws); /* raw, blr, L and cols are its */
     return st;
 }
 

@@ -1,9 +1,12 @@
 /* ao_sao_avx2.c: the SAO AO pass with AVX2, 8 pixels at a time. Compiled with -mavx2 only (no
  * FMA), selected at run time (ao_i_sao_isa_available; OBS_ISA=scalar forces the scalar path).
+ * ao_sao_avx512.c compiles this file again (AO_I_SAO_AVX512_BUILD) as ao_i_sao_row_avx512, whose
+ * cos/sin run on 8 doubles in one AVX-512F register (cos_sin_pd8) instead of two 4-wide halves;
+ * the rest, and the blur (compiled here only), are the same.
  *
  * Lanes: 8 horizontally adjacent pixels (gx .. gx+7) of one GL row; every float lane runs the
  * scalar kernel's operations (ao_sao.c, sao_row_impl) in the same order, so the two paths agree
- * bit for bit (tests/test_ao_sao.c, sao_avx2_and_scalar_paths_are_bit_identical):
+ * bit for bit (tests/test_ao_sao.c, sao_simd_and_scalar_paths_are_bit_identical):
  *   - +, -, *, /, sqrt are IEEE in both; no FMA (-ffp-contract=off, no -mfma);
  *   - the scalar maxf(a, b) = a > b ? a : b is exactly MAXPS(a, b) (NaN or equal: b);
  *   - int -> float is CVTDQ2PS (round to nearest even), as the scalar cast;
@@ -20,66 +23,104 @@
 #include "ao_sao_internal.h"
 #include "ao_internal.h"
 
-#if defined(OBS_HAVE_AVX2)
+#if defined(OBS_HAVE_AVX2) && (!defined(AO_I_SAO_AVX512_BUILD) || defined(AO_I_SAO_HAVE_AVX512))
+#if defined(AO_I_SAO_AVX512_BUILD)
+/* ao_sao_avx512.c: this kernel again, its cos/sin on 8 doubles in one register */
+#pragma GCC target("avx2,avx512f")
+#define SAO_WIDE 1
+#define SAO_ROW_FN ao_i_sao_row_avx512
+#else
+#define SAO_WIDE 0
+#define SAO_ROW_FN ao_i_sao_row_avx2
+#endif
 #include <immintrin.h>
 #include <math.h>
 #include <string.h>
 
-/* ---- cos and sin: ao_i_cos_sin on 4 doubles ---------------------------------------------------- */
+/* ---- cos and sin: ao_i_cos_sin on 4 (AVX2) or 8 (AVX-512F) doubles -------------------------------- */
+
+/* The reduction and the two kernels of ao_i_cos_sin on one register of doubles x, for the vector
+ * width W (_mm256 or _mm512, T its __m256d or __m512d): kd, cs and sn receive the quadrant (as a
+ * double) and the kernels' cos and sin of the reduced angle. One source for both widths, so that
+ * each lane runs the same operations in the same order. */
+#define SAO_COS_SIN_KERNELS(W, T, x, kd, cs, sn)                                                            \
+    do {                                                                                                  \
+        const T P1 = W##_set1_pd(0x1.921fbp+0), P2 = W##_set1_pd(0x1.5110bp-22),                          \
+                P3 = W##_set1_pd(0x1.18469800p-44), P4 = W##_set1_pd(0x1.3198a2e037073p-69);              \
+        const T TWO_OVER_PI = W##_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = W##_set1_pd(0x1.8p52);         \
+        /* kd = nearest integer to x * 2/pi; r = x - kd (P1 + P2 + P3 + P4), each step rounded */         \
+        kd = W##_sub_pd(W##_add_pd(W##_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);                        \
+        T r_ = W##_sub_pd(x, W##_mul_pd(kd, P1));                                                         \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P2));                                                          \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P3));                                                          \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P4));                                                          \
+        const T z_ = W##_mul_pd(r_, r_);                                                                  \
+        /* sn = r + r z (S1 + z (S2 + ... + z S6)); cs = 1 - 0.5 z + z z (C1 + z (C2 + ... + z C6));     \
+         * each a + b * c is two roundings (no FMA) */                                                    \
+        T ps_ = W##_add_pd(W##_set1_pd(AO_I_SIN_S5), W##_mul_pd(z_, W##_set1_pd(AO_I_SIN_S6)));           \
+        ps_ = W##_add_pd(W##_set1_pd(AO_I_SIN_S4), W##_mul_pd(z_, ps_));                                  \
+        ps_ = W##_add_pd(W##_set1_pd(AO_I_SIN_S3), W##_mul_pd(z_, ps_));                                  \
+        ps_ = W##_add_pd(W##_set1_pd(AO_I_SIN_S2), W##_mul_pd(z_, ps_));                                  \
+        ps_ = W##_add_pd(W##_set1_pd(AO_I_SIN_S1), W##_mul_pd(z_, ps_));                                  \
+        sn = W##_add_pd(r_, W##_mul_pd(W##_mul_pd(r_, z_), ps_));                                         \
+        T pc_ = W##_add_pd(W##_set1_pd(AO_I_COS_C5), W##_mul_pd(z_, W##_set1_pd(AO_I_COS_C6)));           \
+        pc_ = W##_add_pd(W##_set1_pd(AO_I_COS_C4), W##_mul_pd(z_, pc_));                                  \
+        pc_ = W##_add_pd(W##_set1_pd(AO_I_COS_C3), W##_mul_pd(z_, pc_));                                  \
+        pc_ = W##_add_pd(W##_set1_pd(AO_I_COS_C2), W##_mul_pd(z_, pc_));                                  \
+        pc_ = W##_add_pd(W##_set1_pd(AO_I_COS_C1), W##_mul_pd(z_, pc_));                                  \
+        cs = W##_add_pd(W##_sub_pd(W##_set1_pd(1.0), W##_mul_pd(W##_set1_pd(0.5), z_)),                  \
+                        W##_mul_pd(W##_mul_pd(z_, z_), pc_));                                             \
+    } while (0)
+
+/* The quadrant q = kd mod 4 picks the signs: 0 (cs, sn), 1 (-sn, cs), 2 (-cs, -sn), 3 (sn, -cs); the
+ * float rounding is symmetric, so negating after it is the scalar (float)-v. For odd q the two swap
+ * (bit 0 of q moved to the sign bit, which is what blendv reads); cos is negative for q = 1, 2 (bit 1
+ * of q + 1), sin for q = 2, 3 (bit 1 of q), each moved to the sign bit. V: _mm (4 lanes) or _mm256
+ * (8), F its float and I its integer vector type, S the integer suffix (si128 or si256). */
+#define SAO_QUADRANT_SIGNS(V, F, I, S, q, csf, snf, c, s)                                                   \
+    do {                                                                                                  \
+        const F swap_ = V##_castsi##S##_ps(V##_slli_epi32(q, 31));                                        \
+        const F c0_ = V##_blendv_ps(csf, snf, swap_), s0_ = V##_blendv_ps(snf, csf, swap_);               \
+        const I sgn_ = V##_set1_epi32((int)0x80000000u);                                                  \
+        const I cneg_ = V##_and_si##S(V##_slli_epi32(V##_add_epi32(q, V##_set1_epi32(1)), 30), sgn_);    \
+        const I sneg_ = V##_and_si##S(V##_slli_epi32(q, 30), sgn_);                                       \
+        *(c) = V##_xor_ps(c0_, V##_castsi##S##_ps(cneg_));                                                \
+        *(s) = V##_xor_ps(s0_, V##_castsi##S##_ps(sneg_));                                                \
+    } while (0)
 
 static inline void cos_sin_pd(__m256d x, __m128 *c, __m128 *s)
 {
-    const __m256d P1 = _mm256_set1_pd(0x1.921fbp+0), P2 = _mm256_set1_pd(0x1.5110bp-22),
-                  P3 = _mm256_set1_pd(0x1.18469800p-44), P4 = _mm256_set1_pd(0x1.3198a2e037073p-69);
-    const __m256d TWO_OVER_PI = _mm256_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = _mm256_set1_pd(0x1.8p52);
-    /* kd = nearest integer to x * 2/pi; r = x - kd (P1 + P2 + P3 + P4), each step rounded */
-    const __m256d kd = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);
-    __m256d r = _mm256_sub_pd(x, _mm256_mul_pd(kd, P1));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P2));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P3));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P4));
-    const __m256d z = _mm256_mul_pd(r, r);
-#define C_(v) _mm256_set1_pd(v)
-#define MA_(a, b, c) _mm256_add_pd((a), _mm256_mul_pd((b), (c))) /* a + b * c, two roundings */
-    /* sn = r + r z (S1 + z (S2 + ... + z S6)); cs = 1 - 0.5 z + z z (C1 + z (C2 + ... + z C6)) */
-    __m256d ps = MA_(C_(AO_I_SIN_S5), z, C_(AO_I_SIN_S6));
-    ps = MA_(C_(AO_I_SIN_S4), z, ps);
-    ps = MA_(C_(AO_I_SIN_S3), z, ps);
-    ps = MA_(C_(AO_I_SIN_S2), z, ps);
-    ps = MA_(C_(AO_I_SIN_S1), z, ps);
-    const __m256d sn = _mm256_add_pd(r, _mm256_mul_pd(_mm256_mul_pd(r, z), ps));
-    __m256d pc = MA_(C_(AO_I_COS_C5), z, C_(AO_I_COS_C6));
-    pc = MA_(C_(AO_I_COS_C4), z, pc);
-    pc = MA_(C_(AO_I_COS_C3), z, pc);
-    pc = MA_(C_(AO_I_COS_C2), z, pc);
-    pc = MA_(C_(AO_I_COS_C1), z, pc);
-    const __m256d cs = _mm256_add_pd(_mm256_sub_pd(C_(1.0), _mm256_mul_pd(C_(0.5), z)),
-                                     _mm256_mul_pd(_mm256_mul_pd(z, z), pc));
-#undef MA_
-#undef C_
-    /* quadrant q = kd mod 4: 0 (cs, sn), 1 (-sn, cs), 2 (-cs, -sn), 3 (sn, -cs); the float
-     * rounding is symmetric, so negating after it is the scalar (float)-v */
+    __m256d kd, cs, sn;
+    SAO_COS_SIN_KERNELS(_mm256, __m256d, x, kd, cs, sn);
     const __m128 csf = _mm256_cvtpd_ps(cs), snf = _mm256_cvtpd_ps(sn);
     const __m128i q = _mm256_cvtpd_epi32(kd); /* exact: kd is an integer, |kd| < 2^31 */
-    /* swap for odd q: bit 0 of q moved to the sign bit, which is what blendv reads */
-    const __m128 swap = _mm_castsi128_ps(_mm_slli_epi32(q, 31));
-    const __m128 c0 = _mm_blendv_ps(csf, snf, swap), s0 = _mm_blendv_ps(snf, csf, swap);
-    const __m128i sgn = _mm_set1_epi32((int)0x80000000u);
-    /* cos negative for q = 1, 2: bit 1 of q + 1; sin negative for q = 2, 3: bit 1 of q; moved
-     * to the sign bit */
-    const __m128i cneg = _mm_and_si128(_mm_slli_epi32(_mm_add_epi32(q, _mm_set1_epi32(1)), 30), sgn);
-    const __m128i sneg = _mm_and_si128(_mm_slli_epi32(q, 30), sgn);
-    *c = _mm_xor_ps(c0, _mm_castsi128_ps(cneg));
-    *s = _mm_xor_ps(s0, _mm_castsi128_ps(sneg));
+    SAO_QUADRANT_SIGNS(_mm, __m128, __m128i, 128, q, csf, snf, c, s);
 }
+
+#if SAO_WIDE
+/* cos_sin_pd on 8 doubles (AVX-512F): the same operations in the same order per lane, so the same
+ * bits; the 8 float results and quadrants then fill one 256-bit register each. */
+static inline void cos_sin_pd8(__m512d x, __m256 *c, __m256 *s)
+{
+    __m512d kd, cs, sn;
+    SAO_COS_SIN_KERNELS(_mm512, __m512d, x, kd, cs, sn);
+    const __m256 csf = _mm512_cvtpd_ps(cs), snf = _mm512_cvtpd_ps(sn);
+    const __m256i q = _mm512_cvtpd_epi32(kd); /* exact: kd is an integer, |kd| < 2^31 */
+    SAO_QUADRANT_SIGNS(_mm256, __m256, __m256i, 256, q, csf, snf, c, s);
+}
+#endif
 
 static inline void cos_sin_ps(__m256 angle, __m256 *c, __m256 *s, const int check_big)
 {
+#if SAO_WIDE
+    cos_sin_pd8(_mm512_cvtps_pd(angle), c, s);
+#else
     __m128 c_lo, s_lo, c_hi, s_hi;
     cos_sin_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(angle)), &c_lo, &s_lo);
     cos_sin_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(angle, 1)), &c_hi, &s_hi);
     *c = _mm256_insertf128_ps(_mm256_castps128_ps256(c_lo), c_hi, 1);
     *s = _mm256_insertf128_ps(_mm256_castps128_ps256(s_lo), s_hi, 1);
+#endif
     /* ao_i_cos_sin sends !(|x| < 3e9) (large or NaN) to libm: redo those lanes with it (the
      * row skips this test when no angle can get there) */
     if (!check_big)
@@ -156,8 +197,10 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
     const obs_image_f32 *L0 = &J->levels[0];
     const float *base = L0->data;
     const int W = L0->width, H = L0->height;
-    const int gy = J->ry0 + task;
-    float *out = obs_image_f32_row(J->ao, task);
+    int row, i0, i1, slot;
+    ao_i_sao_segment(J, task, &row, &i0, &i1, &slot);
+    const int gy = J->ry0 + row;
+    float *out = obs_image_f32_row(J->ao, row);
     int64_t n_bg = 0, n_degen = 0, n_minr = 0;
     const int N = k->num_samples;
     const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
@@ -199,8 +242,8 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
     const __m256i wm1_0 = _mm256_set1_epi32(J->lvl_wm1[0]), hm1_0 = _mm256_set1_epi32(J->lvl_hm1[0]),
                   stride_0 = _mm256_set1_epi32(J->lvl_stride[0]);
 
-    for (int i = 0; i < J->ao->width; i += 8) {
-        const int gx0 = J->rx0 + i, n = J->ao->width - i < 8 ? J->ao->width - i : 8;
+    for (int i = i0; i < i1; i += 8) {
+        const int gx0 = J->rx0 + i, n = i1 - i < 8 ? i1 - i : 8;
         const __m256i vgx = _mm256_add_epi32(_mm256_set1_epi32(gx0), lane);
         const __m256 valid = _mm256_castsi256_ps(_mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane));
         /* ---- Centre ---- */
@@ -404,12 +447,12 @@ static inline __attribute__((always_inline)) void sao_row_avx2_impl(const ao_i_s
         else
             _mm256_maskstore_ps(out + i, _mm256_castps_si256(valid), A);
     }
-    J->counts[task][0] = n_bg;
-    J->counts[task][1] = n_degen;
-    J->counts[task][2] = n_minr;
+    J->counts[slot][0] = n_bg;
+    J->counts[slot][1] = n_degen;
+    J->counts[slot][2] = n_minr;
 }
 
-void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task)
+void SAO_ROW_FN(const ao_i_sao_job *J, int task)
 {
     const ao_sao_constants *k = J->k;
     const int hq = k->variant == AO_SAO_VARIANT_G3D_HQ, mip = k->max_mip > 0;
@@ -425,6 +468,7 @@ void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task)
         sao_row_avx2_impl(J, task, 1, 0, 1);
 }
 
+#if !SAO_WIDE /* the blur has no cos/sin: ao_sao_avx512.c uses this one */
 /* ---- the blur: 8 destination pixels (gx .. gx+7) of one row per step ------------------------------ */
 
 /* SAO_blur.pix as ao_i_sao_blur_row_scalar, same operations in the same order per lane: taps are
@@ -509,6 +553,8 @@ void ao_i_sao_blur_row_avx2(const ao_i_sao_blur_job *J, int task)
             _mm256_maskstore_ps(o + i, _mm256_castps_si256(valid), res);
     }
 }
+
+#endif /* !SAO_WIDE */
 
 #else
 typedef int ao_sao_avx2_unused; /* ISO C: a translation unit is not empty */

@@ -23,15 +23,23 @@
 #define AO_I_COS_C5 2.08757232129817482790e-09
 #define AO_I_COS_C6 -1.13596475577881948265e-11
 
-/* The AO pass's instruction-set paths. AUTO: AVX2 when the build and the CPU have it, unless the
- * environment sets OBS_ISA=scalar (as the rasterizer's RAST_ISA_AUTO). Both paths give the same
- * bytes (tests/test_ao_sao.c, sao_avx2_and_scalar_paths_are_bit_identical). */
+/* The AO pass's instruction-set paths. AUTO: the widest the build and the CPU have (AVX512, then
+ * AVX2), unless the environment sets OBS_ISA=scalar (as the rasterizer's RAST_ISA_AUTO) or
+ * OBS_ISA=avx2 (at most AVX2). All paths give the same bytes (tests/test_ao_sao.c,
+ * sao_simd_and_scalar_paths_are_bit_identical). AVX512 is the AVX2 kernel with its cos/sin on 8
+ * doubles per register (ao_sao_avx512.c); the blur is AVX2's. */
 typedef enum ao_i_sao_isa {
     AO_I_SAO_ISA_AUTO = 0,
     AO_I_SAO_ISA_SCALAR,
     AO_I_SAO_ISA_AVX2,
+    AO_I_SAO_ISA_AVX512,
     AO_I_SAO_ISA_COUNT
 } ao_i_sao_isa;
+
+/* The AVX512 path needs GCC's #pragma GCC target on x86-64 (other compilers: AVX2 at most). */
+#if defined(OBS_HAVE_AVX2) && defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define AO_I_SAO_HAVE_AVX512 1
+#endif
 
 /* 1 when the path is compiled in and the CPU runs it (SCALAR and AUTO: always). */
 int ao_i_sao_isa_available(ao_i_sao_isa isa);
@@ -49,17 +57,39 @@ typedef struct ao_i_sao_job {
     const ao_input *in;            /* G-buffer normals (our row order) */
     int rx0, ry0;                  /* region origin, GL coordinates */
     obs_image_f32 *ao;             /* region-sized, GL order */
-    int64_t (*counts)[3];          /* per row: background, degenerate normal, below min radius */
+    /* The pass's tasks are row segments of seg_w columns (a multiple of 8), taken tile by tile:
+     * tiles of seg_w x seg_h pixels in row-major order, and the seg_h segments of a tile in row
+     * order (ao_i_sao_segment). Any tiling gives the same bytes: every pixel is computed on its
+     * own. ao_sao.c uses whole rows (SAO_SEG_W, measured there). */
+    int seg_w, seg_h, segs_x;
+    int64_t (*counts)[3];          /* per segment (row * segs_x + column segment): background,
+                                    * degenerate normal, below min radius */
     /* Per-tap constants, hoisted out of the pixel loop (the same floats the shader computes):
      * alpha[t] = (float(t) + 0.5) * (1.0 / float(N)), alpha_angle[t] = alpha[t] * (tau * 6.28). */
     float alpha[AO_SAO_MAX_SAMPLES];
     float alpha_angle[AO_SAO_MAX_SAMPLES];
 } ao_i_sao_job;
 
-/* One row (task = region row) of the AO pass. */
+/* Task -> region row, columns [i0, i1) and counts slot (see ao_i_sao_job.seg_w). */
+static inline void ao_i_sao_segment(const ao_i_sao_job *J, int task, int *row, int *i0, int *i1, int *slot)
+{
+    const int rh = J->ao->height, band = J->seg_h * J->segs_x; /* tasks per band of seg_h rows */
+    const int by = task / band, rem = task % band;
+    const int bh = rh - by * J->seg_h < J->seg_h ? rh - by * J->seg_h : J->seg_h; /* rows in this band */
+    const int sx = rem / bh, r = by * J->seg_h + rem % bh;
+    *row = r;
+    *i0 = sx * J->seg_w;
+    *i1 = *i0 + J->seg_w < J->ao->width ? *i0 + J->seg_w : J->ao->width;
+    *slot = r * J->segs_x + sx;
+}
+
+/* One task (a row segment: ao_i_sao_segment) of the AO pass. */
 void ao_i_sao_row_scalar(const ao_i_sao_job *J, int task);
 #if defined(OBS_HAVE_AVX2)
 void ao_i_sao_row_avx2(const ao_i_sao_job *J, int task);
+#endif
+#if defined(AO_I_SAO_HAVE_AVX512)
+void ao_i_sao_row_avx512(const ao_i_sao_job *J, int task);
 #endif
 
 /* One pass of the separable blur (SAO_blur.pix), GL coordinates; task = destination row. */

@@ -31,7 +31,8 @@
  * pass and the quad blur run fused per row pair of 128 x 32 tiles; ue4_pixel is the scalar
  * reference, ue4_pixels8 / quad_blur_pair_avx2 the AVX2 paths (8 pixels of a row per vector,
  * bit-identical, chosen at run time; OBS_ISA=scalar forces the scalar one). The coarse levels
- * (levels > 1) keep their planes in one unzeroed block per call; the setup (setup_texel /
+ * (levels > 1) keep their planes in one unzeroed block, the workspace's (kept in the context
+ * between calls, as the normals and the full-resolution planes); the setup (setup_texel /
  * setup_row_avx2) runs one task per row, the upsample (upsample / v_upsample) reads its taps at
  * texels tabulated per column and per row.
  */
@@ -361,7 +362,7 @@ typedef struct level {
     int w, h;
     float s;              /* ScaleToFullRes: 1, 2, 4 */
     float inv_s;          /* 1 / s: a power of two, so u * inv_s is u / s bit for bit */
-    /* Levels >= 1 (the planes share one stride and one allocation, `block`; every texel is
+    /* Levels >= 1 (the planes share one stride and one block of the workspace; every texel is
      * written before it is read, so nothing is zeroed): */
     obs_image_f32 z;      /* depth in uu; background -> max_depth */
     obs_image_f32 ln[3];  /* the setup's stored normal decoded, e * 2 - 1 (modes 1, 2): the upsample's
@@ -370,7 +371,6 @@ typedef struct level {
                              coarser level is built from it (modes 1, 2) */
     unsigned char *bg;    /* 1: background */
     obs_image_f32 ao;     /* the level's AO (after its quad blur) */
-    void *block;
     /* Every level: */
     float *spx, *spy;     /* ScreenPos.x of column x in [0, w], ScreenPos.y of row y in [0, h]
                              (a quad's helper lane may be one past the edge) */
@@ -1494,7 +1494,7 @@ static void setup_row(void *user, int64_t task, int thread)
 /* The planes of coarse level L (z, bg, ao; ln with normals; e with normals where a coarser level
  * is built from it) in one allocation with one stride (the upsample gathers every plane with one
  * index), not zeroed: setup_row and the level's AO pass write every texel before it is read. */
-static obs_status level_alloc(obs_context *ctx, level *L, int use_n, int feeds_next)
+static obs_status level_alloc(obs_context *ctx, ao_i_ws *ws, level *L, int use_n, int feeds_next)
 {
     const size_t stride = ((size_t)L->w + 15) & ~(size_t)15, plane = stride * (size_t)L->h; /* floats */
     const int planes = 2 + (use_n ? 3 : 0) + (use_n && feeds_next ? 3 : 0);
@@ -1506,10 +1506,10 @@ static obs_status level_alloc(obs_context *ctx, level *L, int use_n, int feeds_n
         return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
                          "ue4: a %dx%d level needs %zu bytes, over the limit (raise it with --max-memory)", L->w,
                          L->h, bytes);
-    float *b = (float *)obs_aligned_alloc(bytes);
+    /* the workspace's memory (kept between calls: no page faults), not zeroed as before */
+    float *b = (float *)ao_i_ws_buf(ws, bytes, 0);
     if (!b)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: cannot allocate %zu bytes for a level", bytes);
-    L->block = b;
     obs_image_f32 *const list[8] = {&L->z, &L->ao, &L->ln[0], &L->ln[1], &L->ln[2], &L->e[0], &L->e[1], &L->e[2]};
     for (int i = 0; i < planes; i++) {
         list[i]->data = b + (size_t)i * plane;
@@ -1523,8 +1523,7 @@ static obs_status level_alloc(obs_context *ctx, level *L, int use_n, int feeds_n
 
 static void level_free(level *L)
 {
-    obs_aligned_free(L->block);
-    free(L->spx);
+    free(L->spx); /* the planes' block is the workspace's */
     free(L->spy);
     for (int k = 0; k < 3; k++) {
         free(L->utx[k]);
@@ -1670,6 +1669,8 @@ static int ue4_use_avx2(const prep *P)
 #endif
 }
 
+static const char ue4_workspace_key; /* its address names our slot in the context */
+
 obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, const ao_ue4_params *params,
                           obs_image_f32 *out, obs_image_f32 *out_raw, ao_stats *stats)
 {
@@ -1702,6 +1703,11 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     for (int c = 0; c < 3; c++)
         P.inv_fov_fix[c] = 1.0f / P.fov_fix[c];
     P.simd = ue4_use_avx2(&P);
+    /* The coarse levels' blocks, the normals, Q and G come from the workspace kept in the context
+     * between calls (ao_i_ws_*: planes zeroed as fresh ones, without their page faults) */
+    ao_i_ws *ws = ao_i_ws_take(ctx, &ue4_workspace_key);
+    if (!ws)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "ue4: out of memory");
     obs_image_f32 recon[3] = {{0}, {0}, {0}};
     obs_image_f32 Q = {0}, G = {0};
     const obs_image_f32 *nsrc[3] = {NULL, NULL, NULL};
@@ -1733,7 +1739,7 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
         /* level 0 reads the input's depth and normals as they are (level_depth, level_bg_row,
          * ue4_normal_at): no full-size planes, whose fresh pages cost more than the conversion */
         if (l)
-            st = level_alloc(ctx, L, use_n, l + 1 < P.levels);
+            st = level_alloc(ctx, ws, L, use_n, l + 1 < P.levels);
         if (st == OBS_STATUS_OK) {
             L->spx = (float *)malloc(sizeof(float) * ((size_t)L->w + 1));
             L->spy = (float *)malloc(sizeof(float) * ((size_t)L->h + 1));
@@ -1764,7 +1770,7 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
             /* SSAO_NORMAL_MODE 2 (ReconstructNormalFromDepthBuffer: the smaller one-sided delta, then a
              * cross product); ours picks the smaller linear-depth delta (UE: device Z) */
             for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++)
-                st = obs_image_f32_alloc(ctx, W, H, &recon[c]);
+                st = ao_i_ws_plane(ctx, ws, W, H, &recon[c]);
             if (st == OBS_STATUS_OK)
                 st = ao_normals_from_depth(ctx, pool, in, recon);
             nsrc[0] = &recon[0], nsrc[1] = &recon[1], nsrc[2] = &recon[2];
@@ -1800,7 +1806,7 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     }
     const int direct = !K.blur && rect[0] == in->x0 && rect[1] == in->y0 && rect[2] == in->w && rect[3] == in->h;
     if (st == OBS_STATUS_OK && !direct)
-        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &Q);
+        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], &Q);
     if (st == OBS_STATUS_OK) {
         st = run_level(ctx, pool, &P, 0, qx0, qy0, qx1, qy1, rect[0], rect[1], 1, direct ? out : &Q, &background);
         computed += (int64_t)(qx1 - qx0) * (qy1 - qy0);
@@ -1810,9 +1816,9 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
     /* ---- 4. the seed thesis' Gaussian ---- */
     const obs_image_f32 *final = direct ? out : &Q;
     if (st == OBS_STATUS_OK && K.blur) {
-        st = obs_image_f32_alloc(ctx, rect[2], rect[3], &G);
+        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], &G);
         if (st == OBS_STATUS_OK)
-            st = ao_blur_gaussian21(ctx, pool, &Q, &G);
+            st = ao_i_blur_gaussian21_ws(ctx, pool, ws, &Q, &G);
         final = &G;
     }
     const double t3 = obs_time_now();
@@ -1839,12 +1845,9 @@ obs_status ao_ue4_compute(obs_context *ctx, obs_pool *pool, const ao_input *in, 
             stats->seconds_blur = t3 - t2;
         }
     }
-    obs_image_f32_free(&G);
-    obs_image_f32_free(&Q);
-    for (int c = 0; c < 3; c++)
-        obs_image_f32_free(&recon[c]);
     for (int l = 0; l < AO_UE4_MAX_LEVELS; l++)
         level_free(&P.lv[l]);
+    ao_i_ws_put(ctx, &ue4_workspace_key, ws); /* G, Q, recon and the level blocks are its */
     return st;
 }
 
