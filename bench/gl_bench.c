@@ -22,7 +22,7 @@
 
 static const glsl_port *const ports[] = {
     &glsl_port_sao,    &glsl_port_hbao_classic, &glsl_port_hbao_plus, &glsl_port_crytek,     &glsl_port_alchemy,
-    &glsl_port_ue4,    &glsl_port_gtao,         &glsl_port_mssao,     &glsl_port_mssao_seed,
+    &glsl_port_ue4,    &glsl_port_gtao,         &glsl_port_mssao,     &glsl_port_mssao_seed, &glsl_port_mssao_seed_blurred,
 };
 
 static int cmp_double(const void *a, const void *b)
@@ -48,16 +48,20 @@ static int listed(const char *only, const char *name)
     return 0;
 }
 
-/* time R runs of ours (kernel when kin == NULL, blur of kin otherwise); returns the median, or -1 */
-static double time_ours(obs_context *ctx, obs_pool *pool, const glsl_port *pt, const ao_input *in,
-                        const obs_image_f32 *kin, int reps, double *t)
+enum { STAGE_KERNEL, STAGE_BLUR, STAGE_FULL };
+static const char *const stage_names[] = {"kernel", "blur", "kernel+blur"};
+
+/* time R runs of ours at a stage into the preallocated plane out (kin: the kernel's output, for
+ * the blur); returns the median, or -1 */
+static double time_ours(obs_context *ctx, obs_pool *pool, const glsl_port *pt, const ao_input *in, int stage,
+                        const obs_image_f32 *kin, obs_image_f32 *out, int reps, double *t)
 {
     for (int k = 0; k <= reps; k++) {
-        obs_image_f32 out = {0};
         const double t0 = obs_time_now();
-        const obs_status st = kin ? pt->ours_blur(ctx, pool, in, kin, &out) : pt->ours_kernel(ctx, pool, in, &out);
+        const obs_status st = stage == STAGE_BLUR   ? pt->ours_blur(ctx, pool, in, kin, out)
+                              : stage == STAGE_FULL ? pt->ours_full(ctx, pool, in, out)
+                                                    : pt->ours_kernel(ctx, pool, in, out);
         const double t1 = obs_time_now();
-        obs_image_f32_free(&out);
         if (st != OBS_STATUS_OK) {
             fprintf(stderr, "gl_bench: %s: %s\n", pt->name, obs_context_last_error(ctx));
             return -1.0;
@@ -142,26 +146,35 @@ int main(int argc, char **argv)
             rc = 5;
             continue;
         }
-        obs_image_f32 kout = {0};
-        if (pt->ours_kernel(ctx, pool, &in, &kout) != OBS_STATUS_OK) {
+        /* the output planes, allocated once (as a renderer keeps its targets) */
+        obs_image_f32 kout = {0}, bout = {0};
+        if (obs_image_f32_alloc(ctx, in.w, in.h, &kout) != OBS_STATUS_OK ||
+            obs_image_f32_alloc(ctx, in.w, in.h, &bout) != OBS_STATUS_OK ||
+            pt->ours_kernel(ctx, pool, &in, &kout) != OBS_STATUS_OK) {
             fprintf(stderr, "gl_bench: %s: %s\n", pt->name, obs_context_last_error(ctx));
+            obs_image_f32_free(&kout);
+            obs_image_f32_free(&bout);
             glh_run_free(&g, &r);
             rc = 5;
             continue;
         }
-        for (int stage = 0; stage < 2; stage++) {
-            const int first = stage ? r.nkernel : 0, count = stage ? r.npass - r.nkernel : r.nkernel;
-            if (stage == 1 && (!pt->ours_blur || count <= 0))
+        for (int stage = STAGE_KERNEL; stage <= STAGE_FULL; stage++) {
+            /* the blur alone where ours can run it alone; otherwise kernel and blur together */
+            if (r.npass == r.nkernel && stage != STAGE_KERNEL)
                 break;
+            if ((stage == STAGE_BLUR && !pt->ours_blur) || (stage == STAGE_FULL && (pt->ours_blur || !pt->ours_full)))
+                continue;
+            const int first = stage == STAGE_BLUR ? r.nkernel : 0;
+            const int count = stage == STAGE_BLUR ? r.npass - r.nkernel : stage == STAGE_FULL ? r.npass : r.nkernel;
             int ok = 1;
             for (int p = 0; p < pairs && ok; p++) {
                 sg[p] = time_glsl(&g, &r, first, count, reps, t);
-                so[p] = time_ours(ctx, pool, pt, &in, stage ? &kout : NULL, reps, t);
+                so[p] = time_ours(ctx, pool, pt, &in, stage, &kout, stage == STAGE_KERNEL ? &kout : &bout, reps, t);
                 ok = so[p] > 0.0;
                 sr[p] = ok ? sg[p] / so[p] : 0.0;
                 if (ok)
                     printf("RESULT pass=%s stage=%s pair=%d glsl_ms=%.3f obscura_ms=%.3f ratio=%.2f\n", pt->name,
-                           stage ? "blur" : "kernel", p + 1, sg[p], so[p], sr[p]);
+                           stage_names[stage], p + 1, sg[p], so[p], sr[p]);
             }
             if (!ok) {
                 rc = 5;
@@ -171,9 +184,10 @@ int main(int argc, char **argv)
             const double mr = median(sr, pairs); /* sorts sr: sr[0] and sr[pairs - 1] are the extremes */
             printf("SUMMARY pass=%s stage=%s variant=\"%s\" size=%dx%d threads=%d glsl_ms=%.2f obscura_ms=%.2f "
                    "ratio=%.2f ratio_min=%.2f ratio_max=%.2f\n",
-                   pt->name, stage ? "blur" : "kernel", pt->variant, W, H, threads, mg, mo, mr, sr[0], sr[pairs - 1]);
+                   pt->name, stage_names[stage], pt->variant, W, H, threads, mg, mo, mr, sr[0], sr[pairs - 1]);
             fflush(stdout);
         }
+        obs_image_f32_free(&bout);
         obs_image_f32_free(&kout);
         glh_run_free(&g, &r);
     }

@@ -163,10 +163,10 @@ static obs_status port_kernel(obs_context *ctx, obs_pool *pool, const ao_input *
 {
     ao_alchemy_params p = ao_alchemy_params_default();
     p.blur = 0;
-    obs_status st = obs_image_f32_alloc(ctx, in->w, in->h, out);
+    obs_status st = out->data ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, in->w, in->h, out);
     return st == OBS_STATUS_OK ? ao_alchemy_compute(ctx, pool, in, &p, out, NULL, NULL) : st;
 }
 
 const glsl_port glsl_port_alchemy = {"alchemy", "defaults: r 0.5 m, 12 taps, 7 turns, G-buffer normals, range check, "
                                                 "21-tap Gaussian",
-                                     port_build, port_kernel, glsl_gauss21_ours};
+                                     port_build, port_kernel, glsl_gauss21_ours, NULL};

@@ -171,9 +171,9 @@ static obs_status port_kernel(obs_context *ctx, obs_pool *pool, const ao_input *
 {
     ao_crytek_params p = ao_crytek_params_default();
     p.blur = 0;
-    obs_status st = obs_image_f32_alloc(ctx, in->w, in->h, out);
+    obs_status st = out->data ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, in->w, in->h, out);
     return st == OBS_STATUS_OK ? ao_crytek_compute(ctx, pool, in, &p, out, NULL, NULL) : st;
 }
 
 const glsl_port glsl_port_crytek = {"crytek", "defaults: world ball r 0.5 m, 16 taps, linear depth, 21-tap Gaussian",
-                                    port_build, port_kernel, glsl_gauss21_ours};
+                                    port_build, port_kernel, glsl_gauss21_ours, NULL};

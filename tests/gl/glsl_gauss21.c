@@ -68,7 +68,7 @@ int glsl_gauss21_add(glh *g, const ao_input *in, glh_run *r, GLuint src, GLuint 
 obs_status glsl_gauss21_ours(obs_context *ctx, obs_pool *pool, const ao_input *in, const obs_image_f32 *kernel_out,
                              obs_image_f32 *out)
 {
-    obs_status st = obs_image_f32_alloc(ctx, kernel_out->width, kernel_out->height, out);
+    obs_status st = out->data ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, kernel_out->width, kernel_out->height, out);
     if (st == OBS_STATUS_OK)
         st = ao_blur_gaussian21(ctx, pool, kernel_out, out);
     if (st != OBS_STATUS_OK)

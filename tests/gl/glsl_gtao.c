@@ -478,10 +478,18 @@ static obs_status port_kernel(obs_context *ctx, obs_pool *pool, const ao_input *
 {
     ao_gtao_params p = ao_gtao_params_default();
     p.blur = 0;
-    return ao_gtao_compute(ctx, pool, in, &p, out, NULL, NULL);
+    obs_status st = out->data ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, in->w, in->h, out);
+    return st != OBS_STATUS_OK ? st : ao_gtao_compute(ctx, pool, in, &p, out, NULL, NULL);
+}
+
+static obs_status port_full(obs_context *ctx, obs_pool *pool, const ao_input *in, obs_image_f32 *out)
+{
+    const ao_gtao_params p = ao_gtao_params_default();
+    obs_status st = out->data ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, in->w, in->h, out);
+    return st != OBS_STATUS_OK ? st : ao_gtao_compute(ctx, pool, in, &p, out, NULL, NULL);
 }
 
 /* ours_blur is NULL: XeGTAO_Denoise reads the main pass's packed edges as well as its term, so our
  * denoiser does not run alone on a visibility plane (ao_gtao_compute runs it after its main pass). */
 const glsl_port glsl_port_gtao = {"gtao", "XeGTAO High (3 slices x 3 steps), 1 denoise pass", port_build, port_kernel,
-                                  NULL};
+                                  NULL, port_full};

@@ -292,6 +292,6 @@ static obs_status blur_plus(obs_context *ctx, obs_pool *pool, const ao_input *in
 }
 
 const glsl_port glsl_port_hbao_classic = {"hbao", "classic: DX10 SDK defaults (16 x 8, 64 x 64 jitter), blur radius 4",
-                                          build_classic, kernel_classic, blur_classic};
+                                          build_classic, kernel_classic, blur_classic, NULL};
 const glsl_port glsl_port_hbao_plus = {"hbao", "plus: HBAO+ defaults (8 x 4, gl_ssao 4 x 4 jitter), blur radius 4",
-                                       build_plus, kernel_plus, blur_plus};
+                                       build_plus, kernel_plus, blur_plus, NULL};

@@ -410,9 +410,10 @@ static obs_status port_kernel(obs_context *ctx, obs_pool *pool, const ao_input *
 {
     ao_mssao_params p = ao_mssao_params_default();
     p.blur = 0;
-    return ao_mssao_compute(ctx, pool, in, &p, out, NULL, NULL);
+    obs_status st = out->data ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, in->w, in->h, out);
+    return st != OBS_STATUS_OK ? st : ao_mssao_compute(ctx, pool, in, &p, out, NULL, NULL);
 }
 
 /* ours_blur is NULL: Hoang's MSSAO has no final blur (its per-level blur is part of the kernel) */
 const glsl_port glsl_port_mssao = {"mssao", "Hoang's defaults: 5 levels, 16 Poisson taps, level blur", port_build,
-                                   port_kernel, NULL};
+                                   port_kernel, NULL, NULL};

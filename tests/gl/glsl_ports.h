@@ -26,11 +26,17 @@ typedef struct glsl_port {
     /* our blur alone on the kernel's output (NULL: the technique has no separate blur) */
     obs_status (*ours_blur)(obs_context *ctx, obs_pool *pool, const ao_input *in, const obs_image_f32 *kernel_out,
                             obs_image_f32 *out);
+    /* our kernel with its blur, for techniques whose blur cannot run alone on a visibility plane
+     * (GTAO's denoiser reads the main pass's edges; mssao-seed blurs each level before the blend):
+     * the benchmark times it against all the GLSL passes (NULL: not needed) */
+    obs_status (*ours_full)(obs_context *ctx, obs_pool *pool, const ao_input *in, obs_image_f32 *out);
 } glsl_port;
+/* Output planes: the caller passes `out` allocated at the window's size (in->w x in->h) or zeroed
+ * (data == NULL), in which case the function allocates it. */
 
 /* One per technique (and preset where presets differ in their shader), defined in glsl_<tech>.c. */
 extern const glsl_port glsl_port_sao, glsl_port_hbao_classic, glsl_port_hbao_plus, glsl_port_crytek,
-    glsl_port_alchemy, glsl_port_ue4, glsl_port_gtao, glsl_port_mssao, glsl_port_mssao_seed;
+    glsl_port_alchemy, glsl_port_ue4, glsl_port_gtao, glsl_port_mssao, glsl_port_mssao_seed, glsl_port_mssao_seed_blurred;
 
 int glsl_sao_build(glh *g, obs_context *ctx, const ao_input *in, const ao_sao_params *p, glh_run *r);
 int glsl_hbao_build(glh *g, obs_context *ctx, const ao_input *in, const ao_hbao_params *p, glh_run *r);

@@ -422,10 +422,10 @@ static obs_status port_kernel(obs_context *ctx, obs_pool *pool, const ao_input *
 {
     ao_ue4_params p = ao_ue4_params_default();
     p.blur = 0;
-    obs_status st = obs_image_f32_alloc(ctx, in->w, in->h, out);
+    obs_status st = out->data ? OBS_STATUS_OK : obs_image_f32_alloc(ctx, in->w, in->h, out);
     return st == OBS_STATUS_OK ? ao_ue4_compute(ctx, pool, in, &p, out, NULL, NULL) : st;
 }
 
 /* the default has no Gaussian (--blur off): the quad blur is part of the kernel's passes */
 const glsl_port glsl_port_ue4 = {"ue4", "defaults: OPTIMIZATION_O1, 2 levels, G-buffer normals, set 1 x 2 steps, quad blur 2",
-                                 port_build, port_kernel, NULL};
+                                 port_build, port_kernel, NULL, NULL};
