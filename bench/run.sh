@@ -39,10 +39,10 @@ header() { echo "# $(date -u +%Y-%m-%dT%H:%MZ) $(uname -m) $(grep -m1 'model nam
 # which prints that pass's milliseconds. Commands shared by several passes run once per pair (the
 # peer times all its stages in one run, obscura_bench ao times SAO's kernel and blur in one).
 # Parses: peer_stage STAGE (the peer's `RESULT ... stage=STAGE median_ms=X`), field NAME (the
-# first RESULT line's NAME=X, as obscura_bench prints), gl_pass PASS (`RESULT PASS median_ms=X`,
-# as the project's own GL harness tests/gl prints). A pass whose GLSL program is missing is
-# skipped with a note. To add a kernel timed by the GL harness, add an entry such as
-#   "gtao|\"\$gl_harness\" --pass gtao \$gl_args|gl_pass gtao|\$obs_ao --method gtao --blur off|field kernel_ms"
+# first RESULT line's NAME=X, as obscura_bench prints). A pass whose GLSL program is missing is
+# skipped with a note. Then the project's own GLSL ports of every kernel and blur (tests/gl) run
+# in obscura_gl_bench, which alternates GLSL and obscura itself (PAIRS pairs of GLREPS timed runs
+# each; GL_ONLY=sao,gtao picks ports) and writes bench/results/side_gl.txt.
 side_run() {
   local pairs="${PAIRS:-5}" t="${THREADS:-2}" size="${SIZE:-1920x1080}" fr="${FRAMES:-20}" wu="${WARMUP:-5}"
   local aoreps_side="${AOREPS:-$fr}"
@@ -60,8 +60,7 @@ side_run() {
   fi
   [ -f "$mesh_off" ] || { echo "side: $mesh_off missing (scripts/setup.sh fetches the meshes)" >&2; exit 3; }
   # ---- the GLSL programs and obscura's commands the entries use ----
-  gl_harness="${GL_HARNESS:-$build/obscura_gl_bench}"   # tests/gl: one timed GLSL port per pass
-  gl_args="--mesh $mesh_glb --w $W --h $H --frames $fr --warmup $wu"
+  gl_harness="${GL_HARNESS:-$build/obscura_gl_bench}"   # tests/gl: every kernel's GLSL port (alternates itself)
   glsl_peer="LIBGL_ALWAYS_SOFTWARE=1 GALLIUM_DRIVER=llvmpipe LP_NUM_THREADS=$t \"$peer\" \"$mesh_off\" --w $W --h $H --frames $fr --warmup $wu"
   obs_gbuffer="\"$build/obscura_bench\" gbuffer \"$mesh_glb\" --outputs peer --size ${W}x$H --threads $t --reps $fr --warmup $wu"
   obs_ao="\"$build/obscura_bench\" ao \"$mesh_glb\" --size ${W}x$H --threads $t --reps $aoreps_side --warmup 2"
@@ -113,6 +112,24 @@ for k, v in d.items():
     print(f"| {k} | {S.median(o for _, o in v):.2f} | {S.median(g for g, _ in v):.2f} | {S.median(r):.2f}x | "
           f"{min(r):.2f}-{max(r):.2f} | >= {bar:g}x {'met' if S.median(r) >= bar else 'NOT met'} |")
 PY
+  # ---- the project's own GLSL ports of every kernel and blur (tests/gl), alternating in one process ----
+  local gout="$here/bench/results/side_gl.txt"
+  if [ ! -x "$gl_harness" ]; then echo "# the GLSL ports: skipped, no $gl_harness (build the tests: OBS_BUILD_TESTS)"; return 0; fi
+  {
+    header
+    "$gl_harness" "$mesh_glb" --size "${W}x$H" --threads "$t" --pairs "$pairs" --reps "${GLREPS:-5}" ${GL_ONLY:+--only "$GL_ONLY"}
+  } | tee "$gout"
+  python3 - "$gout" <<'PY' || true
+import sys, re
+print("| pass | stage | obscura ms | GLSL (llvmpipe) ms | ratio (median of pairs) | pairs min-max | bar |")
+print("|---|---|---|---|---|---|---|")
+for line in open(sys.argv[1]):
+    if not line.startswith("SUMMARY"): continue
+    kv = dict(re.findall(r'(\w+)=("[^"]*"|\S+)', line))
+    r = float(kv["ratio"])
+    print(f"| {kv['pass']} ({kv['variant'].strip(chr(34))}) | {kv['stage']} | {float(kv['obscura_ms']):.2f} | {float(kv['glsl_ms']):.2f} | "
+          f"{r:.2f}x | {kv['ratio_min']}-{kv['ratio_max']} | >= 3x {'met' if r >= 3 else 'NOT met'} |")
+PY
 }
 
 # parse KIND ARG < RESULT lines: the pass's milliseconds
@@ -120,7 +137,6 @@ parse() {
   case "$1" in
     peer_stage) awk -v s="$2" '{ for (i = 1; i <= NF; i++) if ($i == "stage=" s) { for (j = 1; j <= NF; j++) if ($j ~ /^median_ms=/) { sub(/^median_ms=/, "", $j); print $j; exit } } }' ;;
     field) awk -v f="$2" '{ for (i = 1; i <= NF; i++) if (index($i, f "=") == 1) { print substr($i, length(f) + 2); exit } }' ;;
-    gl_pass) awk -v s="$2" '$1 == "RESULT" && $2 == s { for (i = 3; i <= NF; i++) if ($i ~ /^median_ms=/) { sub(/^median_ms=/, "", $i); print $i; exit } }' ;;
     *) echo "parse: unknown kind $1" >&2; return 2 ;;
   esac
 }
