@@ -294,7 +294,9 @@ typedef struct ao_job {
     int W, H, guard;
     int group;             /* tiles per task, side by side (see ao_task) */
     float *inst_norm;      /* per instance: |M|inf of its 3x3 */
-    float *tri_extent;     /* per triangle of every mesh: object-space bounding-box extent */
+    _Atomic uint32_t *tri_extent; /* per triangle of every mesh: the bits of its object-space
+                           bounding-box extent, computed at its first use (EXTENT_UNSET before) */
+    int avx2;              /* the AVX2 forms of the sampling run (truth_i_avx2_active) */
     size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
     thread_scratch *scratch;
     truth_ao_result *out;  /* outs[0] */
@@ -324,6 +326,23 @@ static inline float max3abs(double x, double y, double z)
  * for p on it: the object-space bounding-box extent (largest side, precomputed per triangle)
  * times the instance's |M|inf (largest absolute row sum of its 3x3). 0 when the ids name no
  * triangle. */
+#define EXTENT_UNSET 0xFFFFFFFFu /* a NaN's bits: never an extent (extents are >= 0 or +inf) */
+
+/* The object-space bounding-box extent (largest side) of mesh triangle t. */
+static float mesh_triangle_extent(const obs_mesh *mesh, uint32_t t)
+{
+    float ext = 0.0f;
+    for (int c = 0; c < 3; c++) {
+        float a = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t] + c];
+        float b = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 1] + c];
+        float d = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 2] + c];
+        float lo = fminf(a, fminf(b, d)), hi = fmaxf(a, fmaxf(b, d));
+        float e = hi - lo;
+        ext = e > ext ? e : ext; /* NaN (a non-finite vertex: never hit) leaves it */
+    }
+    return ext;
+}
+
 static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
 {
     const obs_scene *sc = J->scene;
@@ -332,7 +351,20 @@ static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
     uint32_t mesh = sc->instances[inst].mesh;
     if (prim >= sc->meshes[mesh].triangle_count)
         return 0.0;
-    return (double)J->tri_extent[J->mesh_first[mesh] + prim] * (double)J->inst_norm[inst];
+    /* computed at the triangle's first use (only the triangles seen in a pixel: the full table cost
+     * 13 M instructions per call on the bunny); two threads may both compute it, and store the
+     * same bits */
+    _Atomic uint32_t *slot = &J->tri_extent[J->mesh_first[mesh] + prim];
+    uint32_t bits = atomic_load_explicit(slot, memory_order_relaxed);
+    float ext;
+    if (bits == EXTENT_UNSET) {
+        ext = mesh_triangle_extent(&sc->meshes[mesh], prim);
+        memcpy(&bits, &ext, sizeof bits);
+        atomic_store_explicit(slot, bits, memory_order_relaxed);
+    } else {
+        memcpy(&ext, &bits, sizeof ext);
+    }
+    return (double)ext * (double)J->inst_norm[inst];
 }
 
 /* Interpolated shading normal of an Embree hit, in world space (unit), or ng when the mesh has
@@ -442,6 +474,11 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         return;
     }
     s->state = 1;
+#if defined(OBS_HAVE_AVX2)
+    if (J->avx2)
+        truth_i_seeds_avx2(s->pixel, J->p.replicates, J->p.seed, s->shift, s->shift3); /* the same words */
+    else
+#endif
     {
         /* replicate r's seeds: Philox(pixel, r, 0, seed), four calls at a time (same words) */
         uint32_t w[TRUTH_AO_MAX_REPLICATES][4];
@@ -642,6 +679,14 @@ static void pixel_points(const ao_job *J, thread_scratch *S, const px_state *s)
 static void gen_hemisphere_occ(const ao_job *J, thread_scratch *S, const px_state *s, RTCRay *rays)
 {
     const int B = J->p.batch, B4 = (B + 3) & ~3;
+#if defined(OBS_HAVE_AVX2)
+    if (J->avx2 && (B & 7) == 0) {
+        const truth_i_hemi_in in = {S->v0, S->v1, (const uint32_t(*)[2])s->shift, s->t, s->b, s->n, s->org,
+                                    J->p.radius, B, B / J->p.replicates, J->ei.cosine, 0};
+        truth_i_hemisphere_rays_avx2(&in, rays);
+        return;
+    }
+#endif
     pixel_points(J, S, s);
     local_dirs(S->u0, S->u1, B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
     world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
@@ -659,6 +704,14 @@ static void gen_hemisphere_occ(const ao_job *J, thread_scratch *S, const px_stat
 static void gen_hemisphere_hit(const ao_job *J, thread_scratch *S, const px_state *s, RTCRayHit *rays)
 {
     const int B = J->p.batch, B4 = (B + 3) & ~3;
+#if defined(OBS_HAVE_AVX2)
+    if (J->avx2 && (B & 7) == 0) {
+        const truth_i_hemi_in in = {S->v0, S->v1, (const uint32_t(*)[2])s->shift, s->t, s->b, s->n, s->org,
+                                    J->p.radius, B, B / J->p.replicates, J->ei.cosine, 1};
+        truth_i_hemisphere_rays_avx2(&in, rays);
+        return;
+    }
+#endif
     pixel_points(J, S, s);
     local_dirs(S->u0, S->u1, B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
     world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
@@ -675,6 +728,69 @@ static void gen_hemisphere_hit(const ao_job *J, thread_scratch *S, const px_stat
         _mm_store_ps(&rays[i].hit.Ng_x, h0);
         _mm_store_ps(&rays[i].hit.v, h1);
     }
+}
+
+int truth_i_avx2_active(void)
+{
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
+int truth_i_hemisphere_rays_sse2(const truth_i_hemi_in *in, void *rays)
+{
+    const int B = in->B, B4 = (B + 3) & ~3;
+    ao_job J;
+    thread_scratch S;
+    px_state s;
+    memset(&J, 0, sizeof J);
+    memset(&S, 0, sizeof S);
+    memset(&s, 0, sizeof s);
+    J.p.batch = B;
+    J.p.replicates = B / in->m;
+    J.p.radius = in->radius;
+    J.ei.cosine = in->cosine;
+    for (int c = 0; c < 3; c++) {
+        s.t[c] = in->t[c];
+        s.b[c] = in->b[c];
+        s.n[c] = in->n[c];
+        s.org[c] = in->org[c];
+    }
+    for (int r = 0; r < J.p.replicates && r < TRUTH_AO_MAX_REPLICATES; r++) {
+        s.shift[r][0] = in->shift[r][0];
+        s.shift[r][1] = in->shift[r][1];
+    }
+    uint32_t *w[7];
+    float *f[3];
+    int ok = 1;
+    for (int k = 0; k < 7; k++)
+        ok &= (w[k] = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * (size_t)B4)) != NULL;
+    for (int k = 0; k < 3; k++)
+        ok &= (f[k] = (float *)obs_aligned_alloc(sizeof(float) * (size_t)B4)) != NULL;
+    S.d4 = (__m128 *)obs_aligned_alloc(sizeof(__m128) * (size_t)B4);
+    if (ok && S.d4) {
+        S.v0 = w[0], S.v1 = w[1], S.b0 = w[2], S.b1 = w[3], S.u0 = w[4], S.u1 = w[5], S.u2 = w[6];
+        S.lx = f[0], S.ly = f[1], S.lz = f[2];
+        memcpy(S.v0, in->v0, sizeof(uint32_t) * (size_t)B);
+        memcpy(S.v1, in->v1, sizeof(uint32_t) * (size_t)B);
+        memcpy(S.b0, in->v0, sizeof(uint32_t) * (size_t)B); /* b0[i] = v0[i] for i < m (v0[k] = b0[k mod m]) */
+        memcpy(S.b1, in->v1, sizeof(uint32_t) * (size_t)B);
+        if (in->hit)
+            gen_hemisphere_hit(&J, &S, &s, (RTCRayHit *)rays);
+        else
+            gen_hemisphere_occ(&J, &S, &s, (RTCRay *)rays);
+    }
+    for (int k = 0; k < 7; k++)
+        obs_aligned_free(w[k]);
+    for (int k = 0; k < 3; k++)
+        obs_aligned_free(f[k]);
+    obs_aligned_free(S.d4);
+    return ok && S.d4;
 }
 
 /* VOL: q = p + r cbrt(u3) w, w uniform on the sphere (DIRS_SPHERE), and the segment from the
@@ -836,6 +952,8 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             rtcOccluded1M(J->ts->top, &ictx, (RTCRay *)S->rays, (unsigned)nr, sizeof(RTCRay));
         tile_rays += (uint64_t)nr;
 
+        /* every active pixel of the tile started at round 0: each has taken (round + 1) B samples */
+        const double fl = truth_ao_error_floor((round + 1) * B);
         int kept = 0;
         for (int a = 0; a < nactive; a++) {
             px_state *s = &S->px[S->active[a]];
@@ -879,7 +997,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             /* Per output: the mean of the replicates' means, their spread s_R [LEcuyer02] and the
              * error bar max(s_R, floor(n)) [Agresti98]; the pixel stops when every output's bar is
              * within the target (after min_samples), or at max_samples. */
-            const double n = (double)s->count, mr = n / R, fl = truth_ao_error_floor(s->count);
+            const double n = (double)s->count, mr = n / R;
             double mean[TRUTH_AO_MAX_OUTPUTS], bar[TRUTH_AO_MAX_OUTPUTS], se_r[TRUTH_AO_MAX_OUTPUTS], worst = 0.0;
             for (int j = 0; j < J->nout; j++) {
                 const double *acc = s->acc + (size_t)j * R;
@@ -1137,6 +1255,7 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     J->p = *p;
     J->ei = k_est[p->estimator];
     J->hooks = hooks;
+    J->avx2 = truth_i_avx2_active();
     J->guard = gb->guard;
     J->W = gb->width - 2 * gb->guard;
     J->H = gb->height - 2 * gb->guard;
@@ -1170,7 +1289,7 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         tri_total += scene->meshes[m].triangle_count; /* each < 2^32; the sum fits size_t on 64-bit */
     J->inst_norm = (float *)malloc(sizeof(float) * (scene->instance_count ? scene->instance_count : 1));
     J->mesh_first = (size_t *)malloc(sizeof(size_t) * (scene->mesh_count ? scene->mesh_count : 1));
-    J->tri_extent = (float *)malloc(sizeof(float) * (tri_total ? tri_total : 1));
+    J->tri_extent = (_Atomic uint32_t *)malloc(sizeof(uint32_t) * (tri_total ? tri_total : 1));
     J->scratch = (thread_scratch *)obs_aligned_alloc((size_t)threads * sizeof(thread_scratch));
     if (J->scratch)
         memset(J->scratch, 0, (size_t)threads * sizeof(thread_scratch));
@@ -1220,22 +1339,11 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     }
     size_t first = 0;
     for (uint32_t m = 0; m < scene->mesh_count; m++) {
-        const obs_mesh *mesh = &scene->meshes[m];
         J->mesh_first[m] = first;
-        for (uint32_t t = 0; t < mesh->triangle_count; t++) {
-            float ext = 0.0f;
-            for (int c = 0; c < 3; c++) {
-                float a = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t] + c];
-                float b = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 1] + c];
-                float d = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 2] + c];
-                float lo = fminf(a, fminf(b, d)), hi = fmaxf(a, fmaxf(b, d));
-                float e = hi - lo;
-                ext = e > ext ? e : ext; /* NaN (a non-finite vertex: never hit) leaves it */
-            }
-            J->tri_extent[first + t] = ext;
-        }
-        first += mesh->triangle_count;
+        first += scene->meshes[m].triangle_count;
     }
+    for (size_t t = 0; t < tri_total; t++) /* filled at first use (triangle_extent) */
+        atomic_init(&J->tri_extent[t], EXTENT_UNSET);
 
     for (int j = 0; j < nout && st == OBS_STATUS_OK; j++) {
         st = alloc_out_plane(ctx, J->W, J->H, &outs[j].mean);
@@ -1303,7 +1411,7 @@ done:
     obs_aligned_free(J->scratch);
     free(J->inst_norm);
     free(J->mesh_first);
-    free(J->tri_extent);
+    free((void *)J->tri_extent);
     free(J);
     if (st != OBS_STATUS_OK)
         for (int j = 0; j < nout; j++)
