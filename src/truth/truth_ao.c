@@ -841,6 +841,23 @@ static void gen_volume(const ao_job *J, thread_scratch *S, const px_state *s, RT
     }
 }
 
+/* Bit i set when ray i (of n, a multiple of 4, n <= 64) came back unoccluded: tfar != -inf
+ * (NaN counts as unoccluded, as `tfar != -INFINITY` does). */
+static inline uint64_t unoccluded_mask(const RTCRay *ry, int n)
+{
+    const __m128 ninf = _mm_set1_ps(-INFINITY);
+    uint64_t bits = 0;
+    for (int i = 0; i < n; i += 4) {
+        __m128 t0 = _mm_load_ps(&ry[i].tfar), t1 = _mm_load_ps(&ry[i + 1].tfar); /* tfar, mask, id, flags */
+        __m128 t2 = _mm_load_ps(&ry[i + 2].tfar), t3 = _mm_load_ps(&ry[i + 3].tfar);
+        __m128 tf = _mm_movelh_ps(_mm_unpacklo_ps(t0, t1), _mm_unpacklo_ps(t2, t3)); /* 4 tfars */
+        bits |= (uint64_t)_mm_movemask_ps(_mm_cmpneq_ps(tf, ninf)) << i;
+    }
+    return bits;
+}
+
+static const unsigned char k_popcount4[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+
 static inline double falloff(falloff_kind k, double x) /* x = d^2 / r^2 in [0, 1] */
 {
     double v = 1.0 - x;
@@ -984,6 +1001,12 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                         acc[r] += sum;
                     }
                 }
+            } else if (B <= 64 && (B & 3) == 0 && (m == 1 || m == 2 || m == 4)) {
+                /* the same counts from a bit mask of the unoccluded rays, 4 rays per compare */
+                const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
+                const uint64_t bits = unoccluded_mask(ry, B);
+                for (int r = 0; r < R; r++)
+                    s->acc[r] += (double)k_popcount4[(bits >> (r * m)) & ((1u << m) - 1u)];
             } else {
                 const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
                 for (int r = 0; r < R; r++) {
