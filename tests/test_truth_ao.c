@@ -923,43 +923,49 @@ TEST(truth_avx2_rays_and_seeds_equal_the_sse2_reference)
             bad += out[k] != truth_i_owen_scramble1(v[k], sd[k]);
         CHECK_EQ_INT(bad, 0);
     }
-    static RTCRayHit ra[64], rb[64];
+    /* three pixels' records, traced in the order 2, 0, 1 */
+    struct { float frame[12]; uint32_t shift[TRUTH_AO_MAX_REPLICATES][2]; } rec[3];
+    const int order[3] = {2, 0, 1};
+    static RTCRayHit ra[3 * 64], rb[3 * 64];
     int cases = 0, bad = 0;
     for (int B = 8; B <= 64; B += 8)
         for (int m = 1; m <= B / 2; m++) {
             if (B % m || B / m > TRUTH_AO_MAX_REPLICATES)
                 continue;
             for (int variant = 0; variant < 4; variant++) {
-                uint32_t base0[64], base1[64], v0[64], v1[64], shift[TRUTH_AO_MAX_REPLICATES][2];
+                uint32_t base0[64], base1[64], v0[64], v1[64];
                 for (int i = 0; i < m; i++)
                     base0[i] = NEXT(), base1[i] = NEXT();
                 base0[0] = variant == 1 ? 0xFFFFFFFFu : 0u; /* the extreme cells of [0, 1) */
                 base1[0] = variant == 2 ? 0x80000000u : base1[0];
                 for (int k = 0; k < B; k++)
                     v0[k] = base0[k % m], v1[k] = base1[k % m];
-                for (int r = 0; r < B / m; r++)
-                    shift[r][0] = NEXT(), shift[r][1] = NEXT();
-                if (variant == 3)
-                    shift[0][0] = shift[0][1] = 0u;
-                /* a random unit normal, its Duff basis, an origin */
-                float n[3], t[3], b[3], org[3];
-                double nx = (double)NEXT() / 4294967296.0 - 0.5, ny = (double)NEXT() / 4294967296.0 - 0.5,
-                       nz = (double)NEXT() / 4294967296.0 - 0.5, l = sqrt(nx * nx + ny * ny + nz * nz) + 1e-9;
-                n[0] = (float)(nx / l), n[1] = (float)(ny / l), n[2] = (float)(nz / l);
-                float sg = n[2] < 0.0f ? -1.0f : 1.0f, aa = -1.0f / (sg + n[2]), bb = n[0] * n[1] * aa;
-                t[0] = 1.0f + sg * n[0] * n[0] * aa, t[1] = sg * bb, t[2] = -sg * n[0];
-                b[0] = bb, b[1] = sg + n[1] * n[1] * aa, b[2] = -n[1];
-                for (int c = 0; c < 3; c++)
-                    org[c] = (float)NEXT() / 65536.0f - 30000.0f;
+                for (int q = 0; q < 3; q++) {
+                    for (int r = 0; r < B / m; r++)
+                        rec[q].shift[r][0] = NEXT(), rec[q].shift[r][1] = NEXT();
+                    if (variant == 3)
+                        rec[q].shift[0][0] = rec[q].shift[0][1] = 0u;
+                    /* an origin, a random unit normal and its Duff basis */
+                    float *fr = rec[q].frame, *t = fr + 3, *b = fr + 6, *n = fr + 9;
+                    for (int c = 0; c < 3; c++)
+                        fr[c] = (float)NEXT() / 65536.0f - 30000.0f;
+                    double nx = (double)NEXT() / 4294967296.0 - 0.5, ny = (double)NEXT() / 4294967296.0 - 0.5,
+                           nz = (double)NEXT() / 4294967296.0 - 0.5, l = sqrt(nx * nx + ny * ny + nz * nz) + 1e-9;
+                    n[0] = (float)(nx / l), n[1] = (float)(ny / l), n[2] = (float)(nz / l);
+                    float sg = n[2] < 0.0f ? -1.0f : 1.0f, aa = -1.0f / (sg + n[2]), bb = n[0] * n[1] * aa;
+                    t[0] = 1.0f + sg * n[0] * n[0] * aa, t[1] = sg * bb, t[2] = -sg * n[0];
+                    b[0] = bb, b[1] = sg + n[1] * n[1] * aa, b[2] = -n[1];
+                }
                 for (int hit = 0; hit < 2; hit++)
                     for (int cosine = 0; cosine < 2; cosine++) {
-                        const truth_i_hemi_in in = {v0, v1, (const uint32_t(*)[2])shift, t, b, n, org,
-                                                    0.25f + (float)variant, B, m, cosine, hit};
+                        const truth_i_hemi_in in = {v0, v1, 0.25f + (float)variant, B, m, cosine, hit,
+                                                    (const char *)rec, sizeof rec[0], 0,
+                                                    (size_t)((const char *)rec[0].shift - (const char *)&rec[0]), order, 3};
                         memset(ra, 0xA5, sizeof ra);
                         memset(rb, 0xA5, sizeof rb);
                         truth_i_hemisphere_rays_avx2(&in, ra);
                         CHECK(truth_i_hemisphere_rays_sse2(&in, rb));
-                        const size_t bytes = (size_t)B * (hit ? sizeof(RTCRayHit) : sizeof(RTCRay));
+                        const size_t bytes = 3 * (size_t)B * (hit ? sizeof(RTCRayHit) : sizeof(RTCRay));
                         bad += memcmp(ra, rb, bytes) != 0;
                         cases++;
                     }

@@ -52,6 +52,7 @@
 #include <math.h>
 #include <pmmintrin.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include <xmmintrin.h>
@@ -253,7 +254,7 @@ static void onb_duff(const float n[3], float t[3], float b[3])
 
 typedef struct px_state {
     float org[3];          /* hemisphere estimators: the offset origin; VOL: p itself */
-    float t[3], b[3], n[3];
+    float t[3], b[3], n[3]; /* org, t, b, n: the 12 floats truth_i_hemi_in.frame names */
     uint64_t pixel;        /* inner pixel index y*W + x: the RNG key */
     uint32_t shift[TRUTH_AO_MAX_REPLICATES][2]; /* per replicate: the Owen-scrambling seeds of the two
                            base-2 coordinates: Philox(pixel, r, 0, seed) words 0, 1 */
@@ -264,6 +265,9 @@ typedef struct px_state {
     int x, y;
     int state;             /* 1 surface, 0 background, -1 invalid normal */
 } px_state;
+_Static_assert(offsetof(px_state, t) == offsetof(px_state, org) + 3 * sizeof(float) &&
+                   offsetof(px_state, n) == offsetof(px_state, org) + 9 * sizeof(float),
+               "org, t, b, n: 12 consecutive floats (truth_i_hemi_in.frame)");
 
 typedef struct thread_scratch {
     _Alignas(64) px_state *px; /* 64-byte aligned, a multiple of 64 bytes: threads never share a cache line */
@@ -679,14 +683,6 @@ static void pixel_points(const ao_job *J, thread_scratch *S, const px_state *s)
 static void gen_hemisphere_occ(const ao_job *J, thread_scratch *S, const px_state *s, RTCRay *rays)
 {
     const int B = J->p.batch, B4 = (B + 3) & ~3;
-#if defined(OBS_HAVE_AVX2)
-    if (J->avx2 && (B & 7) == 0) {
-        const truth_i_hemi_in in = {S->v0, S->v1, (const uint32_t(*)[2])s->shift, s->t, s->b, s->n, s->org,
-                                    J->p.radius, B, B / J->p.replicates, J->ei.cosine, 0};
-        truth_i_hemisphere_rays_avx2(&in, rays);
-        return;
-    }
-#endif
     pixel_points(J, S, s);
     local_dirs(S->u0, S->u1, B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
     world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
@@ -704,14 +700,6 @@ static void gen_hemisphere_occ(const ao_job *J, thread_scratch *S, const px_stat
 static void gen_hemisphere_hit(const ao_job *J, thread_scratch *S, const px_state *s, RTCRayHit *rays)
 {
     const int B = J->p.batch, B4 = (B + 3) & ~3;
-#if defined(OBS_HAVE_AVX2)
-    if (J->avx2 && (B & 7) == 0) {
-        const truth_i_hemi_in in = {S->v0, S->v1, (const uint32_t(*)[2])s->shift, s->t, s->b, s->n, s->org,
-                                    J->p.radius, B, B / J->p.replicates, J->ei.cosine, 1};
-        truth_i_hemisphere_rays_avx2(&in, rays);
-        return;
-    }
-#endif
     pixel_points(J, S, s);
     local_dirs(S->u0, S->u1, B4, J->ei.cosine ? DIRS_COSINE : DIRS_UNIFORM, S->lx, S->ly, S->lz);
     world_dirs(s, S->lx, S->ly, S->lz, B4, S->d4);
@@ -747,24 +735,12 @@ int truth_i_hemisphere_rays_sse2(const truth_i_hemi_in *in, void *rays)
     const int B = in->B, B4 = (B + 3) & ~3;
     ao_job J;
     thread_scratch S;
-    px_state s;
     memset(&J, 0, sizeof J);
     memset(&S, 0, sizeof S);
-    memset(&s, 0, sizeof s);
     J.p.batch = B;
     J.p.replicates = B / in->m;
     J.p.radius = in->radius;
     J.ei.cosine = in->cosine;
-    for (int c = 0; c < 3; c++) {
-        s.t[c] = in->t[c];
-        s.b[c] = in->b[c];
-        s.n[c] = in->n[c];
-        s.org[c] = in->org[c];
-    }
-    for (int r = 0; r < J.p.replicates && r < TRUTH_AO_MAX_REPLICATES; r++) {
-        s.shift[r][0] = in->shift[r][0];
-        s.shift[r][1] = in->shift[r][1];
-    }
     uint32_t *w[7];
     float *f[3];
     int ok = 1;
@@ -773,24 +749,42 @@ int truth_i_hemisphere_rays_sse2(const truth_i_hemi_in *in, void *rays)
     for (int k = 0; k < 3; k++)
         ok &= (f[k] = (float *)obs_aligned_alloc(sizeof(float) * (size_t)B4)) != NULL;
     S.d4 = (__m128 *)obs_aligned_alloc(sizeof(__m128) * (size_t)B4);
-    if (ok && S.d4) {
+    ok &= S.d4 != NULL;
+    if (ok) {
         S.v0 = w[0], S.v1 = w[1], S.b0 = w[2], S.b1 = w[3], S.u0 = w[4], S.u1 = w[5], S.u2 = w[6];
         S.lx = f[0], S.ly = f[1], S.lz = f[2];
         memcpy(S.v0, in->v0, sizeof(uint32_t) * (size_t)B);
         memcpy(S.v1, in->v1, sizeof(uint32_t) * (size_t)B);
         memcpy(S.b0, in->v0, sizeof(uint32_t) * (size_t)B); /* b0[i] = v0[i] for i < m (v0[k] = b0[k mod m]) */
         memcpy(S.b1, in->v1, sizeof(uint32_t) * (size_t)B);
-        if (in->hit)
-            gen_hemisphere_hit(&J, &S, &s, (RTCRayHit *)rays);
-        else
-            gen_hemisphere_occ(&J, &S, &s, (RTCRay *)rays);
+        for (int a = 0; a < in->count; a++) {
+            const char *px = in->base + (size_t)in->active[a] * in->stride;
+            const float *fr = (const float *)(px + in->frame);
+            const uint32_t(*shift)[2] = (const uint32_t(*)[2])(px + in->shift);
+            px_state s;
+            memset(&s, 0, sizeof s);
+            for (int c = 0; c < 3; c++) {
+                s.org[c] = fr[c];
+                s.t[c] = fr[3 + c];
+                s.b[c] = fr[6 + c];
+                s.n[c] = fr[9 + c];
+            }
+            for (int r = 0; r < J.p.replicates && r < TRUTH_AO_MAX_REPLICATES; r++) {
+                s.shift[r][0] = shift[r][0];
+                s.shift[r][1] = shift[r][1];
+            }
+            if (in->hit)
+                gen_hemisphere_hit(&J, &S, &s, (RTCRayHit *)rays + (size_t)a * B);
+            else
+                gen_hemisphere_occ(&J, &S, &s, (RTCRay *)rays + (size_t)a * B);
+        }
     }
     for (int k = 0; k < 7; k++)
         obs_aligned_free(w[k]);
     for (int k = 0; k < 3; k++)
         obs_aligned_free(f[k]);
     obs_aligned_free(S.d4);
-    return ok && S.d4;
+    return ok;
 }
 
 /* VOL: q = p + r cbrt(u3) w, w uniform on the sphere (DIRS_SPHERE), and the segment from the
@@ -856,6 +850,19 @@ static inline uint64_t unoccluded_mask(const RTCRay *ry, int n)
     return bits;
 }
 
+/* 1 when none of the n depths (n a multiple of 4) is a surface: !(d > 0 && d finite) for each,
+ * the test ao_tile makes pixel by pixel. */
+static inline int row_is_background(const float *depth, int n)
+{
+    const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(INFINITY);
+    for (int i = 0; i < n; i += 4) {
+        __m128 d = _mm_loadu_ps(depth + i);
+        if (_mm_movemask_ps(_mm_and_ps(_mm_cmpgt_ps(d, zero), _mm_cmplt_ps(d, inf)))) /* 0 < d < inf */
+            return 0;
+    }
+    return 1;
+}
+
 static const unsigned char k_popcount4[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 
 static inline double falloff(falloff_kind k, double x) /* x = d^2 / r^2 in [0, 1] */
@@ -890,9 +897,12 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                 rows[7] = (const char *)(obs_image_u32_row(&gb->prim_id, y + g) + x0 + g);
                 rows[8] = (const char *)(obs_image_u32_row(&gb->instance_id, y + g) + x0 + g);
             }
-            for (int k = 0; rows[k]; k++)
-                for (size_t off = 0; off < len + 63; off += 64)
-                    _mm_prefetch(rows[k] + (off < len ? off : len - 1), _MM_HINT_T0);
+            for (int k = 0; rows[k]; k++) { /* every cache line of [row, row + len) */
+                for (size_t off = 64; off < len; off += 64)
+                    _mm_prefetch(rows[k] + off, _MM_HINT_T0);
+                _mm_prefetch(rows[k], _MM_HINT_T0);
+                _mm_prefetch(rows[k] + len - 1, _MM_HINT_T0);
+            }
         }
     }
     /* Set up the tile's surface pixels; the others get their output (mean 1, std_error 0,
@@ -903,6 +913,17 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         const float *depth = from_gb ? obs_image_f32_row(&J->gb->depth, y + J->guard) + J->guard : NULL;
         float *om = obs_image_f32_row(&J->out->mean, y), *os = obs_image_f32_row(&J->out->std_error, y),
               *oc = obs_image_f32_row(&J->out->count, y);
+        if (from_gb && J->nout == 1 && ((x1 - x0) & 3) == 0 && row_is_background(depth + x0, x1 - x0)) {
+            /* a row of background pixels (the common case away from the object): the same outputs,
+             * 4 at a time */
+            for (int x = x0; x < x1; x += 4) {
+                _mm_storeu_ps(om + x, _mm_set1_ps(1.0f));
+                _mm_storeu_ps(os + x, _mm_setzero_ps());
+                _mm_storeu_ps(oc + x, _mm_setzero_ps());
+            }
+            S->background += x1 - x0;
+            continue;
+        }
         for (int x = x0; x < x1; x++) {
             int state = 0;
             if (!from_gb || (depth[x] > 0.0f && isfinite(depth[x]))) {
@@ -951,7 +972,16 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             S->v1[k] = S->b1[k % m];
         }
         int nr = 0;
-        for (int a = 0; a < nactive; a++) {
+#if defined(OBS_HAVE_AVX2)
+        if (J->avx2 && (B & 7) == 0 && !J->ei.volume) { /* every active pixel's rays in one pass */
+            const truth_i_hemi_in in = {S->v0, S->v1, J->p.radius, B, m, J->ei.cosine, hit_distance,
+                                        (const char *)S->px, sizeof(px_state), offsetof(px_state, org),
+                                        offsetof(px_state, shift), S->active, nactive};
+            truth_i_hemisphere_rays_avx2(&in, S->rays);
+            nr = nactive * B;
+        }
+#endif
+        for (int a = nr ? nactive : 0; a < nactive; a++) {
             const px_state *s = &S->px[S->active[a]];
             if (hit_distance)
                 gen_hemisphere_hit(J, S, s, (RTCRayHit *)S->rays + nr);
@@ -1005,8 +1035,14 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                 /* the same counts from a bit mask of the unoccluded rays, 4 rays per compare */
                 const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
                 const uint64_t bits = unoccluded_mask(ry, B);
-                for (int r = 0; r < R; r++)
-                    s->acc[r] += (double)k_popcount4[(bits >> (r * m)) & ((1u << m) - 1u)];
+                if (m == 2) { /* the default: two-bit counts of the pairs, side by side */
+                    const uint64_t pairs = (bits & 0x5555555555555555ull) + ((bits >> 1) & 0x5555555555555555ull);
+                    for (int r = 0; r < R; r++)
+                        s->acc[r] += (double)(int)((pairs >> (2 * r)) & 3u);
+                } else {
+                    for (int r = 0; r < R; r++)
+                        s->acc[r] += (double)k_popcount4[(bits >> (r * m)) & ((1u << m) - 1u)];
+                }
             } else {
                 const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
                 for (int r = 0; r < R; r++) {

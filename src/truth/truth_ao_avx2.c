@@ -45,29 +45,37 @@ void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[
         __m256i c0 = _mm256_set1_epi32((int)(uint32_t)pixel), c1 = _mm256_set1_epi32((int)(uint32_t)(pixel >> 32));
         __m256i c2 = _mm256_add_epi32(_mm256_set1_epi32(r0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
         __m256i c3 = _mm256_setzero_si256();
-        uint32_t k0 = (uint32_t)seed, k1 = (uint32_t)(seed >> 32);
+        __m256i k0 = _mm256_set1_epi32((int)(uint32_t)seed), k1 = _mm256_set1_epi32((int)(uint32_t)(seed >> 32));
+        const __m256i w0 = _mm256_set1_epi32((int)PHILOX_W0), w1 = _mm256_set1_epi32((int)PHILOX_W1);
         for (int round = 0; round < 10; round++) {
-            if (round > 0) {
-                k0 += PHILOX_W0;
-                k1 += PHILOX_W1;
+            if (round > 0) { /* the key bump, mod 2^32 per lane as in uint32_t */
+                k0 = _mm256_add_epi32(k0, w0);
+                k1 = _mm256_add_epi32(k1, w1);
             }
             __m256i hi0, lo0, hi1, lo1;
             mulhilo8(c0, m0, &hi0, &lo0);
             mulhilo8(c2, m1, &hi1, &lo1);
-            c0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), _mm256_set1_epi32((int)k0));
+            c0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), k0);
             c1 = lo1;
-            c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), _mm256_set1_epi32((int)k1));
+            c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), k1);
             c3 = lo0;
         }
         /* (c0, c1) interleaved are shift[r][0..1]; (c2, c3) interleaved are shift3[r] (lo, hi) */
         __m256i a0 = _mm256_unpacklo_epi32(c0, c1), a1 = _mm256_unpackhi_epi32(c0, c1); /* r 0 1 | 4 5; 2 3 | 6 7 */
         __m256i b0 = _mm256_unpacklo_epi32(c2, c3), b1 = _mm256_unpackhi_epi32(c2, c3);
+        if (R - r0 >= 8) { /* a whole chunk: straight into place */
+            _mm256_storeu_si256((__m256i *)shift[r0], _mm256_permute2x128_si256(a0, a1, 0x20));
+            _mm256_storeu_si256((__m256i *)shift[r0 + 4], _mm256_permute2x128_si256(a0, a1, 0x31));
+            _mm256_storeu_si256((__m256i *)(shift3 + r0), _mm256_permute2x128_si256(b0, b1, 0x20));
+            _mm256_storeu_si256((__m256i *)(shift3 + r0 + 4), _mm256_permute2x128_si256(b0, b1, 0x31));
+            continue;
+        }
         _Alignas(32) uint32_t w01[16], w23[16];
         _mm256_store_si256((__m256i *)w01, _mm256_permute2x128_si256(a0, a1, 0x20));
         _mm256_store_si256((__m256i *)(w01 + 8), _mm256_permute2x128_si256(a0, a1, 0x31));
         _mm256_store_si256((__m256i *)w23, _mm256_permute2x128_si256(b0, b1, 0x20));
         _mm256_store_si256((__m256i *)(w23 + 8), _mm256_permute2x128_si256(b0, b1, 0x31));
-        const int n = R - r0 < 8 ? R - r0 : 8;
+        const int n = R - r0;
         memcpy(shift[r0], w01, sizeof(uint32_t) * 2 * (size_t)n);
         memcpy(shift3 + r0, w23, sizeof(uint64_t) * (size_t)n); /* little-endian: (c2, c3) = c3 << 32 | c2 */
     }
@@ -140,7 +148,10 @@ static inline void lane_seeds(const uint32_t (*shift)[2], int k, int m, __m256i 
     }
 }
 
-void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays)
+/* hit and cosine are constants in each call below, so each of the four forms is compiled with
+ * its own stride and lift. */
+static inline __attribute__((always_inline)) void hemisphere_rays(const truth_i_hemi_in *in, void *rays, const int hit,
+                                                                  const int cosine)
 {
     const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
     const __m256 one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f), pi4 = _mm256_set1_ps(0.78539816339744831f);
@@ -148,22 +159,26 @@ void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays)
                  c72 = _mm256_set1_ps(1.0f / 72.0f);
     const __m256 c2 = _mm256_set1_ps(0.5f), c12 = _mm256_set1_ps(1.0f / 12.0f), c30 = _mm256_set1_ps(1.0f / 30.0f),
                  c56 = _mm256_set1_ps(1.0f / 56.0f), c90 = _mm256_set1_ps(1.0f / 90.0f);
-    const __m256 t0 = _mm256_set1_ps(in->t[0]), t1 = _mm256_set1_ps(in->t[1]), t2 = _mm256_set1_ps(in->t[2]);
-    const __m256 b0 = _mm256_set1_ps(in->b[0]), b1 = _mm256_set1_ps(in->b[1]), b2 = _mm256_set1_ps(in->b[2]);
-    const __m256 n0 = _mm256_set1_ps(in->n[0]), n1 = _mm256_set1_ps(in->n[1]), n2 = _mm256_set1_ps(in->n[2]);
-    const __m128 org = _mm_setr_ps(in->org[0], in->org[1], in->org[2], 0.0f);
     uint32_t rbits;
     memcpy(&rbits, &in->radius, sizeof rbits);
     const __m128 tail = _mm_castsi128_ps(_mm_setr_epi32((int)rbits, -1, 0, 0)); /* tfar, mask, id, flags */
     const __m128 h0 = _mm_setzero_ps();                                            /* Ng, u */
     const __m128 h1 = _mm_castsi128_ps(_mm_setr_epi32(0, (int)RTC_INVALID_GEOMETRY_ID, (int)RTC_INVALID_GEOMETRY_ID,
                                                       (int)RTC_INVALID_GEOMETRY_ID)); /* v, primID, geomID, instID */
-    const int B = in->B, m = in->m, hit = in->hit;
-    const size_t stride = hit ? sizeof(RTCRayHit) : sizeof(RTCRay);
-    char *out = (char *)rays;
+    const int B = in->B, m = in->m;
+    const size_t stride = (hit ? sizeof(RTCRayHit) : sizeof(RTCRay)) / sizeof(float);
+    float *r = (float *)rays;
+    for (int a = 0; a < in->count; a++) {
+    const char *px = in->base + (size_t)in->active[a] * in->stride;
+    const float *f = (const float *)(px + in->frame); /* org, t, b, n */
+    const uint32_t(*shift)[2] = (const uint32_t(*)[2])(px + in->shift);
+    const __m256 t0 = _mm256_broadcast_ss(f + 3), t1 = _mm256_broadcast_ss(f + 4), t2 = _mm256_broadcast_ss(f + 5);
+    const __m256 b0 = _mm256_broadcast_ss(f + 6), b1 = _mm256_broadcast_ss(f + 7), b2 = _mm256_broadcast_ss(f + 8);
+    const __m256 n0 = _mm256_broadcast_ss(f + 9), n1 = _mm256_broadcast_ss(f + 10), n2 = _mm256_broadcast_ss(f + 11);
+    const __m128 org = _mm_setr_ps(f[0], f[1], f[2], 0.0f);
     for (int k = 0; k < B; k += 8) {
         __m256i s0, s1;
-        lane_seeds(in->shift, k, m, &s0, &s1);
+        lane_seeds(shift, k, m, &s0, &s1);
         __m256i ua = owen8(_mm256_loadu_si256((const __m256i *)(in->v0 + k)), s0);
         __m256i ub = owen8(_mm256_loadu_si256((const __m256i *)(in->v1 + k)), s1);
         /* local_dirs */
@@ -181,7 +196,7 @@ void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays)
         cs = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c2), cs));
         __m256 px = _mm256_mul_ps(rad, sel8(first, cs, sn)), py = _mm256_mul_ps(rad, sel8(first, sn, cs));
         __m256 rr = _mm256_mul_ps(rad, rad), pz;
-        if (in->cosine) {
+        if (cosine) {
             pz = _mm256_sqrt_ps(_mm256_sub_ps(one, rr));
         } else {
             __m256 sc = _mm256_sqrt_ps(_mm256_sub_ps(two, rr));
@@ -200,19 +215,35 @@ void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays)
             __m128 z4 = half ? _mm256_extractf128_ps(dz, 1) : _mm256_castps256_ps128(dz);
             __m128 w4 = _mm_setzero_ps();
             _MM_TRANSPOSE4_PS(x4, y4, z4, w4);
-            const __m128 d[4] = {x4, y4, z4, w4};
-            for (int l = 0; l < 4; l++) {
-                float *r = (float *)(out + (size_t)(k + 4 * half + l) * stride);
-                _mm_store_ps(r, org);
-                _mm_store_ps(r + 4, d[l]); /* time = 0 */
-                _mm_store_ps(r + 8, tail);
-                if (hit) {
-                    _mm_store_ps(r + 12, h0);
-                    _mm_store_ps(r + 16, h1);
+            _mm_store_ps(r, org);
+            _mm_store_ps(r + 4, x4); /* time = 0 */
+            _mm_store_ps(r + 8, tail);
+            _mm_store_ps(r + stride, org);
+            _mm_store_ps(r + stride + 4, y4);
+            _mm_store_ps(r + stride + 8, tail);
+            _mm_store_ps(r + 2 * stride, org);
+            _mm_store_ps(r + 2 * stride + 4, z4);
+            _mm_store_ps(r + 2 * stride + 8, tail);
+            _mm_store_ps(r + 3 * stride, org);
+            _mm_store_ps(r + 3 * stride + 4, w4);
+            _mm_store_ps(r + 3 * stride + 8, tail);
+            if (hit)
+                for (int l = 0; l < 4; l++) {
+                    _mm_store_ps(r + l * stride + 12, h0);
+                    _mm_store_ps(r + l * stride + 16, h1);
                 }
-            }
+            r += 4 * stride;
         }
     }
+    }
+}
+
+void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays)
+{
+    if (in->hit)
+        in->cosine ? hemisphere_rays(in, rays, 1, 1) : hemisphere_rays(in, rays, 1, 0);
+    else
+        in->cosine ? hemisphere_rays(in, rays, 0, 1) : hemisphere_rays(in, rays, 0, 0);
 }
 
 #endif

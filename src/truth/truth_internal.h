@@ -52,26 +52,31 @@ uint32_t truth_i_owen_scramble1(uint32_t v, uint32_t seed);
  *   truth_i_seeds_avx2: replicate r's seeds for r < R, Philox(pixel, r, 0, seed) words 0, 1 into
  *     shift[r] and words 2, 3 as (w3 << 32 | w2) into shift3[r] (obs_rng_u32x4_n's streams);
  *   truth_i_owen_scramble_avx2: truth_i_owen_scramble, 8 lanes at a time;
- *   truth_i_hemisphere_rays_avx2: one pixel's round of B hemisphere rays (B a multiple of 8), as
- *     pixel_points, local_dirs, world_dirs and gen_hemisphere_occ / _hit make them, written to
- *     `rays` (B RTCRay, or RTCRayHit when hit). */
+ *   truth_i_hemisphere_rays_avx2: a round of B hemisphere rays (B a multiple of 8) for each of
+ *     `count` pixels, as pixel_points, local_dirs, world_dirs and gen_hemisphere_occ / _hit make
+ *     them, written to `rays` (count x B RTCRay, or RTCRayHit when hit), pixel after pixel. */
 typedef struct truth_i_hemi_in {
     const uint32_t *v0, *v1;      /* the round's points per ray k (bit-reversed), B of each */
-    const uint32_t (*shift)[2];   /* per replicate: the two base-2 Owen seeds */
-    const float *t, *b, *n;       /* the pixel's orthonormal basis (n the normal) */
-    const float *org;             /* the ray origin */
     float radius;                 /* tfar */
-    int B, m;                     /* rays, and rays per replicate (ray k is replicate k / m's) */
+    int B, m;                     /* rays per pixel, and per replicate (ray k is replicate k / m's) */
     int cosine;                   /* cosine-weighted, else uniform hemisphere */
     int hit;                      /* RTCRayHit records (hit-distance estimators), else RTCRay */
+    /* the pixels, in ray order: pixel a is the record at base + active[a] * stride, holding 12
+     * floats at `frame` (the ray origin, then the orthonormal basis t, b, n; n the normal) and
+     * its replicates' two base-2 Owen seeds, uint32_t[R][2], at `shift` */
+    const char *base;
+    size_t stride, frame, shift;
+    const int *active;
+    int count;
 } truth_i_hemi_in;
 #if defined(OBS_HAVE_AVX2)
 void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[2], uint64_t *shift3);
 void truth_i_owen_scramble_avx2(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out);
-void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays);
+void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays); /* count x B rays */
 #endif
-/* The SSE2 reference of truth_i_hemisphere_rays_avx2 (any B >= 2, B4 scratch of 4-aligned
- * floats/words is allocated inside), for the agreement test. */
+/* The SSE2 reference of truth_i_hemisphere_rays_avx2 (any B >= 2; v0[k] = v0[k mod m]), run
+ * pixel by pixel as truth_ao_render runs it without AVX2, for the agreement test. 0 when out of
+ * memory. */
 int truth_i_hemisphere_rays_sse2(const truth_i_hemi_in *in, void *rays);
 /* 1 when truth_ao_render runs the AVX2 forms: the build has them, the CPU has AVX2 and the
  * environment's OBS_ISA is not "scalar" (read at each call). */
