@@ -863,6 +863,15 @@ static inline int row_is_background(const float *depth, int n)
     return 1;
 }
 
+/* The unoccluded counts of two replicates (lanes r, r + 1) from their rays' bits: m = 2 (4 bits),
+ * m = 1 (2 bits). Exact small integers, so acc + count is the same double as acc + (double)k. */
+#define C2(a, b) {(double)(a), (double)(b)}
+static const __m128d k_counts_m2[16] = {
+    C2(0, 0), C2(1, 0), C2(1, 0), C2(2, 0), C2(0, 1), C2(1, 1), C2(1, 1), C2(2, 1),
+    C2(0, 1), C2(1, 1), C2(1, 1), C2(2, 1), C2(0, 2), C2(1, 2), C2(1, 2), C2(2, 2)};
+static const __m128d k_counts_m1[4] = {C2(0, 0), C2(1, 0), C2(0, 1), C2(1, 1)};
+#undef C2
+
 static const unsigned char k_popcount4[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
 
 static inline double falloff(falloff_kind k, double x) /* x = d^2 / r^2 in [0, 1] */
@@ -1035,10 +1044,13 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                 /* the same counts from a bit mask of the unoccluded rays, 4 rays per compare */
                 const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
                 const uint64_t bits = unoccluded_mask(ry, B);
-                if (m == 2) { /* the default: two-bit counts of the pairs, side by side */
-                    const uint64_t pairs = (bits & 0x5555555555555555ull) + ((bits >> 1) & 0x5555555555555555ull);
-                    for (int r = 0; r < R; r++)
-                        s->acc[r] += (double)(int)((pairs >> (2 * r)) & 3u);
+                if (m <= 2) { /* two replicates at a time (R is even): their counts from a table, as doubles */
+                    const __m128d *tab = m == 2 ? k_counts_m2 : k_counts_m1;
+                    const int per = 2 * m; /* bits of two replicates */
+                    for (int r = 0; r < R; r += 2) {
+                        const __m128d c = tab[(bits >> (r * m)) & ((1u << per) - 1u)];
+                        _mm_storeu_pd(s->acc + r, _mm_add_pd(_mm_loadu_pd(s->acc + r), c));
+                    }
                 } else {
                     for (int r = 0; r < R; r++)
                         s->acc[r] += (double)k_popcount4[(bits >> (r * m)) & ((1u << m) - 1u)];
