@@ -164,7 +164,8 @@ static uint32_t sobol2(uint32_t i)
 }
 
 /* Local directions (z = the normal) of n samples (n a multiple of 4), 4 at a time with SSE2
- * (baseline x86-64: one code path on every machine, so results never depend on the CPU).
+ * (baseline x86-64: the reference path; truth_ao_avx2.c repeats the same operations 8 lanes at a
+ * time on AVX2 CPUs, with the same bits, so results never depend on the CPU).
  *
  * Input: the samples' two coordinates in 32-bit fixed point, u0[i] and u1[i], already digitally
  * shifted (pixel_points). Each is taken to the centre of its 2^-25 cell of [-1, 1):
