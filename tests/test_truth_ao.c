@@ -880,6 +880,132 @@ TEST(truth_output_identical_for_1_2_and_8_threads)
     run_free(&R);
 }
 
+/* The AVX2 forms of the per-pixel sampling (truth_ao_avx2.c) against their SSE2 references in
+ * truth_ao.c, bit for bit: the replicate seeds (8-lane Philox against obs_rng_u32x4_n_scalar), the
+ * 8-lane Owen scramble, and one pixel's rays (scramble, directions, basis, stores) for every
+ * B = 8 .. 64 in steps of 8 with each rays-per-replicate m that divides it (R = B/m in [2, 32]),
+ * cosine and uniform, occlusion and hit records, random bases and extreme coordinates; then whole
+ * renders with OBS_ISA=scalar and without give the same planes. Skipped (with a line) where the
+ * build or the CPU lacks AVX2. */
+TEST(truth_avx2_rays_and_seeds_equal_the_sse2_reference)
+{
+#if defined(OBS_HAVE_AVX2)
+    if (!truth_i_avx2_active()) {
+        printf("skipped: this CPU has no AVX2 (or OBS_ISA=scalar is set)\n");
+        return;
+    }
+    uint64_t x = 0x2545F4914F6CDD1Dull;
+#define NEXT() (x = x * 6364136223846793005ull + 1442695040888963407ull, (uint32_t)(x >> 32))
+    for (int it = 0; it < 200; it++) {
+        uint64_t pixel = ((uint64_t)NEXT() << 32 | NEXT()) >> (it % 40), seed = (uint64_t)NEXT() << 32 | NEXT();
+        if (it == 0)
+            pixel = seed = 0;
+        const int R = 2 + it % (TRUTH_AO_MAX_REPLICATES - 1);
+        uint32_t shift[TRUTH_AO_MAX_REPLICATES][2];
+        uint64_t shift3[TRUTH_AO_MAX_REPLICATES];
+        uint32_t ref[TRUTH_AO_MAX_REPLICATES][4];
+        truth_i_seeds_avx2(pixel, R, seed, shift, shift3);
+        obs_rng_u32x4_n_scalar(pixel, 0, R, 0, seed, ref);
+        for (int r = 0; r < R; r++) {
+            CHECK(shift[r][0] == ref[r][0] && shift[r][1] == ref[r][1]);
+            CHECK(shift3[r] == ((uint64_t)ref[r][3] << 32 | ref[r][2]));
+        }
+    }
+    {
+        enum { N = 1003 };
+        static uint32_t v[N], sd[N], out[N];
+        for (int k = 0; k < N; k++)
+            v[k] = NEXT(), sd[k] = NEXT();
+        v[0] = 0, sd[0] = 0, v[1] = 0xFFFFFFFFu, sd[1] = 0xFFFFFFFFu;
+        truth_i_owen_scramble_avx2(v, sd, N, out);
+        int bad = 0;
+        for (int k = 0; k < N; k++)
+            bad += out[k] != truth_i_owen_scramble1(v[k], sd[k]);
+        CHECK_EQ_INT(bad, 0);
+    }
+    /* three pixels' records, traced in the order 2, 0, 1 */
+    struct { float frame[12]; uint32_t shift[TRUTH_AO_MAX_REPLICATES][2]; } rec[3];
+    const int order[3] = {2, 0, 1};
+    static RTCRayHit ra[3 * 64], rb[3 * 64];
+    int cases = 0, bad = 0;
+    for (int B = 8; B <= 64; B += 8)
+        for (int m = 1; m <= B / 2; m++) {
+            if (B % m || B / m > TRUTH_AO_MAX_REPLICATES)
+                continue;
+            for (int variant = 0; variant < 4; variant++) {
+                uint32_t base0[64], base1[64], v0[64], v1[64];
+                for (int i = 0; i < m; i++)
+                    base0[i] = NEXT(), base1[i] = NEXT();
+                base0[0] = variant == 1 ? 0xFFFFFFFFu : 0u; /* the extreme cells of [0, 1) */
+                base1[0] = variant == 2 ? 0x80000000u : base1[0];
+                for (int k = 0; k < B; k++)
+                    v0[k] = base0[k % m], v1[k] = base1[k % m];
+                for (int q = 0; q < 3; q++) {
+                    for (int r = 0; r < B / m; r++)
+                        rec[q].shift[r][0] = NEXT(), rec[q].shift[r][1] = NEXT();
+                    if (variant == 3)
+                        rec[q].shift[0][0] = rec[q].shift[0][1] = 0u;
+                    /* an origin, a random unit normal and its Duff basis */
+                    float *fr = rec[q].frame, *t = fr + 3, *b = fr + 6, *n = fr + 9;
+                    for (int c = 0; c < 3; c++)
+                        fr[c] = (float)NEXT() / 65536.0f - 30000.0f;
+                    double nx = (double)NEXT() / 4294967296.0 - 0.5, ny = (double)NEXT() / 4294967296.0 - 0.5,
+                           nz = (double)NEXT() / 4294967296.0 - 0.5, l = sqrt(nx * nx + ny * ny + nz * nz) + 1e-9;
+                    n[0] = (float)(nx / l), n[1] = (float)(ny / l), n[2] = (float)(nz / l);
+                    float sg = n[2] < 0.0f ? -1.0f : 1.0f, aa = -1.0f / (sg + n[2]), bb = n[0] * n[1] * aa;
+                    t[0] = 1.0f + sg * n[0] * n[0] * aa, t[1] = sg * bb, t[2] = -sg * n[0];
+                    b[0] = bb, b[1] = sg + n[1] * n[1] * aa, b[2] = -n[1];
+                }
+                for (int hit = 0; hit < 2; hit++)
+                    for (int cosine = 0; cosine < 2; cosine++) {
+                        const truth_i_hemi_in in = {v0, v1, 0.25f + (float)variant, B, m, cosine, hit,
+                                                    (const char *)rec, sizeof rec[0], 0,
+                                                    (size_t)((const char *)rec[0].shift - (const char *)&rec[0]), order, 3};
+                        memset(ra, 0xA5, sizeof ra);
+                        memset(rb, 0xA5, sizeof rb);
+                        truth_i_hemisphere_rays_avx2(&in, ra);
+                        CHECK(truth_i_hemisphere_rays_sse2(&in, rb));
+                        const size_t bytes = 3 * (size_t)B * (hit ? sizeof(RTCRayHit) : sizeof(RTCRay));
+                        bad += memcmp(ra, rb, bytes) != 0;
+                        cases++;
+                    }
+            }
+        }
+    printf("%d ray cases (B, m, cosine/uniform, occlusion/hit), %d differ\n", cases, bad);
+    CHECK_EQ_INT(bad, 0);
+#undef NEXT
+    /* whole renders: the AVX2 forms against OBS_ISA=scalar (the SSE2 references) */
+    ao_run Rn;
+    CHECK_MSG(two_balls_setup(&Rn, 37, 29), "setup: %s", obs_context_last_error(Rn.ctx));
+    static const struct { truth_ao_estimator e; int batch, replicates; } cfg[] = {
+        {TRUTH_AO_COS, 16, 8}, {TRUTH_AO_UNIF, 16, 16}, {TRUTH_AO_OBS_SAO_B, 16, 8}, {TRUTH_AO_OBS_HBAO, 24, 8},
+        {TRUTH_AO_COS, 32, 4}, {TRUTH_AO_VOL, 16, 8}};
+    for (size_t c = 0; c < sizeof cfg / sizeof cfg[0]; c++) {
+        truth_ao_params p = truth_ao_params_default();
+        p.estimator = cfg[c].e;
+        p.radius = 0.6f;
+        p.batch = cfg[c].batch;
+        p.replicates = cfg[c].replicates;
+        p.min_samples = 2 * p.batch;
+        p.max_samples = 16 * p.batch;
+        p.target_error = 0.03;
+        p.seed = 777 + c;
+        truth_ao_result a, s;
+        CHECK_OK(run_ao(&Rn, NULL, &p, &a), Rn.ctx);
+        setenv("OBS_ISA", "scalar", 1);
+        CHECK_OK(run_ao(&Rn, NULL, &p, &s), Rn.ctx);
+        unsetenv("OBS_ISA");
+        CHECK_MSG(planes_equal(&a, &s), "%s, batch %d, %d replicates: AVX2 and scalar planes differ",
+                  truth_ao_estimator_name(cfg[c].e), cfg[c].batch, cfg[c].replicates);
+        truth_ao_result_free(&a);
+        truth_ao_result_free(&s);
+    }
+    run_free(&Rn);
+#else
+    printf("skipped: built without the AVX2 paths (OBS_ENABLE_SIMD=OFF)\n");
+#endif
+}
+
 /* truth_ao_render_multi: one ray set, several (estimator, radius) outputs. With a fixed sample
  * count (min = max, target 0) every output must equal, value for value, the single-output run of
  * its own estimator and radius: the directions depend on pixel, sample and seed only, and the

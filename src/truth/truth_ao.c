@@ -52,6 +52,7 @@
 #include <math.h>
 #include <pmmintrin.h>
 #include <stdatomic.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include <xmmintrin.h>
@@ -163,7 +164,8 @@ static uint32_t sobol2(uint32_t i)
 }
 
 /* Local directions (z = the normal) of n samples (n a multiple of 4), 4 at a time with SSE2
- * (baseline x86-64: one code path on every machine, so results never depend on the CPU).
+ * (baseline x86-64: the reference path; truth_ao_avx2.c repeats the same operations 8 lanes at a
+ * time on AVX2 CPUs, with the same bits, so results never depend on the CPU).
  *
  * Input: the samples' two coordinates in 32-bit fixed point, u0[i] and u1[i], already digitally
  * shifted (pixel_points). Each is taken to the centre of its 2^-25 cell of [-1, 1):
@@ -253,7 +255,7 @@ static void onb_duff(const float n[3], float t[3], float b[3])
 
 typedef struct px_state {
     float org[3];          /* hemisphere estimators: the offset origin; VOL: p itself */
-    float t[3], b[3], n[3];
+    float t[3], b[3], n[3]; /* org, t, b, n: the 12 floats truth_i_hemi_in.frame names */
     uint64_t pixel;        /* inner pixel index y*W + x: the RNG key */
     uint32_t shift[TRUTH_AO_MAX_REPLICATES][2]; /* per replicate: the Owen-scrambling seeds of the two
                            base-2 coordinates: Philox(pixel, r, 0, seed) words 0, 1 */
@@ -264,6 +266,9 @@ typedef struct px_state {
     int x, y;
     int state;             /* 1 surface, 0 background, -1 invalid normal */
 } px_state;
+_Static_assert(offsetof(px_state, t) == offsetof(px_state, org) + 3 * sizeof(float) &&
+                   offsetof(px_state, n) == offsetof(px_state, org) + 9 * sizeof(float),
+               "org, t, b, n: 12 consecutive floats (truth_i_hemi_in.frame)");
 
 typedef struct thread_scratch {
     _Alignas(64) px_state *px; /* 64-byte aligned, a multiple of 64 bytes: threads never share a cache line */
@@ -294,7 +299,9 @@ typedef struct ao_job {
     int W, H, guard;
     int group;             /* tiles per task, side by side (see ao_task) */
     float *inst_norm;      /* per instance: |M|inf of its 3x3 */
-    float *tri_extent;     /* per triangle of every mesh: object-space bounding-box extent */
+    _Atomic uint32_t *tri_extent; /* per triangle of every mesh: the bits of its object-space
+                           bounding-box extent, computed at its first use (EXTENT_UNSET before) */
+    int avx2;              /* the AVX2 forms of the sampling run (truth_i_avx2_active) */
     size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
     thread_scratch *scratch;
     truth_ao_result *out;  /* outs[0] */
@@ -324,6 +331,23 @@ static inline float max3abs(double x, double y, double z)
  * for p on it: the object-space bounding-box extent (largest side, precomputed per triangle)
  * times the instance's |M|inf (largest absolute row sum of its 3x3). 0 when the ids name no
  * triangle. */
+#define EXTENT_UNSET 0xFFFFFFFFu /* a NaN's bits: never an extent (extents are >= 0 or +inf) */
+
+/* The object-space bounding-box extent (largest side) of mesh triangle t. */
+static float mesh_triangle_extent(const obs_mesh *mesh, uint32_t t)
+{
+    float ext = 0.0f;
+    for (int c = 0; c < 3; c++) {
+        float a = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t] + c];
+        float b = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 1] + c];
+        float d = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 2] + c];
+        float lo = fminf(a, fminf(b, d)), hi = fmaxf(a, fmaxf(b, d));
+        float e = hi - lo;
+        ext = e > ext ? e : ext; /* NaN (a non-finite vertex: never hit) leaves it */
+    }
+    return ext;
+}
+
 static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
 {
     const obs_scene *sc = J->scene;
@@ -332,7 +356,20 @@ static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
     uint32_t mesh = sc->instances[inst].mesh;
     if (prim >= sc->meshes[mesh].triangle_count)
         return 0.0;
-    return (double)J->tri_extent[J->mesh_first[mesh] + prim] * (double)J->inst_norm[inst];
+    /* computed at the triangle's first use (only the triangles seen in a pixel: the full table cost
+     * 13 M instructions per call on the bunny); two threads may both compute it, and store the
+     * same bits */
+    _Atomic uint32_t *slot = &J->tri_extent[J->mesh_first[mesh] + prim];
+    uint32_t bits = atomic_load_explicit(slot, memory_order_relaxed);
+    float ext;
+    if (bits == EXTENT_UNSET) {
+        ext = mesh_triangle_extent(&sc->meshes[mesh], prim);
+        memcpy(&bits, &ext, sizeof bits);
+        atomic_store_explicit(slot, bits, memory_order_relaxed);
+    } else {
+        memcpy(&ext, &bits, sizeof ext);
+    }
+    return (double)ext * (double)J->inst_norm[inst];
 }
 
 /* Interpolated shading normal of an Embree hit, in world space (unit), or ng when the mesh has
@@ -442,6 +479,11 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         return;
     }
     s->state = 1;
+#if defined(OBS_HAVE_AVX2)
+    if (J->avx2)
+        truth_i_seeds_avx2(s->pixel, J->p.replicates, J->p.seed, s->shift, s->shift3); /* the same words */
+    else
+#endif
     {
         /* replicate r's seeds: Philox(pixel, r, 0, seed), four calls at a time (same words) */
         uint32_t w[TRUTH_AO_MAX_REPLICATES][4];
@@ -677,6 +719,75 @@ static void gen_hemisphere_hit(const ao_job *J, thread_scratch *S, const px_stat
     }
 }
 
+int truth_i_avx2_active(void)
+{
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
+int truth_i_hemisphere_rays_sse2(const truth_i_hemi_in *in, void *rays)
+{
+    const int B = in->B, B4 = (B + 3) & ~3;
+    ao_job J;
+    thread_scratch S;
+    memset(&J, 0, sizeof J);
+    memset(&S, 0, sizeof S);
+    J.p.batch = B;
+    J.p.replicates = B / in->m;
+    J.p.radius = in->radius;
+    J.ei.cosine = in->cosine;
+    uint32_t *w[7];
+    float *f[3];
+    int ok = 1;
+    for (int k = 0; k < 7; k++)
+        ok &= (w[k] = (uint32_t *)obs_aligned_alloc(sizeof(uint32_t) * (size_t)B4)) != NULL;
+    for (int k = 0; k < 3; k++)
+        ok &= (f[k] = (float *)obs_aligned_alloc(sizeof(float) * (size_t)B4)) != NULL;
+    S.d4 = (__m128 *)obs_aligned_alloc(sizeof(__m128) * (size_t)B4);
+    ok &= S.d4 != NULL;
+    if (ok) {
+        S.v0 = w[0], S.v1 = w[1], S.b0 = w[2], S.b1 = w[3], S.u0 = w[4], S.u1 = w[5], S.u2 = w[6];
+        S.lx = f[0], S.ly = f[1], S.lz = f[2];
+        memcpy(S.v0, in->v0, sizeof(uint32_t) * (size_t)B);
+        memcpy(S.v1, in->v1, sizeof(uint32_t) * (size_t)B);
+        memcpy(S.b0, in->v0, sizeof(uint32_t) * (size_t)B); /* b0[i] = v0[i] for i < m (v0[k] = b0[k mod m]) */
+        memcpy(S.b1, in->v1, sizeof(uint32_t) * (size_t)B);
+        for (int a = 0; a < in->count; a++) {
+            const char *px = in->base + (size_t)in->active[a] * in->stride;
+            const float *fr = (const float *)(px + in->frame);
+            const uint32_t(*shift)[2] = (const uint32_t(*)[2])(px + in->shift);
+            px_state s;
+            memset(&s, 0, sizeof s);
+            for (int c = 0; c < 3; c++) {
+                s.org[c] = fr[c];
+                s.t[c] = fr[3 + c];
+                s.b[c] = fr[6 + c];
+                s.n[c] = fr[9 + c];
+            }
+            for (int r = 0; r < J.p.replicates && r < TRUTH_AO_MAX_REPLICATES; r++) {
+                s.shift[r][0] = shift[r][0];
+                s.shift[r][1] = shift[r][1];
+            }
+            if (in->hit)
+                gen_hemisphere_hit(&J, &S, &s, (RTCRayHit *)rays + (size_t)a * B);
+            else
+                gen_hemisphere_occ(&J, &S, &s, (RTCRay *)rays + (size_t)a * B);
+        }
+    }
+    for (int k = 0; k < 7; k++)
+        obs_aligned_free(w[k]);
+    for (int k = 0; k < 3; k++)
+        obs_aligned_free(f[k]);
+    obs_aligned_free(S.d4);
+    return ok;
+}
+
 /* VOL: q = p + r cbrt(u3) w, w uniform on the sphere (DIRS_SPHERE), and the segment from the
  * eye (orthographic: from q's foot on the view plane) to q, as t in [0, 1]. */
 static void gen_volume(const ao_job *J, thread_scratch *S, const px_state *s, RTCRay *rays)
@@ -725,6 +836,45 @@ static void gen_volume(const ao_job *J, thread_scratch *S, const px_state *s, RT
     }
 }
 
+/* Bit i set when ray i (of n, a multiple of 4, n <= 64) came back unoccluded: tfar != -inf
+ * (NaN counts as unoccluded, as `tfar != -INFINITY` does). */
+static inline uint64_t unoccluded_mask(const RTCRay *ry, int n)
+{
+    const __m128 ninf = _mm_set1_ps(-INFINITY);
+    uint64_t bits = 0;
+    for (int i = 0; i < n; i += 4) {
+        __m128 t0 = _mm_load_ps(&ry[i].tfar), t1 = _mm_load_ps(&ry[i + 1].tfar); /* tfar, mask, id, flags */
+        __m128 t2 = _mm_load_ps(&ry[i + 2].tfar), t3 = _mm_load_ps(&ry[i + 3].tfar);
+        __m128 tf = _mm_movelh_ps(_mm_unpacklo_ps(t0, t1), _mm_unpacklo_ps(t2, t3)); /* 4 tfars */
+        bits |= (uint64_t)_mm_movemask_ps(_mm_cmpneq_ps(tf, ninf)) << i;
+    }
+    return bits;
+}
+
+/* 1 when none of the n depths (n a multiple of 4) is a surface: !(d > 0 && d finite) for each,
+ * the test ao_tile makes pixel by pixel. */
+static inline int row_is_background(const float *depth, int n)
+{
+    const __m128 zero = _mm_setzero_ps(), inf = _mm_set1_ps(INFINITY);
+    for (int i = 0; i < n; i += 4) {
+        __m128 d = _mm_loadu_ps(depth + i);
+        if (_mm_movemask_ps(_mm_and_ps(_mm_cmpgt_ps(d, zero), _mm_cmplt_ps(d, inf)))) /* 0 < d < inf */
+            return 0;
+    }
+    return 1;
+}
+
+/* The unoccluded counts of two replicates (lanes r, r + 1) from their rays' bits: m = 2 (4 bits),
+ * m = 1 (2 bits). Exact small integers, so acc + count is the same double as acc + (double)k. */
+#define C2(a, b) {(double)(a), (double)(b)}
+static const __m128d k_counts_m2[16] = {
+    C2(0, 0), C2(1, 0), C2(1, 0), C2(2, 0), C2(0, 1), C2(1, 1), C2(1, 1), C2(2, 1),
+    C2(0, 1), C2(1, 1), C2(1, 1), C2(2, 1), C2(0, 2), C2(1, 2), C2(1, 2), C2(2, 2)};
+static const __m128d k_counts_m1[4] = {C2(0, 0), C2(1, 0), C2(0, 1), C2(1, 1)};
+#undef C2
+
+static const unsigned char k_popcount4[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+
 static inline double falloff(falloff_kind k, double x) /* x = d^2 / r^2 in [0, 1] */
 {
     double v = 1.0 - x;
@@ -757,9 +907,12 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                 rows[7] = (const char *)(obs_image_u32_row(&gb->prim_id, y + g) + x0 + g);
                 rows[8] = (const char *)(obs_image_u32_row(&gb->instance_id, y + g) + x0 + g);
             }
-            for (int k = 0; rows[k]; k++)
-                for (size_t off = 0; off < len + 63; off += 64)
-                    _mm_prefetch(rows[k] + (off < len ? off : len - 1), _MM_HINT_T0);
+            for (int k = 0; rows[k]; k++) { /* every cache line of [row, row + len) */
+                for (size_t off = 64; off < len; off += 64)
+                    _mm_prefetch(rows[k] + off, _MM_HINT_T0);
+                _mm_prefetch(rows[k], _MM_HINT_T0);
+                _mm_prefetch(rows[k] + len - 1, _MM_HINT_T0);
+            }
         }
     }
     /* Set up the tile's surface pixels; the others get their output (mean 1, std_error 0,
@@ -770,6 +923,17 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         const float *depth = from_gb ? obs_image_f32_row(&J->gb->depth, y + J->guard) + J->guard : NULL;
         float *om = obs_image_f32_row(&J->out->mean, y), *os = obs_image_f32_row(&J->out->std_error, y),
               *oc = obs_image_f32_row(&J->out->count, y);
+        if (from_gb && J->nout == 1 && ((x1 - x0) & 3) == 0 && row_is_background(depth + x0, x1 - x0)) {
+            /* a row of background pixels (the common case away from the object): the same outputs,
+             * 4 at a time */
+            for (int x = x0; x < x1; x += 4) {
+                _mm_storeu_ps(om + x, _mm_set1_ps(1.0f));
+                _mm_storeu_ps(os + x, _mm_setzero_ps());
+                _mm_storeu_ps(oc + x, _mm_setzero_ps());
+            }
+            S->background += x1 - x0;
+            continue;
+        }
         for (int x = x0; x < x1; x++) {
             int state = 0;
             if (!from_gb || (depth[x] > 0.0f && isfinite(depth[x]))) {
@@ -818,7 +982,16 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             S->v1[k] = S->b1[k % m];
         }
         int nr = 0;
-        for (int a = 0; a < nactive; a++) {
+#if defined(OBS_HAVE_AVX2)
+        if (J->avx2 && (B & 7) == 0 && !J->ei.volume) { /* every active pixel's rays in one pass */
+            const truth_i_hemi_in in = {S->v0, S->v1, J->p.radius, B, m, J->ei.cosine, hit_distance,
+                                        (const char *)S->px, sizeof(px_state), offsetof(px_state, org),
+                                        offsetof(px_state, shift), S->active, nactive};
+            truth_i_hemisphere_rays_avx2(&in, S->rays);
+            nr = nactive * B;
+        }
+#endif
+        for (int a = nr ? nactive : 0; a < nactive; a++) {
             const px_state *s = &S->px[S->active[a]];
             if (hit_distance)
                 gen_hemisphere_hit(J, S, s, (RTCRayHit *)S->rays + nr);
@@ -836,6 +1009,8 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             rtcOccluded1M(J->ts->top, &ictx, (RTCRay *)S->rays, (unsigned)nr, sizeof(RTCRay));
         tile_rays += (uint64_t)nr;
 
+        /* every active pixel of the tile started at round 0: each has taken (round + 1) B samples */
+        const double fl = truth_ao_error_floor((round + 1) * B);
         int kept = 0;
         for (int a = 0; a < nactive; a++) {
             px_state *s = &S->px[S->active[a]];
@@ -866,6 +1041,21 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                         acc[r] += sum;
                     }
                 }
+            } else if (B <= 64 && (B & 3) == 0 && (m == 1 || m == 2 || m == 4)) {
+                /* the same counts from a bit mask of the unoccluded rays, 4 rays per compare */
+                const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
+                const uint64_t bits = unoccluded_mask(ry, B);
+                if (m <= 2) { /* two replicates at a time (R is even): their counts from a table, as doubles */
+                    const __m128d *tab = m == 2 ? k_counts_m2 : k_counts_m1;
+                    const int per = 2 * m; /* bits of two replicates */
+                    for (int r = 0; r < R; r += 2) {
+                        const __m128d c = tab[(bits >> (r * m)) & ((1u << per) - 1u)];
+                        _mm_storeu_pd(s->acc + r, _mm_add_pd(_mm_loadu_pd(s->acc + r), c));
+                    }
+                } else {
+                    for (int r = 0; r < R; r++)
+                        s->acc[r] += (double)k_popcount4[(bits >> (r * m)) & ((1u << m) - 1u)];
+                }
             } else {
                 const RTCRay *ry = (const RTCRay *)S->rays + (size_t)a * B;
                 for (int r = 0; r < R; r++) {
@@ -879,7 +1069,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             /* Per output: the mean of the replicates' means, their spread s_R [LEcuyer02] and the
              * error bar max(s_R, floor(n)) [Agresti98]; the pixel stops when every output's bar is
              * within the target (after min_samples), or at max_samples. */
-            const double n = (double)s->count, mr = n / R, fl = truth_ao_error_floor(s->count);
+            const double n = (double)s->count, mr = n / R;
             double mean[TRUTH_AO_MAX_OUTPUTS], bar[TRUTH_AO_MAX_OUTPUTS], se_r[TRUTH_AO_MAX_OUTPUTS], worst = 0.0;
             for (int j = 0; j < J->nout; j++) {
                 const double *acc = s->acc + (size_t)j * R;
@@ -1138,6 +1328,7 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     J->p = *p;
     J->ei = k_est[p->estimator];
     J->hooks = hooks;
+    J->avx2 = truth_i_avx2_active();
     J->guard = gb->guard;
     J->W = gb->width - 2 * gb->guard;
     J->H = gb->height - 2 * gb->guard;
@@ -1171,7 +1362,7 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         tri_total += scene->meshes[m].triangle_count; /* each < 2^32; the sum fits size_t on 64-bit */
     J->inst_norm = (float *)malloc(sizeof(float) * (scene->instance_count ? scene->instance_count : 1));
     J->mesh_first = (size_t *)malloc(sizeof(size_t) * (scene->mesh_count ? scene->mesh_count : 1));
-    J->tri_extent = (float *)malloc(sizeof(float) * (tri_total ? tri_total : 1));
+    J->tri_extent = (_Atomic uint32_t *)malloc(sizeof(uint32_t) * (tri_total ? tri_total : 1));
     J->scratch = (thread_scratch *)obs_aligned_alloc((size_t)threads * sizeof(thread_scratch));
     if (J->scratch)
         memset(J->scratch, 0, (size_t)threads * sizeof(thread_scratch));
@@ -1221,22 +1412,11 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     }
     size_t first = 0;
     for (uint32_t m = 0; m < scene->mesh_count; m++) {
-        const obs_mesh *mesh = &scene->meshes[m];
         J->mesh_first[m] = first;
-        for (uint32_t t = 0; t < mesh->triangle_count; t++) {
-            float ext = 0.0f;
-            for (int c = 0; c < 3; c++) {
-                float a = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t] + c];
-                float b = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 1] + c];
-                float d = mesh->positions[3 * (size_t)mesh->indices[3 * (size_t)t + 2] + c];
-                float lo = fminf(a, fminf(b, d)), hi = fmaxf(a, fmaxf(b, d));
-                float e = hi - lo;
-                ext = e > ext ? e : ext; /* NaN (a non-finite vertex: never hit) leaves it */
-            }
-            J->tri_extent[first + t] = ext;
-        }
-        first += mesh->triangle_count;
+        first += scene->meshes[m].triangle_count;
     }
+    for (size_t t = 0; t < tri_total; t++) /* filled at first use (triangle_extent) */
+        atomic_init(&J->tri_extent[t], EXTENT_UNSET);
 
     for (int j = 0; j < nout && st == OBS_STATUS_OK; j++) {
         st = alloc_out_plane(ctx, J->W, J->H, &outs[j].mean);
@@ -1304,7 +1484,7 @@ done:
     obs_aligned_free(J->scratch);
     free(J->inst_norm);
     free(J->mesh_first);
-    free(J->tri_extent);
+    free((void *)J->tri_extent);
     free(J);
     if (st != OBS_STATUS_OK)
         for (int j = 0; j < nout; j++)

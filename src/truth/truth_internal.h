@@ -46,6 +46,42 @@ typedef struct truth_ao_hooks {
 void truth_i_owen_scramble(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out);
 uint32_t truth_i_owen_scramble1(uint32_t v, uint32_t seed);
 
+/* AVX2 forms of truth_ao.c's per-pixel sampling (truth_ao_avx2.c; only in OBS_HAVE_AVX2 builds,
+ * called only on AVX2 CPUs). Each gives the same bits as its SSE2 reference in truth_ao.c
+ * (tests/test_truth_ao.c compares them):
+ *   truth_i_seeds_avx2: replicate r's seeds for r < R, Philox(pixel, r, 0, seed) words 0, 1 into
+ *     shift[r] and words 2, 3 as (w3 << 32 | w2) into shift3[r] (obs_rng_u32x4_n's streams);
+ *   truth_i_owen_scramble_avx2: truth_i_owen_scramble, 8 lanes at a time;
+ *   truth_i_hemisphere_rays_avx2: a round of B hemisphere rays (B a multiple of 8) for each of
+ *     `count` pixels, as pixel_points, local_dirs, world_dirs and gen_hemisphere_occ / _hit make
+ *     them, written to `rays` (count x B RTCRay, or RTCRayHit when hit), pixel after pixel. */
+typedef struct truth_i_hemi_in {
+    const uint32_t *v0, *v1;      /* the round's points per ray k (bit-reversed), B of each */
+    float radius;                 /* tfar */
+    int B, m;                     /* rays per pixel, and per replicate (ray k is replicate k / m's) */
+    int cosine;                   /* cosine-weighted, else uniform hemisphere */
+    int hit;                      /* RTCRayHit records (hit-distance estimators), else RTCRay */
+    /* the pixels, in ray order: pixel a is the record at base + active[a] * stride, holding 12
+     * floats at `frame` (the ray origin, then the orthonormal basis t, b, n; n the normal) and
+     * its replicates' two base-2 Owen seeds, uint32_t[R][2], at `shift` */
+    const char *base;
+    size_t stride, frame, shift;
+    const int *active;
+    int count;
+} truth_i_hemi_in;
+#if defined(OBS_HAVE_AVX2)
+void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[2], uint64_t *shift3);
+void truth_i_owen_scramble_avx2(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out);
+void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays); /* count x B rays */
+#endif
+/* The SSE2 reference of truth_i_hemisphere_rays_avx2 (any B >= 2; v0[k] = v0[k mod m]), run
+ * pixel by pixel as truth_ao_render runs it without AVX2, for the agreement test. 0 when out of
+ * memory. */
+int truth_i_hemisphere_rays_sse2(const truth_i_hemi_in *in, void *rays);
+/* 1 when truth_ao_render runs the AVX2 forms: the build has them, the CPU has AVX2 and the
+ * environment's OBS_ISA is not "scalar" (read at each call). */
+int truth_i_avx2_active(void);
+
 /* truth_ao_render with hooks (NULL = none). */
 obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                               const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,

@@ -1,0 +1,249 @@
+/* truth_ao_avx2.c: the AVX2 forms of truth_ao.c's per-pixel sampling, 8 rays (or 8 replicates)
+ * per vector. Built with -mavx2 (no FMA: CMakeLists.txt turns contraction off) and called only
+ * when the build has OBS_HAVE_AVX2, the CPU has AVX2 and OBS_ISA is not "scalar".
+ *
+ * Every function here performs, lane for lane, the same integer operations and the same IEEE
+ * single-precision operations in the same order as its SSE2 reference in truth_ao.c (the
+ * reference stays the path of every other machine), so the rays, and so the truth EXRs, are the
+ * same bits (tests/test_truth_ao.c, truth_avx2_rays_and_seeds_equal_the_sse2_reference):
+ *   - truth_i_seeds_avx2: the R replicate seeds, Philox4x32-10 [Salmon11] on eight counters at
+ *     once (obs_rng_u32x4_n's arithmetic: 32x32 -> 64-bit products, xors, the Weyl key bump);
+ *   - truth_i_hemisphere_rays_avx2: pixel_points (the Owen scramble [Burley20]), local_dirs (the
+ *     concentric map [Shirley97] and the cosine / uniform lift [Malley88]), world_dirs (the ONB of
+ *     [Duff17]) and the ray stores of gen_hemisphere_occ / gen_hemisphere_hit, fused into one
+ *     pass per 8 rays. The bit reversal of the scrambled coordinate is a byte swap and two 16-entry
+ *     nibble look-ups (pshufb), which reverse the same 32 bits as bit_reverse32's swaps.
+ *
+ * [Salmon11] J. K. Salmon et al., "Parallel Random Numbers: As Easy as 1, 2, 3", SC'11.
+ * [Burley20], [Shirley97], [Malley88], [Duff17]: as in truth_ao.c's header. */
+#include "truth_internal.h"
+
+#if defined(OBS_HAVE_AVX2)
+
+#include <immintrin.h>
+#include <string.h>
+
+#define PHILOX_M0 0xD2511F53u /* core/rng.c's constants [Salmon11] */
+#define PHILOX_M1 0xCD9E8D57u
+#define PHILOX_W0 0x9E3779B9u
+#define PHILOX_W1 0xBB67AE85u
+
+/* hi and lo halves of the 32x32 -> 64-bit products c * m, per lane. */
+static inline void mulhilo8(__m256i c, __m256i m, __m256i *hi, __m256i *lo)
+{
+    __m256i even = _mm256_mul_epu32(c, m), odd = _mm256_mul_epu32(_mm256_srli_epi64(c, 32), m);
+    *lo = _mm256_blend_epi32(even, _mm256_slli_epi64(odd, 32), 0xAA);
+    *hi = _mm256_blend_epi32(_mm256_srli_epi64(even, 32), odd, 0xAA);
+}
+
+void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[2], uint64_t *shift3)
+{
+    const __m256i m0 = _mm256_set1_epi32((int)PHILOX_M0), m1 = _mm256_set1_epi32((int)PHILOX_M1);
+    for (int r0 = 0; r0 < R; r0 += 8) {
+        /* Philox(pixel lo, pixel hi, r0 + lane, 0) keyed by the seed: the counters of
+         * obs_rng_u32x4_n(pixel, 0, R, 0, seed) */
+        __m256i c0 = _mm256_set1_epi32((int)(uint32_t)pixel), c1 = _mm256_set1_epi32((int)(uint32_t)(pixel >> 32));
+        __m256i c2 = _mm256_add_epi32(_mm256_set1_epi32(r0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        __m256i c3 = _mm256_setzero_si256();
+        __m256i k0 = _mm256_set1_epi32((int)(uint32_t)seed), k1 = _mm256_set1_epi32((int)(uint32_t)(seed >> 32));
+        const __m256i w0 = _mm256_set1_epi32((int)PHILOX_W0), w1 = _mm256_set1_epi32((int)PHILOX_W1);
+        for (int round = 0; round < 10; round++) {
+            if (round > 0) { /* the key bump, mod 2^32 per lane as in uint32_t */
+                k0 = _mm256_add_epi32(k0, w0);
+                k1 = _mm256_add_epi32(k1, w1);
+            }
+            __m256i hi0, lo0, hi1, lo1;
+            mulhilo8(c0, m0, &hi0, &lo0);
+            mulhilo8(c2, m1, &hi1, &lo1);
+            c0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), k0);
+            c1 = lo1;
+            c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), k1);
+            c3 = lo0;
+        }
+        /* (c0, c1) interleaved are shift[r][0..1]; (c2, c3) interleaved are shift3[r] (lo, hi) */
+        __m256i a0 = _mm256_unpacklo_epi32(c0, c1), a1 = _mm256_unpackhi_epi32(c0, c1); /* r 0 1 | 4 5; 2 3 | 6 7 */
+        __m256i b0 = _mm256_unpacklo_epi32(c2, c3), b1 = _mm256_unpackhi_epi32(c2, c3);
+        if (R - r0 >= 8) { /* a whole chunk: straight into place */
+            _mm256_storeu_si256((__m256i *)shift[r0], _mm256_permute2x128_si256(a0, a1, 0x20));
+            _mm256_storeu_si256((__m256i *)shift[r0 + 4], _mm256_permute2x128_si256(a0, a1, 0x31));
+            _mm256_storeu_si256((__m256i *)(shift3 + r0), _mm256_permute2x128_si256(b0, b1, 0x20));
+            _mm256_storeu_si256((__m256i *)(shift3 + r0 + 4), _mm256_permute2x128_si256(b0, b1, 0x31));
+            continue;
+        }
+        _Alignas(32) uint32_t w01[16], w23[16];
+        _mm256_store_si256((__m256i *)w01, _mm256_permute2x128_si256(a0, a1, 0x20));
+        _mm256_store_si256((__m256i *)(w01 + 8), _mm256_permute2x128_si256(a0, a1, 0x31));
+        _mm256_store_si256((__m256i *)w23, _mm256_permute2x128_si256(b0, b1, 0x20));
+        _mm256_store_si256((__m256i *)(w23 + 8), _mm256_permute2x128_si256(b0, b1, 0x31));
+        const int n = R - r0;
+        memcpy(shift[r0], w01, sizeof(uint32_t) * 2 * (size_t)n);
+        memcpy(shift3 + r0, w23, sizeof(uint64_t) * (size_t)n); /* little-endian: (c2, c3) = c3 << 32 | c2 */
+    }
+}
+
+/* The low 32 bits of v * c: one vpmulld. */
+static inline __m256i owen8(__m256i v, __m256i seed)
+{
+    v = _mm256_add_epi32(v, seed);
+    v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, _mm256_set1_epi32((int)0x6c50b47cu)));
+    v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, _mm256_set1_epi32((int)0xb82f1e52u)));
+    v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, _mm256_set1_epi32((int)0xc7afe638u)));
+    v = _mm256_xor_si256(v, _mm256_mullo_epi32(v, _mm256_set1_epi32((int)0x8d22f6e6u)));
+    /* bit reversal of each 32-bit lane: bytes swapped, then each byte's bits via two nibble
+     * look-ups (rev4(lo) << 4 | rev4(hi)) */
+    const __m256i bswap = _mm256_setr_epi8(3, 2, 1, 0, 7, 6, 5, 4, 11, 10, 9, 8, 15, 14, 13, 12, 3, 2, 1, 0, 7, 6, 5, 4,
+                                           11, 10, 9, 8, 15, 14, 13, 12);
+    const __m256i rev4 = _mm256_setr_epi8(0x0, 0x8, 0x4, 0xC, 0x2, 0xA, 0x6, 0xE, 0x1, 0x9, 0x5, 0xD, 0x3, 0xB, 0x7, 0xF,
+                                          0x0, 0x8, 0x4, 0xC, 0x2, 0xA, 0x6, 0xE, 0x1, 0x9, 0x5, 0xD, 0x3, 0xB, 0x7, 0xF);
+    const __m256i lo4 = _mm256_set1_epi8(0x0F);
+    v = _mm256_shuffle_epi8(v, bswap);
+    __m256i lo = _mm256_shuffle_epi8(rev4, _mm256_and_si256(v, lo4));
+    __m256i hi = _mm256_shuffle_epi8(rev4, _mm256_and_si256(_mm256_srli_epi16(v, 4), lo4));
+    return _mm256_or_si256(_mm256_slli_epi16(lo, 4), hi);
+}
+
+void truth_i_owen_scramble_avx2(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out)
+{
+    int k = 0;
+    for (; k + 8 <= n; k += 8)
+        _mm256_storeu_si256((__m256i *)(out + k), owen8(_mm256_loadu_si256((const __m256i *)(v + k)),
+                                                        _mm256_loadu_si256((const __m256i *)(seed + k))));
+    for (; k < n; k++)
+        out[k] = truth_i_owen_scramble1(v[k], seed[k]);
+}
+
+static inline __m256 sel8(__m256 m, __m256 a, __m256 b) { return _mm256_or_ps(_mm256_and_ps(m, a), _mm256_andnot_ps(m, b)); }
+
+static inline __m256 fixed_to_signed_unit8(__m256i u)
+{
+    __m256i odd = _mm256_sub_epi32(_mm256_or_si256(_mm256_srli_epi32(u, 7), _mm256_set1_epi32(1)),
+                                   _mm256_set1_epi32(1 << 24));
+    return _mm256_mul_ps(_mm256_cvtepi32_ps(odd), _mm256_set1_ps(0x1p-24f));
+}
+
+/* The seeds of rays k .. k+7: lane l takes replicate (k + l) / m's. */
+static inline void lane_seeds(const uint32_t (*shift)[2], int k, int m, __m256i *s0, __m256i *s1)
+{
+    if (m == 2) { /* words s0 s1 of replicates r .. r+3 */
+        __m256i w = _mm256_loadu_si256((const __m256i *)shift[k >> 1]);
+        *s0 = _mm256_permutevar8x32_epi32(w, _mm256_setr_epi32(0, 0, 2, 2, 4, 4, 6, 6));
+        *s1 = _mm256_permutevar8x32_epi32(w, _mm256_setr_epi32(1, 1, 3, 3, 5, 5, 7, 7));
+    } else if (m == 1) { /* replicates r .. r+7 */
+        const __m256i even = _mm256_setr_epi32(0, 2, 4, 6, 1, 3, 5, 7);
+        __m256i a = _mm256_permutevar8x32_epi32(_mm256_loadu_si256((const __m256i *)shift[k]), even);
+        __m256i b = _mm256_permutevar8x32_epi32(_mm256_loadu_si256((const __m256i *)shift[k + 4]), even);
+        *s0 = _mm256_permute2x128_si256(a, b, 0x20);
+        *s1 = _mm256_permute2x128_si256(a, b, 0x31);
+    } else if (m % 8 == 0) {
+        *s0 = _mm256_set1_epi32((int)shift[k / m][0]);
+        *s1 = _mm256_set1_epi32((int)shift[k / m][1]);
+    } else {
+        _Alignas(32) uint32_t a[8], b[8];
+        for (int l = 0; l < 8; l++) {
+            a[l] = shift[(k + l) / m][0];
+            b[l] = shift[(k + l) / m][1];
+        }
+        *s0 = _mm256_load_si256((const __m256i *)a);
+        *s1 = _mm256_load_si256((const __m256i *)b);
+    }
+}
+
+/* hit and cosine are constants in each call below, so each of the four forms is compiled with
+ * its own stride and lift. */
+static inline __attribute__((always_inline)) void hemisphere_rays(const truth_i_hemi_in *in, void *rays, const int hit,
+                                                                  const int cosine)
+{
+    const __m256 absmask = _mm256_castsi256_ps(_mm256_set1_epi32(0x7FFFFFFF));
+    const __m256 one = _mm256_set1_ps(1.0f), two = _mm256_set1_ps(2.0f), pi4 = _mm256_set1_ps(0.78539816339744831f);
+    const __m256 c6 = _mm256_set1_ps(1.0f / 6.0f), c20 = _mm256_set1_ps(1.0f / 20.0f), c42 = _mm256_set1_ps(1.0f / 42.0f),
+                 c72 = _mm256_set1_ps(1.0f / 72.0f);
+    const __m256 c2 = _mm256_set1_ps(0.5f), c12 = _mm256_set1_ps(1.0f / 12.0f), c30 = _mm256_set1_ps(1.0f / 30.0f),
+                 c56 = _mm256_set1_ps(1.0f / 56.0f), c90 = _mm256_set1_ps(1.0f / 90.0f);
+    uint32_t rbits;
+    memcpy(&rbits, &in->radius, sizeof rbits);
+    const __m128 tail = _mm_castsi128_ps(_mm_setr_epi32((int)rbits, -1, 0, 0)); /* tfar, mask, id, flags */
+    const __m128 h0 = _mm_setzero_ps();                                            /* Ng, u */
+    const __m128 h1 = _mm_castsi128_ps(_mm_setr_epi32(0, (int)RTC_INVALID_GEOMETRY_ID, (int)RTC_INVALID_GEOMETRY_ID,
+                                                      (int)RTC_INVALID_GEOMETRY_ID)); /* v, primID, geomID, instID */
+    const int B = in->B, m = in->m;
+    const size_t stride = (hit ? sizeof(RTCRayHit) : sizeof(RTCRay)) / sizeof(float);
+    float *r = (float *)rays;
+    for (int a = 0; a < in->count; a++) {
+    const char *px = in->base + (size_t)in->active[a] * in->stride;
+    const float *f = (const float *)(px + in->frame); /* org, t, b, n */
+    const uint32_t(*shift)[2] = (const uint32_t(*)[2])(px + in->shift);
+    const __m256 t0 = _mm256_broadcast_ss(f + 3), t1 = _mm256_broadcast_ss(f + 4), t2 = _mm256_broadcast_ss(f + 5);
+    const __m256 b0 = _mm256_broadcast_ss(f + 6), b1 = _mm256_broadcast_ss(f + 7), b2 = _mm256_broadcast_ss(f + 8);
+    const __m256 n0 = _mm256_broadcast_ss(f + 9), n1 = _mm256_broadcast_ss(f + 10), n2 = _mm256_broadcast_ss(f + 11);
+    const __m128 org = _mm_setr_ps(f[0], f[1], f[2], 0.0f);
+    for (int k = 0; k < B; k += 8) {
+        __m256i s0, s1;
+        lane_seeds(shift, k, m, &s0, &s1);
+        __m256i ua = owen8(_mm256_loadu_si256((const __m256i *)(in->v0 + k)), s0);
+        __m256i ub = owen8(_mm256_loadu_si256((const __m256i *)(in->v1 + k)), s1);
+        /* local_dirs */
+        __m256 a = fixed_to_signed_unit8(ua), b = fixed_to_signed_unit8(ub);
+        __m256 first = _mm256_cmp_ps(_mm256_and_ps(a, absmask), _mm256_and_ps(b, absmask), _CMP_GT_OQ);
+        __m256 rad = sel8(first, a, b);
+        __m256 q = _mm256_div_ps(sel8(first, b, a), rad);
+        __m256 x = _mm256_mul_ps(pi4, q), x2 = _mm256_mul_ps(x, x);
+        __m256 sn = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c42), _mm256_sub_ps(one, _mm256_mul_ps(x2, c72))));
+        sn = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c20), sn));
+        sn = _mm256_mul_ps(x, _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c6), sn)));
+        __m256 cs = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c56), _mm256_sub_ps(one, _mm256_mul_ps(x2, c90))));
+        cs = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c30), cs));
+        cs = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c12), cs));
+        cs = _mm256_sub_ps(one, _mm256_mul_ps(_mm256_mul_ps(x2, c2), cs));
+        __m256 px = _mm256_mul_ps(rad, sel8(first, cs, sn)), py = _mm256_mul_ps(rad, sel8(first, sn, cs));
+        __m256 rr = _mm256_mul_ps(rad, rad), pz;
+        if (cosine) {
+            pz = _mm256_sqrt_ps(_mm256_sub_ps(one, rr));
+        } else {
+            __m256 sc = _mm256_sqrt_ps(_mm256_sub_ps(two, rr));
+            px = _mm256_mul_ps(px, sc);
+            py = _mm256_mul_ps(py, sc);
+            pz = _mm256_sub_ps(one, rr); /* xor with a zero sign: the same bits */
+        }
+        /* world_dirs */
+        __m256 dx = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(px, t0), _mm256_mul_ps(py, b0)), _mm256_mul_ps(pz, n0));
+        __m256 dy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(px, t1), _mm256_mul_ps(py, b1)), _mm256_mul_ps(pz, n1));
+        __m256 dz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(px, t2), _mm256_mul_ps(py, b2)), _mm256_mul_ps(pz, n2));
+        /* transposed to one (dx, dy, dz, 0) per ray, 4 rays per 128-bit half */
+        for (int half = 0; half < 2; half++) {
+            __m128 x4 = half ? _mm256_extractf128_ps(dx, 1) : _mm256_castps256_ps128(dx);
+            __m128 y4 = half ? _mm256_extractf128_ps(dy, 1) : _mm256_castps256_ps128(dy);
+            __m128 z4 = half ? _mm256_extractf128_ps(dz, 1) : _mm256_castps256_ps128(dz);
+            __m128 w4 = _mm_setzero_ps();
+            _MM_TRANSPOSE4_PS(x4, y4, z4, w4);
+            _mm_store_ps(r, org);
+            _mm_store_ps(r + 4, x4); /* time = 0 */
+            _mm_store_ps(r + 8, tail);
+            _mm_store_ps(r + stride, org);
+            _mm_store_ps(r + stride + 4, y4);
+            _mm_store_ps(r + stride + 8, tail);
+            _mm_store_ps(r + 2 * stride, org);
+            _mm_store_ps(r + 2 * stride + 4, z4);
+            _mm_store_ps(r + 2 * stride + 8, tail);
+            _mm_store_ps(r + 3 * stride, org);
+            _mm_store_ps(r + 3 * stride + 4, w4);
+            _mm_store_ps(r + 3 * stride + 8, tail);
+            if (hit)
+                for (int l = 0; l < 4; l++) {
+                    _mm_store_ps(r + l * stride + 12, h0);
+                    _mm_store_ps(r + l * stride + 16, h1);
+                }
+            r += 4 * stride;
+        }
+    }
+    }
+}
+
+void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays)
+{
+    if (in->hit)
+        in->cosine ? hemisphere_rays(in, rays, 1, 1) : hemisphere_rays(in, rays, 1, 0);
+    else
+        in->cosine ? hemisphere_rays(in, rays, 0, 1) : hemisphere_rays(in, rays, 0, 0);
+}
+
+#endif
