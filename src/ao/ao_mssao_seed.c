@@ -157,14 +157,15 @@ static void down_row(void *user, int64_t task, int thread)
 }
 
 /* Level l's G-buffer and its ao_input (the whole level is its window). */
-/* Planes from the workspace ws (ao_i_ws_plane, zeroed as fresh ones; the workspace owns them). */
+/* Planes from the workspace ws (the workspace owns them). */
 static obs_status level_make(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const ao_input *in, int l, level_buf *L)
 {
     memset(L, 0, sizeof *L);
     ao_mssao_seed_level_size(in->width, in->height, l, &L->w, &L->h);
-    obs_status st = ao_i_ws_plane(ctx, ws, L->w, L->h, &L->depth);
+    /* unzeroed: down_row writes every pixel of the level's planes */
+    obs_status st = ao_i_ws_plane_unzeroed(ctx, ws, L->w, L->h, &L->depth);
     for (int a = 0; a < 3 && st == OBS_STATUS_OK && in->normal[0]; a++)
-        st = ao_i_ws_plane(ctx, ws, L->w, L->h, &L->normal[a]);
+        st = ao_i_ws_plane_unzeroed(ctx, ws, L->w, L->h, &L->normal[a]);
     if (st != OBS_STATUS_OK)
         return st;
     /* the source column of each level column, once per level (ao_mssao_seed_level_source's x
@@ -215,8 +216,8 @@ static obs_status level_ao(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const 
         for (int a = 0; a < 3; a++)
             nrm[a] = &rec[a];
     }
-    if (st == OBS_STATUS_OK)
-        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], raw);
+    if (st == OBS_STATUS_OK) /* unzeroed: ao_alchemy_raw writes every pixel of rect */
+        st = ao_i_ws_plane_unzeroed(ctx, ws, rect[2], rect[3], raw);
     if (st == OBS_STATUS_OK)
         st = ao_alchemy_raw(ctx, pool, li, &k, nrm, rect, raw, counts);
     double t1 = obs_time_now();
@@ -431,7 +432,8 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
     ao_blur_reach(in, ap->blur ? AO_GAUSS21_RADIUS : 0, rect0);
     int64_t c[2] = {0, 0};
     /* Every plane and buffer of the call comes from the workspace kept in the context between calls
-     * (ao_i_ws_*: zeroed as fresh planes, without a fresh plane's page faults) */
+     * (ao_i_ws_*: zeroed as fresh planes, or unzeroed where every pixel is written before it is read;
+     * without a fresh plane's page faults) */
     ao_i_ws *ws = ao_i_ws_take(ctx, &seed_workspace_key);
     if (!ws)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao-seed: out of memory");
