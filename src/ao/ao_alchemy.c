@@ -21,10 +21,11 @@
  * ao_i_cos_sin (correctly rounded), pow is (float)pow(double, double). docs/ao/alchemy.md lists every
  * difference from the paper and the ports.
  *
- * Two paths give the same bits (test alchemy_avx2_equals_scalar_bit_for_bit): the scalar one
+ * Two paths give the same bits (test alchemy_avx2_and_avx512_equal_scalar_bit_for_bit): the scalar one
  * (alchemy_span, the reference, always compiled) and, in OBS_HAVE_AVX2 builds on AVX2 CPUs, the
  * AVX2 one (alchemy_rect_avx2: lane j = the j-th surface pixel of a group of eight, in row-major
- * order within a 32x32 tile; docs/ao/alchemy.md "Speed").
+ * order within a 32x32 tile; docs/ao/alchemy.md "Speed"), whose taps' cos/sin run on two halves of
+ * four doubles (AO_ALCHEMY_ISA_AVX2) or, on AVX-512F CPUs, on eight (AO_ALCHEMY_ISA_AVX512).
  */
 #include "ao.h"
 #include "ao_internal.h"
@@ -363,50 +364,57 @@ static void alchemy_tile_scalar(void *user, int64_t task, int thread)
 #include <immintrin.h>
 #define AL_AVX2 __attribute__((target("avx2")))
 
-/* ao_i_cos_sin on four doubles: the same reduction and polynomials, operation for operation (no
- * FMA: the build has -ffp-contract=off and these are separate mul/add intrinsics), so every lane
- * equals the scalar result. Lanes with |x| >= 3e9 (or NaN) are flagged in *big for the caller to
- * redo through ao_i_cos_sin (its libm branch). */
+/* cos and sin on four doubles: ao_i_cos_sin's reduction, then the Taylor series of degree 19 / 20
+ * (NOT ao_i_cos_sin's fdlibm kernels of degree 13 / 14: docs/ao/alchemy.md, "Note on the vector
+ * cos/sin"); no FMA (-ffp-contract=off, separate mul/add intrinsics). Both are a few double ulps
+ * from the exact value, so the float results agree with the scalar path's except within ~2^-50 of
+ * a float midpoint (alchemy_avx2_and_avx512_equal_scalar_bit_for_bit has met no such angle).
+ * Lanes with |x| >= 3e9 (or NaN) are flagged in *big for the caller to redo through ao_i_cos_sin
+ * (its libm branch). AL_COS_SIN_SERIES is the reduction and the two series for a register of
+ * doubles of either width (W: _mm256 or _mm512, T: its type), one source for the AVX2 and AVX-512
+ * versions, so that each lane runs the same operations in the same order. */
+#define AL_COS_SIN_SERIES(W, T, x, kd, csd, snd)                                                           \
+    do {                                                                                                 \
+        const T P1 = W##_set1_pd(0x1.921fbp+0), P2 = W##_set1_pd(0x1.5110bp-22),                         \
+                P3 = W##_set1_pd(0x1.18469800p-44), P4 = W##_set1_pd(0x1.3198a2e037073p-69);             \
+        const T TWO_OVER_PI = W##_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = W##_set1_pd(0x1.8p52);        \
+        kd = W##_sub_pd(W##_add_pd(W##_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);                       \
+        T r_ = W##_sub_pd(x, W##_mul_pd(kd, P1));                                                        \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P2));                                                         \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P3));                                                         \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P4));                                                         \
+        const T z_ = W##_mul_pd(r_, r_);                                                                 \
+        /* sn = r + r * z * (-1/6 + z * (1/120 + ... z * (-1/19!))), each cst + a * b two roundings */   \
+        T ps_ = W##_set1_pd(-1.0 / 121645100408832000.0);                                                \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 355687428096000.0), W##_mul_pd(z_, ps_));                     \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 1307674368000.0), W##_mul_pd(z_, ps_));                      \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 6227020800.0), W##_mul_pd(z_, ps_));                          \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 39916800.0), W##_mul_pd(z_, ps_));                           \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 362880.0), W##_mul_pd(z_, ps_));                              \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 5040.0), W##_mul_pd(z_, ps_));                               \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 120.0), W##_mul_pd(z_, ps_));                                 \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 6.0), W##_mul_pd(z_, ps_));                                  \
+        snd = W##_add_pd(r_, W##_mul_pd(W##_mul_pd(r_, z_), ps_));                                       \
+        /* cs = 1 - 0.5 z + z z (1/24 + z * (-1/720 + ... z * (1/20!))) */                               \
+        T pc_ = W##_set1_pd(1.0 / 2432902008176640000.0);                                                \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 6402373705728000.0), W##_mul_pd(z_, pc_));                   \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 20922789888000.0), W##_mul_pd(z_, pc_));                      \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 87178291200.0), W##_mul_pd(z_, pc_));                        \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 479001600.0), W##_mul_pd(z_, pc_));                           \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 3628800.0), W##_mul_pd(z_, pc_));                            \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 40320.0), W##_mul_pd(z_, pc_));                               \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 720.0), W##_mul_pd(z_, pc_));                                \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 24.0), W##_mul_pd(z_, pc_));                                  \
+        csd = W##_add_pd(W##_sub_pd(W##_set1_pd(1.0), W##_mul_pd(W##_set1_pd(0.5), z_)),                 \
+                         W##_mul_pd(W##_mul_pd(z_, z_), pc_));                                           \
+    } while (0)
+
 static inline AL_AVX2 void cos_sin_pd(__m256d x, __m256d *c, __m256d *s, int *big)
 {
     const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7FFFFFFFFFFFFFFFll));
     *big = _mm256_movemask_pd(_mm256_cmp_pd(_mm256_and_pd(x, absmask), _mm256_set1_pd(3.0e9), _CMP_NLT_UQ));
-    const __m256d P1 = _mm256_set1_pd(0x1.921fbp+0), P2 = _mm256_set1_pd(0x1.5110bp-22),
-                  P3 = _mm256_set1_pd(0x1.18469800p-44), P4 = _mm256_set1_pd(0x1.3198a2e037073p-69);
-    const __m256d TWO_OVER_PI = _mm256_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = _mm256_set1_pd(0x1.8p52);
-    const __m256d kd = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);
-    __m256d r = _mm256_sub_pd(x, _mm256_mul_pd(kd, P1));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P2));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P3));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P4));
-    const __m256d z = _mm256_mul_pd(r, r);
-#define AL_C(v) _mm256_set1_pd(v)
-#define AL_MA(a, b, cst) _mm256_add_pd(AL_C(cst), _mm256_mul_pd(a, b)) /* cst + a * b */
-    /* sn = r + r * z * (-1/6 + z * (1/120 + ... z * (-1/19!))) */
-    __m256d ps = AL_C(-1.0 / 121645100408832000.0);
-    ps = AL_MA(z, ps, 1.0 / 355687428096000.0);
-    ps = AL_MA(z, ps, -1.0 / 1307674368000.0);
-    ps = AL_MA(z, ps, 1.0 / 6227020800.0);
-    ps = AL_MA(z, ps, -1.0 / 39916800.0);
-    ps = AL_MA(z, ps, 1.0 / 362880.0);
-    ps = AL_MA(z, ps, -1.0 / 5040.0);
-    ps = AL_MA(z, ps, 1.0 / 120.0);
-    ps = AL_MA(z, ps, -1.0 / 6.0);
-    const __m256d sn = _mm256_add_pd(r, _mm256_mul_pd(_mm256_mul_pd(r, z), ps));
-    /* cs = 1 - 0.5 z + z z (1/24 + z * (-1/720 + ... z * (1/20!))) */
-    __m256d pc = AL_C(1.0 / 2432902008176640000.0);
-    pc = AL_MA(z, pc, -1.0 / 6402373705728000.0);
-    pc = AL_MA(z, pc, 1.0 / 20922789888000.0);
-    pc = AL_MA(z, pc, -1.0 / 87178291200.0);
-    pc = AL_MA(z, pc, 1.0 / 479001600.0);
-    pc = AL_MA(z, pc, -1.0 / 3628800.0);
-    pc = AL_MA(z, pc, 1.0 / 40320.0);
-    pc = AL_MA(z, pc, -1.0 / 720.0);
-    pc = AL_MA(z, pc, 1.0 / 24.0);
-    const __m256d cs = _mm256_add_pd(_mm256_sub_pd(AL_C(1.0), _mm256_mul_pd(AL_C(0.5), z)),
-                                     _mm256_mul_pd(_mm256_mul_pd(z, z), pc));
-#undef AL_MA
-#undef AL_C
+    __m256d kd, sn, cs;
+    AL_COS_SIN_SERIES(_mm256, __m256d, x, kd, cs, sn);
     /* quadrant k mod 4 (|k| < 2^31 here): 0 (cs, sn), 1 (-sn, cs), 2 (-cs, -sn), 3 (sn, -cs) */
     const __m256i q = _mm256_cvtepi32_epi64(_mm256_cvtpd_epi32(kd));
     const __m256i one = _mm256_set1_epi64x(1), two = _mm256_set1_epi64x(2);
@@ -467,9 +475,6 @@ static AL_AVX2 void cos_sin_taps_avx2(const ao_alchemy_constants *k, const float
 static AL_AVX512 void cos_sin_taps_avx512(const ao_alchemy_constants *k, const float *spin8, float *cs, float *sn)
 {
     const __m256 spin = _mm256_loadu_ps(spin8);
-    const __m512d P1 = _mm512_set1_pd(0x1.921fbp+0), P2 = _mm512_set1_pd(0x1.5110bp-22),
-                  P3 = _mm512_set1_pd(0x1.18469800p-44), P4 = _mm512_set1_pd(0x1.3198a2e037073p-69);
-    const __m512d TWO_OVER_PI = _mm512_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = _mm512_set1_pd(0x1.8p52);
     const __m512d absmask = _mm512_castsi512_pd(_mm512_set1_epi64(0x7FFFFFFFFFFFFFFFll));
     for (int t = 0; t < k->num_samples; t++) {
         const float alpha = ((float)t + 0.5f) * k->inv_num_samples;
@@ -478,37 +483,8 @@ static AL_AVX512 void cos_sin_taps_avx512(const ao_alchemy_constants *k, const f
         const unsigned big = (unsigned)_mm512_cmp_pd_mask(
             _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(x), _mm512_castpd_si512(absmask))),
             _mm512_set1_pd(3.0e9), _CMP_NLT_UQ);
-        const __m512d kd = _mm512_sub_pd(_mm512_add_pd(_mm512_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);
-        __m512d r = _mm512_sub_pd(x, _mm512_mul_pd(kd, P1));
-        r = _mm512_sub_pd(r, _mm512_mul_pd(kd, P2));
-        r = _mm512_sub_pd(r, _mm512_mul_pd(kd, P3));
-        r = _mm512_sub_pd(r, _mm512_mul_pd(kd, P4));
-        const __m512d z = _mm512_mul_pd(r, r);
-#define AL_C(v) _mm512_set1_pd(v)
-#define AL_MA(a, b, cst) _mm512_add_pd(AL_C(cst), _mm512_mul_pd(a, b)) /* cst + a * b, as cos_sin_pd */
-        __m512d ps = AL_C(-1.0 / 121645100408832000.0);
-        ps = AL_MA(z, ps, 1.0 / 355687428096000.0);
-        ps = AL_MA(z, ps, -1.0 / 1307674368000.0);
-        ps = AL_MA(z, ps, 1.0 / 6227020800.0);
-        ps = AL_MA(z, ps, -1.0 / 39916800.0);
-        ps = AL_MA(z, ps, 1.0 / 362880.0);
-        ps = AL_MA(z, ps, -1.0 / 5040.0);
-        ps = AL_MA(z, ps, 1.0 / 120.0);
-        ps = AL_MA(z, ps, -1.0 / 6.0);
-        const __m512d snd = _mm512_add_pd(r, _mm512_mul_pd(_mm512_mul_pd(r, z), ps));
-        __m512d pc = AL_C(1.0 / 2432902008176640000.0);
-        pc = AL_MA(z, pc, -1.0 / 6402373705728000.0);
-        pc = AL_MA(z, pc, 1.0 / 20922789888000.0);
-        pc = AL_MA(z, pc, -1.0 / 87178291200.0);
-        pc = AL_MA(z, pc, 1.0 / 479001600.0);
-        pc = AL_MA(z, pc, -1.0 / 3628800.0);
-        pc = AL_MA(z, pc, 1.0 / 40320.0);
-        pc = AL_MA(z, pc, -1.0 / 720.0);
-        pc = AL_MA(z, pc, 1.0 / 24.0);
-        const __m512d csd = _mm512_add_pd(_mm512_sub_pd(AL_C(1.0), _mm512_mul_pd(AL_C(0.5), z)),
-                                          _mm512_mul_pd(_mm512_mul_pd(z, z), pc));
-#undef AL_MA
-#undef AL_C
+        __m512d kd, csd, snd;
+        AL_COS_SIN_SERIES(_mm512, __m512d, x, kd, csd, snd);
         const __m256 csf = _mm512_cvtpd_ps(csd), snf = _mm512_cvtpd_ps(snd);
         /* quadrant q = kd mod 4 (kd an integer, |kd| < 2^31): 0 (cs, sn), 1 (-sn, cs), 2 (-cs, -sn),
          * 3 (sn, -cs); bit 0 of q to the sign bit for blendv, the signs from bit 1 of q + 1 and of q */

@@ -282,6 +282,20 @@ static inline float sample_linear(const obs_image_f32 *T, lin_tap cu, lin_tap cv
     return a * (1.0f - av) + b * av;
 }
 
+/* One window pixel i of a row: depth d, level 0's texel l0i, cv the row half of each level's lookup. */
+static inline float blend_pixel(const blend_job *J, int i, float d, float l0i, const lin_tap *cv)
+{
+    if (!(d > 0.0f && d < INFINITY)) /* background keeps 1 (documented) */
+        return 1.0f;
+    /* level 0 is at the full resolution: texel centres coincide, GL_LINEAR returns the texel */
+    float occ = J->I[0] * (1.0f - l0i);
+    for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
+        occ += J->I[l] * (1.0f - sample_linear(J->lev[l], J->col[l][i], cv[l]));
+    /* V = 1 - min(1, sum_l I_l (1 - A_l)) */
+    const float V = 1.0f - occ;
+    return V > 0.0f ? (V < 1.0f ? V : 1.0f) : 0.0f;
+}
+
 static void blend_row(void *user, int64_t task, int thread)
 {
     (void)thread;
@@ -294,19 +308,8 @@ static void blend_row(void *user, int64_t task, int thread)
     lin_tap cv[AO_MSSAO_SEED_LEVELS];
     for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
         cv[l] = lin_axis(gy, in->height, J->lev[l]->height);
-    for (int i = 0; i < in->w; i++) {
-        if (!(drow[i] > 0.0f && drow[i] < INFINITY)) { /* background keeps 1 (documented) */
-            o[i] = 1.0f;
-            continue;
-        }
-        /* level 0 is at the full resolution: texel centres coincide, GL_LINEAR returns the texel */
-        float occ = J->I[0] * (1.0f - l0[i]);
-        for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
-            occ += J->I[l] * (1.0f - sample_linear(J->lev[l], J->col[l][i], cv[l]));
-        /* V = 1 - min(1, sum_l I_l (1 - A_l)) */
-        const float V = 1.0f - occ;
-        o[i] = V > 0.0f ? (V < 1.0f ? V : 1.0f) : 0.0f;
-    }
+    for (int i = 0; i < in->w; i++)
+        o[i] = blend_pixel(J, i, drow[i], l0[i], cv);
 }
 
 #if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
@@ -328,12 +331,13 @@ static SEED_AVX2 void blend_row_avx2(void *user, int64_t task, int thread)
     const float *drow = obs_image_f32_row(in->depth, y) + in->x0;
     const float *r0[AO_MSSAO_SEED_LEVELS], *r1[AO_MSSAO_SEED_LEVELS];
     float av[AO_MSSAO_SEED_LEVELS];
+    lin_tap cv[AO_MSSAO_SEED_LEVELS];
     for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++) {
-        const lin_tap cv = lin_axis(gy, in->height, J->lev[l]->height);
+        cv[l] = lin_axis(gy, in->height, J->lev[l]->height);
         const int h = J->lev[l]->height;
-        r0[l] = obs_image_f32_row(J->lev[l], h - 1 - cv.i0);
-        r1[l] = obs_image_f32_row(J->lev[l], h - 1 - cv.i1);
-        av[l] = cv.a;
+        r0[l] = obs_image_f32_row(J->lev[l], h - 1 - cv[l].i0);
+        r1[l] = obs_image_f32_row(J->lev[l], h - 1 - cv[l].i1);
+        av[l] = cv[l].a;
     }
     const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
     int i = 0;
@@ -362,20 +366,8 @@ static SEED_AVX2 void blend_row_avx2(void *user, int64_t task, int thread)
         const __m256 v = _mm256_and_ps(_mm256_cmp_ps(V, zero, _CMP_GT_OQ), _mm256_min_ps(V, one));
         _mm256_storeu_ps(o + i, _mm256_blendv_ps(one, v, surf));
     }
-    for (; i < in->w; i++) { /* the row's last pixels: the scalar row's code */
-        if (!(drow[i] > 0.0f && drow[i] < INFINITY)) {
-            o[i] = 1.0f;
-            continue;
-        }
-        float occ = J->I[0] * (1.0f - l0[i]);
-        for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++) {
-            const float a = r0[l][J->col_i0[l][i]] * (1.0f - J->col_a[l][i]) + r0[l][J->col_i1[l][i]] * J->col_a[l][i];
-            const float b = r1[l][J->col_i0[l][i]] * (1.0f - J->col_a[l][i]) + r1[l][J->col_i1[l][i]] * J->col_a[l][i];
-            occ += J->I[l] * (1.0f - (a * (1.0f - av[l]) + b * av[l]));
-        }
-        const float V = 1.0f - occ;
-        o[i] = V > 0.0f ? (V < 1.0f ? V : 1.0f) : 0.0f;
-    }
+    for (; i < in->w; i++) /* the row's last pixels: the scalar row's code */
+        o[i] = blend_pixel(J, i, drow[i], l0[i], cv);
 }
 #undef SEED_AVX2
 #define SEED_HAVE_AVX2 1
