@@ -720,9 +720,11 @@ obs_status ao_alchemy_raw(obs_context *ctx, obs_pool *pool, const ao_input *in, 
 /* The instruction set of the AO pass. Every ISA gives the same bits (the AVX2 path evaluates the
  * scalar path's float and double operations, in the same order, eight pixels per vector; tested). */
 typedef enum ao_alchemy_isa {
-    AO_ALCHEMY_ISA_AUTO = 0,        /* AVX2 when the CPU and the build have it, unless OBS_ISA=scalar */
+    AO_ALCHEMY_ISA_AUTO = 0,        /* AVX512, else AVX2, when the CPU and the build have it, unless OBS_ISA says */
     AO_ALCHEMY_ISA_SCALAR,          /* the reference path, always compiled */
     AO_ALCHEMY_ISA_AVX2,            /* OBS_HAVE_AVX2 builds on AVX2 CPUs */
+    AO_ALCHEMY_ISA_AVX512,          /* AVX2 with the taps' cos/sin on 8 doubles per register (AVX-512F; GCC
+                                       x86-64 builds); AUTO's first choice unless OBS_ISA=avx2 or scalar */
     AO_ALCHEMY_ISA_COUNT
 } ao_alchemy_isa;
 

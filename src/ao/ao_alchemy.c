@@ -21,13 +21,15 @@
  * ao_i_cos_sin (correctly rounded), pow is (float)pow(double, double). docs/ao/alchemy.md lists every
  * difference from the paper and the ports.
  *
- * Two paths give the same bits (test alchemy_avx2_equals_scalar_bit_for_bit): the scalar one
+ * Two paths give the same bits (test alchemy_avx2_and_avx512_equal_scalar_bit_for_bit): the scalar one
  * (alchemy_span, the reference, always compiled) and, in OBS_HAVE_AVX2 builds on AVX2 CPUs, the
  * AVX2 one (alchemy_rect_avx2: lane j = the j-th surface pixel of a group of eight, in row-major
- * order within a 32x32 tile; docs/ao/alchemy.md "Speed").
+ * order within a 32x32 tile; docs/ao/alchemy.md "Speed"), whose taps' cos/sin run on two halves of
+ * four doubles (AO_ALCHEMY_ISA_AVX2) or, on AVX-512F CPUs, on eight (AO_ALCHEMY_ISA_AVX512).
  */
 #include "ao.h"
 #include "ao_internal.h"
+#include "ao_sao_internal.h" /* AO_I_SAO_HAVE_AVX512: where the build can compile AVX-512F code */
 
 #include <math.h>
 #include <stdio.h>
@@ -362,50 +364,57 @@ static void alchemy_tile_scalar(void *user, int64_t task, int thread)
 #include <immintrin.h>
 #define AL_AVX2 __attribute__((target("avx2")))
 
-/* ao_i_cos_sin on four doubles: the same reduction and polynomials, operation for operation (no
- * FMA: the build has -ffp-contract=off and these are separate mul/add intrinsics), so every lane
- * equals the scalar result. Lanes with |x| >= 3e9 (or NaN) are flagged in *big for the caller to
- * redo through ao_i_cos_sin (its libm branch). */
+/* cos and sin on four doubles: ao_i_cos_sin's reduction, then the Taylor series of degree 19 / 20
+ * (NOT ao_i_cos_sin's fdlibm kernels of degree 13 / 14: docs/ao/alchemy.md, "Note on the vector
+ * cos/sin"); no FMA (-ffp-contract=off, separate mul/add intrinsics). Both are a few double ulps
+ * from the exact value, so the float results agree with the scalar path's except within ~2^-50 of
+ * a float midpoint (alchemy_avx2_and_avx512_equal_scalar_bit_for_bit has met no such angle).
+ * Lanes with |x| >= 3e9 (or NaN) are flagged in *big for the caller to redo through ao_i_cos_sin
+ * (its libm branch). AL_COS_SIN_SERIES is the reduction and the two series for a register of
+ * doubles of either width (W: _mm256 or _mm512, T: its type), one source for the AVX2 and AVX-512
+ * versions, so that each lane runs the same operations in the same order. */
+#define AL_COS_SIN_SERIES(W, T, x, kd, csd, snd)                                                           \
+    do {                                                                                                 \
+        const T P1 = W##_set1_pd(0x1.921fbp+0), P2 = W##_set1_pd(0x1.5110bp-22),                         \
+                P3 = W##_set1_pd(0x1.18469800p-44), P4 = W##_set1_pd(0x1.3198a2e037073p-69);             \
+        const T TWO_OVER_PI = W##_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = W##_set1_pd(0x1.8p52);        \
+        kd = W##_sub_pd(W##_add_pd(W##_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);                       \
+        T r_ = W##_sub_pd(x, W##_mul_pd(kd, P1));                                                        \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P2));                                                         \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P3));                                                         \
+        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P4));                                                         \
+        const T z_ = W##_mul_pd(r_, r_);                                                                 \
+        /* sn = r + r * z * (-1/6 + z * (1/120 + ... z * (-1/19!))), each cst + a * b two roundings */   \
+        T ps_ = W##_set1_pd(-1.0 / 121645100408832000.0);                                                \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 355687428096000.0), W##_mul_pd(z_, ps_));                     \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 1307674368000.0), W##_mul_pd(z_, ps_));                      \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 6227020800.0), W##_mul_pd(z_, ps_));                          \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 39916800.0), W##_mul_pd(z_, ps_));                           \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 362880.0), W##_mul_pd(z_, ps_));                              \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 5040.0), W##_mul_pd(z_, ps_));                               \
+        ps_ = W##_add_pd(W##_set1_pd(1.0 / 120.0), W##_mul_pd(z_, ps_));                                 \
+        ps_ = W##_add_pd(W##_set1_pd(-1.0 / 6.0), W##_mul_pd(z_, ps_));                                  \
+        snd = W##_add_pd(r_, W##_mul_pd(W##_mul_pd(r_, z_), ps_));                                       \
+        /* cs = 1 - 0.5 z + z z (1/24 + z * (-1/720 + ... z * (1/20!))) */                               \
+        T pc_ = W##_set1_pd(1.0 / 2432902008176640000.0);                                                \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 6402373705728000.0), W##_mul_pd(z_, pc_));                   \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 20922789888000.0), W##_mul_pd(z_, pc_));                      \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 87178291200.0), W##_mul_pd(z_, pc_));                        \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 479001600.0), W##_mul_pd(z_, pc_));                           \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 3628800.0), W##_mul_pd(z_, pc_));                            \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 40320.0), W##_mul_pd(z_, pc_));                               \
+        pc_ = W##_add_pd(W##_set1_pd(-1.0 / 720.0), W##_mul_pd(z_, pc_));                                \
+        pc_ = W##_add_pd(W##_set1_pd(1.0 / 24.0), W##_mul_pd(z_, pc_));                                  \
+        csd = W##_add_pd(W##_sub_pd(W##_set1_pd(1.0), W##_mul_pd(W##_set1_pd(0.5), z_)),                 \
+                         W##_mul_pd(W##_mul_pd(z_, z_), pc_));                                           \
+    } while (0)
+
 static inline AL_AVX2 void cos_sin_pd(__m256d x, __m256d *c, __m256d *s, int *big)
 {
     const __m256d absmask = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7FFFFFFFFFFFFFFFll));
     *big = _mm256_movemask_pd(_mm256_cmp_pd(_mm256_and_pd(x, absmask), _mm256_set1_pd(3.0e9), _CMP_NLT_UQ));
-    const __m256d P1 = _mm256_set1_pd(0x1.921fbp+0), P2 = _mm256_set1_pd(0x1.5110bp-22),
-                  P3 = _mm256_set1_pd(0x1.18469800p-44), P4 = _mm256_set1_pd(0x1.3198a2e037073p-69);
-    const __m256d TWO_OVER_PI = _mm256_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = _mm256_set1_pd(0x1.8p52);
-    const __m256d kd = _mm256_sub_pd(_mm256_add_pd(_mm256_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);
-    __m256d r = _mm256_sub_pd(x, _mm256_mul_pd(kd, P1));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P2));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P3));
-    r = _mm256_sub_pd(r, _mm256_mul_pd(kd, P4));
-    const __m256d z = _mm256_mul_pd(r, r);
-#define AL_C(v) _mm256_set1_pd(v)
-#define AL_MA(a, b, cst) _mm256_add_pd(AL_C(cst), _mm256_mul_pd(a, b)) /* cst + a * b */
-    /* sn = r + r * z * (-1/6 + z * (1/120 + ... z * (-1/19!))) */
-    __m256d ps = AL_C(-1.0 / 121645100408832000.0);
-    ps = AL_MA(z, ps, 1.0 / 355687428096000.0);
-    ps = AL_MA(z, ps, -1.0 / 1307674368000.0);
-    ps = AL_MA(z, ps, 1.0 / 6227020800.0);
-    ps = AL_MA(z, ps, -1.0 / 39916800.0);
-    ps = AL_MA(z, ps, 1.0 / 362880.0);
-    ps = AL_MA(z, ps, -1.0 / 5040.0);
-    ps = AL_MA(z, ps, 1.0 / 120.0);
-    ps = AL_MA(z, ps, -1.0 / 6.0);
-    const __m256d sn = _mm256_add_pd(r, _mm256_mul_pd(_mm256_mul_pd(r, z), ps));
-    /* cs = 1 - 0.5 z + z z (1/24 + z * (-1/720 + ... z * (1/20!))) */
-    __m256d pc = AL_C(1.0 / 2432902008176640000.0);
-    pc = AL_MA(z, pc, -1.0 / 6402373705728000.0);
-    pc = AL_MA(z, pc, 1.0 / 20922789888000.0);
-    pc = AL_MA(z, pc, -1.0 / 87178291200.0);
-    pc = AL_MA(z, pc, 1.0 / 479001600.0);
-    pc = AL_MA(z, pc, -1.0 / 3628800.0);
-    pc = AL_MA(z, pc, 1.0 / 40320.0);
-    pc = AL_MA(z, pc, -1.0 / 720.0);
-    pc = AL_MA(z, pc, 1.0 / 24.0);
-    const __m256d cs = _mm256_add_pd(_mm256_sub_pd(AL_C(1.0), _mm256_mul_pd(AL_C(0.5), z)),
-                                     _mm256_mul_pd(_mm256_mul_pd(z, z), pc));
-#undef AL_MA
-#undef AL_C
+    __m256d kd, sn, cs;
+    AL_COS_SIN_SERIES(_mm256, __m256d, x, kd, cs, sn);
     /* quadrant k mod 4 (|k| < 2^31 here): 0 (cs, sn), 1 (-sn, cs), 2 (-cs, -sn), 3 (sn, -cs) */
     const __m256i q = _mm256_cvtepi32_epi64(_mm256_cvtpd_epi32(kd));
     const __m256i one = _mm256_set1_epi64x(1), two = _mm256_set1_epi64x(2);
@@ -425,6 +434,76 @@ static inline AL_AVX2 __m256i trunc_to_int8(__m256 v)
     return _mm256_andnot_si256(_mm256_castps_si256(nan), _mm256_cvttps_epi32(cl));
 }
 
+/* Every tap's tapLocation angle, alpha_t turns_angle + spin (float, as tap()), and its cos and sin
+ * for the eight lanes of spin: cs[8 t + j], sn[8 t + j]. The AVX2 and AVX-512 versions evaluate
+ * cos_sin_pd's operations in the same order per lane, so they give the same bits. */
+typedef void (*al_cos_sin_taps_fn)(const ao_alchemy_constants *k, const float *spin8, float *cs, float *sn);
+
+/* the lanes of angle8 that cos_sin_pd flagged (|x| >= 3e9 or NaN) again through ao_i_cos_sin */
+static void cos_sin_redo(const float *angle8, unsigned big, float *cs, float *sn)
+{
+    for (int j = 0; j < 8; j++)
+        if ((big >> j) & 1)
+            ao_i_cos_sin(angle8[j], &cs[j], &sn[j]);
+}
+
+static AL_AVX2 void cos_sin_taps_avx2(const ao_alchemy_constants *k, const float *spin8, float *cs, float *sn)
+{
+    const __m256 spin = _mm256_loadu_ps(spin8);
+    for (int t = 0; t < k->num_samples; t++) {
+        const float alpha = ((float)t + 0.5f) * k->inv_num_samples;
+        const __m256 angle = _mm256_add_ps(_mm256_set1_ps(alpha * k->turns_angle), spin);
+        __m256d clo, slo, chi, shi;
+        int big_lo, big_hi;
+        cos_sin_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(angle)), &clo, &slo, &big_lo);
+        cos_sin_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(angle, 1)), &chi, &shi, &big_hi);
+        _mm256_store_ps(cs + 8 * t, _mm256_set_m128(_mm256_cvtpd_ps(chi), _mm256_cvtpd_ps(clo)));
+        _mm256_store_ps(sn + 8 * t, _mm256_set_m128(_mm256_cvtpd_ps(shi), _mm256_cvtpd_ps(slo)));
+        if (big_lo | big_hi) { /* not reached by these angles (|spin| <= 2^31); kept exact */
+            float la[8];
+            _mm256_storeu_ps(la, angle);
+            cos_sin_redo(la, (unsigned)(big_lo | big_hi << 4), cs + 8 * t, sn + 8 * t);
+        }
+    }
+}
+
+#if defined(AO_I_SAO_HAVE_AVX512)
+#define AL_AVX512 __attribute__((target("avx2,avx512f")))
+/* cos_sin_pd on 8 doubles in one AVX-512F register: the same operations in the same order per
+ * lane. The quadrant's swap and signs are applied after the rounding to float, which gives the same
+ * bits as before it (round to nearest is symmetric; a swap moves whole values). */
+static AL_AVX512 void cos_sin_taps_avx512(const ao_alchemy_constants *k, const float *spin8, float *cs, float *sn)
+{
+    const __m256 spin = _mm256_loadu_ps(spin8);
+    const __m512d absmask = _mm512_castsi512_pd(_mm512_set1_epi64(0x7FFFFFFFFFFFFFFFll));
+    for (int t = 0; t < k->num_samples; t++) {
+        const float alpha = ((float)t + 0.5f) * k->inv_num_samples;
+        const __m256 angle = _mm256_add_ps(_mm256_set1_ps(alpha * k->turns_angle), spin);
+        const __m512d x = _mm512_cvtps_pd(angle);
+        const unsigned big = (unsigned)_mm512_cmp_pd_mask(
+            _mm512_castsi512_pd(_mm512_and_si512(_mm512_castpd_si512(x), _mm512_castpd_si512(absmask))),
+            _mm512_set1_pd(3.0e9), _CMP_NLT_UQ);
+        __m512d kd, csd, snd;
+        AL_COS_SIN_SERIES(_mm512, __m512d, x, kd, csd, snd);
+        const __m256 csf = _mm512_cvtpd_ps(csd), snf = _mm512_cvtpd_ps(snd);
+        /* quadrant q = kd mod 4 (kd an integer, |kd| < 2^31): 0 (cs, sn), 1 (-sn, cs), 2 (-cs, -sn),
+         * 3 (sn, -cs); bit 0 of q to the sign bit for blendv, the signs from bit 1 of q + 1 and of q */
+        const __m256i q = _mm512_cvtpd_epi32(kd);
+        const __m256 swap = _mm256_castsi256_ps(_mm256_slli_epi32(q, 31));
+        const __m256i sgn = _mm256_set1_epi32((int)0x80000000u);
+        const __m256i cneg = _mm256_and_si256(_mm256_slli_epi32(_mm256_add_epi32(q, _mm256_set1_epi32(1)), 30), sgn);
+        const __m256i sneg = _mm256_and_si256(_mm256_slli_epi32(q, 30), sgn);
+        _mm256_store_ps(cs + 8 * t, _mm256_xor_ps(_mm256_blendv_ps(csf, snf, swap), _mm256_castsi256_ps(cneg)));
+        _mm256_store_ps(sn + 8 * t, _mm256_xor_ps(_mm256_blendv_ps(snf, csf, swap), _mm256_castsi256_ps(sneg)));
+        if (big) { /* not reached by these angles (|spin| <= 2^31); kept exact */
+            float la[8];
+            _mm256_storeu_ps(la, angle);
+            cos_sin_redo(la, big, cs + 8 * t, sn + 8 * t);
+        }
+    }
+}
+#endif
+
 #define AL_CHUNK 64 /* surface pixels compacted per chunk of a rectangle (a multiple of 8) */
 
 /* The AVX2 pass over output rows [r0, r1), columns [i0, i1) (one tile): the scalar row's
@@ -432,7 +511,8 @@ static inline AL_AVX2 __m256i trunc_to_int8(__m256 v)
  * lanes; the taps then run eight surface pixels per vector (lane j = the j-th surface pixel of the
  * group, in row-major order), tap t for all lanes at once, in the scalar order of operations. A skipped tap (background, range check) adds +0 to its lane, which leaves the
  * sum's bits unchanged (the sum starts at +0 and its terms are >= +0 or NaN, so it is never -0). */
-static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
+static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2],
+                                       al_cos_sin_taps_fn cos_sin_taps)
 {
     const ao_alchemy_constants *k = J->k;
     const obs_image_f32 *D = J->in->depth;
@@ -442,6 +522,7 @@ static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int 
         aSpin[AL_CHUNK], aDisk[AL_CHUNK], aZb[AL_CHUNK], aSum[AL_CHUNK];
     int aGx[AL_CHUNK], aGy[AL_CHUNK];
     float *aOut[AL_CHUNK];
+    _Alignas(32) float tcs[8 * AO_ALCHEMY_MAX_SAMPLES], tsn[8 * AO_ALCHEMY_MAX_SAMPLES];
     const __m256 pi0 = _mm256_set1_ps(k->proj_info[0]), pi1 = _mm256_set1_ps(k->proj_info[1]),
                  pi2 = _mm256_set1_ps(k->proj_info[2]), pi3 = _mm256_set1_ps(k->proj_info[3]);
     const __m256 half = _mm256_set1_ps(0.5f), zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
@@ -519,30 +600,17 @@ static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int 
         for (int g = 0; g < mp; g += 8) {
             const __m256 C0 = _mm256_loadu_ps(aC0 + g), C1 = _mm256_loadu_ps(aC1 + g), C2 = _mm256_loadu_ps(aC2 + g);
             const __m256 N0 = _mm256_loadu_ps(aN0 + g), N1 = _mm256_loadu_ps(aN1 + g), N2 = _mm256_loadu_ps(aN2 + g);
-            const __m256 spin = _mm256_loadu_ps(aSpin + g), disk = _mm256_loadu_ps(aDisk + g);
+            const __m256 disk = _mm256_loadu_ps(aDisk + g);
             const __m256 zb = _mm256_loadu_ps(aZb + g);
             const __m256i gx = _mm256_loadu_si256((const __m256i *)(aGx + g));
             const __m256i vgy = _mm256_loadu_si256((const __m256i *)(aGy + g));
             __m256 sum = zero;
+            cos_sin_taps(k, aSpin + g, tcs, tsn); /* every tap's angle, cos and sin for the 8 lanes */
             for (int t = 0; t < k->num_samples; t++) {
-                /* ---- tapLocation (tap()): alpha, angle, ssR, cos/sin, ivec2 ---- */
+                /* ---- tapLocation (tap()): alpha, ssR; cos/sin of the angle from the group's table ---- */
                 const float alpha = ((float)t + 0.5f) * k->inv_num_samples;
-                const __m256 angle = _mm256_add_ps(_mm256_set1_ps(alpha * k->turns_angle), spin);
                 const __m256 ssR = _mm256_mul_ps(_mm256_set1_ps(alpha), disk);
-                __m256d clo, slo, chi, shi;
-                int big_lo, big_hi;
-                cos_sin_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(angle)), &clo, &slo, &big_lo);
-                cos_sin_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(angle, 1)), &chi, &shi, &big_hi);
-                __m256 cs = _mm256_set_m128(_mm256_cvtpd_ps(chi), _mm256_cvtpd_ps(clo));
-                __m256 sn = _mm256_set_m128(_mm256_cvtpd_ps(shi), _mm256_cvtpd_ps(slo));
-                if (big_lo | big_hi) { /* not reached by these angles (|spin| <= 2^31); kept exact */
-                    float la[8], lc[8], ls[8];
-                    _mm256_storeu_ps(la, angle), _mm256_storeu_ps(lc, cs), _mm256_storeu_ps(ls, sn);
-                    for (int j = 0; j < 8; j++)
-                        if (((big_lo | big_hi << 4) >> j) & 1)
-                            ao_i_cos_sin(la[j], &lc[j], &ls[j]);
-                    cs = _mm256_loadu_ps(lc), sn = _mm256_loadu_ps(ls);
-                }
+                const __m256 cs = _mm256_load_ps(tcs + 8 * t), sn = _mm256_load_ps(tsn + 8 * t);
                 const __m256i ox = trunc_to_int8(_mm256_mul_ps(ssR, cs)), oy = trunc_to_int8(_mm256_mul_ps(ssR, sn));
                 /* ---- CLAMP_TO_EDGE texel and its depth ---- */
                 const __m256i cx = _mm256_min_epi32(_mm256_max_epi32(_mm256_add_epi32(gx, ox), izero), vWm1);
@@ -574,11 +642,27 @@ static AL_AVX2 void alchemy_rect_avx2(const alchemy_job *J, int r0, int r1, int 
     cnt[0] += n_bg;
     cnt[1] += n_degen;
 }
+static void alchemy_rect_avx2_taps(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
+{
+    alchemy_rect_avx2(J, r0, r1, i0, i1, cnt, cos_sin_taps_avx2);
+}
 static void alchemy_tile_avx2(void *user, int64_t task, int thread)
 {
     (void)thread;
-    alchemy_tile((const alchemy_job *)user, task, alchemy_rect_avx2);
+    alchemy_tile((const alchemy_job *)user, task, alchemy_rect_avx2_taps);
 }
+#if defined(AO_I_SAO_HAVE_AVX512)
+static void alchemy_rect_avx512_taps(const alchemy_job *J, int r0, int r1, int i0, int i1, int64_t cnt[2])
+{
+    alchemy_rect_avx2(J, r0, r1, i0, i1, cnt, cos_sin_taps_avx512);
+}
+static void alchemy_tile_avx512(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    alchemy_tile((const alchemy_job *)user, task, alchemy_rect_avx512_taps);
+}
+#undef AL_AVX512
+#endif
 #undef AL_AVX2
 #endif
 
@@ -590,6 +674,12 @@ int ao_alchemy_isa_available(ao_alchemy_isa isa)
     case AO_ALCHEMY_ISA_AVX2:
 #if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
         return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+        return 0;
+#endif
+    case AO_ALCHEMY_ISA_AVX512:
+#if defined(OBS_HAVE_AVX2) && defined(AO_I_SAO_HAVE_AVX512)
+        return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("avx512f") ? 1 : 0;
 #else
         return 0;
 #endif
@@ -625,11 +715,18 @@ obs_status ao_alchemy_raw_isa(obs_context *ctx, obs_pool *pool, const ao_input *
     if (isa == AO_ALCHEMY_ISA_AUTO) {
         const char *env = getenv("OBS_ISA");
         isa = (env && !strcmp(env, "scalar")) || !ao_alchemy_isa_available(AO_ALCHEMY_ISA_AVX2) ? AO_ALCHEMY_ISA_SCALAR
-                                                                                                 : AO_ALCHEMY_ISA_AVX2;
+              : !(env && !strcmp(env, "avx2")) && ao_alchemy_isa_available(AO_ALCHEMY_ISA_AVX512)
+                  ? AO_ALCHEMY_ISA_AVX512
+                  : AO_ALCHEMY_ISA_AVX2;
     }
     /* the gather's 32-bit element index (H - 1 - cy) * stride + cx must fit: else the scalar row */
-    if (isa == AO_ALCHEMY_ISA_AVX2 && (int64_t)in->depth->stride * in->height <= INT32_MAX)
+    if ((isa == AO_ALCHEMY_ISA_AVX2 || isa == AO_ALCHEMY_ISA_AVX512) &&
+        (int64_t)in->depth->stride * in->height <= INT32_MAX)
         tile_fn = alchemy_tile_avx2;
+#if defined(AO_I_SAO_HAVE_AVX512)
+    if (isa == AO_ALCHEMY_ISA_AVX512 && tile_fn == alchemy_tile_avx2)
+        tile_fn = alchemy_tile_avx512;
+#endif
 #endif
     const int tiles_x = (rect[2] + AL_TILE - 1) / AL_TILE, tiles_y = (rect[3] + AL_TILE - 1) / AL_TILE;
     const int64_t ntask = (int64_t)tiles_x * tiles_y;

@@ -48,6 +48,10 @@ typedef struct ao_i_ws ao_i_ws;
 ao_i_ws *ao_i_ws_take(obs_context *ctx, const void *key);
 void ao_i_ws_put(obs_context *ctx, const void *key, ao_i_ws *ws);
 obs_status ao_i_ws_plane(obs_context *ctx, ao_i_ws *ws, int width, int height, obs_image_f32 *out);
+/* ao_i_ws_plane without the zeroing (the bytes a previous call left, or fresh memory's): only for a
+ * plane whose caller writes every pixel of [0, width) x [0, height) before anything reads it, and
+ * nothing reads the row padding. */
+obs_status ao_i_ws_plane_unzeroed(obs_context *ctx, ao_i_ws *ws, int width, int height, obs_image_f32 *out);
 /* bytes of memory (64-byte aligned, obs_aligned_alloc), zeroed when zero is set (calloc's
  * contract), else not (malloc's); NULL when out of memory. */
 void *ao_i_ws_buf(ao_i_ws *ws, size_t bytes, int zero);

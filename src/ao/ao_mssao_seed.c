@@ -132,35 +132,52 @@ typedef struct down_job {
     const ao_input *in;
     level_buf *L;
     int l;
+    const int *sx; /* ao_mssao_seed_level_source's column for each level column (it depends on x alone) */
 } down_job;
 
 static void down_row(void *user, int64_t task, int thread)
 {
     (void)thread;
     const down_job *J = (const down_job *)user;
-    const int y = (int)task;
-    for (int x = 0; x < J->L->w; x++) {
-        int sx, sy;
-        ao_mssao_seed_level_source(J->in->width, J->in->height, J->l, x, y, &sx, &sy);
-        obs_image_f32_row(&J->L->depth, y)[x] = obs_image_f32_row(J->in->depth, sy)[sx];
-        if (J->in->normal[0])
-            for (int a = 0; a < 3; a++)
-                obs_image_f32_row(&J->L->normal[a], y)[x] = obs_image_f32_row(J->in->normal[a], sy)[sx];
-    }
+    const int y = (int)task, w = J->L->w;
+    int sx0, sy;
+    ao_mssao_seed_level_source(J->in->width, J->in->height, J->l, 0, y, &sx0, &sy); /* sy: y alone */
+    const int *sx = J->sx;
+    const float *drow = obs_image_f32_row(J->in->depth, sy);
+    float *d = obs_image_f32_row(&J->L->depth, y);
+    for (int x = 0; x < w; x++)
+        d[x] = drow[sx[x]];
+    if (J->in->normal[0])
+        for (int a = 0; a < 3; a++) {
+            const float *nrow = obs_image_f32_row(J->in->normal[a], sy);
+            float *n = obs_image_f32_row(&J->L->normal[a], y);
+            for (int x = 0; x < w; x++)
+                n[x] = nrow[sx[x]];
+        }
 }
 
 /* Level l's G-buffer and its ao_input (the whole level is its window). */
-/* Planes from the workspace ws (ao_i_ws_plane, zeroed as fresh ones; the workspace owns them). */
+/* Planes from the workspace ws (the workspace owns them). */
 static obs_status level_make(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const ao_input *in, int l, level_buf *L)
 {
     memset(L, 0, sizeof *L);
     ao_mssao_seed_level_size(in->width, in->height, l, &L->w, &L->h);
-    obs_status st = ao_i_ws_plane(ctx, ws, L->w, L->h, &L->depth);
+    /* unzeroed: down_row writes every pixel of the level's planes */
+    obs_status st = ao_i_ws_plane_unzeroed(ctx, ws, L->w, L->h, &L->depth);
     for (int a = 0; a < 3 && st == OBS_STATUS_OK && in->normal[0]; a++)
-        st = ao_i_ws_plane(ctx, ws, L->w, L->h, &L->normal[a]);
+        st = ao_i_ws_plane_unzeroed(ctx, ws, L->w, L->h, &L->normal[a]);
     if (st != OBS_STATUS_OK)
         return st;
-    down_job J = {in, L, l};
+    /* the source column of each level column, once per level (ao_mssao_seed_level_source's x
+     * depends on x alone, its y on y alone) */
+    int *src_x = (int *)ao_i_ws_buf(ws, sizeof(int) * (size_t)L->w, 0);
+    if (!src_x)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao-seed: out of memory");
+    for (int x = 0; x < L->w; x++) {
+        int sy;
+        ao_mssao_seed_level_source(in->width, in->height, l, x, 0, &src_x[x], &sy);
+    }
+    down_job J = {in, L, l, src_x};
     obs_pool_run(pool, L->h, down_row, &J);
     ao_input *li = &L->in;
     *li = *in;
@@ -199,8 +216,8 @@ static obs_status level_ao(obs_context *ctx, obs_pool *pool, ao_i_ws *ws, const 
         for (int a = 0; a < 3; a++)
             nrm[a] = &rec[a];
     }
-    if (st == OBS_STATUS_OK)
-        st = ao_i_ws_plane(ctx, ws, rect[2], rect[3], raw);
+    if (st == OBS_STATUS_OK) /* unzeroed: ao_alchemy_raw writes every pixel of rect */
+        st = ao_i_ws_plane_unzeroed(ctx, ws, rect[2], rect[3], raw);
     if (st == OBS_STATUS_OK)
         st = ao_alchemy_raw(ctx, pool, li, &k, nrm, rect, raw, counts);
     double t1 = obs_time_now();
@@ -248,6 +265,9 @@ typedef struct blend_job {
     float I[AO_MSSAO_SEED_LEVELS];
     obs_image_f32 *out;
     const lin_tap *col[AO_MSSAO_SEED_LEVELS];       /* levels 1..: lin_axis of window column i */
+    /* the same columns split into arrays (the AVX2 row's loads): texel i0, i1 and weight a */
+    const int32_t *col_i0[AO_MSSAO_SEED_LEVELS], *col_i1[AO_MSSAO_SEED_LEVELS];
+    const float *col_a[AO_MSSAO_SEED_LEVELS];
 } blend_job;
 
 /* texture(tex, vUV) with GL_LINEAR and CLAMP_TO_EDGE on a w x h level (our row order), vUV the full
@@ -262,6 +282,20 @@ static inline float sample_linear(const obs_image_f32 *T, lin_tap cu, lin_tap cv
     return a * (1.0f - av) + b * av;
 }
 
+/* One window pixel i of a row: depth d, level 0's texel l0i, cv the row half of each level's lookup. */
+static inline float blend_pixel(const blend_job *J, int i, float d, float l0i, const lin_tap *cv)
+{
+    if (!(d > 0.0f && d < INFINITY)) /* background keeps 1 (documented) */
+        return 1.0f;
+    /* level 0 is at the full resolution: texel centres coincide, GL_LINEAR returns the texel */
+    float occ = J->I[0] * (1.0f - l0i);
+    for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
+        occ += J->I[l] * (1.0f - sample_linear(J->lev[l], J->col[l][i], cv[l]));
+    /* V = 1 - min(1, sum_l I_l (1 - A_l)) */
+    const float V = 1.0f - occ;
+    return V > 0.0f ? (V < 1.0f ? V : 1.0f) : 0.0f;
+}
+
 static void blend_row(void *user, int64_t task, int thread)
 {
     (void)thread;
@@ -274,19 +308,81 @@ static void blend_row(void *user, int64_t task, int thread)
     lin_tap cv[AO_MSSAO_SEED_LEVELS];
     for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
         cv[l] = lin_axis(gy, in->height, J->lev[l]->height);
-    for (int i = 0; i < in->w; i++) {
-        if (!(drow[i] > 0.0f && drow[i] < INFINITY)) { /* background keeps 1 (documented) */
-            o[i] = 1.0f;
+    for (int i = 0; i < in->w; i++)
+        o[i] = blend_pixel(J, i, drow[i], l0[i], cv);
+}
+
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+#include <immintrin.h>
+#define SEED_AVX2 __attribute__((target("avx2")))
+/* blend_row on eight window pixels per vector: per lane the scalar row's float operations in its
+ * order (sample_linear's two lerps and the lerp between them, then occ += I_l (1 - A_l) level by
+ * level; no FMA: -ffp-contract=off and separate mul/add), so the same bits
+ * (tests/test_ao_mssao_seed.c, mssao_seed_simd_and_scalar_paths_are_bit_identical). The texels
+ * are gathered with the columns' i0, i1 from the two rows cv picks. */
+static SEED_AVX2 void blend_row_avx2(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const blend_job *J = (const blend_job *)user;
+    const ao_input *in = J->in;
+    const int y = in->y0 + (int)task, gy = in->height - 1 - y;
+    float *o = obs_image_f32_row(J->out, (int)task);
+    const float *l0 = obs_image_f32_row(J->lev[0], y - J->rect0[1]) + (in->x0 - J->rect0[0]);
+    const float *drow = obs_image_f32_row(in->depth, y) + in->x0;
+    const float *r0[AO_MSSAO_SEED_LEVELS], *r1[AO_MSSAO_SEED_LEVELS];
+    float av[AO_MSSAO_SEED_LEVELS];
+    lin_tap cv[AO_MSSAO_SEED_LEVELS];
+    for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++) {
+        cv[l] = lin_axis(gy, in->height, J->lev[l]->height);
+        const int h = J->lev[l]->height;
+        r0[l] = obs_image_f32_row(J->lev[l], h - 1 - cv[l].i0);
+        r1[l] = obs_image_f32_row(J->lev[l], h - 1 - cv[l].i1);
+        av[l] = cv[l].a;
+    }
+    const __m256 one = _mm256_set1_ps(1.0f), zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
+    int i = 0;
+    for (; i + 8 <= in->w; i += 8) {
+        const __m256 d = _mm256_loadu_ps(drow + i);
+        const __m256 surf = _mm256_and_ps(_mm256_cmp_ps(d, zero, _CMP_GT_OQ), _mm256_cmp_ps(d, inf, _CMP_LT_OQ));
+        if (!_mm256_movemask_ps(surf)) { /* background keeps 1 */
+            _mm256_storeu_ps(o + i, one);
             continue;
         }
-        /* level 0 is at the full resolution: texel centres coincide, GL_LINEAR returns the texel */
-        float occ = J->I[0] * (1.0f - l0[i]);
-        for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++)
-            occ += J->I[l] * (1.0f - sample_linear(J->lev[l], J->col[l][i], cv[l]));
-        /* V = 1 - min(1, sum_l I_l (1 - A_l)) */
-        const float V = 1.0f - occ;
-        o[i] = V > 0.0f ? (V < 1.0f ? V : 1.0f) : 0.0f;
+        __m256 occ = _mm256_mul_ps(_mm256_set1_ps(J->I[0]), _mm256_sub_ps(one, _mm256_loadu_ps(l0 + i)));
+        for (int l = 1; l < AO_MSSAO_SEED_LEVELS; l++) {
+            const __m256i c0 = _mm256_loadu_si256((const __m256i *)(J->col_i0[l] + i));
+            const __m256i c1 = _mm256_loadu_si256((const __m256i *)(J->col_i1[l] + i));
+            const __m256 au = _mm256_loadu_ps(J->col_a[l] + i), nau = _mm256_sub_ps(one, au);
+            const __m256 av8 = _mm256_set1_ps(av[l]), nav = _mm256_set1_ps(1.0f - av[l]);
+            const __m256 a = _mm256_add_ps(_mm256_mul_ps(_mm256_i32gather_ps(r0[l], c0, 4), nau),
+                                           _mm256_mul_ps(_mm256_i32gather_ps(r0[l], c1, 4), au));
+            const __m256 b = _mm256_add_ps(_mm256_mul_ps(_mm256_i32gather_ps(r1[l], c0, 4), nau),
+                                           _mm256_mul_ps(_mm256_i32gather_ps(r1[l], c1, 4), au));
+            const __m256 A = _mm256_add_ps(_mm256_mul_ps(a, nav), _mm256_mul_ps(b, av8));
+            occ = _mm256_add_ps(occ, _mm256_mul_ps(_mm256_set1_ps(J->I[l]), _mm256_sub_ps(one, A)));
+        }
+        /* V > 0 ? (V < 1 ? V : 1) : 0, i.e. (V > 0) & MINPS(V, 1) (MINPS(V, 1) = V < 1 ? V : 1) */
+        const __m256 V = _mm256_sub_ps(one, occ);
+        const __m256 v = _mm256_and_ps(_mm256_cmp_ps(V, zero, _CMP_GT_OQ), _mm256_min_ps(V, one));
+        _mm256_storeu_ps(o + i, _mm256_blendv_ps(one, v, surf));
     }
+    for (; i < in->w; i++) /* the row's last pixels: the scalar row's code */
+        o[i] = blend_pixel(J, i, drow[i], l0[i], cv);
+}
+#undef SEED_AVX2
+#define SEED_HAVE_AVX2 1
+#endif
+
+/* The blend's row function: the AVX2 row where the build and the CPU have it, unless OBS_ISA=scalar
+ * (as every AO kernel's AUTO). Both give the same bits. */
+static void (*blend_row_fn(void))(void *, int64_t, int)
+{
+#if defined(SEED_HAVE_AVX2)
+    const char *env = getenv("OBS_ISA");
+    if (!(env && !strcmp(env, "scalar")) && __builtin_cpu_supports("avx2"))
+        return blend_row_avx2;
+#endif
+    return blend_row;
 }
 
 /* ================================================================================================
@@ -328,7 +424,8 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
     ao_blur_reach(in, ap->blur ? AO_GAUSS21_RADIUS : 0, rect0);
     int64_t c[2] = {0, 0};
     /* Every plane and buffer of the call comes from the workspace kept in the context between calls
-     * (ao_i_ws_*: zeroed as fresh planes, without a fresh plane's page faults) */
+     * (ao_i_ws_*: zeroed as fresh planes, or unzeroed where every pixel is written before it is read;
+     * without a fresh plane's page faults) */
     ao_i_ws *ws = ao_i_ws_take(ctx, &seed_workspace_key);
     if (!ws)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao-seed: out of memory");
@@ -356,24 +453,43 @@ obs_status ao_mssao_seed_compute(obs_context *ctx, obs_pool *pool, const ao_inpu
         memcpy(J.rect0, rect0, sizeof rect0);
         memcpy(J.I, params->level_intensity, sizeof J.I);
         /* the column half of every level's bilinear lookup, once per call (same bits as per pixel) */
-        lin_tap *cols = (lin_tap *)ao_i_ws_buf(ws, sizeof(lin_tap) * (size_t)in->w * (AO_MSSAO_SEED_LEVELS - 1), 0);
-        if (!cols)
+        const size_t nc = (size_t)in->w * (AO_MSSAO_SEED_LEVELS - 1);
+        lin_tap *cols = (lin_tap *)ao_i_ws_buf(ws, sizeof(lin_tap) * nc, 0);
+        int32_t *ci0 = (int32_t *)ao_i_ws_buf(ws, sizeof(int32_t) * nc, 0);
+        int32_t *ci1 = (int32_t *)ao_i_ws_buf(ws, sizeof(int32_t) * nc, 0);
+        float *ca = (float *)ao_i_ws_buf(ws, sizeof(float) * nc, 0);
+        if (!cols || !ci0 || !ci1 || !ca) {
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "mssao-seed: out of memory");
-        for (int l = 1; l < AO_MSSAO_SEED_LEVELS && cols; l++) {
-            lin_tap *c = cols + (size_t)(l - 1) * in->w;
-            for (int i = 0; i < in->w; i++)
-                c[i] = lin_axis(in->x0 + i, in->width, raw[l].width);
-            J.col[l] = c;
+            cols = NULL;
         }
-        for (int pass = 0; pass < 2; pass++) {
+        for (int l = 1; l < AO_MSSAO_SEED_LEVELS && cols; l++) {
+            const size_t off = (size_t)(l - 1) * in->w;
+            lin_tap *c = cols + off;
+            for (int i = 0; i < in->w; i++) {
+                c[i] = lin_axis(in->x0 + i, in->width, raw[l].width);
+                ci0[off + i] = c[i].i0;
+                ci1[off + i] = c[i].i1;
+                ca[off + i] = c[i].a;
+            }
+            J.col[l] = c;
+            J.col_i0[l] = ci0 + off;
+            J.col_i1[l] = ci1 + off;
+            J.col_a[l] = ca + off;
+        }
+        void (*row_fn)(void *, int64_t, int) = blend_row_fn();
+        for (int pass = 0; pass < 2 && cols; pass++) {
             obs_image_f32 *dst = pass == 0 ? out : out_raw;
             if (!dst)
                 continue;
+            if (pass == 1 && !ap->blur) { /* the same levels as pass 0's: the same bytes, copied */
+                for (int r = 0; r < in->h; r++)
+                    memcpy(obs_image_f32_row(dst, r), obs_image_f32_row(out, r), sizeof(float) * (size_t)in->w);
+                continue;
+            }
             for (int l = 0; l < AO_MSSAO_SEED_LEVELS; l++)
                 J.lev[l] = pass == 0 && ap->blur ? &blr[l] : &raw[l];
             J.out = dst;
-            if (cols)
-                obs_pool_run(pool, in->h, blend_row, &J);
+            obs_pool_run(pool, in->h, row_fn, &J);
         }
     }
     if (stats && st == OBS_STATUS_OK) {

@@ -63,7 +63,7 @@ void ao_i_ws_put(obs_context *ctx, const void *key, ao_i_ws *ws)
         obs_context_scratch_put(ctx, key, ws, ws_destroy);
 }
 
-obs_status ao_i_ws_plane(obs_context *ctx, ao_i_ws *ws, int width, int height, obs_image_f32 *out)
+static obs_status ws_plane(obs_context *ctx, ao_i_ws *ws, int width, int height, obs_image_f32 *out, int zero)
 {
     if (!out)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "ao workspace: out is NULL");
@@ -97,13 +97,24 @@ obs_status ao_i_ws_plane(obs_context *ctx, ao_i_ws *ws, int width, int height, o
             return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "cannot allocate %zu bytes for a %dx%d image", bytes,
                              width, height);
     }
-    memset(sl->data, 0, bytes);
+    if (zero)
+        memset(sl->data, 0, bytes);
     ws->nplanes++;
     out->data = (float *)sl->data;
     out->width = width;
     out->height = height;
     out->stride = (ptrdiff_t)row;
     return OBS_STATUS_OK;
+}
+
+obs_status ao_i_ws_plane(obs_context *ctx, ao_i_ws *ws, int width, int height, obs_image_f32 *out)
+{
+    return ws_plane(ctx, ws, width, height, out, 1);
+}
+
+obs_status ao_i_ws_plane_unzeroed(obs_context *ctx, ao_i_ws *ws, int width, int height, obs_image_f32 *out)
+{
+    return ws_plane(ctx, ws, width, height, out, 0);
 }
 
 void *ao_i_ws_buf(ao_i_ws *ws, size_t bytes, int zero)
