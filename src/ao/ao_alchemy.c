@@ -375,14 +375,8 @@ static void alchemy_tile_scalar(void *user, int64_t task, int thread)
  * versions, so that each lane runs the same operations in the same order. */
 #define AL_COS_SIN_SERIES(W, T, x, kd, csd, snd)                                                           \
     do {                                                                                                 \
-        const T P1 = W##_set1_pd(0x1.921fbp+0), P2 = W##_set1_pd(0x1.5110bp-22),                         \
-                P3 = W##_set1_pd(0x1.18469800p-44), P4 = W##_set1_pd(0x1.3198a2e037073p-69);             \
-        const T TWO_OVER_PI = W##_set1_pd(0x1.45f306dc9c883p-1), ROUNDER = W##_set1_pd(0x1.8p52);        \
-        kd = W##_sub_pd(W##_add_pd(W##_mul_pd(x, TWO_OVER_PI), ROUNDER), ROUNDER);                       \
-        T r_ = W##_sub_pd(x, W##_mul_pd(kd, P1));                                                        \
-        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P2));                                                         \
-        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P3));                                                         \
-        r_ = W##_sub_pd(r_, W##_mul_pd(kd, P4));                                                         \
+        T r_;                                                                                            \
+        AO_I_REDUCE_PIO2_PD(W, T, x, kd, r_);                                                            \
         const T z_ = W##_mul_pd(r_, r_);                                                                 \
         /* sn = r + r * z * (-1/6 + z * (1/120 + ... z * (-1/19!))), each cst + a * b two roundings */   \
         T ps_ = W##_set1_pd(-1.0 / 121645100408832000.0);                                                \

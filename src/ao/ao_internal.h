@@ -71,4 +71,19 @@ extern const struct ao_method ao_i_method_gtao;       /* ao_gtao.c */
 extern const struct ao_method ao_i_method_mssao;      /* ao_mssao.c */
 extern const struct ao_method ao_i_method_mssao_seed; /* ao_mssao_seed.c */
 
+/* The Cody-Waite reduction of ao_i_cos_sin on a register of doubles (W: _mm256 or _mm512, T its
+ * type), shared by the SAO and Alchemy vector cos/sin: kd = nearest integer to x * 2/pi (by the
+ * 1.5 * 2^52 rounder), r = x - kd (P1 + P2 + P3 + P4), each step rounded (fdlibm's split of pi/2). */
+#define AO_I_REDUCE_PIO2_PD(W, T, x, kd, r)                                                              \
+    do {                                                                                                 \
+        const T P1_ = W##_set1_pd(0x1.921fbp+0), P2_ = W##_set1_pd(0x1.5110bp-22),                       \
+                P3_ = W##_set1_pd(0x1.18469800p-44), P4_ = W##_set1_pd(0x1.3198a2e037073p-69);           \
+        const T ROUNDER_ = W##_set1_pd(0x1.8p52);                                                        \
+        kd = W##_sub_pd(W##_add_pd(W##_mul_pd(x, W##_set1_pd(0x1.45f306dc9c883p-1)), ROUNDER_), ROUNDER_); \
+        r = W##_sub_pd(x, W##_mul_pd(kd, P1_));                                                          \
+        r = W##_sub_pd(r, W##_mul_pd(kd, P2_));                                                          \
+        r = W##_sub_pd(r, W##_mul_pd(kd, P3_));                                                          \
+        r = W##_sub_pd(r, W##_mul_pd(kd, P4_));                                                          \
+    } while (0)
+
 #endif
