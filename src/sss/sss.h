@@ -291,6 +291,33 @@ obs_status sss_combine(obs_context *ctx, obs_pool *pool, const obs_scene *scene,
                        const rast_gbuffer *camera_gb, const obs_camera *camera, const sss_params *p,
                        obs_image_f32 out[3], obs_image_f32 *visible_count);
 
+/* ------------------------------------------------------------------------------------------------
+ * 4. A scene's translucent materials (sss_scene.c)
+ * ---------------------------------------------------------------------------------------------- */
+
+/* The materials of a scene, resolved. With `override` != NULL every mesh (with or without a
+ * material) is translucent with it (the CLI's --material). Otherwise a material slot is
+ * translucent when its glTF extras carry "obscura_sss" (sss_material_from_extras); other slots,
+ * and meshes without a material, are opaque. Owns its arrays; `mats` points into them (and into
+ * the struct itself: do not copy or move a made setup). */
+typedef struct sss_scene_setup {
+    sss_scene_materials mats;
+    sss_constants *constants;      /* material_count entries (opaque slots zeroed) */
+    uint8_t *translucent;          /* material_count entries */
+    sss_constants none_constants;  /* the override, for meshes without a material */
+    uint32_t translucent_slots;    /* how many slots are translucent */
+    int uses_override;
+} sss_scene_setup;
+/* Returns OK; INVALID_ARGUMENT (mm_per_unit, a bad override); PARSE_ERROR or INVALID_ARGUMENT from
+ * a material's extras (the message names the scene file and the material); OUT_OF_MEMORY. */
+obs_status sss_scene_setup_make(obs_context *ctx, const obs_scene *scene, const sss_material *override,
+                                double mm_per_unit, sss_scene_setup *out);
+void sss_scene_setup_free(sss_scene_setup *s);   /* NULL-safe */
+/* Whether any instance of the scene draws a mesh that is translucent under s. */
+int sss_scene_setup_any_translucent(const sss_scene_setup *s, const obs_scene *scene);
+/* The default scene scale: glTF units are metres (glTF 2.0 section 3.4), so 1000 mm per unit. */
+#define SSS_DEFAULT_MM_PER_UNIT 1000.0
+
 #ifdef __cplusplus
 }
 #endif
