@@ -571,11 +571,16 @@ static int fill_hard_cases(fbatch *f, const sss_constants *c)
     fset(f, k++, (double[3]){0, 1e-9, 0}, up, tilt);
     fset(f, k++, (double[3]){0, 0, 1e-9}, up, up);
     fset(f, k++, (double[3]){0, 0, -1e-9}, up, tilt);
-    /* x_o - x_i parallel to n_i: thin slab lit from behind (x_o = x_i - t n_i, n_o = -n_i): here
-     * x_i above x_o with n_i = -n_o = (0,0,-1) */
+    /* x_o - x_i parallel to n_i: thin slab [-t, 0] lit from behind (x_o = x_i - t n_i, n_o = -n_i):
+     * x_i = (0,0,-t) on the bottom face, n_i = (0,0,-1), light from below (cases 8..10) */
+    fset(f, k++, (double[3]){0, 0, -1.0}, dn, dn);
+    fset(f, k++, (double[3]){0, 0, -1e-6}, dn, dn);
+    fset(f, k++, (double[3]){0, 0, -3.0}, dn, (double[3]){0.6, 0, -0.8});
+    /* x_o straight above x_i along n_i = -n_o (x_o outside x_i's surface: a fold) */
     fset(f, k++, (double[3]){0, 0, 1.0}, dn, dn);
     fset(f, k++, (double[3]){0, 0, 1e-6}, dn, dn);
-    fset(f, k++, (double[3]){0, 0, 3.0}, dn, (double[3]){0.6, 0, -0.8});
+    /* eta < 1: a TIR direction when eta = 0.7 (cos 0.3: sin 0.95 > 0.7) */
+    fset(f, k++, (double[3]){-0.5, 0, 0}, up, (double[3]){0.953939, 0, 0.3});
     /* x_o on the virtual source of channel 0: x_o = x_i + 2 A d_e n_i (n_i = n_o) */
     fset(f, k++, (double[3]){0, 0, -c->ch[0].two_a_de}, up, up);
     fset(f, k++, (double[3]){0, 0, -c->ch[1].two_a_de}, up, tilt);
@@ -649,6 +654,19 @@ TEST(sss_hard_cases_are_finite_and_non_negative)
                         }
                 }
             }
+        }
+        /* the back-lit slab transmits: S_d > 0 through 1 mm of potato (case 8) */
+        if (mi == 0) {
+            CHECK(ref_at(&c, SSS_MODEL_DIRECTIONAL, 0, &f, 8, 1) > 0.0);
+            CHECK(ref_at(&c, SSS_MODEL_STANDARD, 0, &f, 8, 1) > 0.0);
+        }
+        /* eta = 0.7: the TIR direction's T12 is 0, so the product is exactly 0 */
+        if (mi == 3) {
+            sss_gpu_constants g;
+            sss_gpu_constants_make(&c, SSS_MODEL_DIRECTIONAL, &g);
+            sss_batch b = fbatch_view(&f, f.out);
+            CHECK_OK(sss_eval_batch(NULL, &g, f.xo, f.no, &b, 1, SSS_ISA_SCALAR), NULL);
+            CHECK(f.out[0][13] == 0.0f && ref_at(&c, SSS_MODEL_DIRECTIONAL, 0, &f, 13, 1) == 0.0);
         }
         /* alpha' = 0 (the G channel of "alpha0") gives exactly 0 */
         if (mi == 4) {
