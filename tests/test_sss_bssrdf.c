@@ -894,6 +894,18 @@ TEST(sss_bad_materials_are_refused)
         CHECK_EQ_INT(sss_constants_make(ctx, &m, 1.0, &c), OBS_STATUS_INVALID_ARGUMENT);
     }
     sss_constants c;
+    /* eta valid for sss_material_validate but outside the fits' range ([0.352, 2.843]:
+     * C_phi(eta), C_phi(1/eta) > 0 and 0 < C_E < 1) is refused by the constants step */
+    for (int i = 0; i < 2; i++) {
+        sss_material m = good;
+        m.eta = i ? 3.0 : 0.3;
+        CHECK_OK(sss_material_validate(ctx, &m, NULL), ctx);
+        obs_context_clear_error(ctx);
+        CHECK_EQ_INT(sss_constants_make(ctx, &m, 1.0, &c), OBS_STATUS_INVALID_ARGUMENT);
+        CHECK(strstr(obs_context_last_error(ctx), "eta"));
+        m.eta = i ? 2.8 : 0.36;
+        CHECK_OK(sss_constants_make(ctx, &m, 1.0, &c), ctx);
+    }
     CHECK_EQ_INT(sss_constants_make(ctx, &good, 0.0, &c), OBS_STATUS_INVALID_ARGUMENT);
     CHECK_EQ_INT(sss_constants_make(ctx, &good, NAN, &c), OBS_STATUS_INVALID_ARGUMENT);
     CHECK_EQ_INT(sss_constants_make(ctx, &good, -1.0, &c), OBS_STATUS_INVALID_ARGUMENT);
