@@ -119,6 +119,34 @@ TEST(sss_dirpole_matches_reference_values)
             CHECK_MSG(matches_printed(v, rows[i].v[j], 5), "ch %d r %g theta %g sign %g: %.6e vs %.4e", rows[i].ch,
                       rows[i].r, theta[j], sign[j], v, rows[i].v[j]);
         }
+    /* the float batch (both paths) on the same configurations: within 1e-4 relative of the table
+     * (x_o = 0, x_i = -(x_o - x_i) of the table) */
+    sss_gpu_constants g;
+    sss_gpu_constants_make(&c, SSS_MODEL_DIRECTIONAL, &g);
+    for (size_t i = 0; i < sizeof rows / sizeof rows[0]; i++) {
+        float fx[3][5], fn[3][5], fw[3][5], fo[3][5];
+        for (int j = 0; j < 5; j++) {
+            const double t = theta[j] * M_PI / 180.0;
+            fx[0][j] = (float)(-sign[j] * rows[i].r);
+            fx[1][j] = fx[2][j] = 0.0f;
+            fn[0][j] = fn[1][j] = 0.0f;
+            fn[2][j] = 1.0f;
+            fw[0][j] = (float)sin(t);
+            fw[1][j] = 0.0f;
+            fw[2][j] = (float)cos(t);
+        }
+        const float xo[3] = {0, 0, 0}, no[3] = {0, 0, 1};
+        sss_batch b = {5, {fx[0], fx[1], fx[2]}, {fn[0], fn[1], fn[2]}, {fw[0], fw[1], fw[2]}, {fo[0], fo[1], fo[2]}};
+        for (int isa = SSS_ISA_SCALAR; isa < SSS_ISA_COUNT; isa++) {
+            if (!sss_isa_available((sss_isa)isa))
+                continue;
+            CHECK_OK(sss_eval_batch(NULL, &g, xo, no, &b, 0, (sss_isa)isa), NULL);
+            for (int j = 0; j < 5; j++)
+                CHECK_MSG(fabs(fo[rows[i].ch][j] - rows[i].v[j]) <= 1e-4 * rows[i].v[j],
+                          "float isa %d ch %d r %g theta %g: %.6e vs %.4e", isa, rows[i].ch, rows[i].r, theta[j],
+                          (double)fo[rows[i].ch][j], rows[i].v[j]);
+        }
+    }
 }
 
 /* sss.md 1.1 (constants row), 1.2 (derived constants) and 2 (F_dr, A) */
@@ -318,6 +346,53 @@ TEST(sss_dirpole_plane_energy_matches_computed_figures)
                   rows[i].dir);
         CHECK_MSG(fabs(S - rows[i].std) <= 0.01 * rows[i].std, "%s: standard %.4f vs %.3f", rows[i].what, S,
                   rows[i].std);
+    }
+}
+
+/* S'_d of sss.md 1.2, written out for the test below */
+static double sp_ref(const sss_constants *c, int ch, double r, double x_w, double x_no, double w_no)
+{
+    const sss_channel *h = &c->ch[ch];
+    const double s = h->sigma_tr * r, D = h->D;
+    const double inner = (1.0 + s) + 3.0 * D * (3.0 * (1.0 + s) + s * s) / (r * r) * x_w;
+    return exp(-s) / (r * r * r) *
+           (c->c_phi * (r * r / D + 3.0 * (1.0 + s) * x_w) - c->c_e * (3.0 * D * (1.0 + s) * w_no - inner * x_no));
+}
+
+/* x_o = x_i, light at normal incidence, n_o tilted so that mu0 = n_o.z sweeps towards 0+:
+ * the front-lit d_r = D mu0 -> 0 would make S_d grow as 1/mu0^2 without bound; the floor
+ * d_r >= 0.01 D (SSS_I_DIST_FLOOR_D, docs/sss/model.md "Deviations" 1) acts only below
+ * mu0 = 0.01. Checked against sss.md 1.2's formula written out here (n_o tilted: a geometry the
+ * reference table does not cover), double and float. */
+TEST(sss_distance_floor_acts_only_near_tangent_refraction)
+{
+    const sss_constants c = consts_of(sss_preset(preset_index("Potato")), 1.0);
+    sss_gpu_constants g;
+    sss_gpu_constants_make(&c, SSS_MODEL_DIRECTIONAL, &g);
+    const double z[3] = {0, 0, 0}, n[3] = {0, 0, 1};
+    const double mus[] = {0.9, 0.5, 0.05, 0.0101, 0.0099, 1e-3, 1e-6, 1e-12};
+    for (size_t i = 0; i < sizeof mus / sizeof mus[0]; i++) {
+        const double mu0 = mus[i];
+        const double no[3] = {sqrt(1.0 - mu0 * mu0), 0.0, mu0};
+        for (int ch = 0; ch < 3; ch++) {
+            const sss_channel *h = &c.ch[ch];
+            const double dr = fmax(h->D * mu0, SSS_I_DIST_FLOOR_D * h->D);
+            const double dv = h->two_a_de;
+            /* real: x = 0; w12 = -n: w.n_o = -mu0. virtual: x_v = -2A d_e n, w_v = +n */
+            const double real = sp_ref(&c, ch, dr, 0.0, 0.0, -mu0);
+            const double virt = sp_ref(&c, ch, dv, -dv, -dv * mu0, mu0);
+            double ref = c.norm_dir * SSS_I_INV_4PI2 * (real - virt);
+            ref = ref > 0.0 ? ref : 0.0;
+            const double v = sss_sd(&c, SSS_MODEL_DIRECTIONAL, ch, z, n, n, z, no);
+            CHECK_MSG(fabs(v - ref) <= 1e-12 * ref, "mu0 %g ch %d: %.12g vs %.12g", mu0, ch, v, ref);
+            /* float, scalar path: finite, within 1e-3 where mu0 is representable as a tilt */
+            float fz[1] = {0}, fn1[1] = {1}, fo[3];
+            const float fxo[3] = {0, 0, 0}, fno[3] = {(float)no[0], 0.0f, (float)no[2]};
+            sss_batch b = {1, {fz, fz, fz}, {fz, fz, fn1}, {fz, fz, fn1}, {&fo[0], &fo[1], &fo[2]}};
+            CHECK_OK(sss_eval_batch(NULL, &g, fxo, fno, &b, 0, SSS_ISA_SCALAR), NULL);
+            CHECK(isfinite(fo[ch]) && fo[ch] >= 0.0f);
+            CHECK_MSG(fabs(fo[ch] - v) <= 1e-3 * v, "float mu0 %g ch %d: %.9g vs %.9g", mu0, ch, (double)fo[ch], v);
+        }
     }
 }
 
@@ -539,6 +614,16 @@ static void fset(fbatch *f, int k, const double xi[3], const double ni[3], const
         f->ni[t][k] = (float)ni[t];
         f->wi[t][k] = (float)wi[t];
     }
+}
+
+/* sample k's inputs, for failure messages */
+static const char *describe(const fbatch *f, int k)
+{
+    static char buf[512];
+    snprintf(buf, sizeof buf, "k %d xi (%.9g %.9g %.9g) ni (%.9g %.9g %.9g) wi (%.9g %.9g %.9g) xo (%.9g %.9g %.9g) "
+             "no (%.9g %.9g %.9g)", k, f->xi[0][k], f->xi[1][k], f->xi[2][k], f->ni[0][k], f->ni[1][k], f->ni[2][k],
+             f->wi[0][k], f->wi[1][k], f->wi[2][k], f->xo[0], f->xo[1], f->xo[2], f->no[0], f->no[1], f->no[2]);
+    return buf;
 }
 
 /* the double reference at the float inputs */
@@ -788,22 +873,23 @@ TEST(sss_batch_float_agrees_with_double_reference)
                         const double ad = fabs(v - d);
                         if (d <= 1e-4 * peak[ch] && ad / peak[ch] > worst_abs)
                             worst_abs = ad / peak[ch];
-                        CHECK_MSG(ad <= 1e-6 * peak[ch] + FLOAT_VS_DOUBLE_REL * d, "%s model %d k %d ch %d: %.9g vs %.9g (peak %.3g) xi %.9g %.9g %.9g ni %.9g %.9g %.9g wi %.9g %.9g %.9g xo %.9g %.9g %.9g no %.9g %.9g %.9g", m.name,
-                                  model, k, ch, v, d, peak[ch], f.xi[0][k], f.xi[1][k], f.xi[2][k], f.ni[0][k], f.ni[1][k], f.ni[2][k], f.wi[0][k], f.wi[1][k], f.wi[2][k], f.xo[0], f.xo[1], f.xo[2], f.no[0], f.no[1], f.no[2]);
+                        CHECK_MSG(ad <= 1e-6 * peak[ch] + FLOAT_VS_DOUBLE_REL * d,
+                                  "%s model %d ch %d: %.9g vs %.9g (peak %.3g) at %s", m.name, model, ch, v, d,
+                                  peak[ch], describe(&f, k));
                         if (d > 1e-4 * peak[ch]) {
                             const double rel = ad / d;
                             if (rel > worst_rel)
                                 worst_rel = rel;
-                            CHECK_MSG(rel <= FLOAT_VS_DOUBLE_REL,
-                                      "%s model %d k %d ch %d: %.9g vs %.9g (rel %.3g) xi %.9g %.9g %.9g ni %.9g %.9g %.9g wi %.9g %.9g %.9g xo %.9g %.9g %.9g no %.9g %.9g %.9g",
-                                      m.name, model, k, ch, v, d, rel, f.xi[0][k], f.xi[1][k], f.xi[2][k], f.ni[0][k], f.ni[1][k], f.ni[2][k], f.wi[0][k], f.wi[1][k], f.wi[2][k], f.xo[0], f.xo[1], f.xo[2], f.no[0], f.no[1], f.no[2]);
+                            CHECK_MSG(rel <= FLOAT_VS_DOUBLE_REL, "%s model %d ch %d: %.9g vs %.9g (rel %.3g) at %s",
+                                      m.name, model, ch, v, d, rel, describe(&f, k));
                         }
                     }
             }
         }
     }
-    printf("float vs double: max relative error %.3g (values > 1e-4 peak), max error / peak %.3g (values <= 1e-4 peak)\n", worst_rel,
-           worst_abs);
+    printf("float vs double: max relative error %.3g (values > 1e-4 peak), max error / peak %.3g "
+           "(values <= 1e-4 peak)\n",
+           worst_rel, worst_abs);
     fbatch_free(&f);
 }
 
@@ -821,7 +907,8 @@ TEST(sss_presets_are_jensen_table)
         CHECK(sss_preset(i)->g == 0.0);
     }
     /* the corrected entries (sss.md 2 "known corrupted copies") */
-    CHECK(sss_preset(1)->sigma_a[0] == 0.015 && sss_preset(2)->sigma_a[0] == 0.018 && sss_preset(0)->sigma_a[2] == 0.046);
+    CHECK(sss_preset(1)->sigma_a[0] == 0.015 && sss_preset(2)->sigma_a[0] == 0.018 &&
+          sss_preset(0)->sigma_a[2] == 0.046);
     obs_context *ctx = obs_context_create();
     sss_material m;
     CHECK_OK(sss_material_find(ctx, "cream", &m), ctx);

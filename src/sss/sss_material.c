@@ -185,8 +185,8 @@ static obs_status parse_sss_object(obs_context *ctx, const cJSON *o, const char 
         if (!found) {
             char list[512];
             preset_list(list, sizeof list);
-            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "%s: obscura_sss.preset: no preset named \"%s\" (presets: %s)",
-                             w, p->valuestring, list);
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                             "%s: obscura_sss.preset: no preset named \"%s\" (presets: %s)", w, p->valuestring, list);
         }
     } else {
         if (has_ssp == has_ss)
