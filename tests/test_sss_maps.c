@@ -421,15 +421,19 @@ TEST(sss_russian_roulette_gather_converges_to_the_disk_integral)
 
     /* the thesis text's N-of-M estimator on the same texel: its bias, measured (docs/sss/maps.md) */
     p.sampler = SSS_SAMPLER_NEAREST_N_OF_M;
-    p.N = 48;
     p.M = 1000;
     p.frames = 64;
-    double est2[4], xo2[3];
-    CHECK(plane_estimates(ctx, pool, &s, &tm.m, &lm, p, 4, 0, est2, xo2));
-    double m2 = 0.25 * (est2[0] + est2[1] + est2[2] + est2[3]);
-    fprintf(stderr, "N-of-M (N=48, M=1000, 64 frames): %.6g, ratio to the reference %.4f\n", m2, m2 / ref);
-    CHECK(m2 > 0.0 && isfinite(m2));
-    CHECK(fabs(m2 / ref - 1.0) > 0.05); /* biased: documented, not a defect of the port */
+    const int Ns[3] = {48, 200, 1000};
+    for (int i = 0; i < 3; i++) {
+        p.N = Ns[i];
+        double est2[4], xo2[3];
+        CHECK(plane_estimates(ctx, pool, &s, &tm.m, &lm, p, 4, 0, est2, xo2));
+        double m2 = 0.25 * (est2[0] + est2[1] + est2[2] + est2[3]);
+        fprintf(stderr, "N-of-M (N=%d, M=1000, 64 frames): %.6g, ratio to the reference %.4f\n", p.N, m2, m2 / ref);
+        CHECK(m2 > 0.0 && isfinite(m2));
+        if (i == 0)
+            CHECK(fabs(m2 / ref - 1.0) > 0.05); /* biased: documented, not a defect of the port */
+    }
 
     sss_light_map_free(&lm);
     obs_scene_free(&s);
