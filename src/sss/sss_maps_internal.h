@@ -8,7 +8,7 @@
 #include <math.h>
 
 /* ---- The per-texel random stream (docs/sss/maps.md, "Randomness": the exact recipe) ---------
- * Seeded with TEA [Wheeler & Needham 1994], 16 rounds, the key constants of Dal Corso's
+ * Seeded with TEA [Wheeler94], 16 rounds, the key constants of Dal Corso's
  * ss_aincludes_random.glinc (the OptiX SDK's tea<16>), then advanced by the LCG
  * state = 1664525 state + 1013904223 (mod 2^32) (Numerical Recipes' constants, as the same
  * file's lcg()). A float is the TOP 24 bits of the new state times 2^-24 (the shader masks the
