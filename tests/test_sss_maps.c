@@ -441,6 +441,71 @@ TEST(sss_russian_roulette_gather_converges_to_the_disk_integral)
     obs_context_destroy(ctx);
 }
 
+TEST(sss_combination_on_a_plane_is_t21_times_the_disk_integral)
+{
+    /* Inside a plane's interior the disk integral does not depend on x_o, so every map that sees
+     * a pixel estimates the same value; the combination must return T21 times it (and its gamma
+     * power). Maps from below see the back of the plane and are not counted. */
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    obs_scene s;
+    plane_scene(&s, 40.0f, 4);
+    tmats tm;
+    CHECK(tmats_make(ctx, &tm, 0.1, 1));
+    obs_light L = dir_light(0, 0, -1, 2.0f);
+    sss_params p = sss_params_default();
+    p.K = 8;
+    p.map_size = 32;
+    p.light_map_size = 512;
+    p.N = 512;
+    p.frames = 4;
+    p.disk_radius = 15.0;
+    sss_light_map lm;
+    CHECK_OK(sss_light_map_render(ctx, pool, &s, &L, &p, &lm), ctx);
+    sss_maps m;
+    CHECK_OK(sss_maps_build(ctx, pool, &s, &tm.m, &lm, 1, &p, &m), ctx);
+    obs_camera cam = obs_camera_look_at(obs_v3(0, 0, 50), obs_v3(0, 0, 0), obs_v3(0, 1, 0), 1.0f, 0.0f, 100.0f);
+    cam.projection = OBS_PROJECTION_ORTHOGRAPHIC;
+    cam.xmag = cam.ymag = 10.0f;
+    cam.znear = 0.0f;
+    cam.zfar = 100.0f;
+    rast_gbuffer gb;
+    CHECK_OK(camera_gbuffer(ctx, pool, &s, &cam, 32, &gb), ctx);
+    double xo[3] = {0, 0, 0};
+    double ref = 2.0 * plane_reference(&tm.c, p.model, 0, xo, p.disk_radius);
+    double T21 = 1.0 - sss_fresnel_reflectance(1.0, tm.c.eta);
+    int up = 0;
+    for (int k = 0; k < p.K; k++)
+        up += m.dirs[3 * k + 2] > SSS_I_MIN_FACING;
+    for (int g = 0; g < 2; g++) {
+        p.gamma = g == 0 ? 1.0 : 2.0;
+        obs_image_f32 out[3], cnt;
+        CHECK_OK(sss_combine(ctx, pool, &s, &tm.m, &m, &lm, 1, &gb, &cam, &p, out, &cnt), ctx);
+        double sum = 0.0;
+        int n = 0;
+        for (int y = 8; y < 24; y++)
+            for (int x = 8; x < 24; x++) {
+                CHECK_EQ_INT((int)obs_image_f32_row(&cnt, y)[x], up);
+                double v = obs_image_f32_row(&out[0], y)[x];
+                sum += g == 0 ? v : v * v;
+                n++;
+            }
+        double mean = sum / n;
+        fprintf(stderr, "plane combination (gamma %g): mean %.6g vs T21 x reference %.6g (ratio %.4f), %d maps\n",
+                p.gamma, mean, T21 * ref, mean / (T21 * ref), up);
+        CHECK_NEAR(mean / (T21 * ref), 1.0, 0.02);
+        for (int c = 0; c < 3; c++)
+            obs_image_f32_free(&out[c]);
+        obs_image_f32_free(&cnt);
+    }
+    rast_gbuffer_free(&gb);
+    sss_maps_free(&m);
+    sss_light_map_free(&lm);
+    obs_scene_free(&s);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}
+
 /* ---- determinism, view independence, instances, opaque --------------------------------------- */
 
 typedef struct sphere_fixture {
