@@ -1,0 +1,291 @@
+/* sss_combine.c: pass 3 of the scattering-map pipeline [DalCorso17] / [DalCorso14]: for one camera
+ * G-buffer, the visibility-weighted mean of the K scattering maps, times T21, plus an optional
+ * specular term, then ^(1/gamma) (sss.md 3.6; ss_array_combination.frag). docs/sss/maps.md. */
+#include "sss_maps_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* One binary shadow tap of map layer gb at continuous pixel position (px, py): the texel
+ * containing (px, py), clamped to the edge (GL_CLAMP_TO_EDGE), is lit when the receiver's depth
+ * at that texel's centre, minus the bias, is <= the stored depth (GL_LEQUAL; empty texels hold
+ * +inf and pass, as a depth buffer cleared to far). The receiver's depth at the texel centre
+ * comes from its tangent plane (receiver-plane depth, [Isidoro06]), not the constant depth of
+ * x_o that a GL shadow sampler compares: a deviation (docs/sss/maps.md, "Visibility"): with a
+ * constant depth, taps 1.5 texels away fail on any surface tilted more than bias / 1.5 texels. */
+static double shadow_tap(const rast_gbuffer *gb, double px, double py, const sss_i_depth_plane *pl, double bias)
+{
+    int ix = (int)floor(px), iy = (int)floor(py);
+    if (ix < 0)
+        ix = 0;
+    if (iy < 0)
+        iy = 0;
+    if (ix >= gb->width)
+        ix = gb->width - 1;
+    if (iy >= gb->height)
+        iy = gb->height - 1;
+    double d = pl->d0 + pl->gx * (ix + 0.5 - pl->px0) + pl->gy * (iy + 0.5 - pl->py0);
+    return d - bias <= (double)obs_image_f32_row(&gb->depth, iy)[ix] ? 1.0 : 0.0;
+}
+
+double sss_i_visibility(const rast_gbuffer *gb, sss_visibility mode, double px, double py,
+                        const sss_i_depth_plane *pl, double bias)
+{
+    if (mode == SSS_VISIBILITY_PRODUCT5) {
+        /* [DalCorso14] ss_array_combination.frag (sss.md 3.6): the PRODUCT of 5 taps, the centre and
+         * a rotated grid at +-0.5 texel x (1, 3) (reconstruction of the offsets' signs:
+         * (0.5, 1.5), (-1.5, 0.5), (-0.5, -1.5), (1.5, -0.5)). Any shadowed tap gives 0. */
+        static const double off[5][2] = {{0, 0}, {0.5, 1.5}, {-1.5, 0.5}, {-0.5, -1.5}, {1.5, -0.5}};
+        double v = 1.0;
+        for (int t = 0; t < 5 && v > 0.0; t++)
+            v *= shadow_tap(gb, px + off[t][0], py + off[t][1], pl, bias);
+        return v;
+    }
+    /* 3x3 percentage-closer filtering: the mean of 9 binary taps one texel apart (the brief's
+     * variant; [UNVERIFIED] for the paper, sss.md 3.6) */
+    double v = 0.0;
+    for (int dy = -1; dy <= 1; dy++)
+        for (int dx = -1; dx <= 1; dx++)
+            v += shadow_tap(gb, px + dx, py + dy, pl, bias);
+    return v / 9.0;
+}
+
+/* Bilinear radiance lookup, GL_LINEAR with clamp to edge ([DalCorso14] samples the map array with
+ * linear filtering): texel centres at (i + 0.5, j + 0.5). */
+static void bilinear3(const obs_image_f32 *pl, double px, double py, double out[3])
+{
+    double u = px - 0.5, v = py - 0.5;
+    double fu = floor(u), fv = floor(v);
+    double a = u - fu, b = v - fv;
+    int x0 = (int)fu, y0 = (int)fv, W = pl[0].width, H = pl[0].height;
+    int xs[2] = {x0, x0 + 1}, ys[2] = {y0, y0 + 1};
+    for (int i = 0; i < 2; i++) {
+        xs[i] = xs[i] < 0 ? 0 : xs[i] >= W ? W - 1 : xs[i];
+        ys[i] = ys[i] < 0 ? 0 : ys[i] >= H ? H - 1 : ys[i];
+    }
+    for (int c = 0; c < 3; c++) {
+        const float *r0 = obs_image_f32_row(&pl[c], ys[0]), *r1 = obs_image_f32_row(&pl[c], ys[1]);
+        double top = (1.0 - a) * r0[xs[0]] + a * r0[xs[1]];
+        double bot = (1.0 - a) * r1[xs[0]] + a * r1[xs[1]];
+        out[c] = (1.0 - b) * top + b * bot;
+    }
+}
+
+typedef struct combine_job {
+    const sss_scene_materials *mats;
+    const sss_maps *maps;
+    const sss_light_map *lights;
+    int light_count;
+    const rast_gbuffer *gb;
+    const obs_camera *camera;
+    const sss_params *p;
+    obs_image_f32 *out;
+    obs_image_f32 *count;
+    obs_tiling tiling;
+    double eps_world;    /* shrink distance, world units */
+    double bias_world;   /* shadow bias, world units */
+} combine_job;
+
+static void combine_task(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    combine_job *j = (combine_job *)user;
+    const rast_gbuffer *gb = j->gb;
+    const sss_maps *m = j->maps;
+    const sss_params *p = j->p;
+    int x0, y0, x1, y1;
+    obs_tiling_rect(&j->tiling, task, &x0, &y0, &x1, &y1);
+    for (int y = y0; y < y1; y++) {
+        for (int x = x0; x < x1; x++) {
+            float *o[3];
+            for (int c = 0; c < 3; c++) {
+                o[c] = obs_image_f32_row(&j->out[c], y) + x;
+                o[c][0] = 0.0f;
+            }
+            if (j->count)
+                obs_image_f32_row(j->count, y)[x] = 0.0f;
+            float depth = obs_image_f32_row(&gb->depth, y)[x];
+            if (!(depth < INFINITY))
+                continue;
+            const sss_constants *mc = sss_i_material(j->mats, obs_image_u32_row(&gb->material_id, y)[x]);
+            if (!mc)
+                continue;
+            /* x_o from the camera's exact pixel ray and linear depth (perspective dir has view z = -1,
+             * orthographic dir is unit: x_o = origin + depth dir in both) */
+            obs_dvec3 org, dir;
+            rast_pixel_ray(&gb->constants, j->camera, x + 0.5, y + 0.5, &org, &dir);
+            double xo[3] = {org.x + depth * dir.x, org.y + depth * dir.y, org.z + depth * dir.z};
+            double no[3];
+            float nv[3] = {obs_image_f32_row(&gb->normal[0], y)[x], obs_image_f32_row(&gb->normal[1], y)[x],
+                           obs_image_f32_row(&gb->normal[2], y)[x]};
+            sss_i_normal_world(&gb->constants, nv, no);
+            double dl = sqrt(dir.x * dir.x + dir.y * dir.y + dir.z * dir.z);
+            double wo[3] = {-dir.x / dl, -dir.y / dl, -dir.z / dl}; /* towards the camera */
+            double sumv = 0.0, acc[3] = {0, 0, 0};
+            int seen = 0;
+            for (int k = 0; k < m->K; k++) {
+                const double *wd = m->dirs + 3 * k;
+                double nd = no[0] * wd[0] + no[1] * wd[1] + no[2] * wd[2];
+                /* shrink along the tangent plane of direction k: x_o - eps_c (n_o - w_d (n_o.w_d))
+                 * ([DalCorso14] ss_array_combination.frag, sss.md 3.6) */
+                double xs[3];
+                for (int a = 0; a < 3; a++)
+                    xs[a] = xo[a] - j->eps_world * (no[a] - wd[a] * nd);
+                double px, py, d, ppu;
+                const rast_gbuffer *mk = &m->views[k];
+                if (!sss_i_project(&mk->constants, xs, &px, &py, &d, &ppu))
+                    continue;
+                if (px < 0.0 || py < 0.0 || px >= mk->width || py >= mk->height)
+                    continue;
+                /* the receiver plane through the UNshrunk x_o (the maps are orthographic):
+                 * depth(px, py) = d0 + gx (px - px0) + gy (py - py0) from n_o in view space;
+                 * a point that faces away from direction k (or grazes it) is not seen by map k */
+                sss_i_depth_plane pl;
+                const float *vm = mk->constants.view.m;
+                double nvz = (double)vm[2] * no[0] + (double)vm[6] * no[1] + (double)vm[10] * no[2];
+                if (!(nvz > SSS_I_MIN_FACING))
+                    continue;
+                double nvx = (double)vm[0] * no[0] + (double)vm[4] * no[1] + (double)vm[8] * no[2];
+                double nvy = (double)vm[1] * no[0] + (double)vm[5] * no[1] + (double)vm[9] * no[2];
+                if (!sss_i_project(&mk->constants, xo, &pl.px0, &pl.py0, &pl.d0, &ppu))
+                    continue;
+                /* view z - z0 = -(nx dx + ny dy) / nz, dx = dpx / fx, dy = -dpy / fy, depth = -z */
+                pl.gx = nvx / (nvz * mk->constants.fx);
+                pl.gy = -nvy / (nvz * mk->constants.fy);
+                double v = sss_i_visibility(mk, p->visibility, px, py, &pl, j->bias_world);
+                if (!(v > 0.0))
+                    continue;
+                double r[3];
+                bilinear3(&m->radiance[3 * k], px, py, r);
+                for (int c = 0; c < 3; c++)
+                    acc[c] += v * r[c];
+                sumv += v;
+                seen++;
+            }
+            if (j->count)
+                obs_image_f32_row(j->count, y)[x] = (float)seen;
+            double L[3] = {0, 0, 0};
+            double cos_o = no[0] * wo[0] + no[1] * wo[1] + no[2] * wo[2];
+            double T21 = 1.0 - sss_fresnel_reflectance(fmin(1.0, fmax(0.0, cos_o)), mc->eta);
+            T21 = fmin(1.0, fmax(0.0, T21)); /* clamped to [0, 1] as fresnel_T in the shader */
+            if (sumv > 0.0)
+                for (int c = 0; c < 3; c++)
+                    L[c] = T21 * acc[c] / sumv; /* L = T21 sum_k V_k R_k / sum_k V_k (sss.md 3.6) */
+            if (p->specular) {
+                /* Blinn-Phong from each light, weight (1 - T21) (the thesis adds (1 - T) L_env(reflected)
+                 * from an environment map; a punctual-light lobe is our substitute: a deviation),
+                 * shadowed by a one-tap test against the light map */
+                for (int l = 0; l < j->light_count; l++) {
+                    const sss_light_map *lm = &j->lights[l];
+                    const obs_light *Lt = &lm->light;
+                    double wl[3], E = 1.0;
+                    if (Lt->type == OBS_LIGHT_POINT) {
+                        double d2 = 0.0;
+                        wl[0] = Lt->position.x - xo[0];
+                        wl[1] = Lt->position.y - xo[1];
+                        wl[2] = Lt->position.z - xo[2];
+                        d2 = wl[0] * wl[0] + wl[1] * wl[1] + wl[2] * wl[2];
+                        E = 1.0 / d2;
+                        double il = 1.0 / sqrt(d2);
+                        for (int a = 0; a < 3; a++)
+                            wl[a] *= il;
+                    } else {
+                        double il = 1.0 / sqrt((double)Lt->direction.x * Lt->direction.x +
+                                               (double)Lt->direction.y * Lt->direction.y +
+                                               (double)Lt->direction.z * Lt->direction.z);
+                        wl[0] = -Lt->direction.x * il;
+                        wl[1] = -Lt->direction.y * il;
+                        wl[2] = -Lt->direction.z * il;
+                    }
+                    double ndl = no[0] * wl[0] + no[1] * wl[1] + no[2] * wl[2];
+                    if (!(ndl > 0.0))
+                        continue;
+                    double lpx, lpy, ld, lppu;
+                    if (!sss_i_project(&lm->gb.constants, xo, &lpx, &lpy, &ld, &lppu))
+                        continue;
+                    /* one tap, constant depth, bias = shadow_bias x depth range + a slope-scaled
+                     * term of one texel (tan of the light's incidence angle / texel) */
+                    double lbias = p->shadow_bias * (lm->gb.constants.zfar - lm->gb.constants.znear) +
+                                   sqrt(fmax(0.0, 1.0 - ndl * ndl)) / fmax(ndl, 0.05) / lppu;
+                    sss_i_depth_plane lpl = {lpx, lpy, ld, 0.0, 0.0};
+                    if (lpx < 0 || lpy < 0 || lpx >= lm->gb.width || lpy >= lm->gb.height ||
+                        !shadow_tap(&lm->gb, lpx, lpy, &lpl, lbias))
+                        continue;
+                    double h[3] = {wl[0] + wo[0], wl[1] + wo[1], wl[2] + wo[2]};
+                    double hl = sqrt(h[0] * h[0] + h[1] * h[1] + h[2] * h[2]);
+                    if (!(hl > 0.0))
+                        continue;
+                    double ndh = (no[0] * h[0] + no[1] * h[1] + no[2] * h[2]) / hl;
+                    if (!(ndh > 0.0))
+                        continue;
+                    double s = (1.0 - T21) * pow(ndh, p->specular_exponent) * ndl * E * Lt->intensity;
+                    L[0] += s * Lt->color.x;
+                    L[1] += s * Lt->color.y;
+                    L[2] += s * Lt->color.z;
+                }
+            }
+            for (int c = 0; c < 3; c++) {
+                double v = L[c];
+                if (p->gamma != 1.0 && v > 0.0)
+                    v = pow(v, 1.0 / p->gamma); /* L^(1/gamma) (sss.md 3.6) */
+                o[c][0] = (float)v;
+            }
+        }
+    }
+}
+
+obs_status sss_combine(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const sss_scene_materials *mats,
+                       const sss_maps *maps, const sss_light_map *lights, int light_count,
+                       const rast_gbuffer *camera_gb, const obs_camera *camera, const sss_params *p,
+                       obs_image_f32 out[3], obs_image_f32 *visible_count)
+{
+    (void)scene;
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_combine: NULL output");
+    for (int c = 0; c < 3; c++)
+        memset(&out[c], 0, sizeof out[c]);
+    if (visible_count)
+        memset(visible_count, 0, sizeof *visible_count);
+    if (!mats || !maps || !camera_gb || !camera || !p || light_count < 0 || (light_count > 0 && !lights))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_combine: NULL argument");
+    obs_status st = sss_params_validate(ctx, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (!maps->views || !maps->radiance || !maps->dirs || maps->K < 1)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_combine: the maps are not built");
+    if (!camera_gb->depth.data || !camera_gb->normal[0].data || !camera_gb->material_id.data)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "sss_combine: the camera G-buffer needs depth, normal and material_id planes");
+    const int W = camera_gb->width, H = camera_gb->height;
+    for (int c = 0; c < 3; c++)
+        if ((st = obs_image_f32_alloc(ctx, W, H, &out[c])) != OBS_STATUS_OK)
+            goto fail;
+    if (visible_count && (st = obs_image_f32_alloc(ctx, W, H, visible_count)) != OBS_STATUS_OK)
+        goto fail;
+    combine_job j;
+    memset(&j, 0, sizeof j);
+    j.mats = mats;
+    j.maps = maps;
+    j.lights = lights;
+    j.light_count = light_count;
+    j.gb = camera_gb;
+    j.camera = camera;
+    j.p = p;
+    j.out = out;
+    j.count = visible_count;
+    j.tiling = obs_tiling_make(W, H, 32);
+    /* eps_c is in map texture units: one unit spans the map's width 2 xmag (= size / fx) */
+    const rast_view_constants *vc0 = &maps->views[0].constants;
+    j.eps_world = p->shrink_eps * (double)maps->views[0].width / vc0->fx;
+    /* bias in units of the map's depth range (far - near) */
+    j.bias_world = p->shadow_bias * (vc0->zfar - vc0->znear);
+    obs_pool_run(pool, obs_tiling_count(&j.tiling), combine_task, &j);
+    return OBS_STATUS_OK;
+fail:
+    for (int c = 0; c < 3; c++)
+        obs_image_f32_free(&out[c]);
+    if (visible_count)
+        obs_image_f32_free(visible_count);
+    return st;
+}

@@ -1,0 +1,707 @@
+/* sss_maps.c: passes 1 and 2 of the scattering-map pipeline of [DalCorso17] as its precursor
+ * thesis [DalCorso14] does it (../shared/reference/sss.md section 3; docs/sss/maps.md):
+ *   pass 1  sss_light_map_render: the scene seen from a light (positions, normals, ids);
+ *   pass 2  sss_maps_build: K orthographic views from Halton directions; every texel on a
+ *           translucent surface gathers T12 S_d L from disk samples of every light map.
+ * Nothing here depends on a camera. Randomness is a function of (texel, layer, frame, seed) only
+ * (the recipe is in sss_maps_internal.h and docs/sss/maps.md), so the maps are the same bytes for
+ * any thread count. */
+#include "sss_maps_internal.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* ------------------------------------------------------------------------------------------------
+ * Geometry helpers
+ * ---------------------------------------------------------------------------------------------- */
+
+int sss_i_project(const rast_view_constants *vc, const double p[3], double *px, double *py, double *depth,
+                  double *px_per_unit)
+{
+    const float *m = vc->view.m;
+    double v[3];
+    for (int r = 0; r < 3; r++)
+        v[r] = (double)m[r] * p[0] + (double)m[4 + r] * p[1] + (double)m[8 + r] * p[2] + (double)m[12 + r];
+    double d = -v[2];
+    if (vc->projection_type == OBS_PROJECTION_PERSPECTIVE) {
+        if (!(d > 0.0))
+            return 0;
+        /* the inverse of rast_pixel_ray's dir_view = ((px - cx)/fx, -(py - cy)/fy, -1) */
+        *px = vc->cx + vc->fx * v[0] / d;
+        *py = vc->cy - vc->fy * v[1] / d;
+        *px_per_unit = vc->fx / d;
+    } else {
+        /* org_view = ((px - cx)/fx, -(py - cy)/fy, 0) */
+        *px = vc->cx + vc->fx * v[0];
+        *py = vc->cy - vc->fy * v[1];
+        *px_per_unit = vc->fx;
+    }
+    *depth = d;
+    return 1;
+}
+
+void sss_i_pixel_world(const rast_view_constants *vc, double px, double py, double depth, double out[3])
+{
+    double ax = (px - vc->cx) / vc->fx, ay = -(py - vc->cy) / vc->fy;
+    double q[3];
+    if (vc->projection_type == OBS_PROJECTION_PERSPECTIVE) {
+        q[0] = ax * depth;
+        q[1] = ay * depth;
+    } else {
+        q[0] = ax;
+        q[1] = ay;
+    }
+    q[2] = -depth;
+    const float *m = vc->view.m;
+    for (int r = 0; r < 3; r++)
+        q[r] -= (double)m[12 + r];
+    for (int c = 0; c < 3; c++)
+        out[c] = (double)m[c * 4 + 0] * q[0] + (double)m[c * 4 + 1] * q[1] + (double)m[c * 4 + 2] * q[2];
+}
+
+void sss_i_normal_world(const rast_view_constants *vc, const float nv[3], double out[3])
+{
+    const float *m = vc->view.m;
+    double l2 = 0.0;
+    for (int c = 0; c < 3; c++) {
+        out[c] = (double)m[c * 4 + 0] * nv[0] + (double)m[c * 4 + 1] * nv[1] + (double)m[c * 4 + 2] * nv[2];
+        l2 += out[c] * out[c];
+    }
+    if (l2 > 0.0) {
+        double inv = 1.0 / sqrt(l2);
+        for (int c = 0; c < 3; c++)
+            out[c] *= inv;
+    }
+}
+
+const sss_constants *sss_i_material(const sss_scene_materials *mats, uint32_t material_id)
+{
+    if (!mats)
+        return NULL;
+    if (material_id == RAST_ID_NONE)
+        return mats->none;
+    if (material_id >= mats->count || !mats->constants || !mats->translucent || !mats->translucent[material_id])
+        return NULL;
+    return &mats->constants[material_id];
+}
+
+obs_status sss_i_scene_sphere(obs_context *ctx, const obs_scene *scene, double c[3], double *radius)
+{
+    const obs_aabb *b = &scene->bounds;
+    if (!(b->lo.x <= b->hi.x && b->lo.y <= b->hi.y && b->lo.z <= b->hi.z))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss: the scene's bounds are empty");
+    double lo[3] = {b->lo.x, b->lo.y, b->lo.z}, hi[3] = {b->hi.x, b->hi.y, b->hi.z}, d2 = 0.0;
+    for (int a = 0; a < 3; a++) {
+        c[a] = 0.5 * (lo[a] + hi[a]);
+        d2 += (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    }
+    *radius = 0.5 * sqrt(d2);
+    if (!(*radius > 0.0 && isfinite(*radius)))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss: the scene's bounds have no extent");
+    return OBS_STATUS_OK;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Halton directions and the N-of-M candidate disk
+ * ---------------------------------------------------------------------------------------------- */
+
+void sss_halton_directions(int K, double *dirs)
+{
+    /* [DalCorso14] miscellaneous.cpp haltonPointSphere, sss.md 3.2: k = 1..K,
+     * phi = 2 pi Phi_2(k), cos theta = 2 (1 - Phi_3(k)) - 1 [Halton60]. The polar axis is +Z
+     * (our choice; the thesis' axis convention does not change the set's uniformity). */
+    for (int k = 1; k <= K; k++) {
+        double phi = 2.0 * OBS_PI * obs_radical_inverse(2, (uint64_t)k);
+        double ct = 2.0 * (1.0 - obs_radical_inverse(3, (uint64_t)k)) - 1.0;
+        double st = sqrt(fmax(0.0, 1.0 - ct * ct));
+        double *d = dirs + 3 * (k - 1);
+        d[0] = st * cos(phi);
+        d[1] = st * sin(phi);
+        d[2] = ct;
+    }
+}
+
+typedef struct rho_idx {
+    float rho;
+    int j;
+} rho_idx;
+
+static int cmp_rho(const void *a, const void *b)
+{
+    const rho_idx *x = (const rho_idx *)a, *y = (const rho_idx *)b;
+    if (x->rho != y->rho)
+        return x->rho < y->rho ? -1 : 1;
+    return x->j < y->j ? -1 : (x->j > y->j);
+}
+
+obs_status sss_i_halton_disk_make(obs_context *ctx, int M, sss_i_halton_disk *out)
+{
+    memset(out, 0, sizeof *out);
+    rho_idx *tmp = (rho_idx *)malloc(sizeof(rho_idx) * (size_t)(M > 0 ? M : 1));
+    out->rho = (float *)malloc(sizeof(float) * (size_t)(M > 0 ? M : 1));
+    out->phi = (float *)malloc(sizeof(float) * (size_t)(M > 0 ? M : 1));
+    if (!tmp || !out->rho || !out->phi) {
+        free(tmp);
+        sss_i_halton_disk_free(out);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss: out of memory for %d disk candidates", M);
+    }
+    /* [DalCorso14] miscellaneous.cpp haltonPointCircle (area-uniform): rho = sqrt(Phi_2(j)),
+     * phi = 2 pi Phi_3(j), j = 1..M [Halton60]. */
+    for (int j = 0; j < M; j++) {
+        tmp[j].rho = (float)sqrt(obs_radical_inverse(2, (uint64_t)(j + 1)));
+        tmp[j].j = j;
+    }
+    qsort(tmp, (size_t)M, sizeof(rho_idx), cmp_rho);
+    for (int i = 0; i < M; i++) {
+        out->rho[i] = tmp[i].rho;
+        out->phi[i] = (float)(2.0 * OBS_PI * obs_radical_inverse(3, (uint64_t)(tmp[i].j + 1)));
+    }
+    out->M = M;
+    free(tmp);
+    return OBS_STATUS_OK;
+}
+
+void sss_i_halton_disk_free(sss_i_halton_disk *h)
+{
+    if (!h)
+        return;
+    free(h->rho);
+    free(h->phi);
+    memset(h, 0, sizeof *h);
+}
+
+int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_r, int keep, int *idx, int *visited)
+{
+    /* [DalCorso14] method.tex, planeHaltonCircleRejectionExponential: accept when
+     * exp(-sigma* r) > zeta. Visiting in order of rho and stopping after `keep` acceptances gives
+     * the same set as "accept among all M, then keep the N nearest" (the zetas of the unvisited
+     * candidates are never looked at). */
+    int n = 0, v = 0;
+    for (int i = 0; i < h->M; i++) {
+        float zeta = sss_i_rand(state);
+        v++;
+        if (exp(-sigma_r * (double)h->rho[i]) > (double)zeta) {
+            idx[n++] = i;
+            if (keep > 0 && n >= keep)
+                break;
+        }
+    }
+    if (visited)
+        *visited = v;
+    return n;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Pass 1: the light G-buffer
+ * ---------------------------------------------------------------------------------------------- */
+
+void sss_light_map_free(sss_light_map *lm)
+{
+    if (!lm)
+        return;
+    rast_gbuffer_free(&lm->gb);
+    for (int c = 0; c < 3; c++) {
+        obs_image_f32_free(&lm->position[c]);
+        obs_image_f32_free(&lm->wnormal[c]);
+    }
+    memset(lm, 0, sizeof *lm);
+}
+
+/* An orthographic camera looking at c from direction `towards` (unit, from c to the eye), framing
+ * the sphere (c, rad): xmag = ymag = 1.01 rad (1% margin so the silhouette never touches the
+ * border), near 0 at the eye 2 rad away, far 4 rad. */
+static obs_camera ortho_camera(const double c[3], const double towards[3], double rad)
+{
+    obs_vec3 eye = obs_v3((float)(c[0] + 2.0 * rad * towards[0]), (float)(c[1] + 2.0 * rad * towards[1]),
+                          (float)(c[2] + 2.0 * rad * towards[2]));
+    obs_vec3 up = fabs(towards[1]) < 0.99 ? obs_v3(0, 1, 0) : obs_v3(1, 0, 0);
+    obs_camera cam = obs_camera_look_at(eye, obs_v3((float)c[0], (float)c[1], (float)c[2]), up, 1.0f, 0.0f,
+                                        (float)(4.0 * rad));
+    cam.projection = OBS_PROJECTION_ORTHOGRAPHIC;
+    cam.xmag = cam.ymag = (float)(1.01 * rad);
+    cam.znear = 0.0f;
+    cam.zfar = (float)(4.0 * rad);
+    return cam;
+}
+
+static rast_params gbuffer_params(int size)
+{
+    rast_params rp = rast_params_default();
+    rp.width = rp.height = size;
+    rp.outputs = RAST_OUT_DEPTH | RAST_OUT_NORMAL | RAST_OUT_INSTANCE_ID | RAST_OUT_MATERIAL_ID;
+    /* outward normals: a back face keeps its orientation (no gl_FrontFacing flip) */
+    rp.face_forward = 0;
+    return rp;
+}
+
+obs_status sss_light_map_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const obs_light *light,
+                                const sss_params *p, sss_light_map *out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_light_map_render: NULL output");
+    memset(out, 0, sizeof *out);
+    if (!scene || !light || !p)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_light_map_render: NULL argument");
+    obs_status st = sss_params_validate(ctx, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+    double c[3], rad;
+    if ((st = sss_i_scene_sphere(ctx, scene, c, &rad)) != OBS_STATUS_OK)
+        return st;
+    obs_camera cam;
+    const int size = p->light_map_size;
+    double world_per_texel;
+    if (light->type == OBS_LIGHT_DIRECTIONAL) {
+        /* [DalCorso14] implementation.tex: an orthographic light camera framing the object */
+        double d[3] = {light->direction.x, light->direction.y, light->direction.z};
+        double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (!(l > 0.0 && isfinite(l)))
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss: light '%s' has no direction", light->name);
+        double towards[3] = {-d[0] / l, -d[1] / l, -d[2] / l};
+        cam = ortho_camera(c, towards, rad);
+        world_per_texel = 2.0 * cam.xmag / size;
+    } else if (light->type == OBS_LIGHT_POINT) {
+        /* a perspective camera at the light looking at the bounds' centre, its field of view
+         * covering the bounding sphere (1% margin) */
+        double pl[3] = {light->position.x, light->position.y, light->position.z};
+        double dist = sqrt((pl[0] - c[0]) * (pl[0] - c[0]) + (pl[1] - c[1]) * (pl[1] - c[1]) +
+                           (pl[2] - c[2]) * (pl[2] - c[2]));
+        if (!(dist > 1.02 * rad) || !isfinite(dist))
+            return obs_error(ctx, OBS_STATUS_UNSUPPORTED,
+                             "sss: point light '%s' is inside the scene's bounding sphere (distance %g, radius %g); "
+                             "a light map needs it outside",
+                             light->name, dist, rad);
+        double half = asin(1.01 * rad / dist);
+        obs_vec3 dir = obs_v3((float)((c[0] - pl[0]) / dist), (float)((c[1] - pl[1]) / dist),
+                              (float)((c[2] - pl[2]) / dist));
+        obs_vec3 up = fabsf(dir.y) < 0.99f ? obs_v3(0, 1, 0) : obs_v3(1, 0, 0);
+        cam = obs_camera_look_at(light->position, obs_v3((float)c[0], (float)c[1], (float)c[2]), up,
+                                 (float)(2.0 * half), (float)(0.5 * (dist - rad)), (float)(dist + 1.5 * rad));
+        world_per_texel = 2.0 * dist * tan(half) / size; /* at the bounds' centre */
+    } else {
+        return obs_error(ctx, OBS_STATUS_UNSUPPORTED, "sss: light '%s': only directional and point lights have light maps",
+                         light->name);
+    }
+    rast_params rp = gbuffer_params(size);
+    if ((st = rast_gbuffer_alloc(ctx, &rp, &out->gb)) != OBS_STATUS_OK)
+        goto fail;
+    rast_view view;
+    view.camera = cam;
+    if ((st = rast_render(ctx, pool, scene, &view, 1, &rp, &out->gb, NULL)) != OBS_STATUS_OK)
+        goto fail;
+    for (int a = 0; a < 3; a++) {
+        if ((st = obs_image_f32_alloc(ctx, size, size, &out->position[a])) != OBS_STATUS_OK ||
+            (st = obs_image_f32_alloc(ctx, size, size, &out->wnormal[a])) != OBS_STATUS_OK)
+            goto fail;
+    }
+    const rast_view_constants *vc = &out->gb.constants;
+    for (int y = 0; y < size; y++) {
+        const float *dr = obs_image_f32_row(&out->gb.depth, y);
+        for (int x = 0; x < size; x++) {
+            double pw[3] = {NAN, NAN, NAN}, nw[3] = {0, 0, 0};
+            if (dr[x] < INFINITY) {
+                float nv[3] = {obs_image_f32_row(&out->gb.normal[0], y)[x], obs_image_f32_row(&out->gb.normal[1], y)[x],
+                               obs_image_f32_row(&out->gb.normal[2], y)[x]};
+                sss_i_pixel_world(vc, x + 0.5, y + 0.5, dr[x], pw);
+                sss_i_normal_world(vc, nv, nw);
+            }
+            for (int a = 0; a < 3; a++) {
+                obs_image_f32_row(&out->position[a], y)[x] = (float)pw[a];
+                obs_image_f32_row(&out->wnormal[a], y)[x] = (float)nw[a];
+            }
+        }
+    }
+    out->light = *light;
+    out->world_per_texel = world_per_texel;
+    return OBS_STATUS_OK;
+fail:
+    sss_light_map_free(out);
+    return st;
+}
+
+/* ------------------------------------------------------------------------------------------------
+ * Pass 2: the scattering maps
+ * ---------------------------------------------------------------------------------------------- */
+
+void sss_maps_free(sss_maps *m)
+{
+    if (!m)
+        return;
+    if (m->views)
+        for (int k = 0; k < m->K; k++)
+            rast_gbuffer_free(&m->views[k]);
+    if (m->radiance)
+        for (int i = 0; i < 3 * m->K; i++)
+            obs_image_f32_free(&m->radiance[i]);
+    free(m->views);
+    free(m->radiance);
+    free(m->dirs);
+    memset(m, 0, sizeof *m);
+}
+
+typedef struct light_info {
+    const sss_light_map *lm;
+    int point;
+    double to_light[3];   /* directional: unit, towards the light */
+    double pos[3];        /* point: position */
+    double radiance[3];   /* colour x intensity */
+} light_info;
+
+typedef struct mat_info {
+    const sss_constants *c; /* NULL: opaque */
+    sss_gpu_constants g;
+    double sigma_star;      /* min sigma_tr / q, per scene unit */
+} mat_info;
+
+typedef struct scratch {
+    float *buf;             /* xi[3], ni[3], wi[3], out[3]: 12 N floats */
+    double *w;              /* N */
+    int *idx;               /* M */
+} scratch;
+
+typedef struct build_job {
+    const sss_params *p;
+    sss_maps *maps;
+    obs_tiling tiling;
+    int64_t tiles;
+    const light_info *lights;
+    int light_count;
+    const mat_info *mats;   /* count + 1: the last is `none` */
+    uint32_t mat_count;
+    double R, area;
+    const sss_i_halton_disk *hd;
+    scratch *scr;           /* one per thread */
+    uint64_t *evaluated, *candidates; /* one per task */
+    uint8_t *failed;        /* one per task */
+} build_job;
+
+static const mat_info *job_material(const build_job *j, uint32_t id)
+{
+    if (id == RAST_ID_NONE)
+        return j->mats[j->mat_count].c ? &j->mats[j->mat_count] : NULL;
+    if (id >= j->mat_count || !j->mats[id].c)
+        return NULL;
+    return &j->mats[id];
+}
+
+/* Gather for one texel and one light: append accepted samples to the SoA scratch; returns the
+ * number of samples, adds to *cand the candidates drawn. */
+static int gather_light(const build_job *j, const light_info *li, const double xo[3], uint32_t inst_o,
+                        const mat_info *mi, uint32_t *state, double theta, scratch *s, uint64_t *cand)
+{
+    const sss_params *p = j->p;
+    const sss_light_map *lm = li->lm;
+    const int N = p->N, size = lm->gb.width;
+    double pcx, pcy, dl, ppu;
+    float *xi[3], *ni[3], *wi[3];
+    for (int a = 0; a < 3; a++) {
+        xi[a] = s->buf + (size_t)a * N;
+        ni[a] = s->buf + (size_t)(3 + a) * N;
+        wi[a] = s->buf + (size_t)(6 + a) * N;
+    }
+    /* the disk's centre: the light-space projection of x_o ([DalCorso14] "circle_center =
+     * (L x_o).xy", sss.md 3.2); for a point light the disk lies in the plane perpendicular to
+     * the light's axis at x_o's depth, scaled by fx / depth */
+    if (!sss_i_project(&lm->gb.constants, xo, &pcx, &pcy, &dl, &ppu))
+        return 0;
+    int n = 0;
+    const double R = j->R;
+    /* one candidate: disk offset (ox, oy) in world units in the light-map plane */
+#define SSS_FETCH(ox, oy, ...)                                                                         \
+    do {                                                                                               \
+        double tx_ = pcx + (ox) * ppu, ty_ = pcy - (oy) * ppu;                                         \
+        if (tx_ >= 0.0 && ty_ >= 0.0 && tx_ < size && ty_ < size) {                                    \
+            int ix_ = (int)tx_, iy_ = (int)ty_; /* nearest texel (docs/sss/maps.md) */                \
+            float px_ = obs_image_f32_row(&lm->position[0], iy_)[ix_];                                 \
+            if (px_ == px_ && obs_image_u32_row(&lm->gb.instance_id, iy_)[ix_] == inst_o) {            \
+                double x_i[3] = {px_, obs_image_f32_row(&lm->position[1], iy_)[ix_],                   \
+                                 obs_image_f32_row(&lm->position[2], iy_)[ix_]};                       \
+                __VA_ARGS__                                                                            \
+            }                                                                                          \
+        }                                                                                              \
+    } while (0)
+#define SSS_PUSH(weight)                                                                               \
+    do {                                                                                               \
+        double w_ = (weight), wl_[3];                                                                  \
+        if (li->point) {                                                                               \
+            double dx_ = li->pos[0] - x_i[0], dy_ = li->pos[1] - x_i[1], dz_ = li->pos[2] - x_i[2];     \
+            double d2_ = dx_ * dx_ + dy_ * dy_ + dz_ * dz_, il_ = 1.0 / sqrt(d2_);                     \
+            w_ /= d2_; /* point light: E = I / |x_p - x_i|^2 ([DalCorso14] eq. inter2 variant) */       \
+            wl_[0] = dx_ * il_;                                                                        \
+            wl_[1] = dy_ * il_;                                                                        \
+            wl_[2] = dz_ * il_;                                                                        \
+        } else {                                                                                       \
+            wl_[0] = li->to_light[0];                                                                  \
+            wl_[1] = li->to_light[1];                                                                  \
+            wl_[2] = li->to_light[2];                                                                  \
+        }                                                                                              \
+        for (int a_ = 0; a_ < 3; a_++) {                                                               \
+            xi[a_][n] = (float)x_i[a_];                                                                \
+            ni[a_][n] = obs_image_f32_row(&lm->wnormal[a_], iy_)[ix_];                                 \
+            wi[a_][n] = (float)wl_[a_];                                                                \
+        }                                                                                              \
+        s->w[n] = w_;                                                                                  \
+        n++;                                                                                           \
+    } while (0)
+
+    if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE) {
+        /* [DalCorso14] final shader (#define RUSSIAN_ROULETTE, sss.md 3.4): rho = R sqrt(z1),
+         * phi = 2 pi z2, accept if z3 < exp(-sigma* |x_o - x_i|) (3D distance), weight
+         * disk_area / (N p) (sss.md 3.5: the unbiased Russian-roulette form). Three draws per
+         * candidate, always, so the stream position never depends on the geometry. */
+        for (int i = 0; i < N; i++) {
+            double ox, oy, zeta;
+            sss_i_rr_candidate(state, R, &ox, &oy, &zeta);
+            SSS_FETCH(ox, oy, {
+                double dx = xo[0] - x_i[0], dy = xo[1] - x_i[1], dz = xo[2] - x_i[2];
+                double pa = exp(-mi->sigma_star * sqrt(dx * dx + dy * dy + dz * dz));
+                if (zeta < pa)
+                    SSS_PUSH(j->area / ((double)N * pa));
+            });
+        }
+        *cand += (uint64_t)N;
+    } else {
+        /* [DalCorso14] method.tex (the thesis text): M Halton points, exponential rejection
+         * exp(-sigma* rho) > zeta, the N accepted nearest to x_o, weight A_c / N (biased:
+         * docs/sss/maps.md measures it), pattern rotated per texel and frame by theta. */
+        int visited = 0;
+        int na = sss_i_nofm_accept(j->hd, state, mi->sigma_star * R, N, s->idx, &visited);
+        double ct = cos(theta), st = sin(theta);
+        for (int q = 0; q < na; q++) {
+            int i = s->idx[q];
+            double rho = R * j->hd->rho[i], phi = j->hd->phi[i];
+            double ox0 = rho * cos(phi), oy0 = rho * sin(phi);
+            double ox = ct * ox0 - st * oy0, oy = st * ox0 + ct * oy0;
+            SSS_FETCH(ox, oy, { SSS_PUSH(j->area / (double)N); });
+        }
+        *cand += (uint64_t)visited;
+    }
+#undef SSS_FETCH
+#undef SSS_PUSH
+    return n;
+}
+
+static void build_task(void *user, int64_t task, int thread)
+{
+    build_job *j = (build_job *)user;
+    const sss_params *p = j->p;
+    sss_maps *m = j->maps;
+    const int k = (int)(task / j->tiles);
+    int x0, y0, x1, y1;
+    obs_tiling_rect(&j->tiling, task % j->tiles, &x0, &y0, &x1, &y1);
+    const rast_gbuffer *gb = &m->views[k];
+    scratch *s = &j->scr[thread];
+    const int N = p->N;
+    uint64_t evaluated = 0, cand = 0;
+    for (int y = y0; y < y1; y++) {
+        for (int x = x0; x < x1; x++) {
+            float *out[3];
+            for (int c = 0; c < 3; c++)
+                out[c] = obs_image_f32_row(&m->radiance[3 * k + c], y) + x;
+            out[0][0] = out[1][0] = out[2][0] = 0.0f;
+            float depth = obs_image_f32_row(&gb->depth, y)[x];
+            if (!(depth < INFINITY))
+                continue;
+            const mat_info *mi = job_material(j, obs_image_u32_row(&gb->material_id, y)[x]);
+            if (!mi)
+                continue; /* opaque: no subsurface radiance */
+            uint32_t inst = obs_image_u32_row(&gb->instance_id, y)[x];
+            double xo[3], no[3];
+            float nv[3] = {obs_image_f32_row(&gb->normal[0], y)[x], obs_image_f32_row(&gb->normal[1], y)[x],
+                           obs_image_f32_row(&gb->normal[2], y)[x]};
+            sss_i_pixel_world(&gb->constants, x + 0.5, y + 0.5, depth, xo);
+            sss_i_normal_world(&gb->constants, nv, no);
+            float xof[3] = {(float)xo[0], (float)xo[1], (float)xo[2]};
+            float nof[3] = {(float)no[0], (float)no[1], (float)no[2]};
+            double acc[3] = {0, 0, 0};
+            for (int f = 0; f < p->frames; f++) {
+                uint32_t state = sss_i_stream_seed((uint32_t)(y * m->size + x), (uint32_t)(k * p->frames + f), p->seed);
+                double theta = 0.0;
+                if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) /* theta = 2 pi (r + t/T), [DalCorso14] method.tex */
+                    theta = 2.0 * OBS_PI * ((double)sss_i_rand(&state) + (double)f / p->frames);
+                for (int l = 0; l < j->light_count; l++) {
+                    const light_info *li = &j->lights[l];
+                    int n = gather_light(j, li, xo, inst, mi, &state, theta, s, &cand);
+                    if (n == 0)
+                        continue;
+                    sss_batch b;
+                    b.n = n;
+                    for (int a = 0; a < 3; a++) {
+                        b.xi[a] = s->buf + (size_t)a * N;
+                        b.ni[a] = s->buf + (size_t)(3 + a) * N;
+                        b.wi[a] = s->buf + (size_t)(6 + a) * N;
+                        b.out[a] = s->buf + (size_t)(9 + a) * N;
+                    }
+                    /* T12 S_d per sample ([DalCorso14] eq. inter2: L_d A_c/N sum S e^{sigma r}) */
+                    if (sss_eval_batch(NULL, &mi->g, xof, nof, &b, 1, p->isa) != OBS_STATUS_OK) {
+                        j->failed[task] = 1;
+                        continue;
+                    }
+                    evaluated += (uint64_t)n;
+                    for (int c = 0; c < 3; c++) {
+                        double sum = 0.0;
+                        for (int q = 0; q < n; q++)
+                            sum += s->w[q] * (double)b.out[c][q];
+                        acc[c] += li->radiance[c] * sum;
+                    }
+                }
+            }
+            /* progressive accumulation over frames, divided by the frame count
+             * ([DalCorso14] sss.md 3.3: R^{t,k} = R^{t-1,k} + R^{t,k}, / t in the combination) */
+            for (int c = 0; c < 3; c++)
+                out[c][0] = (float)(acc[c] / p->frames);
+        }
+    }
+    j->evaluated[task] = evaluated;
+    j->candidates[task] = cand;
+}
+
+obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const sss_scene_materials *mats,
+                          const sss_light_map *lights, int light_count, const sss_params *p, sss_maps *out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: NULL output");
+    memset(out, 0, sizeof *out);
+    if (!scene || !mats || !p || light_count < 0 || (light_count > 0 && !lights))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: NULL argument or negative light count");
+    obs_status st = sss_params_validate(ctx, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (p->isa != SSS_ISA_AUTO && !sss_isa_available(p->isa))
+        return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "sss: ISA %s is not available", sss_isa_name(p->isa));
+    if (mats->count > 0 && (!mats->constants || !mats->translucent))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: materials without constants");
+    for (int l = 0; l < light_count; l++)
+        if (!lights[l].position[0].data || !lights[l].gb.instance_id.data)
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: light map %d is not rendered", l);
+    double c[3], rad;
+    if ((st = sss_i_scene_sphere(ctx, scene, c, &rad)) != OBS_STATUS_OK)
+        return st;
+
+    const int K = p->K, size = p->map_size;
+    build_job job;
+    memset(&job, 0, sizeof job);
+    mat_info *mi = NULL;
+    light_info *li = NULL;
+    rast_view *views = NULL;
+    sss_i_halton_disk hd;
+    memset(&hd, 0, sizeof hd);
+    int threads = pool ? obs_pool_threads(pool) : 1;
+    if (threads < 1)
+        threads = 1;
+
+    out->K = K;
+    out->size = size;
+    out->dirs = (double *)malloc(sizeof(double) * 3 * (size_t)K);
+    out->views = (rast_gbuffer *)calloc((size_t)K, sizeof(rast_gbuffer));
+    out->radiance = (obs_image_f32 *)calloc(3 * (size_t)K, sizeof(obs_image_f32));
+    views = (rast_view *)calloc((size_t)K, sizeof(rast_view));
+    mi = (mat_info *)calloc((size_t)mats->count + 1, sizeof(mat_info));
+    li = (light_info *)calloc((size_t)(light_count > 0 ? light_count : 1), sizeof(light_info));
+    job.scr = (scratch *)calloc((size_t)threads, sizeof(scratch));
+    if (!out->dirs || !out->views || !out->radiance || !views || !mi || !li || !job.scr) {
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+        goto done;
+    }
+    /* K directions [DalCorso14] haltonPointSphere; orthographic views looking at the bounds'
+     * centre (sss.md 3.2) */
+    sss_halton_directions(K, out->dirs);
+    for (int k = 0; k < K; k++)
+        views[k].camera = ortho_camera(c, out->dirs + 3 * k, rad);
+    rast_params rp = gbuffer_params(size);
+    for (int k = 0; k < K; k++)
+        if ((st = rast_gbuffer_alloc(ctx, &rp, &out->views[k])) != OBS_STATUS_OK)
+            goto done;
+    /* one layered render, as the thesis' geometry shader with gl_Layer */
+    if ((st = rast_render(ctx, pool, scene, views, K, &rp, out->views, NULL)) != OBS_STATUS_OK)
+        goto done;
+    for (int i = 0; i < 3 * K; i++)
+        if ((st = obs_image_f32_alloc(ctx, size, size, &out->radiance[i])) != OBS_STATUS_OK)
+            goto done;
+
+    for (uint32_t i = 0; i <= mats->count; i++) {
+        const sss_constants *cc = (i < mats->count) ? ((mats->translucent[i]) ? &mats->constants[i] : NULL) : mats->none;
+        if (!cc)
+            continue;
+        mi[i].c = cc;
+        sss_gpu_constants_make(cc, p->model, &mi[i].g);
+        mi[i].sigma_star = cc->min_sigma_tr / p->spread_q; /* sigma* = min sigma_tr / q (sss.md 3.4) */
+    }
+    for (int l = 0; l < light_count; l++) {
+        const obs_light *L = &lights[l].light;
+        li[l].lm = &lights[l];
+        li[l].point = L->type == OBS_LIGHT_POINT;
+        double dl = sqrt((double)L->direction.x * L->direction.x + (double)L->direction.y * L->direction.y +
+                         (double)L->direction.z * L->direction.z);
+        if (dl > 0.0) {
+            li[l].to_light[0] = -L->direction.x / dl;
+            li[l].to_light[1] = -L->direction.y / dl;
+            li[l].to_light[2] = -L->direction.z / dl;
+        }
+        li[l].pos[0] = L->position.x;
+        li[l].pos[1] = L->position.y;
+        li[l].pos[2] = L->position.z;
+        li[l].radiance[0] = (double)L->color.x * L->intensity;
+        li[l].radiance[1] = (double)L->color.y * L->intensity;
+        li[l].radiance[2] = (double)L->color.z * L->intensity;
+    }
+    if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M)
+        if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
+            goto done;
+    for (int t = 0; t < threads; t++) {
+        job.scr[t].buf = (float *)malloc(sizeof(float) * 12 * (size_t)p->N);
+        job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)p->N);
+        job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
+        if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+            goto done;
+        }
+    }
+    job.p = p;
+    job.maps = out;
+    job.tiling = obs_tiling_make(size, size, 32);
+    job.tiles = obs_tiling_count(&job.tiling);
+    job.lights = li;
+    job.light_count = light_count;
+    job.mats = mi;
+    job.mat_count = mats->count;
+    /* disk radius: params, else half the diagonal of the bounds ([DalCorso14]: "the size of the
+     * object bounding box"; sss.md 3.5) */
+    job.R = p->disk_radius > 0.0 ? p->disk_radius : rad;
+    job.area = OBS_PI * job.R * job.R;
+    job.hd = &hd;
+    int64_t tasks = (int64_t)K * job.tiles;
+    job.evaluated = (uint64_t *)calloc((size_t)tasks, sizeof(uint64_t));
+    job.candidates = (uint64_t *)calloc((size_t)tasks, sizeof(uint64_t));
+    job.failed = (uint8_t *)calloc((size_t)tasks, 1);
+    if (!job.evaluated || !job.candidates || !job.failed) {
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+        goto done;
+    }
+    obs_pool_run(pool, tasks, build_task, &job);
+    for (int64_t t = 0; t < tasks; t++) {
+        out->samples_evaluated += job.evaluated[t];
+        out->candidates += job.candidates[t];
+        if (job.failed[t] && st == OBS_STATUS_OK)
+            st = obs_error(ctx, OBS_STATUS_INTERNAL, "sss_maps_build: sss_eval_batch failed");
+    }
+done:
+    if (job.scr)
+        for (int t = 0; t < threads; t++) {
+            free(job.scr[t].buf);
+            free(job.scr[t].w);
+            free(job.scr[t].idx);
+        }
+    free(job.scr);
+    free(job.evaluated);
+    free(job.candidates);
+    free(job.failed);
+    sss_i_halton_disk_free(&hd);
+    free(views);
+    free(mi);
+    free(li);
+    if (st != OBS_STATUS_OK)
+        sss_maps_free(out);
+    return st;
+}
