@@ -70,5 +70,6 @@ int cmd_truth(cli_globals *g, int argc, char **argv);
 int cmd_compare(cli_globals *g, int argc, char **argv);
 int cmd_ao(cli_globals *g, int argc, char **argv);
 int cmd_study(cli_globals *g, int argc, char **argv);
+int cmd_sss(cli_globals *g, int argc, char **argv);
 
 #endif

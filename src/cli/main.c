@@ -20,6 +20,8 @@ static const char *usage_text =
     "  truth ao SCENE  ray-traced AO ground truth (Embree) per estimator: EXR mean/stderr/count, PNG, JSON\n"
     "  compare A B     compare image B with reference A (RMSE, PSNR, SSIM ...; thresholds set the exit code)\n"
     "  ao --method M   screen-space AO (ao --list: every technique) on a scene's or an external G-buffer\n"
+    "  sss SCENE       subsurface scattering (Dal Corso's scattering maps, directional or standard dipole):\n"
+    "                  image EXR/PNG, the maps as a layered EXR, JSON\n"
     "  study ao        what accuracy costs in time: sweep the AO techniques against ground truth, report\n"
     "\n"
     "global options:\n"
@@ -169,6 +171,8 @@ int cli_main(int argc, char **argv)
         return cmd_ao(&g, argc - i, argv + i);
     if (!strcmp(cmd, "study"))
         return cmd_study(&g, argc - i, argv + i);
+    if (!strcmp(cmd, "sss"))
+        return cmd_sss(&g, argc - i, argv + i);
     if (!strcmp(cmd, "help")) {
         fputs(usage_text, stdout);
         return CLI_EXIT_OK;

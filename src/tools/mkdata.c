@@ -141,6 +141,54 @@ static void mb_sphere(mb *m, obs_vec3 c, float r, int slices, int stacks)
         }
 }
 
+/* A vertex welded by exact position (a linear search from `first`: small meshes only), so that a
+ * closed surface built face by face is closed in its indices too (the SSS random walk checks it). */
+static uint32_t mb_vertex_weld(mb *m, uint32_t first, obs_vec3 p, obs_vec3 n)
+{
+    for (uint32_t v = first; v < m->nv; v++)
+        if (m->pos[3 * v] == p.x && m->pos[3 * v + 1] == p.y && m->pos[3 * v + 2] == p.z)
+            return v;
+    return mb_vertex(m, p, n);
+}
+
+static void mb_ico_face(mb *m, uint32_t base, obs_vec3 c, float r, obs_vec3 a, obs_vec3 b, obs_vec3 d, int level)
+{
+    if (level == 0) {
+        uint32_t ia = mb_vertex_weld(m, base, obs_v3_add(c, obs_v3_scale(a, r)), a);
+        uint32_t ib = mb_vertex_weld(m, base, obs_v3_add(c, obs_v3_scale(b, r)), b);
+        uint32_t id = mb_vertex_weld(m, base, obs_v3_add(c, obs_v3_scale(d, r)), d);
+        mb_tri(m, ia, ib, id);
+        return;
+    }
+    /* Midpoints: (a + b) is commutative in IEEE arithmetic, so a shared edge gives the same point
+     * from both of its faces. */
+    obs_vec3 ab = obs_v3_normalize(obs_v3_add(a, b)), bd = obs_v3_normalize(obs_v3_add(b, d)),
+             da = obs_v3_normalize(obs_v3_add(d, a));
+    mb_ico_face(m, base, c, r, a, ab, da, level - 1);
+    mb_ico_face(m, base, c, r, ab, b, bd, level - 1);
+    mb_ico_face(m, base, c, r, da, bd, d, level - 1);
+    mb_ico_face(m, base, c, r, ab, bd, da, level - 1);
+}
+
+/* A geodesic sphere: the icosahedron subdivided `level` times (20 * 4^level triangles), closed,
+ * counter-clockwise outside, smooth normals. */
+static void mb_icosphere(mb *m, obs_vec3 c, float r, int level)
+{
+    const float t = (float)((1.0 + sqrt(5.0)) / 2.0);
+    obs_vec3 v[12] = {obs_v3(-1, t, 0), obs_v3(1, t, 0), obs_v3(-1, -t, 0), obs_v3(1, -t, 0),
+                      obs_v3(0, -1, t), obs_v3(0, 1, t), obs_v3(0, -1, -t), obs_v3(0, 1, -t),
+                      obs_v3(t, 0, -1), obs_v3(t, 0, 1), obs_v3(-t, 0, -1), obs_v3(-t, 0, 1)};
+    static const int f[20][3] = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+    for (int k = 0; k < 12; k++)
+        v[k] = obs_v3_normalize(v[k]);
+    uint32_t base = m->nv;
+    for (int k = 0; k < 20; k++)
+        mb_ico_face(m, base, c, r, v[f[k][0]], v[f[k][1]], v[f[k][2]], level);
+}
+
 /* ------------------------------------------------------------------------------------------------
  * Scene builder
  * ---------------------------------------------------------------------------------------------- */
@@ -225,6 +273,34 @@ static void sb_point_light(const char *name, obs_vec3 p, float intensity)
     l->position = p;
     l->direction = obs_v3(0, -1, 0);
     l->outer_cone = (float)(OBS_PI / 4);
+}
+
+/* A directional light travelling along `dir` (normalised here), irradiance `lux`. */
+static void sb_dir_light(const char *name, obs_vec3 dir, float lux)
+{
+    obs_scene *s = &g_scene;
+    s->lights = (obs_light *)grow_array(s->lights, s->light_count, sizeof(obs_light));
+    obs_light *l = &s->lights[s->light_count++];
+    snprintf(l->name, sizeof l->name, "%s", name);
+    l->type = OBS_LIGHT_DIRECTIONAL;
+    l->color = obs_v3(1, 1, 1);
+    l->intensity = lux;
+    l->direction = obs_v3_normalize(dir);
+    l->outer_cone = (float)(OBS_PI / 4);
+}
+
+/* A translucent material: its glTF extras carry the SSS schema (docs/sss.md, "Materials in glTF"). */
+static int32_t sb_sss_material(const char *name, const char *preset)
+{
+    int32_t id = sb_material(name, 0.9f, 0.9f, 0.9f);
+    char buf[128];
+    snprintf(buf, sizeof buf, "{\"obscura_sss\":{\"preset\":\"%s\"}}", preset);
+    size_t n = strlen(buf) + 1;
+    g_scene.materials[id].extras_json = (char *)malloc(n);
+    if (!g_scene.materials[id].extras_json)
+        die("out of memory");
+    memcpy(g_scene.materials[id].extras_json, buf, n);
+    return id;
 }
 
 static int g_failed;
@@ -488,6 +564,53 @@ static int scene_dragon_plane(obs_context *ctx, const char *out, const char *mes
     return 1;
 }
 
+/* ---- Translucent scenes (docs/sss.md, docs/data.md): real sizes in metres, so that the
+ * Jensen 2001 coefficients (per mm) apply at the default scale of 1000 mm per unit. ---- */
+
+/* A real mesh about 30 cm across (Dal Corso's bunny is "about 30 cm", sss.md section 3), in one
+ * preset, lit by a directional light from the front upper right; a second camera from behind. */
+static int scene_translucent_object(obs_context *ctx, const char *out, const char *meshes, const char *off,
+                                    const char *file, float ry, const char *preset)
+{
+    raw_mesh r = {0};
+    if (!load_mesh(ctx, meshes, off, 0.15f, ry, &r))
+        return 0;
+    char name[64];
+    snprintf(name, sizeof name, "%.*s", (int)(strlen(file) - 4), file);
+    sb_instance(sb_raw_mesh(name, &r, sb_sss_material(preset, preset)), obs_mat4_identity());
+    sb_dir_light("key", obs_v3(-0.4f, -0.5f, -0.77f), 1.0f);
+    const float dist = 0.15f / sinf((float)(22.5 * OBS_PI / 180));
+    sb_camera("default", obs_v3(0, 0, dist), obs_v3(0, 0, 0), 45, dist - 0.2f, dist + 0.2f);
+    sb_camera("behind", obs_v3(0.3f * dist, 0.2f * dist, -0.93f * dist), obs_v3(0, 0, 0), 45, 0.02f, 4 * dist);
+    sb_write(ctx, out, file);
+    return 1;
+}
+
+/* Frisvad's dirpole test scene (sss.md section 4): a potato sphere of radius 25 mm, lit by a
+ * directional light from normalize(1, 1, -0.5) (the light travels the opposite way). */
+static void scene_sphere_potato(obs_context *ctx, const char *out)
+{
+    mb b = {0};
+    mb_icosphere(&b, obs_v3(0, 0, 0), 0.025f, 5);
+    sb_instance(sb_mesh("sphere", &b, sb_sss_material("potato", "potato")), obs_mat4_identity());
+    sb_dir_light("key", obs_v3(-1.0f, -1.0f, 0.5f), 1.0f);
+    sb_camera("default", obs_v3(0, 0, 0.1f), obs_v3(0, 0, 0), 40, 0.05f, 0.15f);
+    sb_write(ctx, out, "sphere_potato.glb");
+}
+
+/* A thin slab, 100 x 100 x 4 mm, of skim milk, lit from behind: the back-lit case of the
+ * directional dipole (x_o straight behind x_i, sss.md 1.3). Faces share no vertices (hard edges);
+ * the SSS random walk welds coincident positions to check it is closed. */
+static void scene_slab(obs_context *ctx, const char *out)
+{
+    mb b = {0};
+    mb_box(&b, obs_v3(-0.05f, -0.05f, -0.002f), obs_v3(0.05f, 0.05f, 0.002f), 0);
+    sb_instance(sb_mesh("slab", &b, sb_sss_material("skimmilk", "skimmilk")), obs_mat4_identity());
+    sb_dir_light("back", obs_v3(0.2f, 0.1f, 1.0f), 1.0f);   /* travels towards +z: lights the far face */
+    sb_camera("default", obs_v3(0, 0, 0.2f), obs_v3(0, 0, 0), 40, 0.1f, 0.3f);
+    sb_write(ctx, out, "slab_skimmilk.glb");
+}
+
 static void scene_village(obs_context *ctx, const char *out)
 {
     int32_t grass = sb_material("ground", 0.45f, 0.55f, 0.35f), wall = sb_material("wall", 0.85f, 0.8f, 0.7f),
@@ -647,6 +770,11 @@ int main(int argc, char **argv)
     ok &= scene_object(ctx, out, meshes, "ChineseDragon-10kv.off", "dragon.glb", 0.0f);
     ok &= scene_object(ctx, out, meshes, "armadillo.off", "armadillo.glb", 180.0f); /* seen from the front */
     ok &= scene_dragon_plane(ctx, out, meshes);
+    ok &= scene_translucent_object(ctx, out, meshes, "bunny00.off", "bunny_cream.glb", 0.0f, "cream");
+    ok &= scene_translucent_object(ctx, out, meshes, "ChineseDragon-10kv.off", "dragon_skin.glb", 0.0f, "skin1");
+    ok &= scene_translucent_object(ctx, out, meshes, "armadillo.off", "armadillo_marble.glb", 180.0f, "marble");
+    scene_sphere_potato(ctx, out);
+    scene_slab(ctx, out);
     obs_scene_free(&g_scene);
     obs_context_destroy(ctx);
     return ok && !g_failed ? 0 : 1;

@@ -1,0 +1,154 @@
+/* test_cli_sss.c: `obscura sss` end to end: its files, the materials from the scene or the
+ * command line, refusals that name the problem and write nothing, determinism across threads. */
+#include "core/obs.h"
+#include "io/io.h"
+#include "test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static int sss_cli(const char *const *args, const char *tag)
+{
+    char out[4200], err[4200];
+    snprintf(out, sizeof out, "%s/%s.stdout", test_tmpdir(), tag);
+    snprintf(err, sizeof err, "%s/%s.stderr", test_tmpdir(), tag);
+    return test_spawn(OBS_CLI_PATH, args, out, err);
+}
+
+static int sss_stderr_has(const char *tag, const char *needle)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s.stderr", test_tmpdir(), tag);
+    char *b = test_slurp(path, NULL);
+    int r = b && strstr(b, needle) != NULL;
+    if (!r)
+        fprintf(stderr, "%s: stderr lacks '%s': %s\n", tag, needle, b ? b : "(none)");
+    free(b);
+    return r;
+}
+
+static int sss_exists(const char *dir, const char *name)
+{
+    struct stat st;
+    return stat(test_path(dir, name), &st) == 0;
+}
+
+static const char *sss_scene(const char *name) { return test_path(test_data_dir(), name); }
+
+/* The small settings every run here uses: seconds even under the sanitizers. */
+#define SSS_SMALL "--size", "96x72", "--K", "4", "--N", "8", "--map-size", "64", "--light-map-size", "64"
+
+TEST(cli_sss_writes_image_maps_and_sidecar_from_the_scene_materials)
+{
+    char prefix[4200];
+    snprintf(prefix, sizeof prefix, "%s/out/sphere", test_tmpdir());
+    const char *a[] = {"sss", sss_scene("sphere_potato.glb"), SSS_SMALL, "-o", prefix, NULL};
+    CHECK_EQ_INT(sss_cli(a, "run"), 0);
+    const char *dir = test_path(test_tmpdir(), "out");
+    CHECK(sss_exists(dir, "sphere.exr"));
+    CHECK(sss_exists(dir, "sphere.png"));
+    CHECK(sss_exists(dir, "sphere_maps.exr"));
+    CHECK(sss_exists(dir, "sphere.json"));
+    obs_context *ctx = obs_context_create();
+    io_image im;
+    memset(&im, 0, sizeof im);
+    CHECK_EQ_INT(io_image_read(ctx, test_path(dir, "sphere.exr"), &im), OBS_STATUS_OK);
+    int r = io_image_find_channel(&im, "R"), z = io_image_find_channel(&im, "Z");
+    CHECK(r >= 0 && z >= 0);
+    if (r >= 0 && z >= 0) {
+        /* The lit sphere glows: radiance is finite, >= 0, and positive somewhere on it. */
+        int64_t surf = 0, lit = 0, bad = 0;
+        for (int y = 0; y < im.height; y++)
+            for (int x = 0; x < im.width; x++) {
+                float v = obs_image_f32_row(&im.f32[r], y)[x], d = obs_image_f32_row(&im.f32[z], y)[x];
+                if (!isfinite(v) || v < 0.0f)
+                    bad++;
+                if (isfinite(d)) {
+                    surf++;
+                    lit += v > 0.0f;
+                }
+            }
+        CHECK_EQ_INT(bad, 0);
+        CHECK(surf > 500);
+        CHECK(lit > surf / 4);
+    }
+    io_image_free(&im);
+    /* The maps: 4 layers of R, G, B, Z. */
+    CHECK_EQ_INT(io_image_read(ctx, test_path(dir, "sphere_maps.exr"), &im), OBS_STATUS_OK);
+    CHECK(io_image_find_channel(&im, "k00.R") >= 0);
+    CHECK(io_image_find_channel(&im, "k03.Z") >= 0);
+    CHECK(io_image_find_channel(&im, "k04.R") < 0);
+    io_image_free(&im);
+    char *js = test_slurp(test_path(dir, "sphere.json"), NULL);
+    CHECK(js && strstr(js, "\"Potato\"") && strstr(js, "seconds_maps") && strstr(js, "bssrdf_evaluations"));
+    free(js);
+    obs_context_destroy(ctx);
+}
+
+TEST(cli_sss_bytes_identical_for_1_2_and_8_threads)
+{
+    const char *threads[3] = {"1", "2", "8"};
+    char prefix[3][4200];
+    for (int t = 0; t < 3; t++) {
+        snprintf(prefix[t], sizeof prefix[t], "%s/t%s", test_tmpdir(), threads[t]);
+        const char *a[] = {"--threads", threads[t], "sss", sss_scene("bunny.glb"), "--material", "cream",
+                           "--scale-mm", "150", SSS_SMALL, "-o", prefix[t], NULL};
+        CHECK_EQ_INT(sss_cli(a, threads[t]), 0);
+    }
+    const char *suffix[2] = {".exr", "_maps.exr"};
+    for (int s = 0; s < 2; s++) {
+        size_t l0 = 0, l1 = 0;
+        char p0[4300], p1[4300];
+        snprintf(p0, sizeof p0, "%s%s", prefix[0], suffix[s]);
+        char *b0 = test_slurp(p0, &l0);
+        CHECK(b0 != NULL);
+        for (int t = 1; t < 3; t++) {
+            snprintf(p1, sizeof p1, "%s%s", prefix[t], suffix[s]);
+            char *b1 = test_slurp(p1, &l1);
+            CHECK(b1 && b0 && l0 == l1 && memcmp(b0, b1, l0) == 0);
+            free(b1);
+        }
+        free(b0);
+    }
+}
+
+TEST(cli_sss_bad_materials_and_params_are_refused_and_write_nothing)
+{
+    char prefix[4200];
+    snprintf(prefix, sizeof prefix, "%s/never", test_tmpdir());
+    /* An unknown preset: usage error, the message lists the presets. */
+    const char *a1[] = {"sss", sss_scene("bunny.glb"), "--material", "jelly", "-o", prefix, NULL};
+    CHECK_EQ_INT(sss_cli(a1, "a1"), 2);
+    CHECK(sss_stderr_has("a1", "jelly") && sss_stderr_has("a1", "Cream"));
+    /* Negative and non-finite coefficients, eta <= 0. */
+    const char *a2[] = {"sss", sss_scene("bunny.glb"), "--sigma-s-prime", "1,-2,1", "--sigma-a", "0.1,0.1,0.1",
+                        "--eta", "1.3", "-o", prefix, NULL};
+    CHECK(sss_cli(a2, "a2") != 0);
+    CHECK(sss_stderr_has("a2", "sigma"));
+    const char *a3[] = {"sss", sss_scene("bunny.glb"), "--sigma-s-prime", "1,1,1", "--sigma-a", "0.1,nan,0.1",
+                        "--eta", "1.3", "-o", prefix, NULL};
+    CHECK(sss_cli(a3, "a3") != 0);
+    const char *a4[] = {"sss", sss_scene("bunny.glb"), "--sigma-s-prime", "1,1,1", "--sigma-a", "0.1,0.1,0.1",
+                        "--eta", "0", "-o", prefix, NULL};
+    CHECK(sss_cli(a4, "a4") != 0);
+    CHECK(sss_stderr_has("a4", "eta"));
+    /* Parameters out of range. */
+    const char *a5[] = {"sss", sss_scene("sphere_potato.glb"), "--K", "0", "-o", prefix, NULL};
+    CHECK_EQ_INT(sss_cli(a5, "a5"), 2);
+    const char *a6[] = {"sss", sss_scene("sphere_potato.glb"), "--gamma", "0", "-o", prefix, NULL};
+    CHECK(sss_cli(a6, "a6") != 0);
+    CHECK(sss_stderr_has("a6", "gamma"));
+    /* A scene without a translucent material, and no --material: refused, naming the file. */
+    const char *a7[] = {"sss", sss_scene("bunny.glb"), "-o", prefix, NULL};
+    CHECK_EQ_INT(sss_cli(a7, "a7"), 3);
+    CHECK(sss_stderr_has("a7", "bunny.glb") && sss_stderr_has("a7", "--material"));
+    /* Two material sources at once. */
+    const char *a8[] = {"sss", sss_scene("sphere_potato.glb"), "--material", "cream", "--from-scene", "-o", prefix, NULL};
+    CHECK_EQ_INT(sss_cli(a8, "a8"), 2);
+    CHECK(!sss_exists(test_tmpdir(), "never.exr"));
+    CHECK(!sss_exists(test_tmpdir(), "never.json"));
+    CHECK(!sss_exists(test_tmpdir(), "never_maps.exr"));
+}
