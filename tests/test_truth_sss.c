@@ -611,3 +611,46 @@ TEST(truth_sss_shadowed_points_get_no_light)
     truth_sss_result_free(&res);
     run_free(&R);
 }
+
+/* The walk's patch bias (docs/sss/truth.md, "Biases"): a slab (a = 0.9, eta = 1.3) lit by a point
+ * light 2 mean free paths above x_o, so that L_o falls off over a few mean free paths; the disk
+ * average over radius rho is lower than the centre value by about c rho^2. Estimates at rho = 2, 1,
+ * 0.5 with a fixed count: rho = 2 must be below rho = 1, and rho = 0.5 must agree within 3 bars with
+ * the Richardson extrapolation (4 L(1) - L(2)) / 3 of the two larger (the rho^2 law). */
+TEST(truth_sss_walk_patch_bias_shrinks_with_radius)
+{
+    run R;
+    memset(&R, 0, sizeof R);
+    obs_scene_init(&R.scene);
+    add_box(&R.scene, "slab", 8.0, 8.0, -1);
+    add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(0, 0, 2), obs_v3(0, 0, -1), 10.0f);
+    sss_material m = grey_material(0.9, 1.3);
+    CHECK_MSG(run_setup(&R, &m, 1.0, 1.0, 1e-3f, 1), "setup: %s", obs_context_last_error(R.ctx));
+    const double rho[3] = {2.0, 1.0, 0.5};
+    double L[3], se[3];
+    obs_limits lim = *obs_context_limits(R.ctx);
+    lim.max_samples = (int64_t)1 << 21;
+    obs_context_set_limits(R.ctx, &lim);
+    for (int k = 0; k < 3; k++) {
+        truth_sss_params p = truth_sss_params_default();
+        p.estimator = TRUTH_SSS_RANDOM_WALK;
+        p.patch_radius = rho[k];
+        p.batch = 65536;
+        p.min_samples = p.max_samples = (int64_t)1 << 21;
+        truth_sss_result res;
+        double t0 = obs_time_now();
+        CHECK_OK(run_sss(&R, NULL, &p, &res), R.ctx);
+        L[k] = px(&res.radiance[0], 0, 0);
+        se[k] = px(&res.std_error[0], 0, 0);
+        printf("patch rho=%.2f: L = %.5f +- %.5f (%.1f%%), %llu kept, %llu rays, lost %llu, %.2fs\n", rho[k], L[k],
+               se[k], 100.0 * se[k] / L[k], (unsigned long long)res.stats.accepted, (unsigned long long)res.stats.rays,
+               (unsigned long long)res.stats.walks_lost, obs_time_now() - t0);
+        truth_sss_result_free(&res);
+    }
+    double rich = (4.0 * L[1] - L[0]) / 3.0, rse = hypot(4.0 * se[1], se[0]) / 3.0;
+    printf("patch: Richardson rho->0 from rho = 2, 1: %.5f +- %.5f; rho = 0.5 is %+.2f%% from it\n", rich, rse,
+           100.0 * (L[2] - rich) / rich);
+    CHECK(L[0] < L[1] - 3.0 * hypot(se[0], se[1]));
+    CHECK(fabs(L[2] - rich) <= 3.0 * hypot(se[2], rse));
+    run_free(&R);
+}
