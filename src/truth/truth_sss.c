@@ -201,20 +201,19 @@ obs_status truth_sss_params_validate(obs_context *ctx, const truth_sss_params *p
 
 static const float *vpos(const obs_mesh *m, uint32_t i) { return m->positions + 3 * (size_t)i; }
 
-static const obs_mesh *g_sort_mesh; /* only for qsort below; never used across threads */
+/* A vertex for the weld: its position's bits and its index. */
+typedef struct weld_key {
+    uint32_t bits[3];
+    uint32_t id;
+} weld_key;
 
-static int cmp_vid(const void *pa, const void *pb)
+static int cmp_weld(const void *pa, const void *pb)
 {
-    uint32_t a = *(const uint32_t *)pa, b = *(const uint32_t *)pb;
-    const float *x = vpos(g_sort_mesh, a), *y = vpos(g_sort_mesh, b);
-    for (int k = 0; k < 3; k++) {
-        uint32_t ux, uy;
-        memcpy(&ux, &x[k], 4);
-        memcpy(&uy, &y[k], 4);
-        if (ux != uy)
-            return ux < uy ? -1 : 1;
-    }
-    return a < b ? -1 : a > b;
+    const weld_key *a = (const weld_key *)pa, *b = (const weld_key *)pb;
+    for (int k = 0; k < 3; k++)
+        if (a->bits[k] != b->bits[k])
+            return a->bits[k] < b->bits[k] ? -1 : 1;
+    return a->id < b->id ? -1 : a->id > b->id;
 }
 
 static int cmp_u64(const void *pa, const void *pb)
@@ -223,8 +222,8 @@ static int cmp_u64(const void *pa, const void *pb)
     return a < b ? -1 : a > b;
 }
 
-/* The weld sorts vertex ids by their positions' bits (equal floats weld; -0 and +0 do not, which
- * only makes the check stricter). The qsort comparator reads g_sort_mesh: callers serialise. */
+/* The weld sorts vertices by their positions' bits (equal floats weld; -0 and +0 do not, which
+ * only makes the check stricter). Re-entrant. */
 int truth_sss_mesh_is_closed(const obs_mesh *mesh, uint64_t *open_edges)
 {
     if (open_edges)
@@ -232,22 +231,23 @@ int truth_sss_mesh_is_closed(const obs_mesh *mesh, uint64_t *open_edges)
     if (!mesh || !mesh->positions || !mesh->indices)
         return 0;
     uint32_t nv = mesh->vertex_count, nt = mesh->triangle_count;
-    uint32_t *order = (uint32_t *)malloc(sizeof(uint32_t) * (nv ? nv : 1));
+    weld_key *order = (weld_key *)malloc(sizeof(weld_key) * (nv ? nv : 1));
     uint32_t *canon = (uint32_t *)malloc(sizeof(uint32_t) * (nv ? nv : 1));
     uint64_t *edges = (uint64_t *)malloc(sizeof(uint64_t) * 3 * (nt ? nt : 1));
     if (!order || !canon || !edges) {
         free(order); free(canon); free(edges);
         return -1;
     }
-    for (uint32_t i = 0; i < nv; i++)
-        order[i] = i;
-    g_sort_mesh = mesh;
-    qsort(order, nv, sizeof(uint32_t), cmp_vid);
     for (uint32_t i = 0; i < nv; i++) {
-        if (i > 0 && !memcmp(vpos(mesh, order[i]), vpos(mesh, order[i - 1]), 12))
-            canon[order[i]] = canon[order[i - 1]];
+        memcpy(order[i].bits, vpos(mesh, i), 12);
+        order[i].id = i;
+    }
+    qsort(order, nv, sizeof(weld_key), cmp_weld);
+    for (uint32_t i = 0; i < nv; i++) {
+        if (i > 0 && !memcmp(order[i].bits, order[i - 1].bits, 12))
+            canon[order[i].id] = canon[order[i - 1].id];
         else
-            canon[order[i]] = order[i];
+            canon[order[i].id] = order[i].id;
     }
     size_t ne = 0;
     uint64_t nonfinite = 0;
