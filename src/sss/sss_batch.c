@@ -80,10 +80,11 @@ static inline float t12f(float cos_raw, float eta)
 {
     float c = sss_i_maxf(cos_raw, 0.0f);
     c = sss_i_minf(c, 1.0f);
-    const float sin2_t = (1.0f - c * c) / (eta * eta);
-    if (sin2_t >= 1.0f)
+    const float eta2 = eta * eta;
+    const float cos2_t = ((eta2 - 1.0f) + c * c) / eta2; /* 1 - sin_t^2, as sss_fresnel_reflectance */
+    if (cos2_t <= 0.0f)
         return 0.0f;
-    const float cos_t = sqrtf(sss_i_maxf(1.0f - sin2_t, 0.0f));
+    const float cos_t = sqrtf(cos2_t);
     const float rs = (c - eta * cos_t) / (c + eta * cos_t);
     const float rp = (eta * c - cos_t) / (eta * c + cos_t);
     return 1.0f - 0.5f * (rs * rs + rp * rp);
@@ -143,7 +144,7 @@ void sss_i_eval_scalar(const sss_gpu_constants *g, const float xo[3], const floa
         /* [Frisvad14] directional dipole: the steps of sss_dipole.c sd_directional */
         const float r = sqrtf(r2);
         /* w12 = refract(w_i), TIR-clamped (sss.md 1.2, 1.3) */
-        const float kk = sss_i_maxf(1.0f - (1.0f - cos_i * cos_i) / eta2, 0.0f);
+        const float kk = sss_i_maxf(((eta2 - 1.0f) + cos_i * cos_i) / eta2, 0.0f);
         const float a = (-cos_i) / eta + sqrtf(kk);
         float w0 = (-wi0) / eta - ni0 * a, w1 = (-wi1) / eta - ni1 * a, w2 = (-wi2) / eta - ni2 * a;
         const float wl = sqrtf(dotf(w0, w1, w2, w0, w1, w2));

@@ -62,9 +62,10 @@ static inline vf vt12(vf cos_raw, vf eta)
 {
     vf c = VMAX(cos_raw, VSET(0.0f));
     c = VMIN(c, VSET(1.0f));
-    const vf sin2_t = VDIV(VSUB(VSET(1.0f), VMUL(c, c)), VMUL(eta, eta));
-    const vf tir = _mm256_cmp_ps(sin2_t, VSET(1.0f), _CMP_GE_OQ);
-    const vf cos_t = VSQRT(VMAX(VSUB(VSET(1.0f), sin2_t), VSET(0.0f)));
+    const vf eta2 = VMUL(eta, eta);
+    const vf cos2_t = VDIV(VADD(VSUB(eta2, VSET(1.0f)), VMUL(c, c)), eta2);
+    const vf tir = _mm256_cmp_ps(cos2_t, VSET(0.0f), _CMP_LE_OQ);
+    const vf cos_t = VSQRT(VMAX(cos2_t, VSET(0.0f)));
     const vf ect = VMUL(eta, cos_t), ec = VMUL(eta, c);
     const vf rs = VDIV(VSUB(c, ect), VADD(c, ect));
     const vf rp = VDIV(VSUB(ec, cos_t), VADD(ec, cos_t));
@@ -134,7 +135,7 @@ void sss_i_eval_avx2(const sss_gpu_constants *g, const float xo[3], const float 
         /* [Frisvad14] directional dipole: the steps of sss_dipole.c sd_directional */
         const vf r = VSQRT(r2);
         /* w12 = refract(w_i), TIR-clamped (sss.md 1.2, 1.3) */
-        const vf kk = VMAX(VSUB(one, VDIV(VSUB(one, VMUL(cos_i, cos_i)), eta2)), zero);
+        const vf kk = VMAX(VDIV(VADD(VSUB(eta2, one), VMUL(cos_i, cos_i)), eta2), zero);
         const vf a = VADD(VDIV(VNEG(cos_i), eta), VSQRT(kk));
         vf w0 = VSUB(VDIV(VNEG(wi0), eta), VMUL(ni0, a));
         vf w1 = VSUB(VDIV(VNEG(wi1), eta), VMUL(ni1, a));

@@ -11,6 +11,7 @@
 
 #include <cjson/cJSON.h>
 #include <ctype.h>
+#include <stddef.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -185,8 +186,8 @@ static obs_status parse_sss_object(obs_context *ctx, const cJSON *o, const char 
         if (!found) {
             char list[512];
             preset_list(list, sizeof list);
-            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "%s: obscura_sss.preset: no preset named \"%s\" (presets: %s)",
-                             w, p->valuestring, list);
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                             "%s: obscura_sss.preset: no preset named \"%s\" (presets: %s)", w, p->valuestring, list);
         }
     } else {
         if (has_ssp == has_ss)
@@ -239,10 +240,12 @@ obs_status sss_material_from_extras(obs_context *ctx, const char *extras_json, c
     *found = 0;
     if (!extras_json)
         return OBS_STATUS_OK;
-    cJSON *root = cJSON_Parse(extras_json);
+    /* the error position comes back through `end` (cJSON_GetErrorPtr is a process global) */
+    const char *end = NULL;
+    cJSON *root = cJSON_ParseWithOpts(extras_json, &end, 0);
     if (!root)
-        return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "%s: extras is not valid JSON (near \"%.20s\")", w,
-                         cJSON_GetErrorPtr() ? cJSON_GetErrorPtr() : "");
+        return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "%s: extras is not valid JSON (at byte %td, near \"%.20s\")", w,
+                         end ? end - extras_json : (ptrdiff_t)0, end ? end : "");
     /* glTF extras may be any JSON value; only an object can carry "obscura_sss". */
     const cJSON *o = cJSON_IsObject(root) ? cJSON_GetObjectItemCaseSensitive(root, "obscura_sss") : NULL;
     obs_status st = OBS_STATUS_OK;
