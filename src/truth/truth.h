@@ -290,6 +290,129 @@ obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_s
 
 /* ============================================ end of AO ground truth ============================ */
 
+/* ================================================================================================
+ * SSS ground truth (truth_sss.c; the estimators, their pdfs and weights, the statistics and the
+ * measured biases are written out in docs/sss/truth.md; facts in ../shared/reference/sss.md s4)
+ * ================================================================================================
+ *
+ * For each camera pixel on a translucent surface: x_o = pixel ray origin + depth * ray direction
+ * (rast_pixel_ray, as TRUTH_AO_ORIGIN_GBUFFER), n_o = the outward (winding) normal of the G-buffer's
+ * triangle in world space, w_o = unit direction to the camera. Both estimate the radiance
+ * L_o(x_o, w_o) leaving the surface by subsurface scattering of the scene's directional and point
+ * lights (E(x_i) = colour * intensity * max(0, n_i.w_i) * V(x_i -> light), / d^2 for a point
+ * light), entering over the lit surface of the SAME instance:
+ *
+ *   TRUTH_SSS_BRUTE_FORCE  ("method" reference, the BSSRDF held fixed; Frisvad's dirpole.cpp
+ *       trace(), sss.md s4): L_o = T21(n_o.w_o) Int_A T12(n_i.w_i) S_d(x_i, w_i; x_o) E(x_i) dA,
+ *       S_d = sss_sd of params.model, the same constants as the scattering maps.
+ *   TRUTH_SSS_RANDOM_WALK  ("model" reference: radiative transfer in the closed mesh, unreduced
+ *       sigma_s, sigma_a, Henyey-Greenstein g, Fresnel boundary of relative index eta):
+ *       photons enter at x_i as above, walk inside; every collision scores, by a collision
+ *       estimator, the radiance it sends along the refracted view direction to a surface disk of
+ *       radius patch_radius around x_o (the patch average; docs/sss/truth.md, "Random walk").
+ *
+ * Entry points (both): a candidate x_i uniform on the instance's world-space area (triangle CDF),
+ * kept with probability p = exp(-sigma* |x_i - x_o|) (Russian roulette, dirpole.cpp), weight
+ * A / p; sigma* = min over channels of sigma_tr unless params.sigma_star > 0.
+ * Randomness is a function of (pixel, candidate index, dimension, seed) only. A "sample" is one
+ * candidate (kept or not). Candidate k belongs to replicate k mod R; the error bar is the
+ * standard error from the spread of the R replicates' means (as truth_ao, docs/truth.md s5). */
+
+#include "../sss/sss.h"
+
+typedef enum truth_sss_estimator {
+    TRUTH_SSS_BRUTE_FORCE = 0,
+    TRUTH_SSS_RANDOM_WALK,
+    TRUTH_SSS_ESTIMATOR_COUNT
+} truth_sss_estimator;
+const char *truth_sss_estimator_name(truth_sss_estimator e);      /* "brute-force", "random-walk" */
+int truth_sss_estimator_from_name(const char *name, truth_sss_estimator *out);
+
+#define TRUTH_SSS_MAX_REPLICATES 32
+
+typedef struct truth_sss_params {
+    truth_sss_estimator estimator;  /* default TRUTH_SSS_BRUTE_FORCE */
+    sss_model model;                /* brute force: the BSSRDF; default SSS_MODEL_DIRECTIONAL (the maps') */
+    double target_rel_error;        /* stop a pixel when SE(Y) <= target_rel_error * Y, Y the luminance
+                                       0.2126 R + 0.7152 G + 0.0722 B of the estimate and SE(Y) its
+                                       replicate standard error; > 0, finite. Default 0.01 */
+    int64_t min_samples;            /* candidates per pixel; a positive multiple of batch; default 16384 */
+    int64_t max_samples;            /* multiple of batch, >= min_samples, <= obs_limits.max_samples
+                                       (LIMIT_EXCEEDED otherwise); default 1048576 (= the default limit) */
+    int batch;                      /* candidates per pixel per round, a multiple of replicates, in
+                                       [replicates, 65536]; default 4096 */
+    int replicates;                 /* R in [2, TRUTH_SSS_MAX_REPLICATES]; default 8 (as truth_ao) */
+    double sigma_star;              /* roulette rate per scene unit; 0 = min sigma_tr (default, dirpole.cpp) */
+    double patch_radius;            /* random walk: rho, world units, > 0 finite; default 0.05 */
+    int max_bounces;                /* random walk: events (collisions + reflections) before a walk is
+                                       dropped and counted lost; default 1000000 */
+    float offset_ulps;              /* self-intersection offset k * 2^-24 * max(|p|inf, scene extent),
+                                       as truth_ao; >= 0, default 64 */
+    int tile;                       /* tile side in pixels, [1, 64]; default 4 */
+    uint64_t seed;                  /* default 0 */
+    truth_progress_fn progress;     /* default NULL; rays = Embree rays so far */
+    void *progress_user;
+} truth_sss_params;
+
+truth_sss_params truth_sss_params_default(void);
+/* Range checks (NaN refused). Returns OK or INVALID_ARGUMENT naming the field. ctx may be NULL. */
+obs_status truth_sss_params_validate(obs_context *ctx, const truth_sss_params *p);
+
+typedef struct truth_sss_stats {
+    uint64_t candidates;            /* entry candidates drawn */
+    uint64_t accepted;              /* kept by the roulette */
+    uint64_t rays;                  /* Embree rays: shadow, walk and scoring rays */
+    uint64_t walk_events;           /* random walk: collisions and boundary events */
+    uint64_t walks_lost;            /* random walk: walks ended by a hit on another instance, a hit
+                                       from outside (a leak) or max_bounces (should be 0) */
+    int64_t pixels_surface;         /* translucent surface pixels estimated (count > 0) */
+    int64_t pixels_skipped;         /* background, opaque, or seen from inside (n_o.w_o <= 0) */
+    int64_t pixels_converged;       /* stopped with SE(Y) <= target_rel_error * Y */
+    int64_t pixels_at_max;          /* reached max_samples */
+    double seconds;
+} truth_sss_stats;
+
+/* Planes of the INNER image, row 0 at the top; background and opaque pixels hold 0, count 0. */
+typedef struct truth_sss_result {
+    int width, height;
+    obs_image_f32 radiance[3];      /* L_o, RGB, the lights' units per sr */
+    obs_image_f32 std_error[3];     /* replicate standard error of each channel */
+    obs_image_f32 count;            /* candidates used (the mask: 0 = not estimated) */
+    truth_sss_stats stats;
+} truth_sss_result;
+
+/* Estimate the SSS ground truth for every pixel of gb (which must hold RAST_OUT_DEPTH,
+ * RAST_OUT_PRIM_ID and RAST_OUT_INSTANCE_ID; rendered from `scene` with `camera`). ts is the
+ * Embree scene of `scene` (truth_scene_create); mats as for sss_maps_build. Lights: the scene's
+ * directional and point lights (a spot light is UNSUPPORTED; range is ignored).
+ * The random walk refuses (INVALID_ARGUMENT, naming the mesh and instance) a translucent instance
+ * whose mesh is not closed: after welding vertices of equal position, every edge of a
+ * non-degenerate triangle must be shared by exactly two triangles.
+ * Output identical for any pool and thread count. *out allocated here (truth_sss_result_free),
+ * zeroed on failure. Returns OK, INVALID_ARGUMENT, UNSUPPORTED, LIMIT_EXCEEDED, OUT_OF_MEMORY. */
+obs_status truth_sss_render(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                            const sss_scene_materials *mats, const obs_camera *camera, const struct rast_gbuffer *gb,
+                            const truth_sss_params *p, truth_sss_result *out);
+void truth_sss_result_free(truth_sss_result *r);   /* NULL-safe; zeroes it */
+
+/* The random walk's flux reflectance from one entry point: `count` photons of unit power enter
+ * instance `instance` at x_i (on its surface, outward normal n_i) along direction `dir` (already
+ * inside the medium, dir.n_i < 0; no entry Fresnel), channel `channel`; *reflectance = the mean
+ * fraction of the power that escapes (anywhere), *std_error its i.i.d. standard error. Photon k
+ * uses the stream (pixel 0, sample k, seed). For the slab tests (H-function, docs/sss/truth.md).
+ * Returns OK or INVALID_ARGUMENT (NULLs, count < 2, an open or non-translucent instance). */
+obs_status truth_sss_walk_reflectance(obs_context *ctx, const truth_scene *ts, const obs_scene *scene,
+                                      const sss_scene_materials *mats, uint32_t instance, const double x_i[3],
+                                      const double n_i[3], const double dir[3], int channel, int64_t count,
+                                      uint64_t seed, double *reflectance, double *std_error);
+
+/* 1 when every edge of mesh `mesh` (vertices welded by equal position, degenerate triangles
+ * skipped) is shared by exactly two triangles; 0 otherwise (*open_edges, may be NULL, gets the
+ * number of edges that are not), or -1 when out of memory. */
+int truth_sss_mesh_is_closed(const obs_mesh *mesh, uint64_t *open_edges);
+
+/* ============================================ end of SSS ground truth =========================== */
+
 #ifdef __cplusplus
 }
 #endif
