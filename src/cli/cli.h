@@ -57,6 +57,17 @@ obs_status cli_make_parent_dirs(obs_context *ctx, const char *path);
  * exr_ext; returns buf, or NULL when arg does not fit in size bytes. */
 const char *cli_output_prefix(const char *arg, char *buf, size_t size, char exr_ext[5]);
 
+/* The camera as a sidecar object "camera" (name, projection, its parameters, both matrices). */
+void cli_json_camera(io_json *j, const obs_camera *c);
+
+/* A progress bar with an ETA on stderr (truth_progress_fn's signature): label names the command. */
+typedef struct cli_progress {
+    double t0, last;
+    int drawn;
+    const char *label;
+} cli_progress;
+void cli_progress_draw(void *user, int64_t done, int64_t total, uint64_t rays);
+
 /* Write the common sidecar fields (version, revision, command line). */
 void cli_json_header(io_json *j, const char *command, int argc, char **argv);
 

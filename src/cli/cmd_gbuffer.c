@@ -55,27 +55,6 @@ static int parse_outputs(const char *s, uint32_t *out)
 
 static void json_mat(io_json *j, const char *key, const obs_mat4 *m) { io_json_floats(j, key, m->m, 16); }
 
-static void json_camera(io_json *j, const obs_camera *c)
-{
-    io_json_begin_object(j, "camera");
-    io_json_string(j, "name", c->name);
-    io_json_string(j, "projection", c->projection == OBS_PROJECTION_PERSPECTIVE ? "perspective" : "orthographic");
-    if (c->projection == OBS_PROJECTION_PERSPECTIVE) {
-        io_json_number(j, "yfov_rad", c->yfov);
-        io_json_number(j, "aspect", c->aspect);
-    } else {
-        io_json_number(j, "xmag", c->xmag);
-        io_json_number(j, "ymag", c->ymag);
-    }
-    io_json_number(j, "znear", c->znear);
-    if (isinf(c->zfar))
-        io_json_string(j, "zfar", "infinity");
-    else
-        io_json_number(j, "zfar", c->zfar);
-    json_mat(j, "view_matrix_column_major", &c->view);
-    json_mat(j, "world_matrix_column_major", &c->world);
-    io_json_end_object(j);
-}
 
 int cmd_gbuffer(cli_globals *g, int argc, char **argv)
 {
@@ -321,7 +300,7 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     io_json_begin_object(&j, NULL);
     cli_json_header(&j, "gbuffer", argc, argv);
     io_json_string(&j, "scene", scene_path);
-    json_camera(&j, &cam);
+    cli_json_camera(&j, &cam);
     io_json_begin_object(&j, "params");
     io_json_int(&j, "width", p.width);
     io_json_int(&j, "height", p.height);

@@ -1,30 +1,22 @@
 /* cmd_sss.c: `obscura sss SCENE`: subsurface scattering with Dal Corso et al.'s scattering maps
  * (docs/sss.md): the image from the scene's camera (EXR + PNG), the K maps as a layered EXR, and
  * a JSON sidecar. Only parses flags and calls the sss_ passes. */
-#include "cli.h"
-#include "sss/sss.h"
+#include "cli_sss.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+static const char *sss_help_head = "usage: obscura sss SCENE [options] -o PREFIX\n";
 static const char *sss_help =
-    "usage: obscura sss SCENE [options] -o PREFIX\n"
-    "material (one of; default --from-scene):\n"
-    "  --material NAME       every mesh is translucent with a Jensen 2001 preset (apple, chicken1,\n"
-    "                        chicken2, cream, ketchup, marble, potato, skimmilk, skin1, skin2,\n"
-    "                        spectralon, wholemilk)\n"
-    "  --from-scene          materials whose glTF extras carry \"obscura_sss\" (docs/sss.md) are\n"
-    "                        translucent; the others are opaque (black here, they still cast shadows)\n"
-    "  --sigma-s-prime R,G,B --sigma-a R,G,B --eta E   a user material (per mm; all three needed)\n"
-    "  --scale-mm S          millimetres per scene unit (default 1000: glTF units are metres)\n"
     "model and maps (defaults: the seed thesis' final code, docs/sss.md):\n"
     "  --model NAME          directional (default, Frisvad 2014) or standard (Jensen 2001)\n"
     "  --K K                 scattering-map directions (Halton points on the sphere; default 16)\n"
     "  --N N                 samples per texel (default 48)\n"
     "  --M M                 candidates of the nearest-N-of-M sampler (default 1000)\n"
-    "  --sampler NAME        rr (default: unbiased Russian roulette) or nearest (N nearest of M)\n"
+    "  --sampler NAME        exponential (default), rr (the thesis shader's Russian roulette) or\n"
+    "                        nearest (the thesis text's N nearest of M; biased): docs/sss/maps.md\n"
     "  --map-size S          scattering-map side (default 512)\n"
     "  --light-map-size S    light G-buffer side (default 512)\n"
     "  --frames F            progressive frames accumulated (default 1)\n"
@@ -35,9 +27,6 @@ static const char *sss_help =
     "  --gamma G             output L^(1/G) (default 1: linear)\n"
     "  --specular            add a Blinn-Phong highlight (exponent --specular-exponent, default 64)\n"
     "  --seed S              random seed (default 0)\n"
-    "light (default: the scene's directional and point lights; none: one from the camera's upper right):\n"
-    "  --light-dir X,Y,Z     replace the scene's lights by a directional light travelling along X,Y,Z (world)\n"
-    "  --light-intensity I   its irradiance (default 1)\n"
     "view and output:\n"
     "  --camera NAME|INDEX   camera (default: 'default', else the first, else a framing one)\n"
     "  --size WxH            image size (default 1920x1080, or 1920 wide at the camera's aspect)\n"
@@ -47,24 +36,11 @@ static const char *sss_help =
     "                        PREFIX.png (sRGB), PREFIX_maps.exr (layer kNN: R, G, B, Z), PREFIX.json\n"
     "                        (default prefix: sss); -o out.exr names the EXR itself\n";
 
-static int parse_rgb(const char *v, double out[3])
+static void print_help(FILE *f)
 {
-    if (!v)
-        return 0;
-    char *end;
-    const char *s = v;
-    for (int c = 0; c < 3; c++) {
-        out[c] = strtod(s, &end);
-        if (end == s || !isfinite(out[c]))
-            return 0;
-        s = end;
-        if (c < 2) {
-            if (*s != ',')
-                return 0;
-            s++;
-        }
-    }
-    return *s == '\0';
+    fputs(sss_help_head, f);
+    fputs(cli_sss_help_material_light, f);
+    fputs(sss_help, f);
 }
 
 static int parse_choice(const char *v, int (*fn)(const char *, int *), int *out)
@@ -83,40 +59,18 @@ static int sampler_from(const char *v, int *o)
 }
 static int visibility_from(const char *v, int *o) { sss_visibility s; int r = sss_visibility_from_name(v, &s); *o = (int)s; return r; }
 
-/* The default light when the scene has none: directional, from the camera's upper right and behind
- * the viewer (view-space direction towards the light normalize(0.35, 0.6, 0.72), as `obscura ao`'s
- * blend), white, irradiance 1. */
-static obs_light default_light(const obs_camera *cam)
-{
-    obs_light L;
-    memset(&L, 0, sizeof L);
-    snprintf(L.name, sizeof L.name, "default (camera upper right)");
-    L.type = OBS_LIGHT_DIRECTIONAL;
-    L.color = (obs_vec3){1.0f, 1.0f, 1.0f};
-    L.intensity = 1.0f;
-    const double lv[3] = {0.35, 0.6, 0.72};
-    const double n = sqrt(lv[0] * lv[0] + lv[1] * lv[1] + lv[2] * lv[2]);
-    const float *m = cam->world.m; /* column-major camera -> world */
-    double d[3];
-    for (int r = 0; r < 3; r++)
-        d[r] = -(m[r] * lv[0] + m[4 + r] * lv[1] + m[8 + r] * lv[2]) / n;
-    const double dn = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-    L.direction = (obs_vec3){(float)(d[0] / dn), (float)(d[1] / dn), (float)(d[2] / dn)};
-    return L;
-}
-
 int cmd_sss(cli_globals *g, int argc, char **argv)
 {
-    const char *scene_path = NULL, *prefix = "sss", *camera = "", *material_name = NULL;
+    const char *scene_path = NULL, *prefix = "sss", *camera = "";
     char prefix_buf[4000], exr_ext[5] = ".exr";
-    int W = 1920, H = 1080, size_given = 0, write_maps = 1, from_scene = 0;
-    double mm_per_unit = SSS_DEFAULT_MM_PER_UNIT, exposure = 1.0, light_intensity = 1.0;
-    double light_dir[3] = {0, 0, 0}, user_sp[3], user_sa[3], user_eta = 0.0;
-    int light_dir_given = 0, user_sp_given = 0, user_sa_given = 0;
+    int W = 1920, H = 1080, size_given = 0, write_maps = 1;
+    double exposure = 1.0;
+    cli_sss_options so;
+    cli_sss_options_init(&so);
     sss_params p = sss_params_default();
 
     if (argc < 2) {
-        fputs(sss_help, stderr);
+        print_help(stderr);
         return CLI_EXIT_USAGE;
     }
     for (int i = 1; i < argc; i++) {
@@ -126,29 +80,12 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
         double x;
         int c;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            fputs(sss_help, stdout);
+            print_help(stdout);
             return CLI_EXIT_OK;
         } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
             if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
             prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
             if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
-        } else if (!strcmp(a, "--material")) {
-            if (!v) return cli_usage_error("--material needs a preset name");
-            material_name = v; i++;
-        } else if (!strcmp(a, "--from-scene")) {
-            from_scene = 1;
-        } else if (!strcmp(a, "--sigma-s-prime") || !strcmp(a, "--sigma-a")) {
-            double *dst = a[8] == 's' ? user_sp : user_sa;
-            if (!parse_rgb(v, dst)) return cli_usage_error("%s needs R,G,B (three numbers, per mm)", a);
-            if (dst == user_sp) user_sp_given = 1; else user_sa_given = 1;
-            i++;
-        } else if (!strcmp(a, "--eta")) {
-            if (!cli_parse_float(v, &user_eta)) return cli_usage_error("--eta needs a number");
-            i++;
-        } else if (!strcmp(a, "--scale-mm")) {
-            if (!cli_parse_float(v, &mm_per_unit) || !(mm_per_unit > 0) || !isfinite(mm_per_unit))
-                return cli_usage_error("--scale-mm needs a number > 0 (millimetres per scene unit)");
             i++;
         } else if (!strcmp(a, "--model")) {
             if (!parse_choice(v, model_from, &c)) return cli_usage_error("--model needs directional or standard");
@@ -174,23 +111,17 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
             if (!cli_parse_int(v, 0, 0x7fffffffffffffffLL, &ll)) return cli_usage_error("--seed needs an integer >= 0");
             p.seed = (uint64_t)ll; i++;
         } else if (!strcmp(a, "--q") || !strcmp(a, "--disk-radius") || !strcmp(a, "--shadow-bias") ||
-                   !strcmp(a, "--gamma") || !strcmp(a, "--specular-exponent") || !strcmp(a, "--exposure") ||
-                   !strcmp(a, "--light-intensity")) {
+                   !strcmp(a, "--gamma") || !strcmp(a, "--specular-exponent") || !strcmp(a, "--exposure")) {
             if (!cli_parse_float(v, &x) || !isfinite(x)) return cli_usage_error("%s needs a number", a);
             if (!strcmp(a, "--q")) p.spread_q = x;
             else if (!strcmp(a, "--disk-radius")) p.disk_radius = x;
             else if (!strcmp(a, "--shadow-bias")) p.shadow_bias = x;
             else if (!strcmp(a, "--gamma")) p.gamma = x;
             else if (!strcmp(a, "--specular-exponent")) p.specular_exponent = x;
-            else if (!strcmp(a, "--exposure")) exposure = x;
-            else light_intensity = x;
+            else exposure = x;
             i++;
         } else if (!strcmp(a, "--specular")) {
             p.specular = 1;
-        } else if (!strcmp(a, "--light-dir")) {
-            if (!parse_rgb(v, light_dir) || (light_dir[0] == 0 && light_dir[1] == 0 && light_dir[2] == 0))
-                return cli_usage_error("--light-dir needs X,Y,Z, not all zero");
-            light_dir_given = 1; i++;
         } else if (!strcmp(a, "--camera")) {
             if (!v) return cli_usage_error("--camera needs a name or index");
             camera = v; i++;
@@ -201,7 +132,10 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
         } else if (!strcmp(a, "--no-maps")) {
             write_maps = 0;
         } else if (a[0] == '-' && a[1]) {
-            int r = cli_limit_flag(g, argc, argv, &i);
+            int r = cli_sss_flag(&so, argc, argv, &i);
+            if (r < 0) return CLI_EXIT_USAGE;
+            if (r > 0) continue;
+            r = cli_limit_flag(g, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             return cli_usage_error("sss: unknown option '%s' (see 'obscura sss --help')", a);
@@ -212,15 +146,10 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     }
     if (!scene_path)
         return cli_usage_error("sss: no scene given");
-    const int user_material = user_sp_given || user_sa_given || user_eta != 0.0;
-    if (user_material && !(user_sp_given && user_sa_given && user_eta != 0.0))
-        return cli_usage_error("sss: a user material needs all of --sigma-s-prime, --sigma-a and --eta");
-    if ((material_name != NULL) + user_material + from_scene > 1)
-        return cli_usage_error("sss: give one of --material, the user material flags and --from-scene");
+    if (cli_sss_options_check(&so, "sss"))
+        return CLI_EXIT_USAGE;
     if (!(exposure >= 0))
         return cli_usage_error("--exposure needs a number >= 0");
-    if (!(light_intensity >= 0))
-        return cli_usage_error("--light-intensity needs a number >= 0");
 
     obs_context *ctx = obs_context_create();
     if (!ctx)
@@ -235,7 +164,6 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     sss_scene_setup setup;
     memset(&setup, 0, sizeof setup);
     sss_light_map *lmaps = NULL;
-    obs_light *lights = NULL;
     int light_count = 0;
     sss_maps maps;
     memset(&maps, 0, sizeof maps);
@@ -247,26 +175,11 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     int code = CLI_EXIT_OK;
     obs_camera cam;
     memset(&cam, 0, sizeof cam);
-    sss_material mat;
-    memset(&mat, 0, sizeof mat);
     double t0, t_lm = 0, t_maps = 0, t_gb = 0, t_comb = 0;
 
     obs_status st = sss_params_validate(ctx, &p);
-    if (st == OBS_STATUS_OK && material_name)
-        st = sss_material_find(ctx, material_name, &mat);
-    if (st == OBS_STATUS_OK && user_material) {
-        snprintf(mat.name, sizeof mat.name, "user");
-        for (int c = 0; c < 3; c++) {
-            mat.sigma_s[c] = user_sp[c];
-            mat.sigma_a[c] = user_sa[c];
-        }
-        mat.g = 0.0;
-        mat.eta = user_eta;
-        st = sss_material_validate(ctx, &mat, "command line");
-    }
     if (st != OBS_STATUS_OK) {
-        code = st == OBS_STATUS_NOT_FOUND ? (fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx)), CLI_EXIT_USAGE)
-                                          : cli_fail(ctx, st);
+        code = cli_fail(ctx, st);
         goto done;
     }
     pool = obs_pool_create(g->threads);
@@ -283,13 +196,9 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     if (st == OBS_STATUS_OK)
         st = cli_pick_camera(ctx, &scene, camera, &cam);
     if (st == OBS_STATUS_OK)
-        st = sss_scene_setup_make(ctx, &scene, (material_name || user_material) ? &mat : NULL, mm_per_unit, &setup);
-    if (st == OBS_STATUS_OK && !sss_scene_setup_any_translucent(&setup, &scene))
-        st = obs_error(ctx, OBS_STATUS_NOT_FOUND,
-                       "%s: no translucent material: no material carries \"obscura_sss\" in its extras "
-                       "(docs/sss.md); give --material NAME to make every mesh translucent", scene_path);
+        st = cli_sss_prepare(ctx, &so, scene_path, &scene, &cam, &setup);
     if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
+        code = cli_sss_exit_for(ctx, st);
         goto done;
     }
     if (!size_given && cam.projection == OBS_PROJECTION_PERSPECTIVE && cam.aspect > 0.0f) {
@@ -300,37 +209,8 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
             goto done;
         }
     }
-    lights = (obs_light *)calloc(scene.light_count + 1, sizeof *lights);
-    if (!lights) {
-        code = CLI_EXIT_INTERNAL;
-        goto done;
-    }
-    if (light_dir_given) {
-        const double n = sqrt(light_dir[0] * light_dir[0] + light_dir[1] * light_dir[1] + light_dir[2] * light_dir[2]);
-        obs_light *L = &lights[light_count++];
-        snprintf(L->name, sizeof L->name, "--light-dir");
-        L->type = OBS_LIGHT_DIRECTIONAL;
-        L->color = (obs_vec3){1.0f, 1.0f, 1.0f};
-        L->intensity = (float)light_intensity;
-        L->direction = (obs_vec3){(float)(light_dir[0] / n), (float)(light_dir[1] / n), (float)(light_dir[2] / n)};
-    } else {
-        for (uint32_t l = 0; l < scene.light_count; l++) {
-            if (scene.lights[l].type == OBS_LIGHT_SPOT) {
-                st = obs_error(ctx, OBS_STATUS_UNSUPPORTED,
-                               "%s: light %u (%s) is a spot light; the scattering maps support directional and "
-                               "point lights (docs/sss.md); pass --light-dir to use a directional light instead",
-                               scene_path, l, scene.lights[l].name);
-                code = cli_fail(ctx, st);
-                goto done;
-            }
-            lights[light_count++] = scene.lights[l];
-        }
-        if (light_count == 0) {
-            lights[light_count] = default_light(&cam);
-            lights[light_count].intensity = (float)light_intensity;
-            light_count++;
-        }
-    }
+    const obs_light *lights = scene.lights;
+    light_count = (int)scene.light_count;
 
     /* ---- Pass 1: light G-buffers ---- */
     lmaps = (sss_light_map *)calloc((size_t)light_count, sizeof *lmaps);
@@ -393,7 +273,7 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
              "visibility=%s shadow_bias=%g shrink_eps=%g gamma=%g specular=%d seed=%llu mm_per_unit=%g",
              sss_model_name(p.model), p.K, p.N, p.M, sss_sampler_name(p.sampler), p.map_size, p.light_map_size,
              p.frames, p.spread_q, p.disk_radius, sss_visibility_name(p.visibility), p.shadow_bias, p.shrink_eps,
-             p.gamma, p.specular, (unsigned long long)p.seed, mm_per_unit);
+             p.gamma, p.specular, (unsigned long long)p.seed, so.mm_per_unit);
     io_attr at[4];
     memset(at, 0, sizeof at);
     int na = 0;
@@ -462,42 +342,7 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     io_json_string(&j, "camera", cam.name);
     io_json_int(&j, "width", W);
     io_json_int(&j, "height", H);
-    io_json_number(&j, "mm_per_unit", mm_per_unit);
-    io_json_begin_array(&j, "materials");
-    for (uint32_t m = 0; m < setup.mats.count; m++) {
-        if (!setup.mats.translucent[m])
-            continue;
-        const sss_material *sm = &setup.mats.constants[m].material;
-        io_json_begin_object(&j, NULL);
-        io_json_int(&j, "slot", m);
-        io_json_string(&j, "name", sm->name);
-        float v3[3];
-        for (int c = 0; c < 3; c++) v3[c] = (float)sm->sigma_s[c];
-        io_json_floats(&j, "sigma_s_per_mm", v3, 3);
-        for (int c = 0; c < 3; c++) v3[c] = (float)sm->sigma_a[c];
-        io_json_floats(&j, "sigma_a_per_mm", v3, 3);
-        io_json_number(&j, "g", sm->g);
-        io_json_number(&j, "eta", sm->eta);
-        io_json_end_object(&j);
-    }
-    io_json_end_array(&j);
-    if (setup.uses_override)
-        io_json_string(&j, "material_override", setup.none_constants.material.name);
-    io_json_begin_array(&j, "lights");
-    for (int l = 0; l < light_count; l++) {
-        io_json_begin_object(&j, NULL);
-        io_json_string(&j, "name", lights[l].name);
-        io_json_string(&j, "type", lights[l].type == OBS_LIGHT_DIRECTIONAL ? "directional" : "point");
-        io_json_number(&j, "intensity", lights[l].intensity);
-        float v3[3] = {lights[l].color.x, lights[l].color.y, lights[l].color.z};
-        io_json_floats(&j, "color", v3, 3);
-        float d3[3] = {lights[l].direction.x, lights[l].direction.y, lights[l].direction.z};
-        float p3[3] = {lights[l].position.x, lights[l].position.y, lights[l].position.z};
-        io_json_floats(&j, lights[l].type == OBS_LIGHT_DIRECTIONAL ? "direction" : "position",
-                       lights[l].type == OBS_LIGHT_DIRECTIONAL ? d3 : p3, 3);
-        io_json_end_object(&j);
-    }
-    io_json_end_array(&j);
+    cli_sss_json_setup(&j, &so, &setup, &scene);
     io_json_string(&j, "params", params_text);
     io_json_begin_object(&j, "stats");
     io_json_number(&j, "seconds_light_gbuffers", t_lm);
@@ -533,7 +378,6 @@ done:
     for (int l = 0; lmaps && l < light_count; l++)
         sss_light_map_free(&lmaps[l]);
     free(lmaps);
-    free(lights);
     sss_scene_setup_free(&setup);
     rast_gbuffer_free(&gb);
     obs_pool_destroy(pool);

@@ -51,56 +51,6 @@ static const char *truth_help =
     "A progress bar with an ETA is drawn on stderr when it is a terminal.\n";
 
 
-static void json_camera(io_json *j, const obs_camera *c)
-{
-    io_json_begin_object(j, "camera");
-    io_json_string(j, "name", c->name);
-    io_json_string(j, "projection", c->projection == OBS_PROJECTION_PERSPECTIVE ? "perspective" : "orthographic");
-    if (c->projection == OBS_PROJECTION_PERSPECTIVE) {
-        io_json_number(j, "yfov_rad", c->yfov);
-        io_json_number(j, "aspect", c->aspect);
-    } else {
-        io_json_number(j, "xmag", c->xmag);
-        io_json_number(j, "ymag", c->ymag);
-    }
-    io_json_number(j, "znear", c->znear);
-    if (isinf(c->zfar))
-        io_json_string(j, "zfar", "infinity");
-    else
-        io_json_number(j, "zfar", c->zfar);
-    io_json_floats(j, "view_matrix_column_major", c->view.m, 16);
-    io_json_floats(j, "world_matrix_column_major", c->world.m, 16);
-    io_json_end_object(j);
-}
-
-/* ---- progress bar ---------------------------------------------------------------------------- */
-
-typedef struct progress {
-    double t0, last;
-    int drawn;
-} progress;
-
-static void draw_progress(void *user, int64_t done, int64_t total, uint64_t rays)
-{
-    progress *pr = (progress *)user;
-    double now = obs_time_now();
-    if (done < total && now - pr->last < 0.2)
-        return;
-    pr->last = now;
-    double el = now - pr->t0, f = total > 0 ? (double)done / (double)total : 1.0;
-    int width = 30, fill = (int)(f * width);
-    char bar[64];
-    for (int i = 0; i < width; i++)
-        bar[i] = i < fill ? '=' : i == fill ? '>' : ' ';
-    bar[width] = '\0';
-    double eta = done > 0 ? el * (double)(total - done) / (double)done : 0.0;
-    int es = (int)(eta + 0.5);
-    fprintf(stderr, "\robscura: truth ao [%s] %5.1f%%  %6.2f Mrays/s  ETA %d:%02d:%02d ", bar, 100.0 * f,
-            el > 0 ? (double)rays / el * 1e-6 : 0.0, es / 3600, es / 60 % 60, es % 60);
-    fflush(stderr);
-    pr->drawn = 1;
-}
-
 /* ---- the command ------------------------------------------------------------------------------ */
 
 int cmd_truth(cli_globals *g, int argc, char **argv)
@@ -267,9 +217,9 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         st = truth_scene_create_ex(ctx, &scene, &so, &ts);
     }
     double t_ao = obs_time_now();
-    progress pr = {t_ao, 0.0, 0};
+    cli_progress pr = {t_ao, 0.0, 0, "truth ao"};
     if (!g->quiet && isatty(fileno(stderr))) {
-        p.progress = draw_progress;
+        p.progress = cli_progress_draw;
         p.progress_user = &pr;
     }
     if (st == OBS_STATUS_OK)
@@ -364,7 +314,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     io_json_begin_object(&j, NULL);
     cli_json_header(&j, "truth ao", argc, argv);
     io_json_string(&j, "scene", scene_path);
-    json_camera(&j, &cam);
+    cli_json_camera(&j, &cam);
     io_json_begin_object(&j, "params");
     io_json_int(&j, "width", W);
     io_json_int(&j, "height", H);

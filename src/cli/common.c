@@ -2,6 +2,7 @@
 #include "cli.h"
 
 #include <errno.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -86,4 +87,49 @@ const char *cli_output_prefix(const char *arg, char *buf, size_t size, char exr_
         buf[n - 4] = '\0';
     }
     return buf;
+}
+
+void cli_json_camera(io_json *j, const obs_camera *c)
+{
+    io_json_begin_object(j, "camera");
+    io_json_string(j, "name", c->name);
+    io_json_string(j, "projection", c->projection == OBS_PROJECTION_PERSPECTIVE ? "perspective" : "orthographic");
+    if (c->projection == OBS_PROJECTION_PERSPECTIVE) {
+        io_json_number(j, "yfov_rad", c->yfov);
+        io_json_number(j, "aspect", c->aspect);
+    } else {
+        io_json_number(j, "xmag", c->xmag);
+        io_json_number(j, "ymag", c->ymag);
+    }
+    io_json_number(j, "znear", c->znear);
+    if (isinf(c->zfar))
+        io_json_string(j, "zfar", "infinity");
+    else
+        io_json_number(j, "zfar", c->zfar);
+    io_json_floats(j, "view_matrix_column_major", c->view.m, 16);
+    io_json_floats(j, "world_matrix_column_major", c->world.m, 16);
+    io_json_end_object(j);
+}
+
+/* ---- progress bar ---------------------------------------------------------------------------- */
+
+void cli_progress_draw(void *user, int64_t done, int64_t total, uint64_t rays)
+{
+    cli_progress *pr = (cli_progress *)user;
+    double now = obs_time_now();
+    if (done < total && now - pr->last < 0.2)
+        return;
+    pr->last = now;
+    double el = now - pr->t0, f = total > 0 ? (double)done / (double)total : 1.0;
+    int width = 30, fill = (int)(f * width);
+    char bar[64];
+    for (int i = 0; i < width; i++)
+        bar[i] = i < fill ? '=' : i == fill ? '>' : ' ';
+    bar[width] = '\0';
+    double eta = done > 0 ? el * (double)(total - done) / (double)done : 0.0;
+    int es = (int)(eta + 0.5);
+    fprintf(stderr, "\robscura: %s [%s] %5.1f%%  %6.2f Mrays/s  ETA %d:%02d:%02d ", pr->label, bar, 100.0 * f,
+            el > 0 ? (double)rays / el * 1e-6 : 0.0, es / 3600, es / 60 % 60, es % 60);
+    fflush(stderr);
+    pr->drawn = 1;
 }
