@@ -152,3 +152,48 @@ TEST(cli_sss_bad_materials_and_params_are_refused_and_write_nothing)
     CHECK(!sss_exists(test_tmpdir(), "never.json"));
     CHECK(!sss_exists(test_tmpdir(), "never_maps.exr"));
 }
+
+TEST(cli_truth_sss_writes_both_references_and_refuses_an_open_mesh_for_the_walk)
+{
+    char prefix[4200];
+    snprintf(prefix, sizeof prefix, "%s/ref", test_tmpdir());
+    const char *a[] = {"truth", "sss", sss_scene("sphere_potato.glb"), "--size", "24x18", "--min-samples", "512",
+                       "--max-samples", "1024", "--batch", "512", "-o", prefix, NULL};
+    CHECK_EQ_INT(sss_cli(a, "ref"), 0);
+    CHECK(sss_exists(test_tmpdir(), "ref.exr"));
+    CHECK(sss_exists(test_tmpdir(), "ref_brute.png"));
+    CHECK(sss_exists(test_tmpdir(), "ref_walk.png"));
+    CHECK(sss_exists(test_tmpdir(), "ref.json"));
+    obs_context *ctx = obs_context_create();
+    io_image im;
+    memset(&im, 0, sizeof im);
+    CHECK_EQ_INT(io_image_read(ctx, test_path(test_tmpdir(), "ref.exr"), &im), OBS_STATUS_OK);
+    static const char *need[] = {"brute.R", "brute.stderr.B", "brute.count", "walk.G", "walk.stderr.R", "walk.count", "Z"};
+    for (size_t k = 0; k < sizeof need / sizeof need[0]; k++)
+        CHECK(io_image_find_channel(&im, need[k]) >= 0);
+    /* Both references see the same pixels, and light reaches some of them. */
+    int bc = io_image_find_channel(&im, "brute.count"), wc = io_image_find_channel(&im, "walk.count");
+    int br = io_image_find_channel(&im, "brute.R");
+    if (bc >= 0 && wc >= 0 && br >= 0) {
+        int64_t same = 0, lit = 0, n = 0;
+        for (int y = 0; y < im.height; y++)
+            for (int x = 0; x < im.width; x++) {
+                const float b = obs_image_f32_row(&im.f32[bc], y)[x], w = obs_image_f32_row(&im.f32[wc], y)[x];
+                same += (b > 0) == (w > 0);
+                n += b > 0;
+                lit += obs_image_f32_row(&im.f32[br], y)[x] > 0.0f;
+            }
+        CHECK_EQ_INT(same, (int64_t)im.width * im.height);
+        CHECK(n > 50 && lit > n / 4);
+    }
+    io_image_free(&im);
+    obs_context_destroy(ctx);
+    /* dragon.glb has open edges: the random walk refuses it, naming the mesh; nothing is written. */
+    snprintf(prefix, sizeof prefix, "%s/open", test_tmpdir());
+    const char *b[] = {"truth", "sss", sss_scene("dragon.glb"), "--material", "skin1", "--reference", "random-walk",
+                       "--size", "16x12", "-o", prefix, NULL};
+    CHECK(sss_cli(b, "open") != 0);
+    CHECK(sss_stderr_has("open", "dragon") && sss_stderr_has("open", "closed"));
+    CHECK(!sss_exists(test_tmpdir(), "open.exr"));
+    CHECK(!sss_exists(test_tmpdir(), "open.json"));
+}

@@ -82,5 +82,6 @@ int cmd_compare(cli_globals *g, int argc, char **argv);
 int cmd_ao(cli_globals *g, int argc, char **argv);
 int cmd_study(cli_globals *g, int argc, char **argv);
 int cmd_sss(cli_globals *g, int argc, char **argv);
+int cmd_truth_sss(cli_globals *g, int argc, char **argv);   /* argv[1] == "sss" */
 
 #endif

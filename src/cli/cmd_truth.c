@@ -13,7 +13,7 @@
 #include <unistd.h>
 
 static const char *truth_help =
-    "usage: obscura truth ao SCENE [options]\n"
+    "usage: obscura truth ao SCENE [options]   (and 'obscura truth sss --help': the SSS references)\n"
     "  -o, --output PREFIX   write PREFIX.exr, PREFIX.png, PREFIX.json (default: truth_ao);\n"
     "                        -o out.exr names the EXR itself and the rest go beside it (out.png,\n"
     "                        out.json); missing directories are created\n"
@@ -63,8 +63,10 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         fputs(truth_help, stdout);
         return CLI_EXIT_OK;
     }
+    if (!strcmp(argv[1], "sss"))
+        return cmd_truth_sss(g, argc, argv);
     if (strcmp(argv[1], "ao") != 0)
-        return cli_usage_error("truth: unknown kind '%s' (only 'truth ao' exists)", argv[1]);
+        return cli_usage_error("truth: unknown kind '%s' ('truth ao' or 'truth sss')", argv[1]);
     const char *scene_path = NULL, *prefix = "truth_ao", *camera = "";
     char prefix_buf[4000], exr_ext[5] = ".exr";
     truth_ao_params p = truth_ao_params_default();

@@ -18,6 +18,7 @@ static const char *usage_text =
     "  gbuffer SCENE   render the G-buffer of a glTF scene to EXR, PNG previews and a JSON sidecar\n"
     "  info FILE       describe a scene (.gltf/.glb) or an image (.exr, .png)\n"
     "  truth ao SCENE  ray-traced AO ground truth (Embree) per estimator: EXR mean/stderr/count, PNG, JSON\n"
+    "  truth sss SCENE the SSS ground truths: brute-force BSSRDF integral and volumetric random walk\n"
     "  compare A B     compare image B with reference A (RMSE, PSNR, SSIM ...; thresholds set the exit code)\n"
     "  ao --method M   screen-space AO (ao --list: every technique) on a scene's or an external G-buffer\n"
     "  sss SCENE       subsurface scattering (Dal Corso's scattering maps, directional or standard dipole):\n"
