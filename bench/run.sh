@@ -11,11 +11,14 @@
 #            bunny (the llvmpipe peer's framing) at 1920x1080 and 1280x720 with 1 and 2 threads
 #            (median of 9 timed runs after 2 warm-up runs per run), plus SAO as the peer's `sao`
 #            stage (level 0 only, no blur);
-#   all:     side, gbuffer and ao.
+#   sss:     obscura_bench_sss: the scattering maps of the bunny in cream at the bar's configuration
+#            (K 16, N 48, 512^2, 2 threads; <= 150 ms), 8 views reusing one set of maps, then the
+#            cost growth in K, N and map size with a fitted line each -> bench/results/sss.txt;
+#   all:     side, gbuffer, ao and sss.
 # gbuffer and ao: REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
 # repetitions of each run's median, which this script prints at the end.
-# Usage: bench/run.sh [side|gbuffer|ao|all] [--quick]
+# Usage: bench/run.sh [side|gbuffer|ao|sss|all] [--quick]
 #   (side: PAIRS=5 THREADS=2 SIZE=1920x1080 FRAMES=20 WARMUP=5 PASSES="gbuffer sao sao_blur";
 #    gbuffer/ao: REPS=... THREADS="1 2" SIZES="1920x1080 1280x720" METHODS="sao gtao" override)
 set -euo pipefail
@@ -24,7 +27,7 @@ build="${BUILD:-$here/build}"
 if [ ! -x "$build/obscura_bench" ]; then "$here/scripts/build.sh" "$build"; fi
 what="side"; quick=0
 for a in "$@"; do
-  case "$a" in side|gbuffer|ao|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [side|gbuffer|ao|all] [--quick]" >&2; exit 2 ;; esac
+  case "$a" in side|gbuffer|ao|sss|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [side|gbuffer|ao|sss|all] [--quick]" >&2; exit 2 ;; esac
 done
 reps="${REPS:-5}"; threads="${THREADS:-1 2}"; sizes="${SIZES:-1920x1080 1280x720}"; frames=20; aoreps=9
 if [ "$quick" = 1 ]; then reps=1; sizes="640x360"; frames=3; aoreps=3; fi
@@ -144,6 +147,14 @@ parse() {
 if [ "$what" = side ] || [ "$what" = all ]; then side_run; fi
 [ "$what" = side ] && exit 0
 
+if [ "$what" = sss ] || [ "$what" = all ]; then
+  sreps=7; [ "$quick" = 1 ] && sreps=1
+  { header
+    "$build/obscura_bench_sss" "$build/data/bunny_cream.glb" --threads 2 --reps "$sreps" --views 8
+    [ "$quick" = 1 ] || "$build/obscura_bench_sss" "$build/data/bunny_cream.glb" --threads 2 --reps 3 --sweep
+  } | tee "$here/bench/results/sss.txt"
+  if [ "$what" = sss ]; then exit 0; fi
+fi
 if [ "$what" != ao ]; then
   out="$here/bench/results/gbuffer.txt"
   {

@@ -1,0 +1,285 @@
+/* bench_sss.c: the cost of the scattering maps (issue 14, "Speed"; docs/performance.md).
+ *
+ *   obscura_bench_sss [SCENE] [--K 16] [--N 48] [--map-size 512] [--light-map-size 512]
+ *                     [--sampler NAME] [--threads 2] [--reps 7] [--size 1920x1080]
+ *                     [--sweep] [--views 8]
+ *
+ * SCENE defaults to build/data/bunny_cream.glb (the bunny, 75k triangles, 30 cm, in cream, its
+ * key light). After one warm-up, REPS timed repetitions of:
+ *   light  = sss_light_map_render for every light (the light G-buffers);
+ *   maps   = sss_maps_build (the K views' rasterization and the gather): the issue's bar, <= 150 ms
+ *            for the bunny at K = 16, N = 48, 512^2 on 2 threads;
+ *   camera = the camera's G-buffer (rast_render) at --size;
+ *   comb   = sss_combine for that camera (a fixed scene: the maps reused).
+ * RESULT lines give the medians (min, max) in ms, the BSSRDF evaluations and their rate.
+ * --views V also times V camera views that reuse one set of maps ("8 views cost about one map
+ *  build plus 8 cheap combinations", issue 16), each view a different Halton direction.
+ * --sweep times the maps over K in {4, 8, 16, 32} (N 48, 512^2), N in {16, 48, 128} (K 16, 512^2)
+ * and map size in {256, 512, 1024} (K 16, N 48), and prints the least-squares line of each
+ * (time = a + b x) with its coefficient of determination: the cost growth, expected linear in K,
+ * in N and in the map's texel count. */
+#include "core/obs.h"
+#include "io/io.h"
+#include "raster/raster.h"
+#include "sss/sss.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return x < y ? -1 : x > y;
+}
+
+static double median(double *v, int n)
+{
+    qsort(v, (size_t)n, sizeof(double), cmp_double);
+    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+typedef struct bench {
+    obs_context *ctx;
+    obs_pool *pool;
+    obs_scene scene;
+    sss_scene_setup setup;
+    obs_camera cam;
+    int W, H;
+} bench;
+
+static void die_status(bench *b, obs_status st)
+{
+    fprintf(stderr, "obscura_bench_sss: %s\n", obs_context_last_error(b->ctx));
+    exit(st == OBS_STATUS_OK ? 0 : 1);
+}
+
+/* One maps build at p (light maps rendered first, untimed here); returns its milliseconds. */
+static double time_maps(bench *b, const sss_params *p, sss_light_map *lm, uint64_t *evals)
+{
+    sss_maps maps;
+    memset(&maps, 0, sizeof maps);
+    double t0 = obs_time_now();
+    obs_status st = sss_maps_build(b->ctx, b->pool, &b->scene, &b->setup.mats, lm, (int)b->scene.light_count, p, &maps);
+    double ms = 1e3 * (obs_time_now() - t0);
+    if (st != OBS_STATUS_OK)
+        die_status(b, st);
+    if (evals)
+        *evals = maps.samples_evaluated;
+    sss_maps_free(&maps);
+    return ms;
+}
+
+static void render_light_maps(bench *b, const sss_params *p, sss_light_map *lm)
+{
+    for (uint32_t l = 0; l < b->scene.light_count; l++) {
+        obs_status st = sss_light_map_render(b->ctx, b->pool, &b->scene, &b->scene.lights[l], p, &lm[l]);
+        if (st != OBS_STATUS_OK)
+            die_status(b, st);
+    }
+}
+
+static void free_light_maps(bench *b, sss_light_map *lm)
+{
+    for (uint32_t l = 0; l < b->scene.light_count; l++)
+        sss_light_map_free(&lm[l]);
+}
+
+/* Least squares y = a + b x and R^2. */
+static void fit_line(const double *x, const double *y, int n, double *a, double *b, double *r2)
+{
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (int i = 0; i < n; i++) {
+        sx += x[i]; sy += y[i]; sxx += x[i] * x[i]; sxy += x[i] * y[i];
+    }
+    double d = n * sxx - sx * sx;
+    *b = d != 0 ? (n * sxy - sx * sy) / d : 0;
+    *a = (sy - *b * sx) / n;
+    double my = sy / n, ss = 0, sr = 0;
+    for (int i = 0; i < n; i++) {
+        ss += (y[i] - my) * (y[i] - my);
+        double e = y[i] - (*a + *b * x[i]);
+        sr += e * e;
+    }
+    *r2 = ss > 0 ? 1 - sr / ss : 1;
+}
+
+static void sweep_axis(bench *b, const sss_params *base, const char *axis, const int *vals, int n, int reps)
+{
+    double x[8], y[8];
+    for (int i = 0; i < n; i++) {
+        sss_params p = *base;
+        if (!strcmp(axis, "K")) p.K = vals[i];
+        else if (!strcmp(axis, "N")) p.N = vals[i];
+        else p.map_size = vals[i];
+        sss_light_map lm[8];
+        memset(lm, 0, sizeof lm);
+        render_light_maps(b, &p, lm);
+        time_maps(b, &p, lm, NULL);   /* warm-up */
+        double t[64];
+        for (int r = 0; r < reps; r++)
+            t[r] = time_maps(b, &p, lm, NULL);
+        free_light_maps(b, lm);
+        x[i] = !strcmp(axis, "map_size") ? (double)vals[i] * vals[i] : vals[i];
+        y[i] = median(t, reps);
+        printf("SWEEP axis=%s value=%d K=%d N=%d map_size=%d maps_median_ms=%.2f\n", axis, vals[i], p.K, p.N, p.map_size,
+               y[i]);
+        fflush(stdout);
+    }
+    double a, bb, r2;
+    fit_line(x, y, n, &a, &bb, &r2);
+    printf("FIT axis=%s x=%s intercept_ms=%.3f slope_ms=%.6g r2=%.4f\n", axis,
+           !strcmp(axis, "map_size") ? "texels" : axis, a, bb, r2);
+}
+
+int main(int argc, char **argv)
+{
+    const char *scene_path = "build/data/bunny_cream.glb";
+    sss_params p = sss_params_default();
+    int threads = 2, reps = 7, sweep = 0, views = 0;
+    bench b;
+    memset(&b, 0, sizeof b);
+    b.W = 1920;
+    b.H = 1080;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!strcmp(a, "--K") && v) p.K = atoi(argv[++i]);
+        else if (!strcmp(a, "--N") && v) p.N = atoi(argv[++i]);
+        else if (!strcmp(a, "--map-size") && v) p.map_size = atoi(argv[++i]);
+        else if (!strcmp(a, "--light-map-size") && v) p.light_map_size = atoi(argv[++i]);
+        else if (!strcmp(a, "--threads") && v) threads = atoi(argv[++i]);
+        else if (!strcmp(a, "--reps") && v) reps = atoi(argv[++i]);
+        else if (!strcmp(a, "--views") && v) views = atoi(argv[++i]);
+        else if (!strcmp(a, "--sweep")) sweep = 1;
+        else if (!strcmp(a, "--size") && v) {
+            if (sscanf(argv[++i], "%dx%d", &b.W, &b.H) != 2) return 2;
+        } else if (!strcmp(a, "--sampler") && v) {
+            if (!sss_sampler_from_name(argv[++i], &p.sampler)) {
+                fprintf(stderr, "obscura_bench_sss: unknown sampler '%s'\n", argv[i]);
+                return 2;
+            }
+        } else if (a[0] != '-') scene_path = a;
+        else {
+            fprintf(stderr, "usage: obscura_bench_sss [SCENE] [--K K] [--N N] [--map-size S] [--light-map-size S] "
+                            "[--sampler NAME] [--threads T] [--reps R] [--size WxH] [--views V] [--sweep]\n");
+            return 2;
+        }
+    }
+    if (reps < 1 || reps > 64 || views < 0 || views > 64) return 2;
+    b.ctx = obs_context_create();
+    b.pool = obs_pool_create(threads);
+    obs_scene_init(&b.scene);
+    io_gltf_options go = io_gltf_options_default();
+    obs_status st = io_gltf_load(b.ctx, scene_path, &go, &b.scene);
+    if (st == OBS_STATUS_OK)
+        st = sss_params_validate(b.ctx, &p);
+    if (st == OBS_STATUS_OK)
+        st = sss_scene_setup_make(b.ctx, &b.scene, NULL, SSS_DEFAULT_MM_PER_UNIT, &b.setup);
+    if (st != OBS_STATUS_OK)
+        die_status(&b, st);
+    if (b.scene.light_count == 0 || b.scene.camera_count == 0 || b.scene.light_count > 8) {
+        fprintf(stderr, "obscura_bench_sss: %s needs 1..8 lights and a camera\n", scene_path);
+        return 1;
+    }
+    b.cam = b.scene.cameras[0];
+    printf("# obscura_bench_sss %s: %llu triangles, %u light(s), threads=%d reps=%d, model=%s sampler=%s\n", scene_path,
+           (unsigned long long)obs_scene_triangle_count(&b.scene), b.scene.light_count, obs_pool_threads(b.pool), reps,
+           sss_model_name(p.model), sss_sampler_name(p.sampler));
+    if (sweep) {
+        static const int Ks[] = {4, 8, 16, 32}, Ns[] = {16, 48, 128}, Ss[] = {256, 512, 1024};
+        sweep_axis(&b, &p, "K", Ks, 4, reps);
+        sweep_axis(&b, &p, "N", Ns, 3, reps);
+        sweep_axis(&b, &p, "map_size", Ss, 3, reps);
+        return 0;
+    }
+    /* ---- One configuration: light maps, maps, camera G-buffer, combination ---- */
+    rast_params rp = rast_params_default();
+    rp.width = b.W;
+    rp.height = b.H;
+    rp.outputs = RAST_OUT_DEPTH | RAST_OUT_NORMAL | RAST_OUT_MATERIAL_ID | RAST_OUT_INSTANCE_ID;
+    rp.face_forward = 0;
+    rast_gbuffer gb;
+    if (rast_gbuffer_alloc(b.ctx, &rp, &gb) != OBS_STATUS_OK)
+        die_status(&b, OBS_STATUS_OUT_OF_MEMORY);
+    double tl[64], tm[64], tc[64], tb[64];
+    uint64_t evals = 0;
+    for (int r = -1; r < reps; r++) {
+        sss_light_map lm[8];
+        memset(lm, 0, sizeof lm);
+        double t0 = obs_time_now();
+        render_light_maps(&b, &p, lm);
+        double t1 = obs_time_now();
+        sss_maps maps;
+        memset(&maps, 0, sizeof maps);
+        st = sss_maps_build(b.ctx, b.pool, &b.scene, &b.setup.mats, lm, (int)b.scene.light_count, &p, &maps);
+        double t2 = obs_time_now();
+        rast_view view = {b.cam};
+        if (st == OBS_STATUS_OK)
+            st = rast_render(b.ctx, b.pool, &b.scene, &view, 1, &rp, &gb, NULL);
+        double t3 = obs_time_now();
+        obs_image_f32 out[3] = {{0}};
+        if (st == OBS_STATUS_OK)
+            st = sss_combine(b.ctx, b.pool, &b.scene, &b.setup.mats, &maps, lm, (int)b.scene.light_count, &gb, &b.cam,
+                             &p, out, NULL);
+        double t4 = obs_time_now();
+        if (st != OBS_STATUS_OK)
+            die_status(&b, st);
+        if (r >= 0) {
+            tl[r] = 1e3 * (t1 - t0);
+            tm[r] = 1e3 * (t2 - t1);
+            tb[r] = 1e3 * (t3 - t2);
+            tc[r] = 1e3 * (t4 - t3);
+        }
+        evals = maps.samples_evaluated;
+        /* ---- Views reusing the maps (last repetition only): the camera orbits the scene's
+         * centre about +Y in `views` equal steps; each view = its G-buffer + the combination. ---- */
+        if (views > 0 && r == reps - 1) {
+            obs_vec3 c = obs_v3_scale(obs_v3_add(b.scene.bounds.lo, b.scene.bounds.hi), 0.5f);
+            double tv0 = obs_time_now();
+            for (int v = 0; v < views && st == OBS_STATUS_OK; v++) {
+                const double th = 2.0 * 3.14159265358979323846 * v / views;
+                const float q[4] = {0.0f, (float)sin(0.5 * th), 0.0f, (float)cos(0.5 * th)};
+                obs_mat4 rot = obs_mat4_from_quat((obs_vec4){q[0], q[1], q[2], q[3]});
+                obs_mat4 w = obs_mat4_mul(obs_mat4_translation(c),
+                                          obs_mat4_mul(rot, obs_mat4_mul(obs_mat4_translation(obs_v3_scale(c, -1.0f)),
+                                                                         b.cam.world)));
+                obs_camera cv = b.cam;
+                obs_camera_set_world(&cv, w);
+                rast_view vv = {cv};
+                obs_image_f32 o2[3] = {{0}};
+                st = rast_render(b.ctx, b.pool, &b.scene, &vv, 1, &rp, &gb, NULL);
+                if (st == OBS_STATUS_OK)
+                    st = sss_combine(b.ctx, b.pool, &b.scene, &b.setup.mats, &maps, lm, (int)b.scene.light_count, &gb,
+                                     &cv, &p, o2, NULL);
+                for (int k = 0; k < 3; k++)
+                    obs_image_f32_free(&o2[k]);
+            }
+            double tv = 1e3 * (obs_time_now() - tv0);
+            if (st != OBS_STATUS_OK)
+                die_status(&b, st);
+            printf("VIEWS views=%d maps_ms=%.2f views_total_ms=%.2f per_view_ms=%.2f total_ms=%.2f "
+                   "(one map build + %d camera G-buffers and combinations)\n",
+                   views, tm[r], tv, tv / views, tl[r] + tm[r] + tv, views);
+        }
+        for (int c = 0; c < 3; c++)
+            obs_image_f32_free(&out[c]);
+        sss_maps_free(&maps);
+        free_light_maps(&b, lm);
+    }
+    double ml = median(tl, reps), mm = median(tm, reps), mb = median(tb, reps), mc = median(tc, reps);
+    printf("RESULT sss scene=%s K=%d N=%d map_size=%d light_map_size=%d size=%dx%d threads=%d light_ms=%.2f maps_ms=%.2f "
+           "camera_gbuffer_ms=%.2f combine_ms=%.2f rebuilt_ms=%.2f fixed_scene_ms=%.2f bssrdf_evals=%llu "
+           "mevals_per_s=%.1f maps_min_ms=%.2f maps_max_ms=%.2f\n",
+           scene_path, p.K, p.N, p.map_size, p.light_map_size, b.W, b.H, obs_pool_threads(b.pool), ml, mm, mb, mc,
+           ml + mm + mb + mc, mb + mc, (unsigned long long)evals, mm > 0 ? (double)evals / (mm * 1e3) : 0.0, tm[0],
+           tm[reps - 1]);
+    printf("BAR maps_ms=%.2f bar_ms=150 (bunny, K=16, N=48, 512^2, 2 threads) %s\n", mm,
+           mm <= 150.0 ? "met" : "NOT met");
+    rast_gbuffer_free(&gb);
+    sss_scene_setup_free(&b.setup);
+    obs_scene_free(&b.scene);
+    obs_pool_destroy(b.pool);
+    obs_context_destroy(b.ctx);
+    return 0;
+}
