@@ -1,0 +1,197 @@
+/* vol.h: the public header of obscura's volume lighting (prefix vol_).
+ *
+ * Layers, each usable on its own:
+ *   1. Volumes: a scalar grid with anisotropic spacing (loaders in src/io: NIfTI via nifticlib,
+ *      NRRD via teem, raw), and synthetic volumes generated in code.
+ *   2. Transfer functions: 1D RGBA, piecewise linear, from a documented JSON file or a preset;
+ *      opacity correction for the step size.
+ *   3. The light volume of Ropinski, Doering and Rezk-Salama 2010 [Ropinski10], as the public
+ *      implementations do it (Voreen's LightVolumeGenerator, Inviwo's LightVolumeGL;
+ *      ../shared/reference/volume.md section 1): slice-by-slice propagation from the face that
+ *      most faces the light, transmittance with one bilinear fetch, chromaticity with a cone blur,
+ *      a second direction blended in.
+ *   4. The ray caster: front to back, trilinear, early termination, empty-space skipping with
+ *      min-max bricks; emission-absorption, gradient Phong, or light-volume shading.
+ *
+ * Conventions (docs/volume.md):
+ *   - Voxel (i, j, k) has its centre at world origin + (i sx, j sy, k sz) (no rotation: the
+ *     volume's axes are the world's; a loader that meets a rotated qform/sform says so and keeps
+ *     the axes). Data is x fastest, then y, then z.
+ *   - Values are converted to float on load (with NIfTI's scl_slope/scl_inter applied).
+ *   - Extinction: sigma_t(x) = kappa * alpha_TF(s(x)) / ref_step (per world unit), with
+ *     alpha_TF the transfer function's opacity for a step of ref_step; transmittance over a
+ *     path of length d through constant material: exp(-sigma_t d) = (1 - alpha)^(d / ref_step).
+ *     The light volume, the ray caster and the ground truths all use this one convention.
+ *   - Light directions: a directional light's `direction` is the way light TRAVELS (glTF).
+ */
+#ifndef VOL_H
+#define VOL_H
+
+#include "../core/obs.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ------------------------------------------------------------------------------------------------
+ * 1. Volumes
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef enum vol_type {
+    VOL_TYPE_U8 = 0,
+    VOL_TYPE_U16,
+    VOL_TYPE_I16,
+    VOL_TYPE_F32,
+    VOL_TYPE_COUNT
+} vol_type;
+const char *vol_type_name(vol_type t);                  /* "u8", "u16", "i16", "f32" */
+int vol_type_from_name(const char *name, vol_type *out); /* also "uint8", "int16", "float" ... */
+
+/* A scalar volume. Owned; free with vol_grid_free. */
+typedef struct vol_grid {
+    int nx, ny, nz;            /* >= 1 each */
+    double spacing[3];         /* world units per voxel, > 0 */
+    double origin[3];          /* world position of voxel (0, 0, 0)'s centre */
+    float *data;               /* nx*ny*nz floats, x fastest */
+    vol_type source_type;      /* the type as stored in the file */
+    float value_min, value_max;/* over the data (finite values) */
+    char source[512];          /* the file or generator, for messages */
+} vol_grid;
+
+/* Allocate a zeroed grid. Refuses (LIMIT_EXCEEDED, before allocating) sizes whose voxel count
+ * passes obs_limits.max_voxels or whose bytes pass obs_limits.max_memory_bytes.
+ * Returns OK, INVALID_ARGUMENT (a side < 1, spacing <= 0 or non-finite), LIMIT_EXCEEDED, OUT_OF_MEMORY. */
+obs_status vol_grid_alloc(obs_context *ctx, int nx, int ny, int nz, const double spacing[3], vol_grid *out);
+void vol_grid_free(vol_grid *g);   /* NULL-safe; zeroes it */
+/* Recompute value_min / value_max. */
+void vol_grid_update_range(vol_grid *g);
+/* World-space bounds of the voxel centres' hull extended by half a voxel on each side. */
+void vol_grid_bounds(const vol_grid *g, double lo[3], double hi[3]);
+/* Trilinear sample at a continuous voxel coordinate (i, j, k) (voxel centres at integers),
+ * clamped to the edge. */
+float vol_grid_sample(const vol_grid *g, double i, double j, double k);
+
+/* Synthetic volumes (vol_synth.c), generated deterministically:
+ *   "bucky":   a fullerene-like molecule of 60 Gaussian blobs on a truncated icosahedron (as the
+ *              seed's bucky, 32^3 by default), values in [0, 255];
+ *   "slab":    a homogeneous slab of value 1 filling z in [nz/4, 3nz/4), 0 elsewhere;
+ *   "sphere":  value 1 inside a sphere of radius 0.4 n (smooth edge of one voxel), 0 outside;
+ *   "box":     a hollow box: value 1 in a shell 2 voxels thick at the border, 0 inside.
+ * Returns OK, INVALID_ARGUMENT (unknown name: the message lists them), LIMIT_EXCEEDED, OUT_OF_MEMORY. */
+obs_status vol_synth(obs_context *ctx, const char *name, int n, vol_grid *out);
+
+/* ------------------------------------------------------------------------------------------------
+ * 2. Transfer functions
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef struct vol_tf_point {
+    double value;              /* data value, strictly increasing along the list */
+    float rgba[4];             /* linear RGB in [0, 1]; alpha = opacity per ref_step, in [0, 1] */
+} vol_tf_point;
+
+typedef struct vol_tf {
+    char name[64];
+    int count;                 /* >= 1 */
+    vol_tf_point *points;      /* owned */
+    double ref_step;           /* world units the opacities are given for (> 0); default 1 voxel of
+                                  the smallest spacing when 0 (resolved by vol_tf_resolve) */
+} vol_tf;
+
+/* Parse the documented JSON (docs/volume.md, "Transfer functions"):
+ *   {"name": "...", "ref_step": 0.5, "points": [[value, r, g, b, a], ...]}
+ * Values strictly increasing, components finite and in [0, 1]. Unknown keys are errors.
+ * `where` names the file in messages. Returns OK, PARSE_ERROR, INVALID_ARGUMENT, OUT_OF_MEMORY. */
+obs_status vol_tf_parse_json(obs_context *ctx, const char *text, const char *where, vol_tf *out);
+/* Presets: "ct-skin", "ct-bone" (Hounsfield units), "mri" (the MRI's intensity range), "bucky"
+ * (0..255). Returns OK or NOT_FOUND listing them. */
+obs_status vol_tf_preset(obs_context *ctx, const char *name, vol_tf *out);
+void vol_tf_free(vol_tf *tf);   /* NULL-safe */
+/* RGBA at a value: piecewise linear between points, constant beyond the ends. */
+void vol_tf_eval(const vol_tf *tf, double value, float rgba[4]);
+/* Opacity correction ([Engel06], the standard form; Inviwo's lightpropagation.frag uses it too,
+ * volume.md 1.4): alpha for a step of length `step` from alpha
+ * given for ref_step: 1 - (1 - alpha)^(step / ref_step). */
+float vol_tf_alpha_correct(float alpha, double step, double ref_step);
+
+/* ------------------------------------------------------------------------------------------------
+ * 3. The light volume [Ropinski10]
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef struct vol_light {
+    obs_light_type type;       /* OBS_LIGHT_DIRECTIONAL or OBS_LIGHT_POINT */
+    double direction[3];       /* directional: unit, the way light travels */
+    double position[3];        /* point: world position (may be inside the volume) */
+    float color[3];            /* linear RGB x intensity */
+} vol_light;
+
+typedef struct vol_lv_params {
+    int scale;                 /* light-volume resolution: 1 (the data's), 2 (half) or 4 (quarter) */
+    double cone_angle_deg;     /* chromaticity cone half-angle theta, (0, 80]; default 45 (Voreen's
+                                  1-texel stencil, volume.md 1.6) */
+    int blend_second;          /* blend the second-closest face's propagation (dir_blend) with
+                                  Inviwo's continuous weight (volume.md 1.7); default 1 */
+    int eye_pass;              /* add the eye-direction pass (a reconstruction: volume.md 1.8); default 0 */
+    double kappa;              /* extinction scale (the convention above); default 1 */
+} vol_lv_params;
+vol_lv_params vol_lv_params_default(void);
+obs_status vol_lv_params_validate(obs_context *ctx, const vol_lv_params *p);
+
+/* The light volume: per light-volume voxel, transmittance l (hard shadow, one bilinear fetch per
+ * slice) and scattering chromaticity c (cone-blurred), at (nx, ny, nz) = the data's / scale. */
+typedef struct vol_light_volume {
+    int nx, ny, nz, scale;
+    double spacing[3], origin[3];  /* of the light volume's own voxel centres */
+    float *l;                      /* transmittance towards the light, [0, 1] */
+    float *c[3];                   /* chromaticity RGB */
+    int face0, face1;              /* propagation faces chosen (0..5: -x, +x, -y, +y, -z, +z) */
+    float blend_weight;            /* weight of face0's volume (1 when blend_second is off) */
+} vol_light_volume;
+
+/* Build the light volume: depends on the grid, the transfer function, the light and the params
+ * only (never on the camera). Threads within each slice (slices depend on each other); the
+ * output is identical for any thread count.
+ * Returns OK, INVALID_ARGUMENT, UNSUPPORTED (spot light), LIMIT_EXCEEDED, OUT_OF_MEMORY. */
+obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                  const vol_light *light, const vol_lv_params *p, vol_light_volume *out);
+void vol_light_volume_free(vol_light_volume *lv);   /* NULL-safe */
+/* Trilinear l and c at a world position (clamped to the light volume's edge). */
+void vol_light_volume_sample(const vol_light_volume *lv, const double x[3], float *l, float c[3]);
+
+/* ------------------------------------------------------------------------------------------------
+ * 4. The ray caster
+ * ---------------------------------------------------------------------------------------------- */
+
+typedef enum vol_shading {
+    VOL_SHADING_EMISSION_ABSORPTION = 0,  /* colour = TF rgb, no lighting */
+    VOL_SHADING_PHONG,                    /* gradient Phong (central differences), specular weighted
+                                             by the gradient magnitude */
+    VOL_SHADING_LIGHT_VOLUME,             /* TF rgb x (l x light colour) x chromaticity c */
+    VOL_SHADING_COUNT
+} vol_shading;
+const char *vol_shading_name(vol_shading s);                 /* "ea", "phong", "lightvolume" */
+int vol_shading_from_name(const char *name, vol_shading *out);
+
+typedef struct vol_rc_params {
+    vol_shading shading;       /* default VOL_SHADING_LIGHT_VOLUME */
+    double step;               /* world units; 0 = half the smallest spacing (default) */
+    double early_termination;  /* stop when accumulated opacity >= this; default 0.99 */
+    int brick;                 /* empty-space skipping brick side in voxels (0 = off); default 8 */
+    float ambient;             /* Phong ambient; default 0.2 */
+    float specular_exponent;   /* default 32 */
+    float background[4];       /* composited behind the volume; default transparent black */
+} vol_rc_params;
+vol_rc_params vol_rc_params_default(void);
+
+/* Ray cast the volume for a camera into out[4] (RGBA, premultiplied, width x height, allocated by
+ * the call). depth_limit (optional) stops each ray at a mesh's linear view depth (the hybrid
+ * scene: rasterized mesh depth, +inf where no mesh). lv is needed for VOL_SHADING_LIGHT_VOLUME.
+ * Identical output for any thread count. */
+obs_status vol_raycast(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                       const vol_light *light, const vol_light_volume *lv, const obs_camera *camera, int width,
+                       int height, const obs_image_f32 *depth_limit, const vol_rc_params *p, obs_image_f32 out[4]);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VOL_H */
