@@ -48,6 +48,31 @@
 #include <string.h>
 
 #if GLH_AVAILABLE
+/* exp in double (GLSL has none): Cody-Waite with fdlibm's split ln 2, degree-13 Taylor, ldexp */
+#define GLSL_D_EXP \
+"double d_exp(double x) {\n" \
+"  if (x < -745.0LF) return 0.0LF;\n" \
+"  if (x > 709.0LF) x = 709.0LF;\n" \
+"  precise double n = roundEven(x * DBL(0x652B82FEu, 0x3FF71547u)); /* x / ln 2 */\n" \
+"  precise double r = (x - n * DBL(0xFEE00000u, 0x3FE62E42u)) - n * DBL(0x35793C76u, 0x3DEA39EFu);\n" \
+"  precise double p = 1.0LF / 6227020800.0LF;\n" \
+"  p = p * r + 1.0LF / 479001600.0LF;\n" \
+"  p = p * r + 1.0LF / 39916800.0LF;\n" \
+"  p = p * r + 1.0LF / 3628800.0LF;\n" \
+"  p = p * r + 1.0LF / 362880.0LF;\n" \
+"  p = p * r + 1.0LF / 40320.0LF;\n" \
+"  p = p * r + 1.0LF / 5040.0LF;\n" \
+"  p = p * r + 1.0LF / 720.0LF;\n" \
+"  p = p * r + 1.0LF / 120.0LF;\n" \
+"  p = p * r + 1.0LF / 24.0LF;\n" \
+"  p = p * r + 1.0LF / 6.0LF;\n" \
+"  p = p * r + 0.5LF;\n" \
+"  p = p * r + 1.0LF;\n" \
+"  p = p * r + 1.0LF;\n" \
+"  precise double e = ldexp(p, int(n));\n" \
+"  return e;\n" \
+"}\n"
+
 static const char *const fs_gather =
 "#version 450\n"
 "layout(binding=0) uniform sampler2D viewA;  /* (depth or -1, view-space normal) per texel, K layers side by side */\n"
@@ -86,28 +111,7 @@ static const char *const fs_gather =
 "}\n"
 "\n"
 "/* ---- double exp, sin, cos (GLSL has none) ---- */\n"
-"double d_exp(double x) {\n"
-"  if (x < -745.0LF) return 0.0LF;\n"
-"  if (x > 709.0LF) x = 709.0LF;\n"
-"  precise double n = roundEven(x * DBL(0x652B82FEu, 0x3FF71547u)); /* x / ln 2 */\n"
-"  precise double r = (x - n * DBL(0xFEE00000u, 0x3FE62E42u)) - n * DBL(0x35793C76u, 0x3DEA39EFu);\n"
-"  precise double p = 1.0LF / 6227020800.0LF;\n"
-"  p = p * r + 1.0LF / 479001600.0LF;\n"
-"  p = p * r + 1.0LF / 39916800.0LF;\n"
-"  p = p * r + 1.0LF / 3628800.0LF;\n"
-"  p = p * r + 1.0LF / 362880.0LF;\n"
-"  p = p * r + 1.0LF / 40320.0LF;\n"
-"  p = p * r + 1.0LF / 5040.0LF;\n"
-"  p = p * r + 1.0LF / 720.0LF;\n"
-"  p = p * r + 1.0LF / 120.0LF;\n"
-"  p = p * r + 1.0LF / 24.0LF;\n"
-"  p = p * r + 1.0LF / 6.0LF;\n"
-"  p = p * r + 0.5LF;\n"
-"  p = p * r + 1.0LF;\n"
-"  p = p * r + 1.0LF;\n"
-"  precise double e = ldexp(p, int(n));\n"
-"  return e;\n"
-"}\n"
+GLSL_D_EXP
 "dvec2 d_sincos(double x) { /* (sin x, cos x) */\n"
 "  precise double n = roundEven(x * DBL(0x6DC9C883u, 0x3FE45F30u)); /* x * 2 / pi */\n"
 "  precise double r = (x - n * DBL(0x54400000u, 0x3FF921FBu)) - n * DBL(0x1A626331u, 0x3DD0B461u);\n"
@@ -376,6 +380,154 @@ static const char *const fs_gather =
 "    }\n"
 "  }\n"
 "  result = vec4(vec3(acc / double(FRAMES)), 1.0);\n"
+"}\n";
+
+/* ---- pass 3: the combination (sss_combine.c combine_task), everything in double as ours ---- */
+static const char *const fs_combine =
+"#version 450\n"
+"layout(binding=0) uniform sampler2D camA;     /* (depth or -1, view-space normal) */\n"
+"layout(binding=1) uniform sampler2D camB;     /* material slot or -1 */\n"
+"layout(binding=2) uniform sampler2D mapDepth; /* the K views' linear depth (+inf empty), side by side */\n"
+"layout(binding=3) uniform sampler2D mapRad;   /* our K radiance maps (RGB), side by side */\n"
+"uniform int dbits[2 * ND];\n"
+"layout(location=0) out vec4 result;\n"
+"#define DBL(lo, hi) packDouble2x32(uvec2(lo, hi))\n"
+"double dc(int i) { return packDouble2x32(uvec2(uint(dbits[2 * i]), uint(dbits[2 * i + 1]))); }\n"
+GLSL_D_EXP
+"double d_log(double x) { /* x > 0: frexp, m in [sqrt(1/2), sqrt(2)), 2 atanh((m - 1) / (m + 1)) */\n"
+"  int e;\n"
+"  precise double m = frexp(x, e);\n"
+"  if (m < 0.70710678118654752LF) { m = m * 2.0LF; e = e - 1; }\n"
+"  precise double s = (m - 1.0LF) / (m + 1.0LF);\n"
+"  precise double s2 = s * s;\n"
+"  precise double p = 1.0LF / 23.0LF;\n"
+"  p = p * s2 + 1.0LF / 21.0LF;\n"
+"  p = p * s2 + 1.0LF / 19.0LF;\n"
+"  p = p * s2 + 1.0LF / 17.0LF;\n"
+"  p = p * s2 + 1.0LF / 15.0LF;\n"
+"  p = p * s2 + 1.0LF / 13.0LF;\n"
+"  p = p * s2 + 1.0LF / 11.0LF;\n"
+"  p = p * s2 + 1.0LF / 9.0LF;\n"
+"  p = p * s2 + 1.0LF / 7.0LF;\n"
+"  p = p * s2 + 1.0LF / 5.0LF;\n"
+"  p = p * s2 + 1.0LF / 3.0LF;\n"
+"  p = p * s2 + 1.0LF;\n"
+"  precise double de = double(e);\n"
+"  precise double l = de * DBL(0xFEE00000u, 0x3FE62E42u) + (de * DBL(0x35793C76u, 0x3DEA39EFu) + (2.0LF * s) * p);\n"
+"  return l;\n"
+"}\n"
+"/* sss_fresnel_reflectance (sss_dipole.c), double */\n"
+"double fresnel_r(double cos_i, double eta) {\n"
+"  precise double c = cos_i > 0.0LF ? (cos_i < 1.0LF ? cos_i : 1.0LF) : 0.0LF;\n"
+"  if (!(eta > 0.0LF)) return 1.0LF;\n"
+"  precise double eta2 = eta * eta;\n"
+"  precise double cos2_t = ((eta2 - 1.0LF) + c * c) / eta2;\n"
+"  if (cos2_t <= 0.0LF) return 1.0LF;\n"
+"  precise double cos_t = sqrt(cos2_t);\n"
+"  precise double rs = (c - eta * cos_t) / (c + eta * cos_t);\n"
+"  precise double rp = (eta * c - cos_t) / (eta * c + cos_t);\n"
+"  precise double F = 0.5LF * (rs * rs + rp * rp);\n"
+"  return F;\n"
+"}\n"
+"#define G0 (36 + NMAT)\n"
+"#define LV(k) (G0 + 3 + (k) * 23)\n"
+"/* one binary shadow tap of layer k (sss_combine.c shadow_tap): receiver-plane depth at the texel centre */\n"
+"double tap(int k, double px, double py, double d0, double px0, double py0, double gx, double gy, double bias) {\n"
+"  int ix = clamp(int(floor(px)), 0, SIZE - 1), iy = clamp(int(floor(py)), 0, SIZE - 1);\n"
+"  precise double d = (d0 + gx * ((double(ix) + 0.5LF) - px0)) + gy * ((double(iy) + 0.5LF) - py0);\n"
+"  float z = texelFetch(mapDepth, ivec2(k * SIZE + ix, iy), 0).x;\n"
+"  return d - bias <= double(z) ? 1.0LF : 0.0LF;\n"
+"}\n"
+"void main() {\n"
+"  ivec2 P = ivec2(gl_FragCoord.xy);\n"
+"  result = vec4(0.0, 0.0, 0.0, 1.0);\n"
+"  vec4 A = texelFetch(camA, P, 0);\n"
+"  float msf = texelFetch(camB, P, 0).x;\n"
+"  if (A.x < 0.0 || msf < 0.0) return;\n"
+"  int ms = int(msf);\n"
+"  /* x_o from the camera's pixel ray (rast_pixel_ray) and the linear depth */\n"
+"  double w[16], vm[16];\n"
+"  for (int i = 0; i < 16; i++) { w[i] = dc(i); vm[i] = dc(16 + i); }\n"
+"  precise double ax = ((double(P.x) + 0.5LF) - dc(32)) * (1.0LF / dc(34));\n"
+"  precise double ay = -((double(P.y) + 0.5LF) - dc(33)) * (1.0LF / dc(35));\n"
+"#if CAM_PERSP\n"
+"  precise dvec3 o = dvec3(0.0LF), dd = dvec3(ax, ay, -1.0LF);\n"
+"#else\n"
+"  precise dvec3 o = dvec3(ax, ay, 0.0LF), dd = dvec3(0.0LF, 0.0LF, -1.0LF);\n"
+"#endif\n"
+"  precise dvec3 org = dvec3(((w[0] * o.x + w[4] * o.y) + w[8] * o.z) + w[12], ((w[1] * o.x + w[5] * o.y) + w[9] * o.z) + w[13],\n"
+"                            ((w[2] * o.x + w[6] * o.y) + w[10] * o.z) + w[14]);\n"
+"  precise dvec3 dir = dvec3((w[0] * dd.x + w[4] * dd.y) + w[8] * dd.z, (w[1] * dd.x + w[5] * dd.y) + w[9] * dd.z,\n"
+"                            (w[2] * dd.x + w[6] * dd.y) + w[10] * dd.z);\n"
+"  precise dvec3 xo = org + double(A.x) * dir;\n"
+"  dvec3 nv = dvec3(A.yzw);\n"
+"  precise dvec3 no = dvec3((vm[0] * nv.x + vm[1] * nv.y) + vm[2] * nv.z, (vm[4] * nv.x + vm[5] * nv.y) + vm[6] * nv.z,\n"
+"                           (vm[8] * nv.x + vm[9] * nv.y) + vm[10] * nv.z);\n"
+"  precise double l2 = (no.x * no.x + no.y * no.y) + no.z * no.z;\n"
+"  if (l2 > 0.0LF) { precise double inv = 1.0LF / sqrt(l2); no = no * inv; }\n"
+"  precise double dl = sqrt((dir.x * dir.x + dir.y * dir.y) + dir.z * dir.z);\n"
+"  precise dvec3 wo = (-dir) / dl;\n"
+"  double eps = dc(G0), bias = dc(G0 + 1), ig = dc(G0 + 2);\n"
+"  precise double sumv = 0.0LF;\n"
+"  precise dvec3 acc = dvec3(0.0LF);\n"
+"  for (int k = 0; k < K; k++) {\n"
+"    int b = LV(k);\n"
+"    double m[16];\n"
+"    for (int i = 0; i < 16; i++) m[i] = dc(b + i);\n"
+"    double cx = dc(b + 16), cy = dc(b + 17), fx = dc(b + 18), fy = dc(b + 19);\n"
+"    dvec3 wd = dvec3(dc(b + 20), dc(b + 21), dc(b + 22));\n"
+"    precise double nd = (no.x * wd.x + no.y * wd.y) + no.z * wd.z;\n"
+"    precise dvec3 xs = xo - eps * (no - wd * nd); /* the shrink ([DalCorso14] ss_array_combination.frag) */\n"
+"    precise double px = cx + fx * (((m[0] * xs.x + m[4] * xs.y) + m[8] * xs.z) + m[12]);\n"
+"    precise double py = cy - fy * (((m[1] * xs.x + m[5] * xs.y) + m[9] * xs.z) + m[13]);\n"
+"    if (px < 0.0LF || py < 0.0LF || px >= double(SIZE) || py >= double(SIZE)) continue;\n"
+"    precise double nvz = (m[2] * no.x + m[6] * no.y) + m[10] * no.z;\n"
+"    if (!(nvz > MIN_FACING)) continue;\n"
+"    precise double nvx = (m[0] * no.x + m[4] * no.y) + m[8] * no.z;\n"
+"    precise double nvy = (m[1] * no.x + m[5] * no.y) + m[9] * no.z;\n"
+"    precise double px0 = cx + fx * (((m[0] * xo.x + m[4] * xo.y) + m[8] * xo.z) + m[12]);\n"
+"    precise double py0 = cy - fy * (((m[1] * xo.x + m[5] * xo.y) + m[9] * xo.z) + m[13]);\n"
+"    precise double d0 = -(((m[2] * xo.x + m[6] * xo.y) + m[10] * xo.z) + m[14]);\n"
+"    precise double gx = nvx / (nvz * fx);\n"
+"    precise double gy = -nvy / (nvz * fy);\n"
+"    precise double v;\n"
+"#if VIS_PCF\n"
+"    v = 0.0LF;\n"
+"    for (int ty = -1; ty <= 1; ty++)\n"
+"      for (int tx = -1; tx <= 1; tx++)\n"
+"        v = v + tap(k, px + double(tx), py + double(ty), d0, px0, py0, gx, gy, bias);\n"
+"    v = v / 9.0LF;\n"
+"#else\n"
+"    const dvec2 off[5] = dvec2[](dvec2(0.0LF, 0.0LF), dvec2(0.5LF, 1.5LF), dvec2(-1.5LF, 0.5LF), dvec2(-0.5LF, -1.5LF), dvec2(1.5LF, -0.5LF));\n"
+"    v = 1.0LF;\n"
+"    for (int t = 0; t < 5 && v > 0.0LF; t++)\n"
+"      v = v * tap(k, px + off[t].x, py + off[t].y, d0, px0, py0, gx, gy, bias);\n"
+"#endif\n"
+"    if (!(v > 0.0LF)) continue;\n"
+"    /* bilinear lookup in double (sss_combine.c bilinear3) */\n"
+"    precise double u = px - 0.5LF, uv = py - 0.5LF;\n"
+"    precise double fu = floor(u), fv = floor(uv);\n"
+"    precise double a = u - fu, bb = uv - fv;\n"
+"    int x0 = clamp(int(fu), 0, SIZE - 1), x1 = clamp(int(fu) + 1, 0, SIZE - 1);\n"
+"    int y0 = clamp(int(fv), 0, SIZE - 1), y1 = clamp(int(fv) + 1, 0, SIZE - 1);\n"
+"    dvec3 r00 = dvec3(texelFetch(mapRad, ivec2(k * SIZE + x0, y0), 0).rgb), r01 = dvec3(texelFetch(mapRad, ivec2(k * SIZE + x1, y0), 0).rgb);\n"
+"    dvec3 r10 = dvec3(texelFetch(mapRad, ivec2(k * SIZE + x0, y1), 0).rgb), r11 = dvec3(texelFetch(mapRad, ivec2(k * SIZE + x1, y1), 0).rgb);\n"
+"    precise dvec3 top = (1.0LF - a) * r00 + a * r01;\n"
+"    precise dvec3 bot = (1.0LF - a) * r10 + a * r11;\n"
+"    precise dvec3 r = (1.0LF - bb) * top + bb * bot;\n"
+"    acc = acc + v * r;\n"
+"    sumv = sumv + v;\n"
+"  }\n"
+"  precise double cos_o = (no.x * wo.x + no.y * wo.y) + no.z * wo.z;\n"
+"  precise double T21 = 1.0LF - fresnel_r(min(1.0LF, max(0.0LF, cos_o)), dc(36 + ms));\n"
+"  T21 = min(1.0LF, max(0.0LF, T21));\n"
+"  precise dvec3 L = dvec3(0.0LF);\n"
+"  if (sumv > 0.0LF) L = (T21 * acc) / sumv;\n"
+"#if GAMMA\n"
+"  for (int c = 0; c < 3; c++)\n"
+"    if (L[c] > 0.0LF) L[c] = d_exp(ig * d_log(L[c])); /* L^(1/gamma) */\n"
+"#endif\n"
+"  result = vec4(vec3(L), 1.0);\n"
 "}\n";
 
 static unsigned fbits(float f)
@@ -690,6 +842,179 @@ obs_status glsl_sss_gather_read(glh *g, const glh_run *r, obs_context *ctx, int 
     if (st != OBS_STATUS_OK)
         for (int i = 0; i < 3 * K; i++)
             obs_image_f32_free(&planes[i]);
+    return st;
+#endif
+}
+
+int glsl_sss_combine_build(glh *g, obs_context *ctx, const sss_scene_materials *mats, const sss_maps *maps,
+                           const rast_gbuffer *camera_gb, const obs_camera *camera, const sss_params *p, glh_run *r)
+{
+    (void)ctx;
+#if !GLH_AVAILABLE
+    (void)g, (void)mats, (void)maps, (void)camera_gb, (void)camera, (void)p, (void)r;
+    printf("  glsl_sss: built without GL headers\n");
+    return 0;
+#else
+    memset(r, 0, sizeof *r);
+    if (p->specular) {
+        printf("  glsl_sss: the specular term is not ported\n");
+        return 0;
+    }
+    const int K = maps->K, S = maps->size, W = camera_gb->width, H = camera_gb->height;
+    /* the camera G-buffer and its material slots (the slot holds the material's eta) */
+    const sss_constants *slot[GLSL_SSS_MAX_MATERIALS];
+    int nmat = 0, ok = 1;
+    float *ca = (float *)malloc(sizeof(float) * 4 * (size_t)W * (size_t)H);
+    float *cb = (float *)malloc(sizeof(float) * (size_t)W * (size_t)H);
+    float *md = (float *)malloc(sizeof(float) * (size_t)K * (size_t)S * (size_t)S);
+    float *mr = (float *)malloc(sizeof(float) * 4 * (size_t)K * (size_t)S * (size_t)S);
+    if (!ca || !cb || !md || !mr)
+        ok = 0;
+    for (int y = 0; y < H && ok; y++)
+        for (int x = 0; x < W; x++) {
+            const float depth = obs_image_f32_row(&camera_gb->depth, y)[x];
+            const sss_constants *mc =
+                depth < INFINITY ? sss_i_material(mats, obs_image_u32_row(&camera_gb->material_id, y)[x]) : NULL;
+            int s = -1;
+            if (mc) {
+                for (int i = 0; i < nmat; i++)
+                    if (slot[i] == mc)
+                        s = i;
+                if (s < 0) {
+                    if (nmat == GLSL_SSS_MAX_MATERIALS) {
+                        printf("  glsl_sss: more than %d translucent materials\n", GLSL_SSS_MAX_MATERIALS);
+                        ok = 0;
+                        break;
+                    }
+                    slot[nmat] = mc;
+                    s = nmat++;
+                }
+            }
+            float *a = ca + 4 * ((size_t)y * W + x);
+            a[0] = depth < INFINITY ? depth : -1.0f;
+            for (int j = 0; j < 3; j++)
+                a[1 + j] = obs_image_f32_row(&camera_gb->normal[j], y)[x];
+            cb[(size_t)y * W + x] = (float)s;
+        }
+    const size_t row = (size_t)K * S;
+    for (int k = 0; k < K && ok; k++)
+        for (int y = 0; y < S; y++)
+            for (int x = 0; x < S; x++) {
+                const size_t i = (size_t)y * row + (size_t)k * S + x;
+                md[i] = obs_image_f32_row(&maps->views[k].depth, y)[x]; /* +inf where empty, as ours */
+                for (int c = 0; c < 3; c++)
+                    mr[4 * i + c] = obs_image_f32_row(&maps->radiance[3 * k + c], y)[x];
+                mr[4 * i + 3] = 0.0f;
+            }
+    GLuint t[4] = {0, 0, 0, 0};
+    if (ok) {
+        t[0] = glh_run_own_texture(r, glh_texture(g, W, H, 1, GL_RGBA32F, 4, ca, GLH_ROWS_AS_IS, GL_NEAREST,
+                                                  GL_CLAMP_TO_EDGE));
+        t[1] = glh_run_own_texture(r, glh_texture(g, W, H, 1, GL_R32F, 1, cb, GLH_ROWS_AS_IS, GL_NEAREST,
+                                                  GL_CLAMP_TO_EDGE));
+        t[2] = glh_run_own_texture(r, glh_texture(g, K * S, S, 1, GL_R32F, 1, md, GLH_ROWS_AS_IS, GL_NEAREST,
+                                                  GL_CLAMP_TO_EDGE));
+        t[3] = glh_run_own_texture(r, glh_texture(g, K * S, S, 1, GL_RGBA32F, 4, mr, GLH_ROWS_AS_IS, GL_NEAREST,
+                                                  GL_CLAMP_TO_EDGE));
+    }
+    free(ca);
+    free(cb);
+    free(md);
+    free(mr);
+    if (!ok || !t[0] || !t[1] || !t[2] || !t[3])
+        return 0;
+    if (nmat == 0)
+        slot[nmat++] = NULL;
+    const int G0 = 36 + nmat, ND = G0 + 3 + 23 * K;
+    int *db = (int *)calloc(2 * (size_t)ND, sizeof(int));
+    if (!db)
+        return 0;
+    for (int i = 0; i < 16; i++) {
+        put_double(db, i, (double)camera->world.m[i]);
+        put_double(db, 16 + i, (double)camera_gb->constants.view.m[i]);
+    }
+    put_double(db, 32, camera_gb->constants.cx);
+    put_double(db, 33, camera_gb->constants.cy);
+    put_double(db, 34, camera_gb->constants.fx);
+    put_double(db, 35, camera_gb->constants.fy);
+    for (int s = 0; s < nmat; s++)
+        put_double(db, 36 + s, slot[s] ? slot[s]->eta : 1.0);
+    /* as sss_combine: eps_c in map texture units, the bias in units of the map's depth range */
+    const rast_view_constants *vc0 = &maps->views[0].constants;
+    put_double(db, G0, p->shrink_eps * (double)maps->views[0].width / vc0->fx);
+    put_double(db, G0 + 1, p->shadow_bias * (vc0->zfar - vc0->znear));
+    put_double(db, G0 + 2, 1.0 / p->gamma);
+    for (int k = 0; k < K; k++) {
+        const rast_view_constants *vc = &maps->views[k].constants;
+        const int b = G0 + 3 + 23 * k;
+        for (int i = 0; i < 16; i++)
+            put_double(db, b + i, (double)vc->view.m[i]);
+        put_double(db, b + 16, vc->cx);
+        put_double(db, b + 17, vc->cy);
+        put_double(db, b + 18, vc->fx);
+        put_double(db, b + 19, vc->fy);
+        for (int a = 0; a < 3; a++)
+            put_double(db, b + 20 + a, maps->dirs[3 * k + a]);
+    }
+    uint64_t mf;
+    const double min_facing = SSS_I_MIN_FACING;
+    memcpy(&mf, &min_facing, sizeof mf);
+    char pre[512];
+    snprintf(pre, sizeof pre,
+             "#define K %d\n#define SIZE %d\n#define NMAT %d\n#define ND %d\n#define CAM_PERSP %d\n#define VIS_PCF %d\n"
+             "#define GAMMA %d\n#define MIN_FACING DBL(0x%08xu, 0x%08xu)\n",
+             K, S, nmat, ND, camera_gb->constants.projection_type == OBS_PROJECTION_PERSPECTIVE,
+             p->visibility == SSS_VISIBILITY_PCF3X3, p->gamma != 1.0, (unsigned)(uint32_t)mf,
+             (unsigned)(uint32_t)(mf >> 32));
+    GLuint prog = glh_run_own_program(r, glh_program(g, fs_combine, pre));
+    GLuint tout = glh_run_own_texture(r, glh_texture(g, W, H, 1, GL_RGBA32F, 4, NULL, GLH_ROWS_AS_IS, GL_NEAREST,
+                                                     GL_CLAMP_TO_EDGE));
+    GLuint fout = tout ? glh_run_own_fbo(r, glh_framebuffer(g, tout, 0)) : 0;
+    if (!prog || !fout) {
+        free(db);
+        return 0;
+    }
+    g->gl.glProgramUniform1iv(prog, g->gl.glGetUniformLocation(prog, "dbits"), 2 * ND, db);
+    free(db);
+    glh_run_add(r, "sss combination", prog, fout, W, H, 4, t);
+    r->nkernel = r->npass;
+    r->out_fbo = fout;
+    r->out_w = W;
+    r->out_h = H;
+    r->out_rows = GLH_ROWS_AS_IS;
+    return 1;
+#endif
+}
+
+obs_status glsl_sss_read_rgb(glh *g, const glh_run *r, obs_context *ctx, obs_image_f32 out[3])
+{
+#if !GLH_AVAILABLE
+    (void)g, (void)r, (void)ctx, (void)out;
+    return OBS_STATUS_UNSUPPORTED;
+#else
+    const int W = r->out_w, H = r->out_h;
+    memset(out, 0, sizeof(obs_image_f32) * 3);
+    float *buf = (float *)malloc(sizeof(float) * 4 * (size_t)W * (size_t)H);
+    if (!buf)
+        return OBS_STATUS_OUT_OF_MEMORY;
+    glh_run_draw(g, r, 0, r->npass);
+    g->gl.glBindFramebuffer(GL_FRAMEBUFFER, r->out_fbo);
+    g->gl.glReadBuffer(GL_COLOR_ATTACHMENT0);
+    g->gl.glPixelStorei(GL_PACK_ALIGNMENT, 4);
+    g->gl.glReadPixels(0, 0, W, H, GL_RGBA, GL_FLOAT, buf);
+    g->gl.glFinish();
+    obs_status st = OBS_STATUS_OK;
+    for (int c = 0; c < 3 && st == OBS_STATUS_OK; c++)
+        st = obs_image_f32_alloc(ctx, W, H, &out[c]);
+    if (st == OBS_STATUS_OK)
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++)
+                for (int c = 0; c < 3; c++)
+                    obs_image_f32_row(&out[c], y)[x] = buf[4 * ((size_t)y * W + x) + c];
+    else
+        for (int c = 0; c < 3; c++)
+            obs_image_f32_free(&out[c]);
+    free(buf);
     return st;
 #endif
 }

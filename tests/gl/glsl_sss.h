@@ -32,4 +32,15 @@ int glsl_sss_gather_build(glh *g, obs_context *ctx, const obs_scene *scene, cons
  * layout (layer k channel c at [3k + c]), allocated by the call. */
 obs_status glsl_sss_gather_read(glh *g, const glh_run *r, obs_context *ctx, int K, int size, obs_image_f32 *planes);
 
+/* Pass 3, the combination (sss_combine.c; [DalCorso14] ss_array_combination.frag) for a camera
+ * G-buffer (depth, normals, material ids, from rast_render with face_forward = 0) seen by `camera`:
+ * the shrink, the receiver-plane shadow taps (PRODUCT5 or PCF3X3) against the K views' depths, the
+ * bilinear radiance lookup of our maps (maps->radiance uploaded as textures), T21 and the gamma.
+ * One pass writing an RGBA32F image of the G-buffer's full size, rows as ours. The specular term
+ * is not ported (p->specular must be 0). Returns 1, or 0 after printing why. */
+int glsl_sss_combine_build(glh *g, obs_context *ctx, const sss_scene_materials *mats, const sss_maps *maps,
+                           const rast_gbuffer *camera_gb, const obs_camera *camera, const sss_params *p, glh_run *r);
+/* Draw r and read its RGB into 3 planes of w x h (allocated by the call). */
+obs_status glsl_sss_read_rgb(glh *g, const glh_run *r, obs_context *ctx, obs_image_f32 out[3]);
+
 #endif
