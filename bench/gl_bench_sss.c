@@ -118,8 +118,10 @@ int main(int argc, char **argv)
     const char *stages[2] = {"maps", "combination"};
     for (int stg = 0; stg < 2; stg++) {
         const glh_run *r = stg == 0 ? &rg : &rc;
-        double *tg = (double *)malloc(sizeof(double) * (size_t)reps), *to = (double *)malloc(sizeof(double) * (size_t)reps);
-        double *mg = (double *)malloc(sizeof(double) * (size_t)pairs), *mo = (double *)malloc(sizeof(double) * (size_t)pairs);
+        double *tg = (double *)malloc(sizeof(double) * (size_t)reps);
+        double *to = (double *)malloc(sizeof(double) * (size_t)reps);
+        double *mg = (double *)malloc(sizeof(double) * (size_t)pairs);
+        double *mo = (double *)malloc(sizeof(double) * (size_t)pairs);
         double *ra = (double *)malloc(sizeof(double) * (size_t)pairs);
         for (int q = 0; q < pairs; q++) {
             for (int k = 0; k <= reps; k++) {

@@ -212,8 +212,8 @@ static void run_case(glh *g, const sss_case *cs)
                 check_diff(what, &dc);
                 for (int c = 0; c < 3; c++)
                     obs_image_f32_free(&glc[c]);
-                glh_run_free(g, &rc);
             }
+            glh_run_free(g, &rc);
             for (int c = 0; c < 3; c++)
                 obs_image_f32_free(&ours[c]);
             rast_gbuffer_free(&cgb);
@@ -221,8 +221,8 @@ static void run_case(glh *g, const sss_case *cs)
         for (int i = 0; i < 3 * p.K; i++)
             obs_image_f32_free(&gl[i]);
         free(gl);
-        glh_run_free(g, &r);
     }
+    glh_run_free(g, &r);
     sss_maps_free(&maps);
     for (int l = 0; l < nl; l++)
         sss_light_map_free(&lm[l]);
@@ -239,10 +239,13 @@ TEST(gl_sss_russian_roulette_maps_match_their_glsl_port_on_llvmpipe)
     glh_open_or_skip(&g);
 #if GLH_AVAILABLE
     const sss_case cases[] = {
-        {"sphere_potato.glb", 96, 4, 32, 0, SSS_SAMPLER_RUSSIAN_ROULETTE, SSS_MODEL_DIRECTIONAL, 0, 0, 0.0, 0, SSS_VISIBILITY_PRODUCT5, 1.0},
+        {"sphere_potato.glb", 96, 4, 32, 0, SSS_SAMPLER_RUSSIAN_ROULETTE, SSS_MODEL_DIRECTIONAL, 0, 0, 0.0,
+         0, SSS_VISIBILITY_PRODUCT5, 1.0},
         /* cream scatters over a few cm: a 3 cm disk (the default, 15 cm, accepts almost nothing at N = 16) */
-        {"bunny_cream.glb", 128, 4, 16, 0, SSS_SAMPLER_RUSSIAN_ROULETTE, SSS_MODEL_DIRECTIONAL, 1, 0, 0.03, 0, SSS_VISIBILITY_PRODUCT5, 1.0},
-        {"sphere_potato.glb", 64, 4, 16, 0, SSS_SAMPLER_RUSSIAN_ROULETTE, SSS_MODEL_STANDARD, 1, 2, 0.0, 0, SSS_VISIBILITY_PRODUCT5, 1.0},
+        {"bunny_cream.glb", 128, 4, 16, 0, SSS_SAMPLER_RUSSIAN_ROULETTE, SSS_MODEL_DIRECTIONAL, 1, 0, 0.03,
+         0, SSS_VISIBILITY_PRODUCT5, 1.0},
+        {"sphere_potato.glb", 64, 4, 16, 0, SSS_SAMPLER_RUSSIAN_ROULETTE, SSS_MODEL_STANDARD, 1, 2, 0.0,
+         0, SSS_VISIBILITY_PRODUCT5, 1.0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         run_case(&g, &cases[i]);
@@ -256,8 +259,10 @@ TEST(gl_sss_n_of_m_maps_match_their_glsl_port_on_llvmpipe)
     glh_open_or_skip(&g);
 #if GLH_AVAILABLE
     const sss_case cases[] = {
-        {"sphere_potato.glb", 64, 4, 16, 200, SSS_SAMPLER_NEAREST_N_OF_M, SSS_MODEL_DIRECTIONAL, 0, 2, 0.0, 0, SSS_VISIBILITY_PRODUCT5, 1.0},
-        {"bunny_cream.glb", 64, 4, 24, 300, SSS_SAMPLER_NEAREST_N_OF_M, SSS_MODEL_DIRECTIONAL, 1, 0, 0.0, 0, SSS_VISIBILITY_PRODUCT5, 1.0},
+        {"sphere_potato.glb", 64, 4, 16, 200, SSS_SAMPLER_NEAREST_N_OF_M, SSS_MODEL_DIRECTIONAL, 0, 2, 0.0,
+         0, SSS_VISIBILITY_PRODUCT5, 1.0},
+        {"bunny_cream.glb", 64, 4, 24, 300, SSS_SAMPLER_NEAREST_N_OF_M, SSS_MODEL_DIRECTIONAL, 1, 0, 0.0,
+         0, SSS_VISIBILITY_PRODUCT5, 1.0},
     };
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++)
         run_case(&g, &cases[i]);
