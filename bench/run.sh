@@ -13,7 +13,8 @@
 #            stage (level 0 only, no blur);
 #   sss:     obscura_bench_sss: the scattering maps of the bunny in cream at the bar's configuration
 #            (K 16, N 48, 512^2, 2 threads; <= 150 ms), 8 views reusing one set of maps, then the
-#            cost growth in K, N and map size with a fitted line each -> bench/results/sss.txt;
+#            cost growth in K, N and map size with a fitted line each, then the GLSL port of the
+#            gather and the combination on llvmpipe alternating with ours -> bench/results/sss.txt;
 #   all:     side, gbuffer, ao and sss.
 # gbuffer and ao: REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
@@ -152,6 +153,10 @@ if [ "$what" = sss ] || [ "$what" = all ]; then
   { header
     "$build/obscura_bench_sss" "$build/data/bunny_cream.glb" --threads 2 --reps "$sreps" --views 8
     [ "$quick" = 1 ] || "$build/obscura_bench_sss" "$build/data/bunny_cream.glb" --threads 2 --reps 3 --sweep
+    # the GLSL port of the gather and the combination on llvmpipe, alternating with ours (tests/gl/glsl_sss.c)
+    if [ -x "$build/obscura_gl_bench_sss" ]; then
+      "$build/obscura_gl_bench_sss" "$build/data/bunny_cream.glb" --K 16 --N 48 --map 256 --threads 2
+    fi
   } | tee "$here/bench/results/sss.txt"
   if [ "$what" = sss ]; then exit 0; fi
 fi
