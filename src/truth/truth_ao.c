@@ -299,8 +299,15 @@ typedef struct ao_job {
     int W, H, guard;
     int group;             /* tiles per task, side by side (see ao_task) */
     float *inst_norm;      /* per instance: |M|inf of its 3x3 */
+    double *inst_bound;    /* per instance: an upper bound of triangle_extent over its triangles
+                           (mesh_extent_bound x inst_norm; NaN or inf when none is known) */
     _Atomic uint32_t *tri_extent; /* per triangle of every mesh: the bits of its object-space
-                           bounding-box extent, computed at its first use (EXTENT_UNSET before) */
+                           bounding-box extent, computed at its first use (EXTENT_UNSET before);
+                           NULL when no pixel can need one (see render_outputs) */
+    /* rast_pixel_ray's arithmetic, hoisted (perspective cameras; see pixel_ray) */
+    int persp;
+    double cx, cy, inv_fx, inv_fy;
+    obs_dvec3 eye_o;       /* rast_pixel_ray's origin: the same for every pixel in perspective */
     int avx2;              /* the AVX2 forms of the sampling run (truth_i_avx2_active) */
     size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
     thread_scratch *scratch;
@@ -348,6 +355,44 @@ static float mesh_triangle_extent(const obs_mesh *mesh, uint32_t t)
     return ext;
 }
 
+/* An upper bound of mesh_triangle_extent over the mesh's triangles: the largest side of the
+ * bounding box of its vertices (NaN coordinates left out, as fminf / fmaxf leave them out of a
+ * triangle's). A triangle's box lies in it, and float subtraction is monotone, so each
+ * triangle's hi - lo is <= the box's. +inf with an infinite coordinate; 0 for no vertices. */
+static float mesh_extent_bound(const obs_mesh *mesh)
+{
+    const float *v = mesh->positions;
+    const size_t nf = 3 * (size_t)mesh->vertex_count;
+    /* 4 vertices (12 floats) per step: lanes (x y z x), (y z x y), (z x y z) */
+    __m128 lo0 = _mm_set1_ps(INFINITY), lo1 = lo0, lo2 = lo0;
+    __m128 hi0 = _mm_set1_ps(-INFINITY), hi1 = hi0, hi2 = hi0;
+    size_t i = 0;
+    for (; i + 12 <= nf; i += 12) { /* minps / maxps return the second operand when one is NaN */
+        __m128 a = _mm_loadu_ps(v + i), b = _mm_loadu_ps(v + i + 4), c = _mm_loadu_ps(v + i + 8);
+        lo0 = _mm_min_ps(a, lo0), hi0 = _mm_max_ps(a, hi0);
+        lo1 = _mm_min_ps(b, lo1), hi1 = _mm_max_ps(b, hi1);
+        lo2 = _mm_min_ps(c, lo2), hi2 = _mm_max_ps(c, hi2);
+    }
+    _Alignas(16) float l[12], h[12];
+    _mm_store_ps(l, lo0), _mm_store_ps(l + 4, lo1), _mm_store_ps(l + 8, lo2);
+    _mm_store_ps(h, hi0), _mm_store_ps(h + 4, hi1), _mm_store_ps(h + 8, hi2);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int k = 0; k < 12; k++) {
+        lo[k % 3] = l[k] < lo[k % 3] ? l[k] : lo[k % 3];
+        hi[k % 3] = h[k] > hi[k % 3] ? h[k] : hi[k % 3];
+    }
+    for (; i < nf; i++) { /* NaN compares false: left out */
+        lo[i % 3] = v[i] < lo[i % 3] ? v[i] : lo[i % 3];
+        hi[i % 3] = v[i] > hi[i % 3] ? v[i] : hi[i % 3];
+    }
+    float ext = 0.0f;
+    for (int c = 0; c < 3; c++) {
+        float e = hi[c] - lo[c]; /* -inf when the coordinate had no value: ignored */
+        ext = e > ext ? e : ext;
+    }
+    return ext;
+}
+
 static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
 {
     const obs_scene *sc = J->scene;
@@ -359,6 +404,8 @@ static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
     /* computed at the triangle's first use (only the triangles seen in a pixel: the full table cost
      * 13 M instructions per call on the bunny); two threads may both compute it, and store the
      * same bits */
+    if (!J->tri_extent) /* no table (never reached when render_outputs leaves it out) */
+        return (double)mesh_triangle_extent(&sc->meshes[mesh], prim) * (double)J->inst_norm[inst];
     _Atomic uint32_t *slot = &J->tri_extent[J->mesh_first[mesh] + prim];
     uint32_t bits = atomic_load_explicit(slot, memory_order_relaxed);
     float ext;
@@ -408,6 +455,32 @@ static int unit_ok(obs_vec3 n)
     return isfinite(l) && l > 0.5f && l < 1.5f;
 }
 
+/* rast_pixel_ray(&gb->constants, cam, px, py, o, d), the same operations in the same order on
+ * the same values (so the same bits), without the call: in perspective the origin is the same for
+ * every pixel (J->eye_o, from one call) and 1/fx, 1/fy are taken once per job. Other projections
+ * call it. */
+static inline void pixel_ray(const ao_job *J, double px, double py, obs_dvec3 *o, obs_dvec3 *d)
+{
+    if (!J->persp) {
+        rast_pixel_ray(&J->gb->constants, J->cam, px, py, o, d);
+        return;
+    }
+    const double ax = (px - J->cx) * J->inv_fx, ay = -(py - J->cy) * J->inv_fy, az = -1.0;
+    const float *w = J->cam->world.m;
+    *o = J->eye_o;
+    d->x = w[0] * ax + w[4] * ay + w[8] * az;
+    d->y = w[1] * ax + w[5] * ay + w[9] * az;
+    d->z = w[2] * ax + w[6] * ay + w[10] * az;
+}
+
+/* obs_mat4_mul_dir, inline (the same float operations in the same order). */
+static inline obs_vec3 mul_dir(const obs_mat4 *m, obs_vec3 d)
+{
+    const float *w = m->m;
+    return obs_v3(w[0] * d.x + w[4] * d.y + w[8] * d.z, w[1] * d.x + w[5] * d.y + w[9] * d.z,
+                  w[2] * d.x + w[6] * d.y + w[10] * d.z);
+}
+
 /* Set up one pixel: its point, normals and offset origin. */
 static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
 {
@@ -428,7 +501,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
             return; /* background */
     }
     obs_dvec3 o, d;
-    rast_pixel_ray(&gb->constants, cam, gx + 0.5, gy + 0.5, &o, &d);
+    pixel_ray(J, gx + 0.5, gy + 0.5, &o, &d);
     obs_dvec3 p;
     obs_vec3 ng, ns;
     uint32_t inst, prim;
@@ -436,7 +509,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         p = obs_dv3(o.x + (double)depth * d.x, o.y + (double)depth * d.y, o.z + (double)depth * d.z);
         obs_vec3 nv = obs_v3(obs_image_f32_row(&gb->face_normal[0], gy)[gx], obs_image_f32_row(&gb->face_normal[1], gy)[gx],
                              obs_image_f32_row(&gb->face_normal[2], gy)[gx]);
-        ng = unit3(obs_mat4_mul_dir(cam->world, nv));
+        ng = unit3(mul_dir(&cam->world, nv));
         /* facing the viewer already, unless the G-buffer was rendered with face_forward = 0 */
         int flip = (double)ng.x * d.x + (double)ng.y * d.y + (double)ng.z * d.z > 0.0;
         if (flip)
@@ -444,7 +517,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         if (J->p.normal == TRUTH_AO_NORMAL_SHADING) {
             obs_vec3 sv = obs_v3(obs_image_f32_row(&gb->normal[0], gy)[gx], obs_image_f32_row(&gb->normal[1], gy)[gx],
                                  obs_image_f32_row(&gb->normal[2], gy)[gx]);
-            ns = unit3(obs_mat4_mul_dir(cam->world, sv));
+            ns = unit3(mul_dir(&cam->world, sv));
             if (flip)
                 ns = obs_v3_scale(ns, -1.0f);
         } else {
@@ -474,7 +547,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         inst = h.instance;
         prim = h.prim;
     }
-    if (!unit_ok(ng) || !unit_ok(ns)) {
+    if (!unit_ok(ng) || (J->p.normal == TRUTH_AO_NORMAL_SHADING && !unit_ok(ns))) { /* else ns = ng */
         s->state = -1;
         return;
     }
@@ -500,9 +573,12 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
      * triangle's extent around p (Embree's plane test works on v0 - origin). */
     double m = max3abs(p.x, p.y, p.z);
     double mo = max3abs(o.x, o.y, o.z);
-    double L = triangle_extent(J, inst, prim);
     m = mo > m ? mo : m;
-    m = L > m ? L : m;
+    /* L > m only when the instance's bound exceeds m: else L <= bound <= m leaves m as it is */
+    if (inst < J->scene->instance_count && !(J->inst_bound[inst] <= m)) {
+        double L = triangle_extent(J, inst, prim);
+        m = L > m ? L : m;
+    }
     double eps = (double)J->p.offset_ulps * 0x1p-24 * m;
     S->max_eps = eps > S->max_eps ? eps : S->max_eps;
     if (J->ei.volume) {
@@ -1362,12 +1438,12 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         tri_total += scene->meshes[m].triangle_count; /* each < 2^32; the sum fits size_t on 64-bit */
     J->inst_norm = (float *)malloc(sizeof(float) * (scene->instance_count ? scene->instance_count : 1));
     J->mesh_first = (size_t *)malloc(sizeof(size_t) * (scene->mesh_count ? scene->mesh_count : 1));
-    J->tri_extent = (_Atomic uint32_t *)malloc(sizeof(uint32_t) * (tri_total ? tri_total : 1));
+    J->inst_bound = (double *)malloc(sizeof(double) * (scene->instance_count ? scene->instance_count : 1));
     J->scratch = (thread_scratch *)obs_aligned_alloc((size_t)threads * sizeof(thread_scratch));
     if (J->scratch)
         memset(J->scratch, 0, (size_t)threads * sizeof(thread_scratch));
     st = OBS_STATUS_OK;
-    if (!J->inst_norm || !J->mesh_first || !J->tri_extent || !J->scratch) {
+    if (!J->inst_norm || !J->mesh_first || !J->inst_bound || !J->scratch) {
         st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
         goto done;
     }
@@ -1415,8 +1491,38 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         J->mesh_first[m] = first;
         first += scene->meshes[m].triangle_count;
     }
-    for (size_t t = 0; t < tri_total; t++) /* filled at first use (triangle_extent) */
-        atomic_init(&J->tri_extent[t], EXTENT_UNSET);
+    /* The pixel ray's constants (pixel_ray), and each instance's bound of its triangles' extents:
+     * when it is <= the eye's magnitude (perspective: the same origin for every pixel), no pixel's
+     * offset depends on a triangle extent, and the table is left out. */
+    {
+        const rast_view_constants *vc = &gb->constants;
+        obs_dvec3 o, d;
+        rast_pixel_ray(vc, camera, 0.5, 0.5, &o, &d);
+        J->persp = vc->projection_type == OBS_PROJECTION_PERSPECTIVE;
+        J->cx = vc->cx;
+        J->cy = vc->cy;
+        J->inv_fx = 1.0 / vc->fx; /* as rast_pixel_ray takes them */
+        J->inv_fy = 1.0 / vc->fy;
+        J->eye_o = o;
+        const double mo = max3abs(o.x, o.y, o.z);
+        int need_table = !J->persp || p->origin != TRUTH_AO_ORIGIN_GBUFFER || !(mo >= 0.0);
+        for (uint32_t i = 0; i < scene->instance_count; i++) {
+            const uint32_t mesh = scene->instances[i].mesh;
+            const double b = mesh < scene->mesh_count ? (double)mesh_extent_bound(&scene->meshes[mesh]) * (double)J->inst_norm[i]
+                                                      : 0.0;
+            J->inst_bound[i] = b;
+            need_table |= !(b <= mo);
+        }
+        if (need_table) {
+            J->tri_extent = (_Atomic uint32_t *)malloc(sizeof(uint32_t) * (tri_total ? tri_total : 1));
+            if (!J->tri_extent) {
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
+                goto done;
+            }
+            for (size_t t = 0; t < tri_total; t++) /* filled at first use (triangle_extent) */
+                atomic_init(&J->tri_extent[t], EXTENT_UNSET);
+        }
+    }
 
     for (int j = 0; j < nout && st == OBS_STATUS_OK; j++) {
         st = alloc_out_plane(ctx, J->W, J->H, &outs[j].mean);
@@ -1484,6 +1590,7 @@ done:
     obs_aligned_free(J->scratch);
     free(J->inst_norm);
     free(J->mesh_first);
+    free(J->inst_bound);
     free((void *)J->tri_extent);
     free(J);
     if (st != OBS_STATUS_OK)
