@@ -309,6 +309,7 @@ typedef struct ao_job {
     double cx, cy, inv_fx, inv_fy;
     obs_dvec3 eye_o;       /* rast_pixel_ray's origin: the same for every pixel in perspective */
     int avx2;              /* the AVX2 forms of the sampling run (truth_i_avx2_active) */
+    truth_i_philox_keys keys; /* the seed's Philox round keys (AVX2 seeds) */
     size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
     thread_scratch *scratch;
     truth_ao_result *out;  /* outs[0] */
@@ -554,7 +555,8 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->state = 1;
 #if defined(OBS_HAVE_AVX2)
     if (J->avx2)
-        truth_i_seeds_avx2(s->pixel, J->p.replicates, J->p.seed, s->shift, s->shift3); /* the same words */
+        truth_i_seeds_avx2_k(s->pixel, J->p.replicates, &J->keys, s->shift,
+                             J->ei.volume ? s->shift3 : NULL); /* the same words (shift3: VOL's only) */
     else
 #endif
     {
@@ -1405,6 +1407,10 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     J->ei = k_est[p->estimator];
     J->hooks = hooks;
     J->avx2 = truth_i_avx2_active();
+#if defined(OBS_HAVE_AVX2)
+    if (J->avx2)
+        truth_i_philox_keys_make(p->seed, &J->keys);
+#endif
     J->guard = gb->guard;
     J->W = gb->width - 2 * gb->guard;
     J->H = gb->height - 2 * gb->guard;

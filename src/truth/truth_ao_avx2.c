@@ -36,22 +36,41 @@ static inline void mulhilo8(__m256i c, __m256i m, __m256i *hi, __m256i *lo)
     *hi = _mm256_blend_epi32(_mm256_srli_epi64(even, 32), odd, 0xAA);
 }
 
+void truth_i_philox_keys_make(uint64_t seed, truth_i_philox_keys *k)
+{
+    uint32_t k0 = (uint32_t)seed, k1 = (uint32_t)(seed >> 32);
+    for (int round = 0; round < 10; round++) {
+        if (round > 0) { /* the key bump, mod 2^32 */
+            k0 += PHILOX_W0;
+            k1 += PHILOX_W1;
+        }
+        for (int l = 0; l < 8; l++) {
+            k->k[round][0][l] = k0;
+            k->k[round][1][l] = k1;
+        }
+    }
+}
+
 void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[2], uint64_t *shift3)
+{
+    truth_i_philox_keys k;
+    truth_i_philox_keys_make(seed, &k);
+    truth_i_seeds_avx2_k(pixel, R, &k, shift, shift3);
+}
+
+void truth_i_seeds_avx2_k(uint64_t pixel, int R, const truth_i_philox_keys *keys, uint32_t (*shift)[2],
+                          uint64_t *shift3)
 {
     const __m256i m0 = _mm256_set1_epi32((int)PHILOX_M0), m1 = _mm256_set1_epi32((int)PHILOX_M1);
     for (int r0 = 0; r0 < R; r0 += 8) {
         /* Philox(pixel lo, pixel hi, r0 + lane, 0) keyed by the seed: the counters of
-         * obs_rng_u32x4_n(pixel, 0, R, 0, seed) */
+         * obs_rng_u32x4_n(pixel, 0, R, 0, seed); the round keys come precomputed */
         __m256i c0 = _mm256_set1_epi32((int)(uint32_t)pixel), c1 = _mm256_set1_epi32((int)(uint32_t)(pixel >> 32));
         __m256i c2 = _mm256_add_epi32(_mm256_set1_epi32(r0), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
         __m256i c3 = _mm256_setzero_si256();
-        __m256i k0 = _mm256_set1_epi32((int)(uint32_t)seed), k1 = _mm256_set1_epi32((int)(uint32_t)(seed >> 32));
-        const __m256i w0 = _mm256_set1_epi32((int)PHILOX_W0), w1 = _mm256_set1_epi32((int)PHILOX_W1);
-        for (int round = 0; round < 10; round++) {
-            if (round > 0) { /* the key bump, mod 2^32 per lane as in uint32_t */
-                k0 = _mm256_add_epi32(k0, w0);
-                k1 = _mm256_add_epi32(k1, w1);
-            }
+        for (int round = 0; round < 9; round++) {
+            const __m256i k0 = _mm256_loadu_si256((const __m256i *)keys->k[round][0]);
+            const __m256i k1 = _mm256_loadu_si256((const __m256i *)keys->k[round][1]);
             __m256i hi0, lo0, hi1, lo1;
             mulhilo8(c0, m0, &hi0, &lo0);
             mulhilo8(c2, m1, &hi1, &lo1);
@@ -60,24 +79,41 @@ void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[
             c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), k1);
             c3 = lo0;
         }
+        { /* round 10: words 2, 3 (c0's product) only when asked for */
+            __m256i hi1, lo1;
+            mulhilo8(c2, m1, &hi1, &lo1);
+            if (shift3) {
+                __m256i hi0, lo0;
+                mulhilo8(c0, m0, &hi0, &lo0);
+                c2 = _mm256_xor_si256(_mm256_xor_si256(hi0, c3), _mm256_loadu_si256((const __m256i *)keys->k[9][1]));
+                c3 = lo0;
+            }
+            c0 = _mm256_xor_si256(_mm256_xor_si256(hi1, c1), _mm256_loadu_si256((const __m256i *)keys->k[9][0]));
+            c1 = lo1;
+        }
         /* (c0, c1) interleaved are shift[r][0..1]; (c2, c3) interleaved are shift3[r] (lo, hi) */
         __m256i a0 = _mm256_unpacklo_epi32(c0, c1), a1 = _mm256_unpackhi_epi32(c0, c1); /* r 0 1 | 4 5; 2 3 | 6 7 */
-        __m256i b0 = _mm256_unpacklo_epi32(c2, c3), b1 = _mm256_unpackhi_epi32(c2, c3);
         if (R - r0 >= 8) { /* a whole chunk: straight into place */
             _mm256_storeu_si256((__m256i *)shift[r0], _mm256_permute2x128_si256(a0, a1, 0x20));
             _mm256_storeu_si256((__m256i *)shift[r0 + 4], _mm256_permute2x128_si256(a0, a1, 0x31));
-            _mm256_storeu_si256((__m256i *)(shift3 + r0), _mm256_permute2x128_si256(b0, b1, 0x20));
-            _mm256_storeu_si256((__m256i *)(shift3 + r0 + 4), _mm256_permute2x128_si256(b0, b1, 0x31));
+            if (shift3) {
+                __m256i b0 = _mm256_unpacklo_epi32(c2, c3), b1 = _mm256_unpackhi_epi32(c2, c3);
+                _mm256_storeu_si256((__m256i *)(shift3 + r0), _mm256_permute2x128_si256(b0, b1, 0x20));
+                _mm256_storeu_si256((__m256i *)(shift3 + r0 + 4), _mm256_permute2x128_si256(b0, b1, 0x31));
+            }
             continue;
         }
         _Alignas(32) uint32_t w01[16], w23[16];
         _mm256_store_si256((__m256i *)w01, _mm256_permute2x128_si256(a0, a1, 0x20));
         _mm256_store_si256((__m256i *)(w01 + 8), _mm256_permute2x128_si256(a0, a1, 0x31));
-        _mm256_store_si256((__m256i *)w23, _mm256_permute2x128_si256(b0, b1, 0x20));
-        _mm256_store_si256((__m256i *)(w23 + 8), _mm256_permute2x128_si256(b0, b1, 0x31));
         const int n = R - r0;
         memcpy(shift[r0], w01, sizeof(uint32_t) * 2 * (size_t)n);
-        memcpy(shift3 + r0, w23, sizeof(uint64_t) * (size_t)n); /* little-endian: (c2, c3) = c3 << 32 | c2 */
+        if (shift3) {
+            __m256i b0 = _mm256_unpacklo_epi32(c2, c3), b1 = _mm256_unpackhi_epi32(c2, c3);
+            _mm256_store_si256((__m256i *)w23, _mm256_permute2x128_si256(b0, b1, 0x20));
+            _mm256_store_si256((__m256i *)(w23 + 8), _mm256_permute2x128_si256(b0, b1, 0x31));
+            memcpy(shift3 + r0, w23, sizeof(uint64_t) * (size_t)n); /* little-endian: (c2, c3) = c3 << 32 | c2 */
+        }
     }
 }
 

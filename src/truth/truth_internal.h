@@ -69,8 +69,17 @@ typedef struct truth_i_hemi_in {
     const int *active;
     int count;
 } truth_i_hemi_in;
+/* Philox's 10 round keys for a seed (the key and its Weyl bumps), each word repeated 8 times: what
+ * truth_i_seeds_avx2_k reads instead of deriving them per pixel (truth_ao.c keeps one per job). */
+typedef struct truth_i_philox_keys {
+    uint32_t k[10][2][8]; /* read unaligned */
+} truth_i_philox_keys;
 #if defined(OBS_HAVE_AVX2)
 void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[2], uint64_t *shift3);
+/* The same with the keys precomputed; shift3 may be NULL (words 2, 3 are then not computed). */
+void truth_i_philox_keys_make(uint64_t seed, truth_i_philox_keys *k);
+void truth_i_seeds_avx2_k(uint64_t pixel, int R, const truth_i_philox_keys *keys, uint32_t (*shift)[2],
+                          uint64_t *shift3);
 void truth_i_owen_scramble_avx2(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out);
 void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays); /* count x B rays */
 #endif
