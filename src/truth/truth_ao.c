@@ -492,8 +492,14 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->y = y;
     s->state = 0;
     s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
-    for (int j = 0; j < J->nout * J->p.replicates; j++)
-        s->acc[j] = 0.0;
+    {
+        const int n = J->nout * J->p.replicates; /* R >= 2: at least one pair */
+        int j = 0;
+        for (; j + 2 <= n; j += 2)
+            _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
+        if (j < n)
+            s->acc[j] = 0.0;
+    }
     s->count = 0;
     float depth = 0.0f;
     if (J->p.origin == TRUTH_AO_ORIGIN_GBUFFER) {
@@ -960,6 +966,32 @@ static inline double falloff(falloff_kind k, double x) /* x = d^2 / r^2 in [0, 1
     return k == FALLOFF_CUBIC ? v * v * v : v;
 }
 
+/* One output's replicate statistics from its R sums acc[r] (n samples, mr = n / R per replicate):
+ * the mean mj = sum_r acc[r] / n and the spread se = sqrt(sum_r (acc[r]/mr - mj)^2 / (R (R - 1)))
+ * [LEcuyer02]. Both sums run in r order, as plain loops would; the divisions and squares go two
+ * replicates per SSE2 instruction (IEEE per lane: the same values). Inlined with R constant 8. */
+static inline __attribute__((always_inline)) void replicate_stats(const double *acc, const int R, double n, double mr,
+                                                                  double *mj_out, double *se_out)
+{
+    double tot = 0.0;
+    for (int r = 0; r < R; r++)
+        tot += acc[r];
+    const double mj = tot / n;
+    const __m128d mr2 = _mm_set1_pd(mr), mj2 = _mm_set1_pd(mj);
+    double ss = 0.0;
+    int r = 0;
+    for (; r + 2 <= R; r += 2) {
+        __m128d d = _mm_sub_pd(_mm_div_pd(_mm_loadu_pd(acc + r), mr2), mj2);
+        d = _mm_mul_pd(d, d);
+        ss += _mm_cvtsd_f64(d);
+        ss += _mm_cvtsd_f64(_mm_unpackhi_pd(d, d));
+    }
+    for (; r < R; r++)
+        ss += (acc[r] / mr - mj) * (acc[r] / mr - mj);
+    *mj_out = mj;
+    *se_out = sqrt(ss / ((double)R * (double)(R - 1)));
+}
+
 /* One tile: set up its pixels, then rounds of one ray batch each until every pixel stopped.
  * Returns the rays traced. */
 static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
@@ -973,23 +1005,30 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         const rast_gbuffer *gb = J->gb;
         const int g = J->guard, from_gb = J->p.origin == TRUTH_AO_ORIGIN_GBUFFER;
         const size_t len = (size_t)(x1 - x0) * 4;
-        for (int y = y0; y < y1; y++) {
-            const char *rows[10] = {(const char *)(obs_image_f32_row(&J->out->mean, y) + x0),
-                                    (const char *)(obs_image_f32_row(&J->out->std_error, y) + x0),
-                                    (const char *)(obs_image_f32_row(&J->out->count, y) + x0), NULL};
-            if (from_gb) {
-                rows[3] = (const char *)(obs_image_f32_row(&gb->depth, y + g) + x0 + g);
-                rows[4] = (const char *)(obs_image_f32_row(&gb->face_normal[0], y + g) + x0 + g);
-                rows[5] = (const char *)(obs_image_f32_row(&gb->face_normal[1], y + g) + x0 + g);
-                rows[6] = (const char *)(obs_image_f32_row(&gb->face_normal[2], y + g) + x0 + g);
-                rows[7] = (const char *)(obs_image_u32_row(&gb->prim_id, y + g) + x0 + g);
-                rows[8] = (const char *)(obs_image_u32_row(&gb->instance_id, y + g) + x0 + g);
+        /* each plane's first row in the tile and its row pitch (bytes), stepped row by row */
+        const char *row[9] = {(const char *)(obs_image_f32_row(&J->out->mean, y0) + x0),
+                              (const char *)(obs_image_f32_row(&J->out->std_error, y0) + x0),
+                              (const char *)(obs_image_f32_row(&J->out->count, y0) + x0)};
+        ptrdiff_t pitch[9] = {J->out->mean.stride * 4, J->out->std_error.stride * 4, J->out->count.stride * 4};
+        int planes = 3;
+        if (from_gb) {
+            row[3] = (const char *)(obs_image_f32_row(&gb->depth, y0 + g) + x0 + g), pitch[3] = gb->depth.stride * 4;
+            for (int c = 0; c < 3; c++) {
+                row[4 + c] = (const char *)(obs_image_f32_row(&gb->face_normal[c], y0 + g) + x0 + g);
+                pitch[4 + c] = gb->face_normal[c].stride * 4;
             }
-            for (int k = 0; rows[k]; k++) { /* every cache line of [row, row + len) */
+            row[7] = (const char *)(obs_image_u32_row(&gb->prim_id, y0 + g) + x0 + g), pitch[7] = gb->prim_id.stride * 4;
+            row[8] = (const char *)(obs_image_u32_row(&gb->instance_id, y0 + g) + x0 + g);
+            pitch[8] = gb->instance_id.stride * 4;
+            planes = 9;
+        }
+        for (int k = 0; k < planes; k++) { /* every cache line of [row, row + len), each row */
+            const char *r = row[k];
+            for (int y = y0; y < y1; y++, r += pitch[k]) {
                 for (size_t off = 64; off < len; off += 64)
-                    _mm_prefetch(rows[k] + off, _MM_HINT_T0);
-                _mm_prefetch(rows[k], _MM_HINT_T0);
-                _mm_prefetch(rows[k] + len - 1, _MM_HINT_T0);
+                    _mm_prefetch(r + off, _MM_HINT_T0);
+                _mm_prefetch(r, _MM_HINT_T0);
+                _mm_prefetch(r + len - 1, _MM_HINT_T0);
             }
         }
     }
@@ -1126,8 +1165,10 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                 if (m <= 2) { /* two replicates at a time (R is even): their counts from a table, as doubles */
                     const __m128d *tab = m == 2 ? k_counts_m2 : k_counts_m1;
                     const int per = 2 * m; /* bits of two replicates */
-                    for (int r = 0; r < R; r += 2) {
-                        const __m128d c = tab[(bits >> (r * m)) & ((1u << per) - 1u)];
+                    const uint64_t mask = (1u << per) - 1u;
+                    uint64_t b = bits;
+                    for (int r = 0; r < R; r += 2, b >>= per) {
+                        const __m128d c = tab[b & mask];
                         _mm_storeu_pd(s->acc + r, _mm_add_pd(_mm_loadu_pd(s->acc + r), c));
                     }
                 } else {
@@ -1150,15 +1191,11 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             const double n = (double)s->count, mr = n / R;
             double mean[TRUTH_AO_MAX_OUTPUTS], bar[TRUTH_AO_MAX_OUTPUTS], se_r[TRUTH_AO_MAX_OUTPUTS], worst = 0.0;
             for (int j = 0; j < J->nout; j++) {
-                const double *acc = s->acc + (size_t)j * R;
-                double tot = 0.0;
-                for (int r = 0; r < R; r++)
-                    tot += acc[r];
-                const double mj = tot / n;
-                double ss = 0.0;
-                for (int r = 0; r < R; r++)
-                    ss += (acc[r] / mr - mj) * (acc[r] / mr - mj);
-                const double se = sqrt(ss / ((double)R * (double)(R - 1)));
+                double mj, se;
+                if (R == 8) /* the default, unrolled */
+                    replicate_stats(s->acc + (size_t)j * R, 8, n, mr, &mj, &se);
+                else
+                    replicate_stats(s->acc + (size_t)j * R, R, n, mr, &mj, &se);
                 mean[j] = mj < 0.0 ? 0.0 : mj > 1.0 ? 1.0 : mj;
                 se_r[j] = se;
                 bar[j] = se > fl ? se : fl;
@@ -1167,11 +1204,13 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             const int done_max = s->count >= max_n;
             const int done_target = s->count >= min_n && worst <= J->p.target_error;
             if (done_max || done_target) {
+                /* every output plane has the same stride (alloc_out_plane) */
+                const ptrdiff_t at = (ptrdiff_t)s->y * J->out->mean.stride + s->x;
                 for (int j = 0; j < J->nout; j++) {
-                    obs_image_f32_row(&J->outs[j].mean, s->y)[s->x] = (float)mean[j];
+                    J->outs[j].mean.data[at] = (float)mean[j];
                     const double shown = J->p.error_bar == TRUTH_AO_BAR_REPLICATES ? se_r[j] : bar[j];
-                    obs_image_f32_row(&J->outs[j].std_error, s->y)[s->x] = (float)shown;
-                    obs_image_f32_row(&J->outs[j].count, s->y)[s->x] = (float)s->count;
+                    J->outs[j].std_error.data[at] = (float)shown;
+                    J->outs[j].count.data[at] = (float)s->count;
                     S->converged[j] += bar[j] <= J->p.target_error;
                     S->max_se[j] = shown > S->max_se[j] ? shown : S->max_se[j];
                 }
