@@ -308,6 +308,8 @@ typedef struct ao_job {
     int persp;
     double cx, cy, inv_fx, inv_fy;
     obs_dvec3 eye_o;       /* rast_pixel_ray's origin: the same for every pixel in perspective */
+    double mo;             /* max3abs(eye_o) */
+    int setup8;            /* ao_tile sets pixels up with truth_i_setup8_avx2 (setup_row8) */
     int avx2;              /* the AVX2 forms of the sampling run (truth_i_avx2_active) */
     truth_i_philox_keys keys; /* the seed's Philox round keys (AVX2 seeds) */
     size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
@@ -603,6 +605,84 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->n[2] = ns.z;
     onb_duff(s->n, s->t, s->b);
 }
+
+#if defined(OBS_HAVE_AVX2)
+/* setup_pixel for the pixels [x0, x1) of row y, 8 at a time (truth_i_setup8_avx2; J->setup8: the
+ * G-buffer origin, the geometric normal, a perspective camera, a hemisphere estimator): the same
+ * values. Surface pixels take slots nactive.. of S->px; the others get their outputs. Returns the
+ * new nactive. */
+static int setup_row8(ao_job *J, thread_scratch *S, int y, int x0, int x1, int nactive, float *om, float *os, float *oc)
+{
+    const rast_gbuffer *gb = J->gb;
+    const int g = J->guard, gy = y + g;
+    truth_i_setup8 io;
+    io.world = J->cam->world.m;
+    io.cx = J->cx, io.cy = J->cy, io.inv_fx = J->inv_fx, io.inv_fy = J->inv_fy;
+    io.o[0] = J->eye_o.x, io.o[1] = J->eye_o.y, io.o[2] = J->eye_o.z;
+    io.mo = J->mo;
+    const double k = (double)J->p.offset_ulps * 0x1p-24;
+    io.k = k;
+    io.py = gy + 0.5;
+    const float *dr = obs_image_f32_row(&gb->depth, gy) + g, *n0 = obs_image_f32_row(&gb->face_normal[0], gy) + g,
+                *n1 = obs_image_f32_row(&gb->face_normal[1], gy) + g, *n2 = obs_image_f32_row(&gb->face_normal[2], gy) + g;
+    const uint32_t *ir = obs_image_u32_row(&gb->instance_id, gy) + g, *pr = obs_image_u32_row(&gb->prim_id, gy) + g;
+    for (int xs = x0; xs < x1; xs += 8) {
+        io.count = x1 - xs < 8 ? x1 - xs : 8;
+        io.depth = dr + xs, io.nx = n0 + xs, io.ny = n1 + xs, io.nz = n2 + xs;
+        io.px0 = (xs + g) + 0.5;
+        truth_i_setup8_avx2(&io);
+        for (int l = 0; l < io.count; l++) {
+            const int x = xs + l;
+            if (io.state[l] != 1) {
+                om[x] = 1.0f;
+                os[x] = 0.0f;
+                oc[x] = 0.0f;
+                if (io.state[l] == 0)
+                    S->background++;
+                else
+                    S->invalid++;
+                continue;
+            }
+            px_state *s = &S->px[nactive];
+            s->x = x;
+            s->y = y;
+            s->state = 1;
+            s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
+            const int na = J->p.replicates; /* nout = 1 here; R >= 2 */
+            int j = 0;
+            for (; j + 2 <= na; j += 2)
+                _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
+            if (j < na)
+                s->acc[j] = 0.0;
+            s->count = 0;
+            for (int c = 0; c < 3; c++) {
+                s->org[c] = io.frame[c][l];
+                s->t[c] = io.frame[3 + c][l];
+                s->b[c] = io.frame[6 + c][l];
+                s->n[c] = io.frame[9 + c][l];
+            }
+            truth_i_seeds_avx2_k(s->pixel, J->p.replicates, &J->keys, s->shift, NULL);
+            double m = io.m[l];
+            const uint32_t inst = ir[x], prim = pr[x];
+            if (inst < J->scene->instance_count && !(J->inst_bound[inst] <= m)) { /* as setup_pixel */
+                double L = triangle_extent(J, inst, prim);
+                if (L > m) {
+                    m = L;
+                    const double eps = k * m;
+                    s->org[0] = (float)(io.p[0][l] + eps * io.ng[0][l]);
+                    s->org[1] = (float)(io.p[1][l] + eps * io.ng[1][l]);
+                    s->org[2] = (float)(io.p[2][l] + eps * io.ng[2][l]);
+                }
+            }
+            const double eps = k * m;
+            S->max_eps = eps > S->max_eps ? eps : S->max_eps;
+            S->active[nactive] = nactive;
+            nactive++;
+        }
+    }
+    return nactive;
+}
+#endif
 
 /* World directions d = x t + y b + z n of n local directions (n a multiple of 4), transposed to
  * one (dx, dy, dz, 0) vector per ray in d4[]. */
@@ -1051,6 +1131,12 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             S->background += x1 - x0;
             continue;
         }
+#if defined(OBS_HAVE_AVX2)
+        if (J->setup8) {
+            nactive = setup_row8(J, S, y, x0, x1, nactive, om, os, oc);
+            continue;
+        }
+#endif
         for (int x = x0; x < x1; x++) {
             int state = 0;
             if (!from_gb || (depth[x] > 0.0f && isfinite(depth[x]))) {
@@ -1550,6 +1636,9 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         J->inv_fy = 1.0 / vc->fy;
         J->eye_o = o;
         const double mo = max3abs(o.x, o.y, o.z);
+        J->mo = mo;
+        J->setup8 = J->avx2 && J->persp && p->origin == TRUTH_AO_ORIGIN_GBUFFER && p->normal == TRUTH_AO_NORMAL_GEOMETRIC &&
+                    !J->ei.volume && nout == 1;
         int need_table = !J->persp || p->origin != TRUTH_AO_ORIGIN_GBUFFER || !(mo >= 0.0);
         for (uint32_t i = 0; i < scene->instance_count; i++) {
             const uint32_t mesh = scene->instances[i].mesh;

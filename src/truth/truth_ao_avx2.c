@@ -21,6 +21,7 @@
 #if defined(OBS_HAVE_AVX2)
 
 #include <immintrin.h>
+#include <math.h>
 #include <string.h>
 
 #define PHILOX_M0 0xD2511F53u /* core/rng.c's constants [Salmon11] */
@@ -280,6 +281,126 @@ void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays)
         in->cosine ? hemisphere_rays(in, rays, 1, 1) : hemisphere_rays(in, rays, 1, 0);
     else
         in->cosine ? hemisphere_rays(in, rays, 0, 1) : hemisphere_rays(in, rays, 0, 0);
+}
+
+/* truth_ao.c's setup_pixel, 8 pixels of a row per vector (its common case: G-buffer origin,
+ * geometric normal, perspective), the same operations in the same order lane by lane:
+ *   the face normal to world space (mul_dir, float), unit3 (1 / sqrt, zero when the squared length
+ *   is not in (0, inf)), the pixel ray (pixel_ray, double, two 4-lane halves), p = o + depth d,
+ *   the flip towards the viewer (double dot product), unit_ok, max3abs(p) (rounded to float as it
+ *   returns), max with mo, the offset origin (double, rounded to float) and onb_duff ([Duff17]). */
+static inline __m256d selpd(__m256d m, __m256d a, __m256d b) { return _mm256_blendv_pd(b, a, m); }
+
+static inline __m256d max3abs4(__m256d x, __m256d y, __m256d z)
+{
+    const __m256d sign = _mm256_set1_pd(-0.0);
+    __m256d m = _mm256_andnot_pd(sign, x), ay = _mm256_andnot_pd(sign, y), az = _mm256_andnot_pd(sign, z);
+    m = selpd(_mm256_cmp_pd(ay, m, _CMP_GT_OQ), ay, m);
+    m = selpd(_mm256_cmp_pd(az, m, _CMP_GT_OQ), az, m);
+    return _mm256_cvtps_pd(_mm256_cvtpd_ps(m)); /* max3abs returns a float */
+}
+
+void truth_i_setup8_avx2(truth_i_setup8 *io)
+{
+    const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const __m256i lm = _mm256_cmpgt_epi32(_mm256_set1_epi32(io->count), lane);
+    const __m256 dep = _mm256_maskload_ps(io->depth, lm);
+    const __m256 fx = _mm256_maskload_ps(io->nx, lm), fy = _mm256_maskload_ps(io->ny, lm), fz = _mm256_maskload_ps(io->nz, lm);
+    const float *w = io->world;
+    /* mul_dir(&cam->world, nv) */
+    __m256 ax = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(w[0]), fx), _mm256_mul_ps(_mm256_set1_ps(w[4]), fy)),
+                              _mm256_mul_ps(_mm256_set1_ps(w[8]), fz));
+    __m256 ay = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(w[1]), fx), _mm256_mul_ps(_mm256_set1_ps(w[5]), fy)),
+                              _mm256_mul_ps(_mm256_set1_ps(w[9]), fz));
+    __m256 az = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(_mm256_set1_ps(w[2]), fx), _mm256_mul_ps(_mm256_set1_ps(w[6]), fy)),
+                              _mm256_mul_ps(_mm256_set1_ps(w[10]), fz));
+    /* unit3 */
+    const __m256 zero = _mm256_setzero_ps(), inf = _mm256_set1_ps(INFINITY);
+    __m256 l2 = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(ax, ax), _mm256_mul_ps(ay, ay)), _mm256_mul_ps(az, az));
+    __m256 okl = _mm256_and_ps(_mm256_cmp_ps(l2, zero, _CMP_GT_OQ), _mm256_cmp_ps(l2, inf, _CMP_LT_OQ));
+    __m256 inv = _mm256_div_ps(_mm256_set1_ps(1.0f), _mm256_sqrt_ps(l2));
+    __m256 nx = _mm256_and_ps(okl, _mm256_mul_ps(ax, inv)), ny = _mm256_and_ps(okl, _mm256_mul_ps(ay, inv)),
+           nz = _mm256_and_ps(okl, _mm256_mul_ps(az, inv));
+    /* pixel_ray, p and the flip: two halves of 4 pixels in double */
+    const double ayd = -(io->py - io->cy) * io->inv_fy, azd = -1.0;
+    const __m256d W0 = _mm256_set1_pd((double)w[0]), W1 = _mm256_set1_pd((double)w[1]), W2 = _mm256_set1_pd((double)w[2]);
+    const __m256d W4ay = _mm256_set1_pd((double)w[4] * ayd), W5ay = _mm256_set1_pd((double)w[5] * ayd),
+                  W6ay = _mm256_set1_pd((double)w[6] * ayd);
+    const __m256d W8az = _mm256_set1_pd((double)w[8] * azd), W9az = _mm256_set1_pd((double)w[9] * azd),
+                  W10az = _mm256_set1_pd((double)w[10] * azd);
+    const __m256d ox = _mm256_set1_pd(io->o[0]), oy = _mm256_set1_pd(io->o[1]), oz = _mm256_set1_pd(io->o[2]);
+    __m256d dx[2], dy[2], dz[2], px[2], py[2], pz[2];
+    int flipbits = 0;
+    for (int h = 0; h < 2; h++) {
+        const __m256d pxl = _mm256_add_pd(_mm256_set1_pd(io->px0), _mm256_setr_pd(4 * h, 4 * h + 1, 4 * h + 2, 4 * h + 3));
+        const __m256d axd = _mm256_mul_pd(_mm256_sub_pd(pxl, _mm256_set1_pd(io->cx)), _mm256_set1_pd(io->inv_fx));
+        dx[h] = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(W0, axd), W4ay), W8az);
+        dy[h] = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(W1, axd), W5ay), W9az);
+        dz[h] = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(W2, axd), W6ay), W10az);
+        const __m256d dd = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(dep, 1) : _mm256_castps256_ps128(dep));
+        px[h] = _mm256_add_pd(ox, _mm256_mul_pd(dd, dx[h]));
+        py[h] = _mm256_add_pd(oy, _mm256_mul_pd(dd, dy[h]));
+        pz[h] = _mm256_add_pd(oz, _mm256_mul_pd(dd, dz[h]));
+        const __m256d gx = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(nx, 1) : _mm256_castps256_ps128(nx));
+        const __m256d gy = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(ny, 1) : _mm256_castps256_ps128(ny));
+        const __m256d gz = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(nz, 1) : _mm256_castps256_ps128(nz));
+        const __m256d dot = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(gx, dx[h]), _mm256_mul_pd(gy, dy[h])),
+                                          _mm256_mul_pd(gz, dz[h]));
+        flipbits |= _mm256_movemask_pd(_mm256_cmp_pd(dot, _mm256_setzero_pd(), _CMP_GT_OQ)) << (4 * h);
+    }
+    const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    const __m256 flip = _mm256_castsi256_ps(
+        _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(flipbits), bit), bit));
+    const __m256 m1 = _mm256_set1_ps(-1.0f);
+    nx = _mm256_blendv_ps(nx, _mm256_mul_ps(nx, m1), flip);
+    ny = _mm256_blendv_ps(ny, _mm256_mul_ps(ny, m1), flip);
+    nz = _mm256_blendv_ps(nz, _mm256_mul_ps(nz, m1), flip);
+    /* unit_ok(ng), and the state */
+    __m256 l = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(nx, nx), _mm256_mul_ps(ny, ny)), _mm256_mul_ps(nz, nz));
+    __m256 uok = _mm256_and_ps(_mm256_cmp_ps(l, _mm256_set1_ps(0.5f), _CMP_GT_OQ), _mm256_cmp_ps(l, _mm256_set1_ps(1.5f), _CMP_LT_OQ));
+    __m256 surf = _mm256_and_ps(_mm256_cmp_ps(dep, zero, _CMP_GT_OQ), _mm256_cmp_ps(dep, inf, _CMP_LT_OQ));
+    surf = _mm256_and_ps(surf, _mm256_castsi256_ps(lm));
+    /* 1 surface, -1 invalid normal, 0 background */
+    __m256i st = _mm256_and_si256(_mm256_castps_si256(surf),
+                                  _mm256_blendv_epi8(_mm256_set1_epi32(-1), _mm256_set1_epi32(1), _mm256_castps_si256(uok)));
+    _mm256_storeu_si256((__m256i *)io->state, st);
+    _mm256_storeu_ps(io->ng[0], nx);
+    _mm256_storeu_ps(io->ng[1], ny);
+    _mm256_storeu_ps(io->ng[2], nz);
+    /* the offset origin: m = max(max3abs(p), mo), eps = k m, org = (float)(p + eps ng) */
+    const __m256d mo = _mm256_set1_pd(io->mo), k = _mm256_set1_pd(io->k);
+    __m128 org[3][2];
+    for (int h = 0; h < 2; h++) {
+        __m256d m = max3abs4(px[h], py[h], pz[h]);
+        m = selpd(_mm256_cmp_pd(mo, m, _CMP_GT_OQ), mo, m);
+        _mm256_storeu_pd(io->m + 4 * h, m);
+        _mm256_storeu_pd(io->p[0] + 4 * h, px[h]);
+        _mm256_storeu_pd(io->p[1] + 4 * h, py[h]);
+        _mm256_storeu_pd(io->p[2] + 4 * h, pz[h]);
+        const __m256d eps = _mm256_mul_pd(k, m);
+        const __m256d gx = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(nx, 1) : _mm256_castps256_ps128(nx));
+        const __m256d gy = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(ny, 1) : _mm256_castps256_ps128(ny));
+        const __m256d gz = _mm256_cvtps_pd(h ? _mm256_extractf128_ps(nz, 1) : _mm256_castps256_ps128(nz));
+        org[0][h] = _mm256_cvtpd_ps(_mm256_add_pd(px[h], _mm256_mul_pd(eps, gx)));
+        org[1][h] = _mm256_cvtpd_ps(_mm256_add_pd(py[h], _mm256_mul_pd(eps, gy)));
+        org[2][h] = _mm256_cvtpd_ps(_mm256_add_pd(pz[h], _mm256_mul_pd(eps, gz)));
+    }
+    for (int c = 0; c < 3; c++)
+        _mm256_storeu_ps(io->frame[c], _mm256_set_m128(org[c][1], org[c][0]));
+    /* onb_duff(n): [Duff17], listing 3 */
+    const __m256 sgnbit = _mm256_set1_ps(-0.0f), one = _mm256_set1_ps(1.0f);
+    const __m256 sign = _mm256_or_ps(_mm256_and_ps(nz, sgnbit), one); /* copysignf(1, n2) */
+    const __m256 a = _mm256_div_ps(m1, _mm256_add_ps(sign, nz));
+    const __m256 bb = _mm256_mul_ps(_mm256_mul_ps(nx, ny), a);
+    _mm256_storeu_ps(io->frame[3], _mm256_add_ps(one, _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(sign, nx), nx), a)));
+    _mm256_storeu_ps(io->frame[4], _mm256_mul_ps(sign, bb));
+    _mm256_storeu_ps(io->frame[5], _mm256_mul_ps(_mm256_xor_ps(sign, sgnbit), nx));
+    _mm256_storeu_ps(io->frame[6], bb);
+    _mm256_storeu_ps(io->frame[7], _mm256_add_ps(sign, _mm256_mul_ps(_mm256_mul_ps(ny, ny), a)));
+    _mm256_storeu_ps(io->frame[8], _mm256_xor_ps(ny, sgnbit));
+    _mm256_storeu_ps(io->frame[9], nx);
+    _mm256_storeu_ps(io->frame[10], ny);
+    _mm256_storeu_ps(io->frame[11], nz);
 }
 
 #endif
