@@ -1079,9 +1079,17 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
     int x0, y0, x1, y1;
     obs_tiling_rect(&J->tiling, tile, &x0, &y0, &x1, &y1);
     const int B = J->p.batch, R = J->p.replicates, m = B / R;
-    {
-        /* The tile's rows in the G-buffer and output planes are strided: ask for all their cache
-         * lines at once, so that the misses overlap instead of queueing pixel by pixel. */
+    /* rows of background pixels only (the common case away from the object; bit y - y0), found
+     * from the depth rows first: they need no other G-buffer plane */
+    uint32_t bg_rows = 0;
+    const int fast_bg = J->p.origin == TRUTH_AO_ORIGIN_GBUFFER && J->nout == 1 && ((x1 - x0) & 3) == 0;
+    if (fast_bg)
+        for (int y = y0; y < y1; y++)
+            if (row_is_background(obs_image_f32_row(&J->gb->depth, y + J->guard) + J->guard + x0, x1 - x0))
+                bg_rows |= 1u << (y - y0);
+    if (bg_rows != (y1 - y0 < 32 ? (1u << (y1 - y0)) - 1u : 0xFFFFFFFFu)) {
+        /* The tile's other rows in the G-buffer and output planes are strided: ask for all their
+         * cache lines at once, so that the misses overlap instead of queueing pixel by pixel. */
         const rast_gbuffer *gb = J->gb;
         const int g = J->guard, from_gb = J->p.origin == TRUTH_AO_ORIGIN_GBUFFER;
         const size_t len = (size_t)(x1 - x0) * 4;
@@ -1105,6 +1113,8 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         for (int k = 0; k < planes; k++) { /* every cache line of [row, row + len), each row */
             const char *r = row[k];
             for (int y = y0; y < y1; y++, r += pitch[k]) {
+                if (bg_rows >> (y - y0) & 1u)
+                    continue;
                 for (size_t off = 64; off < len; off += 64)
                     _mm_prefetch(r + off, _MM_HINT_T0);
                 _mm_prefetch(r, _MM_HINT_T0);
@@ -1120,7 +1130,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         const float *depth = from_gb ? obs_image_f32_row(&J->gb->depth, y + J->guard) + J->guard : NULL;
         float *om = obs_image_f32_row(&J->out->mean, y), *os = obs_image_f32_row(&J->out->std_error, y),
               *oc = obs_image_f32_row(&J->out->count, y);
-        if (from_gb && J->nout == 1 && ((x1 - x0) & 3) == 0 && row_is_background(depth + x0, x1 - x0)) {
+        if (bg_rows >> (y - y0) & 1u) {
             /* a row of background pixels (the common case away from the object): the same outputs,
              * 4 at a time */
             for (int x = x0; x < x1; x += 4) {

@@ -149,7 +149,9 @@ void truth_i_owen_scramble_avx2(const uint32_t *v, const uint32_t *seed, int n, 
         out[k] = truth_i_owen_scramble1(v[k], seed[k]);
 }
 
-static inline __m256 sel8(__m256 m, __m256 a, __m256 b) { return _mm256_or_ps(_mm256_and_ps(m, a), _mm256_andnot_ps(m, b)); }
+/* m ? a : b per lane, m a compare's all-ones / all-zeros mask: the bits of a or of b, as
+ * sel_ps's and / andnot / or give them */
+static inline __m256 sel8(__m256 m, __m256 a, __m256 b) { return _mm256_blendv_ps(b, a, m); }
 
 static inline __m256 fixed_to_signed_unit8(__m256i u)
 {
@@ -213,6 +215,7 @@ static inline __attribute__((always_inline)) void hemisphere_rays(const truth_i_
     const __m256 b0 = _mm256_broadcast_ss(f + 6), b1 = _mm256_broadcast_ss(f + 7), b2 = _mm256_broadcast_ss(f + 8);
     const __m256 n0 = _mm256_broadcast_ss(f + 9), n1 = _mm256_broadcast_ss(f + 10), n2 = _mm256_broadcast_ss(f + 11);
     const __m128 org = _mm_setr_ps(f[0], f[1], f[2], 0.0f);
+    const __m256 tail_org = _mm256_set_m128(org, tail); /* ray i's tfar.. flags, then ray i+1's origin */
     for (int k = 0; k < B; k += 8) {
         __m256i s0, s1;
         lane_seeds(shift, k, m, &s0, &s1);
@@ -252,6 +255,19 @@ static inline __attribute__((always_inline)) void hemisphere_rays(const truth_i_
             __m128 z4 = half ? _mm256_extractf128_ps(dz, 1) : _mm256_castps256_ps128(dz);
             __m128 w4 = _mm_setzero_ps();
             _MM_TRANSPOSE4_PS(x4, y4, z4, w4);
+            if (!hit) { /* RTCRay: a ray's tail and the next one's origin are adjacent (the same bytes) */
+                _mm_store_ps(r, org);
+                _mm_store_ps(r + 4, x4); /* time = 0 */
+                _mm256_storeu_ps(r + 8, tail_org);
+                _mm_store_ps(r + stride + 4, y4);
+                _mm256_storeu_ps(r + stride + 8, tail_org);
+                _mm_store_ps(r + 2 * stride + 4, z4);
+                _mm256_storeu_ps(r + 2 * stride + 8, tail_org);
+                _mm_store_ps(r + 3 * stride + 4, w4);
+                _mm_store_ps(r + 3 * stride + 8, tail);
+                r += 4 * stride;
+                continue;
+            }
             _mm_store_ps(r, org);
             _mm_store_ps(r + 4, x4); /* time = 0 */
             _mm_store_ps(r + 8, tail);
