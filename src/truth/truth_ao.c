@@ -649,11 +649,16 @@ static int setup_row8(ao_job *J, thread_scratch *S, int y, int x0, int x1, int n
             s->state = 1;
             s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
             const int na = J->p.replicates; /* nout = 1 here; R >= 2 */
-            int j = 0;
-            for (; j + 2 <= na; j += 2)
-                _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
-            if (j < na)
-                s->acc[j] = 0.0;
+            if (na == 8) {
+                for (int j = 0; j < 8; j += 2)
+                    _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
+            } else {
+                int j = 0;
+                for (; j + 2 <= na; j += 2)
+                    _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
+                if (j < na)
+                    s->acc[j] = 0.0;
+            }
             s->count = 0;
             for (int c = 0; c < 3; c++) {
                 s->org[c] = io.frame[c][l];
@@ -1225,7 +1230,37 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         /* every active pixel of the tile started at round 0: each has taken (round + 1) B samples */
         const double fl = truth_ao_error_floor((round + 1) * B);
         int kept = 0;
-        for (int a = 0; a < nactive; a++) {
+        /* the defaults' case (one occlusion output, 16 rays, 8 replicates of 2) with its constants
+         * in place: the same operations as the general loop below, in the same order */
+        const int fast16 = !hit_distance && J->nout == 1 && B == 16 && R == 8;
+        for (int a = 0; fast16 && a < nactive; a++) {
+            px_state *s = &S->px[S->active[a]];
+            const uint64_t bits = unoccluded_mask((const RTCRay *)S->rays + (size_t)a * 16, 16);
+            for (int r = 0; r < 8; r += 2)
+                _mm_storeu_pd(s->acc + r, _mm_add_pd(_mm_loadu_pd(s->acc + r), k_counts_m2[(bits >> (2 * r)) & 15u]));
+            s->count += 16;
+            const double n = (double)s->count, mr = n / 8;
+            double mj, se;
+            replicate_stats(s->acc, 8, n, mr, &mj, &se);
+            const double mean = mj < 0.0 ? 0.0 : mj > 1.0 ? 1.0 : mj;
+            const double bar = se > fl ? se : fl, worst = bar > 0.0 ? bar : 0.0;
+            const int done_max = s->count >= max_n;
+            const int done_target = s->count >= min_n && worst <= J->p.target_error;
+            if (done_max || done_target) {
+                const ptrdiff_t at = (ptrdiff_t)s->y * J->out->mean.stride + s->x;
+                J->out->mean.data[at] = (float)mean;
+                const double shown = J->p.error_bar == TRUTH_AO_BAR_REPLICATES ? se : bar;
+                J->out->std_error.data[at] = (float)shown;
+                J->out->count.data[at] = (float)s->count;
+                S->converged[0] += bar <= J->p.target_error;
+                S->max_se[0] = shown > S->max_se[0] ? shown : S->max_se[0];
+                S->surface++;
+                S->at_max += done_max;
+            } else {
+                S->active[kept++] = S->active[a];
+            }
+        }
+        for (int a = 0; !fast16 && a < nactive; a++) {
             px_state *s = &S->px[S->active[a]];
             /* Each output's sample values, summed per replicate (ray k is replicate k / m's).
              * Occlusion rays (binary estimators alone; VOL): 1 where unoccluded (Embree marks an
