@@ -248,13 +248,18 @@ static inline __attribute__((always_inline)) void hemisphere_rays(const truth_i_
         __m256 dx = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(px, t0), _mm256_mul_ps(py, b0)), _mm256_mul_ps(pz, n0));
         __m256 dy = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(px, t1), _mm256_mul_ps(py, b1)), _mm256_mul_ps(pz, n1));
         __m256 dz = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(px, t2), _mm256_mul_ps(py, b2)), _mm256_mul_ps(pz, n2));
-        /* transposed to one (dx, dy, dz, 0) per ray, 4 rays per 128-bit half */
+        /* transposed to one (dx, dy, dz, 0) per ray: q_i holds rays i and i + 4 (one per 128-bit
+         * half), from four unpacks and four shuffles */
+        const __m256 zero8 = _mm256_setzero_ps();
+        const __m256 t01 = _mm256_unpacklo_ps(dx, dy), t23 = _mm256_unpackhi_ps(dx, dy); /* x0 y0 x1 y1, x2 y2 x3 y3 */
+        const __m256 z01 = _mm256_unpacklo_ps(dz, zero8), z23 = _mm256_unpackhi_ps(dz, zero8); /* z0 0 z1 0, z2 0 z3 0 */
+        const __m256 q0 = _mm256_shuffle_ps(t01, z01, _MM_SHUFFLE(1, 0, 1, 0)), q1 = _mm256_shuffle_ps(t01, z01, _MM_SHUFFLE(3, 2, 3, 2));
+        const __m256 q2 = _mm256_shuffle_ps(t23, z23, _MM_SHUFFLE(1, 0, 1, 0)), q3 = _mm256_shuffle_ps(t23, z23, _MM_SHUFFLE(3, 2, 3, 2));
         for (int half = 0; half < 2; half++) {
-            __m128 x4 = half ? _mm256_extractf128_ps(dx, 1) : _mm256_castps256_ps128(dx);
-            __m128 y4 = half ? _mm256_extractf128_ps(dy, 1) : _mm256_castps256_ps128(dy);
-            __m128 z4 = half ? _mm256_extractf128_ps(dz, 1) : _mm256_castps256_ps128(dz);
-            __m128 w4 = _mm_setzero_ps();
-            _MM_TRANSPOSE4_PS(x4, y4, z4, w4);
+            const __m128 x4 = half ? _mm256_extractf128_ps(q0, 1) : _mm256_castps256_ps128(q0);
+            const __m128 y4 = half ? _mm256_extractf128_ps(q1, 1) : _mm256_castps256_ps128(q1);
+            const __m128 z4 = half ? _mm256_extractf128_ps(q2, 1) : _mm256_castps256_ps128(q2);
+            const __m128 w4 = half ? _mm256_extractf128_ps(q3, 1) : _mm256_castps256_ps128(q3);
             if (!hit) { /* RTCRay: a ray's tail and the next one's origin are adjacent (the same bytes) */
                 _mm_store_ps(r, org);
                 _mm_store_ps(r + 4, x4); /* time = 0 */
