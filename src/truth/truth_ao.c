@@ -631,6 +631,9 @@ static int setup_row8(ao_job *J, thread_scratch *S, int y, int x0, int x1, int n
         io.depth = dr + xs, io.nx = n0 + xs, io.ny = n1 + xs, io.nz = n2 + xs;
         io.px0 = (xs + g) + 0.5;
         truth_i_setup8_avx2(&io);
+        uint64_t seed_px[8];
+        uint32_t(*seed_out[8])[2];
+        int nseed = 0;
         for (int l = 0; l < io.count; l++) {
             const int x = xs + l;
             if (io.state[l] != 1) {
@@ -666,7 +669,8 @@ static int setup_row8(ao_job *J, thread_scratch *S, int y, int x0, int x1, int n
                 s->b[c] = io.frame[6 + c][l];
                 s->n[c] = io.frame[9 + c][l];
             }
-            truth_i_seeds_avx2_k(s->pixel, J->p.replicates, &J->keys, s->shift, NULL);
+            seed_px[nseed] = s->pixel; /* seeds below, for the group's surface pixels at once */
+            seed_out[nseed++] = s->shift;
             double m = io.m[l];
             const uint32_t inst = ir[x], prim = pr[x];
             if (inst < J->scene->instance_count && !(J->inst_bound[inst] <= m)) { /* as setup_pixel */
@@ -684,6 +688,8 @@ static int setup_row8(ao_job *J, thread_scratch *S, int y, int x0, int x1, int n
             S->active[nactive] = nactive;
             nactive++;
         }
+        if (nseed)
+            truth_i_seeds_n_avx2_k(nseed, seed_px, (uint32_t(*const *)[2])seed_out, J->p.replicates, &J->keys);
     }
     return nactive;
 }

@@ -59,8 +59,8 @@ void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[
     truth_i_seeds_avx2_k(pixel, R, &k, shift, shift3);
 }
 
-void truth_i_seeds_avx2_k(uint64_t pixel, int R, const truth_i_philox_keys *keys, uint32_t (*shift)[2],
-                          uint64_t *shift3)
+static inline __attribute__((always_inline)) void seeds_k(uint64_t pixel, int R, const truth_i_philox_keys *keys,
+                                                          uint32_t (*shift)[2], uint64_t *shift3)
 {
     const __m256i m0 = _mm256_set1_epi32((int)PHILOX_M0), m1 = _mm256_set1_epi32((int)PHILOX_M1);
     for (int r0 = 0; r0 < R; r0 += 8) {
@@ -119,6 +119,19 @@ void truth_i_seeds_avx2_k(uint64_t pixel, int R, const truth_i_philox_keys *keys
 }
 
 /* The low 32 bits of v * c: one vpmulld. */
+void truth_i_seeds_avx2_k(uint64_t pixel, int R, const truth_i_philox_keys *keys, uint32_t (*shift)[2],
+                          uint64_t *shift3)
+{
+    seeds_k(pixel, R, keys, shift, shift3);
+}
+
+void truth_i_seeds_n_avx2_k(int n, const uint64_t *pixel, uint32_t (*const *shift)[2], int R,
+                            const truth_i_philox_keys *keys)
+{
+    for (int i = 0; i < n; i++)
+        seeds_k(pixel[i], R, keys, shift[i], NULL);
+}
+
 static inline __m256i owen8(__m256i v, __m256i seed)
 {
     v = _mm256_add_epi32(v, seed);

@@ -101,6 +101,9 @@ void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[
 void truth_i_philox_keys_make(uint64_t seed, truth_i_philox_keys *k);
 void truth_i_seeds_avx2_k(uint64_t pixel, int R, const truth_i_philox_keys *keys, uint32_t (*shift)[2],
                           uint64_t *shift3);
+/* truth_i_seeds_avx2_k(pixel[i], R, keys, shift[i], NULL) for i < n, in one call. */
+void truth_i_seeds_n_avx2_k(int n, const uint64_t *pixel, uint32_t (*const *shift)[2], int R,
+                            const truth_i_philox_keys *keys);
 void truth_i_owen_scramble_avx2(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out);
 void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays); /* count x B rays */
 #endif
