@@ -299,9 +299,19 @@ typedef struct ao_job {
     int W, H, guard;
     int group;             /* tiles per task, side by side (see ao_task) */
     float *inst_norm;      /* per instance: |M|inf of its 3x3 */
+    double *inst_bound;    /* per instance: an upper bound of triangle_extent over its triangles
+                           (mesh_extent_bound x inst_norm; NaN or inf when none is known) */
     _Atomic uint32_t *tri_extent; /* per triangle of every mesh: the bits of its object-space
-                           bounding-box extent, computed at its first use (EXTENT_UNSET before) */
+                           bounding-box extent, computed at its first use (EXTENT_UNSET before);
+                           NULL when no pixel can need one (see render_outputs) */
+    /* rast_pixel_ray's arithmetic, hoisted (perspective cameras; see pixel_ray) */
+    int persp;
+    double cx, cy, inv_fx, inv_fy;
+    obs_dvec3 eye_o;       /* rast_pixel_ray's origin: the same for every pixel in perspective */
+    double mo;             /* max3abs(eye_o) */
+    int setup8;            /* ao_tile sets pixels up with truth_i_setup8_avx2 (setup_row8) */
     int avx2;              /* the AVX2 forms of the sampling run (truth_i_avx2_active) */
+    truth_i_philox_keys keys; /* the seed's Philox round keys (AVX2 seeds) */
     size_t *mesh_first;    /* per mesh: its first entry in tri_extent */
     thread_scratch *scratch;
     truth_ao_result *out;  /* outs[0] */
@@ -348,6 +358,44 @@ static float mesh_triangle_extent(const obs_mesh *mesh, uint32_t t)
     return ext;
 }
 
+/* An upper bound of mesh_triangle_extent over the mesh's triangles: the largest side of the
+ * bounding box of its vertices (NaN coordinates left out, as fminf / fmaxf leave them out of a
+ * triangle's). A triangle's box lies in it, and float subtraction is monotone, so each
+ * triangle's hi - lo is <= the box's. +inf with an infinite coordinate; 0 for no vertices. */
+static float mesh_extent_bound(const obs_mesh *mesh)
+{
+    const float *v = mesh->positions;
+    const size_t nf = 3 * (size_t)mesh->vertex_count;
+    /* 4 vertices (12 floats) per step: lanes (x y z x), (y z x y), (z x y z) */
+    __m128 lo0 = _mm_set1_ps(INFINITY), lo1 = lo0, lo2 = lo0;
+    __m128 hi0 = _mm_set1_ps(-INFINITY), hi1 = hi0, hi2 = hi0;
+    size_t i = 0;
+    for (; i + 12 <= nf; i += 12) { /* minps / maxps return the second operand when one is NaN */
+        __m128 a = _mm_loadu_ps(v + i), b = _mm_loadu_ps(v + i + 4), c = _mm_loadu_ps(v + i + 8);
+        lo0 = _mm_min_ps(a, lo0), hi0 = _mm_max_ps(a, hi0);
+        lo1 = _mm_min_ps(b, lo1), hi1 = _mm_max_ps(b, hi1);
+        lo2 = _mm_min_ps(c, lo2), hi2 = _mm_max_ps(c, hi2);
+    }
+    _Alignas(16) float l[12], h[12];
+    _mm_store_ps(l, lo0), _mm_store_ps(l + 4, lo1), _mm_store_ps(l + 8, lo2);
+    _mm_store_ps(h, hi0), _mm_store_ps(h + 4, hi1), _mm_store_ps(h + 8, hi2);
+    float lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int k = 0; k < 12; k++) {
+        lo[k % 3] = l[k] < lo[k % 3] ? l[k] : lo[k % 3];
+        hi[k % 3] = h[k] > hi[k % 3] ? h[k] : hi[k % 3];
+    }
+    for (; i < nf; i++) { /* NaN compares false: left out */
+        lo[i % 3] = v[i] < lo[i % 3] ? v[i] : lo[i % 3];
+        hi[i % 3] = v[i] > hi[i % 3] ? v[i] : hi[i % 3];
+    }
+    float ext = 0.0f;
+    for (int c = 0; c < 3; c++) {
+        float e = hi[c] - lo[c]; /* -inf when the coordinate had no value: ignored */
+        ext = e > ext ? e : ext;
+    }
+    return ext;
+}
+
 static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
 {
     const obs_scene *sc = J->scene;
@@ -359,6 +407,8 @@ static double triangle_extent(const ao_job *J, uint32_t inst, uint32_t prim)
     /* computed at the triangle's first use (only the triangles seen in a pixel: the full table cost
      * 13 M instructions per call on the bunny); two threads may both compute it, and store the
      * same bits */
+    if (!J->tri_extent) /* no table (never reached when render_outputs leaves it out) */
+        return (double)mesh_triangle_extent(&sc->meshes[mesh], prim) * (double)J->inst_norm[inst];
     _Atomic uint32_t *slot = &J->tri_extent[J->mesh_first[mesh] + prim];
     uint32_t bits = atomic_load_explicit(slot, memory_order_relaxed);
     float ext;
@@ -408,6 +458,32 @@ static int unit_ok(obs_vec3 n)
     return isfinite(l) && l > 0.5f && l < 1.5f;
 }
 
+/* rast_pixel_ray(&gb->constants, cam, px, py, o, d), the same operations in the same order on
+ * the same values (so the same bits), without the call: in perspective the origin is the same for
+ * every pixel (J->eye_o, from one call) and 1/fx, 1/fy are taken once per job. Other projections
+ * call it. */
+static inline void pixel_ray(const ao_job *J, double px, double py, obs_dvec3 *o, obs_dvec3 *d)
+{
+    if (!J->persp) {
+        rast_pixel_ray(&J->gb->constants, J->cam, px, py, o, d);
+        return;
+    }
+    const double ax = (px - J->cx) * J->inv_fx, ay = -(py - J->cy) * J->inv_fy, az = -1.0;
+    const float *w = J->cam->world.m;
+    *o = J->eye_o;
+    d->x = w[0] * ax + w[4] * ay + w[8] * az;
+    d->y = w[1] * ax + w[5] * ay + w[9] * az;
+    d->z = w[2] * ax + w[6] * ay + w[10] * az;
+}
+
+/* obs_mat4_mul_dir, inline (the same float operations in the same order). */
+static inline obs_vec3 mul_dir(const obs_mat4 *m, obs_vec3 d)
+{
+    const float *w = m->m;
+    return obs_v3(w[0] * d.x + w[4] * d.y + w[8] * d.z, w[1] * d.x + w[5] * d.y + w[9] * d.z,
+                  w[2] * d.x + w[6] * d.y + w[10] * d.z);
+}
+
 /* Set up one pixel: its point, normals and offset origin. */
 static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
 {
@@ -418,8 +494,14 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->y = y;
     s->state = 0;
     s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
-    for (int j = 0; j < J->nout * J->p.replicates; j++)
-        s->acc[j] = 0.0;
+    {
+        const int n = J->nout * J->p.replicates; /* R >= 2: at least one pair */
+        int j = 0;
+        for (; j + 2 <= n; j += 2)
+            _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
+        if (j < n)
+            s->acc[j] = 0.0;
+    }
     s->count = 0;
     float depth = 0.0f;
     if (J->p.origin == TRUTH_AO_ORIGIN_GBUFFER) {
@@ -428,7 +510,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
             return; /* background */
     }
     obs_dvec3 o, d;
-    rast_pixel_ray(&gb->constants, cam, gx + 0.5, gy + 0.5, &o, &d);
+    pixel_ray(J, gx + 0.5, gy + 0.5, &o, &d);
     obs_dvec3 p;
     obs_vec3 ng, ns;
     uint32_t inst, prim;
@@ -436,7 +518,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         p = obs_dv3(o.x + (double)depth * d.x, o.y + (double)depth * d.y, o.z + (double)depth * d.z);
         obs_vec3 nv = obs_v3(obs_image_f32_row(&gb->face_normal[0], gy)[gx], obs_image_f32_row(&gb->face_normal[1], gy)[gx],
                              obs_image_f32_row(&gb->face_normal[2], gy)[gx]);
-        ng = unit3(obs_mat4_mul_dir(cam->world, nv));
+        ng = unit3(mul_dir(&cam->world, nv));
         /* facing the viewer already, unless the G-buffer was rendered with face_forward = 0 */
         int flip = (double)ng.x * d.x + (double)ng.y * d.y + (double)ng.z * d.z > 0.0;
         if (flip)
@@ -444,7 +526,7 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         if (J->p.normal == TRUTH_AO_NORMAL_SHADING) {
             obs_vec3 sv = obs_v3(obs_image_f32_row(&gb->normal[0], gy)[gx], obs_image_f32_row(&gb->normal[1], gy)[gx],
                                  obs_image_f32_row(&gb->normal[2], gy)[gx]);
-            ns = unit3(obs_mat4_mul_dir(cam->world, sv));
+            ns = unit3(mul_dir(&cam->world, sv));
             if (flip)
                 ns = obs_v3_scale(ns, -1.0f);
         } else {
@@ -474,14 +556,15 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
         inst = h.instance;
         prim = h.prim;
     }
-    if (!unit_ok(ng) || !unit_ok(ns)) {
+    if (!unit_ok(ng) || (J->p.normal == TRUTH_AO_NORMAL_SHADING && !unit_ok(ns))) { /* else ns = ng */
         s->state = -1;
         return;
     }
     s->state = 1;
 #if defined(OBS_HAVE_AVX2)
     if (J->avx2)
-        truth_i_seeds_avx2(s->pixel, J->p.replicates, J->p.seed, s->shift, s->shift3); /* the same words */
+        truth_i_seeds_avx2_k(s->pixel, J->p.replicates, &J->keys, s->shift,
+                             J->ei.volume ? s->shift3 : NULL); /* the same words (shift3: VOL's only) */
     else
 #endif
     {
@@ -500,9 +583,12 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
      * triangle's extent around p (Embree's plane test works on v0 - origin). */
     double m = max3abs(p.x, p.y, p.z);
     double mo = max3abs(o.x, o.y, o.z);
-    double L = triangle_extent(J, inst, prim);
     m = mo > m ? mo : m;
-    m = L > m ? L : m;
+    /* L > m only when the instance's bound exceeds m: else L <= bound <= m leaves m as it is */
+    if (inst < J->scene->instance_count && !(J->inst_bound[inst] <= m)) {
+        double L = triangle_extent(J, inst, prim);
+        m = L > m ? L : m;
+    }
     double eps = (double)J->p.offset_ulps * 0x1p-24 * m;
     S->max_eps = eps > S->max_eps ? eps : S->max_eps;
     if (J->ei.volume) {
@@ -519,6 +605,95 @@ static void setup_pixel(ao_job *J, thread_scratch *S, px_state *s, int x, int y)
     s->n[2] = ns.z;
     onb_duff(s->n, s->t, s->b);
 }
+
+#if defined(OBS_HAVE_AVX2)
+/* setup_pixel for the pixels [x0, x1) of row y, 8 at a time (truth_i_setup8_avx2; J->setup8: the
+ * G-buffer origin, the geometric normal, a perspective camera, a hemisphere estimator): the same
+ * values. Surface pixels take slots nactive.. of S->px; the others get their outputs. Returns the
+ * new nactive. */
+static int setup_row8(ao_job *J, thread_scratch *S, int y, int x0, int x1, int nactive, float *om, float *os, float *oc)
+{
+    const rast_gbuffer *gb = J->gb;
+    const int g = J->guard, gy = y + g;
+    truth_i_setup8 io;
+    io.world = J->cam->world.m;
+    io.cx = J->cx, io.cy = J->cy, io.inv_fx = J->inv_fx, io.inv_fy = J->inv_fy;
+    io.o[0] = J->eye_o.x, io.o[1] = J->eye_o.y, io.o[2] = J->eye_o.z;
+    io.mo = J->mo;
+    const double k = (double)J->p.offset_ulps * 0x1p-24;
+    io.k = k;
+    io.py = gy + 0.5;
+    const float *dr = obs_image_f32_row(&gb->depth, gy) + g, *n0 = obs_image_f32_row(&gb->face_normal[0], gy) + g,
+                *n1 = obs_image_f32_row(&gb->face_normal[1], gy) + g, *n2 = obs_image_f32_row(&gb->face_normal[2], gy) + g;
+    const uint32_t *ir = obs_image_u32_row(&gb->instance_id, gy) + g, *pr = obs_image_u32_row(&gb->prim_id, gy) + g;
+    for (int xs = x0; xs < x1; xs += 8) {
+        io.count = x1 - xs < 8 ? x1 - xs : 8;
+        io.depth = dr + xs, io.nx = n0 + xs, io.ny = n1 + xs, io.nz = n2 + xs;
+        io.px0 = (xs + g) + 0.5;
+        truth_i_setup8_avx2(&io);
+        uint64_t seed_px[8];
+        uint32_t(*seed_out[8])[2];
+        int nseed = 0;
+        for (int l = 0; l < io.count; l++) {
+            const int x = xs + l;
+            if (io.state[l] != 1) {
+                om[x] = 1.0f;
+                os[x] = 0.0f;
+                oc[x] = 0.0f;
+                if (io.state[l] == 0)
+                    S->background++;
+                else
+                    S->invalid++;
+                continue;
+            }
+            px_state *s = &S->px[nactive];
+            s->x = x;
+            s->y = y;
+            s->state = 1;
+            s->pixel = (uint64_t)y * (uint64_t)J->W + (uint64_t)x;
+            const int na = J->p.replicates; /* nout = 1 here; R >= 2 */
+            if (na == 8) {
+                for (int j = 0; j < 8; j += 2)
+                    _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
+            } else {
+                int j = 0;
+                for (; j + 2 <= na; j += 2)
+                    _mm_storeu_pd(s->acc + j, _mm_setzero_pd());
+                if (j < na)
+                    s->acc[j] = 0.0;
+            }
+            s->count = 0;
+            for (int c = 0; c < 3; c++) {
+                s->org[c] = io.frame[c][l];
+                s->t[c] = io.frame[3 + c][l];
+                s->b[c] = io.frame[6 + c][l];
+                s->n[c] = io.frame[9 + c][l];
+            }
+            seed_px[nseed] = s->pixel; /* seeds below, for the group's surface pixels at once */
+            seed_out[nseed++] = s->shift;
+            double m = io.m[l];
+            const uint32_t inst = ir[x], prim = pr[x];
+            if (inst < J->scene->instance_count && !(J->inst_bound[inst] <= m)) { /* as setup_pixel */
+                double L = triangle_extent(J, inst, prim);
+                if (L > m) {
+                    m = L;
+                    const double eps = k * m;
+                    s->org[0] = (float)(io.p[0][l] + eps * io.ng[0][l]);
+                    s->org[1] = (float)(io.p[1][l] + eps * io.ng[1][l]);
+                    s->org[2] = (float)(io.p[2][l] + eps * io.ng[2][l]);
+                }
+            }
+            const double eps = k * m;
+            S->max_eps = eps > S->max_eps ? eps : S->max_eps;
+            S->active[nactive] = nactive;
+            nactive++;
+        }
+        if (nseed)
+            truth_i_seeds_n_avx2_k(nseed, seed_px, (uint32_t(*const *)[2])seed_out, J->p.replicates, &J->keys);
+    }
+    return nactive;
+}
+#endif
 
 /* World directions d = x t + y b + z n of n local directions (n a multiple of 4), transposed to
  * one (dx, dy, dz, 0) vector per ray in d4[]. */
@@ -882,6 +1057,32 @@ static inline double falloff(falloff_kind k, double x) /* x = d^2 / r^2 in [0, 1
     return k == FALLOFF_CUBIC ? v * v * v : v;
 }
 
+/* One output's replicate statistics from its R sums acc[r] (n samples, mr = n / R per replicate):
+ * the mean mj = sum_r acc[r] / n and the spread se = sqrt(sum_r (acc[r]/mr - mj)^2 / (R (R - 1)))
+ * [LEcuyer02]. Both sums run in r order, as plain loops would; the divisions and squares go two
+ * replicates per SSE2 instruction (IEEE per lane: the same values). Inlined with R constant 8. */
+static inline __attribute__((always_inline)) void replicate_stats(const double *acc, const int R, double n, double mr,
+                                                                  double *mj_out, double *se_out)
+{
+    double tot = 0.0;
+    for (int r = 0; r < R; r++)
+        tot += acc[r];
+    const double mj = tot / n;
+    const __m128d mr2 = _mm_set1_pd(mr), mj2 = _mm_set1_pd(mj);
+    double ss = 0.0;
+    int r = 0;
+    for (; r + 2 <= R; r += 2) {
+        __m128d d = _mm_sub_pd(_mm_div_pd(_mm_loadu_pd(acc + r), mr2), mj2);
+        d = _mm_mul_pd(d, d);
+        ss += _mm_cvtsd_f64(d);
+        ss += _mm_cvtsd_f64(_mm_unpackhi_pd(d, d));
+    }
+    for (; r < R; r++)
+        ss += (acc[r] / mr - mj) * (acc[r] / mr - mj);
+    *mj_out = mj;
+    *se_out = sqrt(ss / ((double)R * (double)(R - 1)));
+}
+
 /* One tile: set up its pixels, then rounds of one ray batch each until every pixel stopped.
  * Returns the rays traced. */
 static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
@@ -889,29 +1090,46 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
     int x0, y0, x1, y1;
     obs_tiling_rect(&J->tiling, tile, &x0, &y0, &x1, &y1);
     const int B = J->p.batch, R = J->p.replicates, m = B / R;
-    {
-        /* The tile's rows in the G-buffer and output planes are strided: ask for all their cache
-         * lines at once, so that the misses overlap instead of queueing pixel by pixel. */
+    /* rows of background pixels only (the common case away from the object; bit y - y0), found
+     * from the depth rows first: they need no other G-buffer plane */
+    uint32_t bg_rows = 0;
+    const int fast_bg = J->p.origin == TRUTH_AO_ORIGIN_GBUFFER && J->nout == 1 && ((x1 - x0) & 3) == 0;
+    if (fast_bg)
+        for (int y = y0; y < y1; y++)
+            if (row_is_background(obs_image_f32_row(&J->gb->depth, y + J->guard) + J->guard + x0, x1 - x0))
+                bg_rows |= 1u << (y - y0);
+    if (bg_rows != (y1 - y0 < 32 ? (1u << (y1 - y0)) - 1u : 0xFFFFFFFFu)) {
+        /* The tile's other rows in the G-buffer and output planes are strided: ask for all their
+         * cache lines at once, so that the misses overlap instead of queueing pixel by pixel. */
         const rast_gbuffer *gb = J->gb;
         const int g = J->guard, from_gb = J->p.origin == TRUTH_AO_ORIGIN_GBUFFER;
         const size_t len = (size_t)(x1 - x0) * 4;
-        for (int y = y0; y < y1; y++) {
-            const char *rows[10] = {(const char *)(obs_image_f32_row(&J->out->mean, y) + x0),
-                                    (const char *)(obs_image_f32_row(&J->out->std_error, y) + x0),
-                                    (const char *)(obs_image_f32_row(&J->out->count, y) + x0), NULL};
-            if (from_gb) {
-                rows[3] = (const char *)(obs_image_f32_row(&gb->depth, y + g) + x0 + g);
-                rows[4] = (const char *)(obs_image_f32_row(&gb->face_normal[0], y + g) + x0 + g);
-                rows[5] = (const char *)(obs_image_f32_row(&gb->face_normal[1], y + g) + x0 + g);
-                rows[6] = (const char *)(obs_image_f32_row(&gb->face_normal[2], y + g) + x0 + g);
-                rows[7] = (const char *)(obs_image_u32_row(&gb->prim_id, y + g) + x0 + g);
-                rows[8] = (const char *)(obs_image_u32_row(&gb->instance_id, y + g) + x0 + g);
+        /* each plane's first row in the tile and its row pitch (bytes), stepped row by row */
+        const char *row[9] = {(const char *)(obs_image_f32_row(&J->out->mean, y0) + x0),
+                              (const char *)(obs_image_f32_row(&J->out->std_error, y0) + x0),
+                              (const char *)(obs_image_f32_row(&J->out->count, y0) + x0)};
+        ptrdiff_t pitch[9] = {J->out->mean.stride * 4, J->out->std_error.stride * 4, J->out->count.stride * 4};
+        int planes = 3;
+        if (from_gb) {
+            row[3] = (const char *)(obs_image_f32_row(&gb->depth, y0 + g) + x0 + g), pitch[3] = gb->depth.stride * 4;
+            for (int c = 0; c < 3; c++) {
+                row[4 + c] = (const char *)(obs_image_f32_row(&gb->face_normal[c], y0 + g) + x0 + g);
+                pitch[4 + c] = gb->face_normal[c].stride * 4;
             }
-            for (int k = 0; rows[k]; k++) { /* every cache line of [row, row + len) */
+            row[7] = (const char *)(obs_image_u32_row(&gb->prim_id, y0 + g) + x0 + g), pitch[7] = gb->prim_id.stride * 4;
+            row[8] = (const char *)(obs_image_u32_row(&gb->instance_id, y0 + g) + x0 + g);
+            pitch[8] = gb->instance_id.stride * 4;
+            planes = 9;
+        }
+        for (int k = 0; k < planes; k++) { /* every cache line of [row, row + len), each row */
+            const char *r = row[k];
+            for (int y = y0; y < y1; y++, r += pitch[k]) {
+                if (bg_rows >> (y - y0) & 1u)
+                    continue;
                 for (size_t off = 64; off < len; off += 64)
-                    _mm_prefetch(rows[k] + off, _MM_HINT_T0);
-                _mm_prefetch(rows[k], _MM_HINT_T0);
-                _mm_prefetch(rows[k] + len - 1, _MM_HINT_T0);
+                    _mm_prefetch(r + off, _MM_HINT_T0);
+                _mm_prefetch(r, _MM_HINT_T0);
+                _mm_prefetch(r + len - 1, _MM_HINT_T0);
             }
         }
     }
@@ -923,7 +1141,7 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         const float *depth = from_gb ? obs_image_f32_row(&J->gb->depth, y + J->guard) + J->guard : NULL;
         float *om = obs_image_f32_row(&J->out->mean, y), *os = obs_image_f32_row(&J->out->std_error, y),
               *oc = obs_image_f32_row(&J->out->count, y);
-        if (from_gb && J->nout == 1 && ((x1 - x0) & 3) == 0 && row_is_background(depth + x0, x1 - x0)) {
+        if (bg_rows >> (y - y0) & 1u) {
             /* a row of background pixels (the common case away from the object): the same outputs,
              * 4 at a time */
             for (int x = x0; x < x1; x += 4) {
@@ -934,6 +1152,12 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             S->background += x1 - x0;
             continue;
         }
+#if defined(OBS_HAVE_AVX2)
+        if (J->setup8) {
+            nactive = setup_row8(J, S, y, x0, x1, nactive, om, os, oc);
+            continue;
+        }
+#endif
         for (int x = x0; x < x1; x++) {
             int state = 0;
             if (!from_gb || (depth[x] > 0.0f && isfinite(depth[x]))) {
@@ -1012,7 +1236,37 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
         /* every active pixel of the tile started at round 0: each has taken (round + 1) B samples */
         const double fl = truth_ao_error_floor((round + 1) * B);
         int kept = 0;
-        for (int a = 0; a < nactive; a++) {
+        /* the defaults' case (one occlusion output, 16 rays, 8 replicates of 2) with its constants
+         * in place: the same operations as the general loop below, in the same order */
+        const int fast16 = !hit_distance && J->nout == 1 && B == 16 && R == 8;
+        for (int a = 0; fast16 && a < nactive; a++) {
+            px_state *s = &S->px[S->active[a]];
+            const uint64_t bits = unoccluded_mask((const RTCRay *)S->rays + (size_t)a * 16, 16);
+            for (int r = 0; r < 8; r += 2)
+                _mm_storeu_pd(s->acc + r, _mm_add_pd(_mm_loadu_pd(s->acc + r), k_counts_m2[(bits >> (2 * r)) & 15u]));
+            s->count += 16;
+            const double n = (double)s->count, mr = n / 8;
+            double mj, se;
+            replicate_stats(s->acc, 8, n, mr, &mj, &se);
+            const double mean = mj < 0.0 ? 0.0 : mj > 1.0 ? 1.0 : mj;
+            const double bar = se > fl ? se : fl, worst = bar > 0.0 ? bar : 0.0;
+            const int done_max = s->count >= max_n;
+            const int done_target = s->count >= min_n && worst <= J->p.target_error;
+            if (done_max || done_target) {
+                const ptrdiff_t at = (ptrdiff_t)s->y * J->out->mean.stride + s->x;
+                J->out->mean.data[at] = (float)mean;
+                const double shown = J->p.error_bar == TRUTH_AO_BAR_REPLICATES ? se : bar;
+                J->out->std_error.data[at] = (float)shown;
+                J->out->count.data[at] = (float)s->count;
+                S->converged[0] += bar <= J->p.target_error;
+                S->max_se[0] = shown > S->max_se[0] ? shown : S->max_se[0];
+                S->surface++;
+                S->at_max += done_max;
+            } else {
+                S->active[kept++] = S->active[a];
+            }
+        }
+        for (int a = 0; !fast16 && a < nactive; a++) {
             px_state *s = &S->px[S->active[a]];
             /* Each output's sample values, summed per replicate (ray k is replicate k / m's).
              * Occlusion rays (binary estimators alone; VOL): 1 where unoccluded (Embree marks an
@@ -1048,8 +1302,10 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
                 if (m <= 2) { /* two replicates at a time (R is even): their counts from a table, as doubles */
                     const __m128d *tab = m == 2 ? k_counts_m2 : k_counts_m1;
                     const int per = 2 * m; /* bits of two replicates */
-                    for (int r = 0; r < R; r += 2) {
-                        const __m128d c = tab[(bits >> (r * m)) & ((1u << per) - 1u)];
+                    const uint64_t mask = (1u << per) - 1u;
+                    uint64_t b = bits;
+                    for (int r = 0; r < R; r += 2, b >>= per) {
+                        const __m128d c = tab[b & mask];
                         _mm_storeu_pd(s->acc + r, _mm_add_pd(_mm_loadu_pd(s->acc + r), c));
                     }
                 } else {
@@ -1072,15 +1328,11 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             const double n = (double)s->count, mr = n / R;
             double mean[TRUTH_AO_MAX_OUTPUTS], bar[TRUTH_AO_MAX_OUTPUTS], se_r[TRUTH_AO_MAX_OUTPUTS], worst = 0.0;
             for (int j = 0; j < J->nout; j++) {
-                const double *acc = s->acc + (size_t)j * R;
-                double tot = 0.0;
-                for (int r = 0; r < R; r++)
-                    tot += acc[r];
-                const double mj = tot / n;
-                double ss = 0.0;
-                for (int r = 0; r < R; r++)
-                    ss += (acc[r] / mr - mj) * (acc[r] / mr - mj);
-                const double se = sqrt(ss / ((double)R * (double)(R - 1)));
+                double mj, se;
+                if (R == 8) /* the default, unrolled */
+                    replicate_stats(s->acc + (size_t)j * R, 8, n, mr, &mj, &se);
+                else
+                    replicate_stats(s->acc + (size_t)j * R, R, n, mr, &mj, &se);
                 mean[j] = mj < 0.0 ? 0.0 : mj > 1.0 ? 1.0 : mj;
                 se_r[j] = se;
                 bar[j] = se > fl ? se : fl;
@@ -1089,11 +1341,13 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
             const int done_max = s->count >= max_n;
             const int done_target = s->count >= min_n && worst <= J->p.target_error;
             if (done_max || done_target) {
+                /* every output plane has the same stride (alloc_out_plane) */
+                const ptrdiff_t at = (ptrdiff_t)s->y * J->out->mean.stride + s->x;
                 for (int j = 0; j < J->nout; j++) {
-                    obs_image_f32_row(&J->outs[j].mean, s->y)[s->x] = (float)mean[j];
+                    J->outs[j].mean.data[at] = (float)mean[j];
                     const double shown = J->p.error_bar == TRUTH_AO_BAR_REPLICATES ? se_r[j] : bar[j];
-                    obs_image_f32_row(&J->outs[j].std_error, s->y)[s->x] = (float)shown;
-                    obs_image_f32_row(&J->outs[j].count, s->y)[s->x] = (float)s->count;
+                    J->outs[j].std_error.data[at] = (float)shown;
+                    J->outs[j].count.data[at] = (float)s->count;
                     S->converged[j] += bar[j] <= J->p.target_error;
                     S->max_se[j] = shown > S->max_se[j] ? shown : S->max_se[j];
                 }
@@ -1329,6 +1583,10 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     J->ei = k_est[p->estimator];
     J->hooks = hooks;
     J->avx2 = truth_i_avx2_active();
+#if defined(OBS_HAVE_AVX2)
+    if (J->avx2)
+        truth_i_philox_keys_make(p->seed, &J->keys);
+#endif
     J->guard = gb->guard;
     J->W = gb->width - 2 * gb->guard;
     J->H = gb->height - 2 * gb->guard;
@@ -1362,12 +1620,12 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         tri_total += scene->meshes[m].triangle_count; /* each < 2^32; the sum fits size_t on 64-bit */
     J->inst_norm = (float *)malloc(sizeof(float) * (scene->instance_count ? scene->instance_count : 1));
     J->mesh_first = (size_t *)malloc(sizeof(size_t) * (scene->mesh_count ? scene->mesh_count : 1));
-    J->tri_extent = (_Atomic uint32_t *)malloc(sizeof(uint32_t) * (tri_total ? tri_total : 1));
+    J->inst_bound = (double *)malloc(sizeof(double) * (scene->instance_count ? scene->instance_count : 1));
     J->scratch = (thread_scratch *)obs_aligned_alloc((size_t)threads * sizeof(thread_scratch));
     if (J->scratch)
         memset(J->scratch, 0, (size_t)threads * sizeof(thread_scratch));
     st = OBS_STATUS_OK;
-    if (!J->inst_norm || !J->mesh_first || !J->tri_extent || !J->scratch) {
+    if (!J->inst_norm || !J->mesh_first || !J->inst_bound || !J->scratch) {
         st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
         goto done;
     }
@@ -1415,8 +1673,41 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
         J->mesh_first[m] = first;
         first += scene->meshes[m].triangle_count;
     }
-    for (size_t t = 0; t < tri_total; t++) /* filled at first use (triangle_extent) */
-        atomic_init(&J->tri_extent[t], EXTENT_UNSET);
+    /* The pixel ray's constants (pixel_ray), and each instance's bound of its triangles' extents:
+     * when it is <= the eye's magnitude (perspective: the same origin for every pixel), no pixel's
+     * offset depends on a triangle extent, and the table is left out. */
+    {
+        const rast_view_constants *vc = &gb->constants;
+        obs_dvec3 o, d;
+        rast_pixel_ray(vc, camera, 0.5, 0.5, &o, &d);
+        J->persp = vc->projection_type == OBS_PROJECTION_PERSPECTIVE;
+        J->cx = vc->cx;
+        J->cy = vc->cy;
+        J->inv_fx = 1.0 / vc->fx; /* as rast_pixel_ray takes them */
+        J->inv_fy = 1.0 / vc->fy;
+        J->eye_o = o;
+        const double mo = max3abs(o.x, o.y, o.z);
+        J->mo = mo;
+        J->setup8 = J->avx2 && J->persp && p->origin == TRUTH_AO_ORIGIN_GBUFFER && p->normal == TRUTH_AO_NORMAL_GEOMETRIC &&
+                    !J->ei.volume && nout == 1;
+        int need_table = !J->persp || p->origin != TRUTH_AO_ORIGIN_GBUFFER || !(mo >= 0.0);
+        for (uint32_t i = 0; i < scene->instance_count; i++) {
+            const uint32_t mesh = scene->instances[i].mesh;
+            const double b = mesh < scene->mesh_count ? (double)mesh_extent_bound(&scene->meshes[mesh]) * (double)J->inst_norm[i]
+                                                      : 0.0;
+            J->inst_bound[i] = b;
+            need_table |= !(b <= mo);
+        }
+        if (need_table) {
+            J->tri_extent = (_Atomic uint32_t *)malloc(sizeof(uint32_t) * (tri_total ? tri_total : 1));
+            if (!J->tri_extent) {
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth_ao_render: out of memory");
+                goto done;
+            }
+            for (size_t t = 0; t < tri_total; t++) /* filled at first use (triangle_extent) */
+                atomic_init(&J->tri_extent[t], EXTENT_UNSET);
+        }
+    }
 
     for (int j = 0; j < nout && st == OBS_STATUS_OK; j++) {
         st = alloc_out_plane(ctx, J->W, J->H, &outs[j].mean);
@@ -1484,6 +1775,7 @@ done:
     obs_aligned_free(J->scratch);
     free(J->inst_norm);
     free(J->mesh_first);
+    free(J->inst_bound);
     free((void *)J->tri_extent);
     free(J);
     if (st != OBS_STATUS_OK)

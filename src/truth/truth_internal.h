@@ -69,8 +69,41 @@ typedef struct truth_i_hemi_in {
     const int *active;
     int count;
 } truth_i_hemi_in;
+/* Philox's 10 round keys for a seed (the key and its Weyl bumps), each word repeated 8 times: what
+ * truth_i_seeds_avx2_k reads instead of deriving them per pixel (truth_ao.c keeps one per job). */
+typedef struct truth_i_philox_keys {
+    uint32_t k[10][2][8]; /* read unaligned */
+} truth_i_philox_keys;
+/* The per-pixel set-up of truth_ao.c's setup_pixel for up to 8 pixels of a row at once, for its
+ * common case (G-buffer origin, geometric normal, perspective camera, a hemisphere estimator): the
+ * same IEEE operations in the same order, lane by lane, so the same bits (truth_i_setup8_avx2). */
+typedef struct truth_i_setup8 {
+    /* in */
+    const float *depth, *nx, *ny, *nz; /* the G-buffer rows (depth, face normal) at the first pixel */
+    int count;                         /* pixels, 1..8 (nothing past them is read) */
+    double px0, py;                    /* the first pixel's centre and the row's, full-image coordinates */
+    const float *world;                /* the camera's world matrix (obs_mat4.m) */
+    double cx, cy, inv_fx, inv_fy;     /* the pixel ray's constants (truth_ao.c's pixel_ray) */
+    double o[3], mo;                   /* its origin (the eye) and max3abs(o) */
+    double k;                          /* offset_ulps * 2^-24 */
+    /* out, per pixel */
+    float frame[12][8];                /* org, t, b, n (px_state's 12 floats) */
+    double p[3][8];                    /* the surface point */
+    float ng[3][8];                    /* the geometric normal, facing the viewer */
+    double m[8];                       /* max(max3abs(p), mo): the offset's scale before any triangle extent */
+    int state[8];                      /* 1 surface, 0 background, -1 invalid normal */
+} truth_i_setup8;
+
 #if defined(OBS_HAVE_AVX2)
+void truth_i_setup8_avx2(truth_i_setup8 *io);
 void truth_i_seeds_avx2(uint64_t pixel, int R, uint64_t seed, uint32_t (*shift)[2], uint64_t *shift3);
+/* The same with the keys precomputed; shift3 may be NULL (words 2, 3 are then not computed). */
+void truth_i_philox_keys_make(uint64_t seed, truth_i_philox_keys *k);
+void truth_i_seeds_avx2_k(uint64_t pixel, int R, const truth_i_philox_keys *keys, uint32_t (*shift)[2],
+                          uint64_t *shift3);
+/* truth_i_seeds_avx2_k(pixel[i], R, keys, shift[i], NULL) for i < n, in one call. */
+void truth_i_seeds_n_avx2_k(int n, const uint64_t *pixel, uint32_t (*const *shift)[2], int R,
+                            const truth_i_philox_keys *keys);
 void truth_i_owen_scramble_avx2(const uint32_t *v, const uint32_t *seed, int n, uint32_t *out);
 void truth_i_hemisphere_rays_avx2(const truth_i_hemi_in *in, void *rays); /* count x B rays */
 #endif
