@@ -727,3 +727,49 @@ TEST(volume_loaders_refuse_bad_files_naming_them)
     CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
     obs_context_destroy(ctx);
 }
+
+/* ---- the real datasets (scripts/fetch_volumes.sh; docs/volume.md "Datasets") ------------------- */
+
+TEST(volume_real_datasets_load_when_fetched)
+{
+    obs_context *ctx = obs_context_create();
+    char p[1024];
+    int found = 0;
+    snprintf(p, sizeof p, "%s/data/cache/volumes/ch2better.nii.gz", test_source_dir());
+    FILE *f = fopen(p, "rb");
+    if (f) {
+        fclose(f);
+        found++;
+        vol_grid g;
+        CHECK_OK(io_volume_load(ctx, p, NULL, &g), ctx);
+        CHECK(g.nx == 301 && g.ny == 370 && g.nz == 316 && g.source_type == VOL_TYPE_U8);
+        CHECK_NEAR(g.spacing[0], 0.5, 1e-6);
+        CHECK_NEAR(g.spacing[2], 0.5, 1e-6);
+        CHECK(g.value_min == 0.0f && g.value_max == 130.0f);
+        printf("ch2better.nii.gz: %dx%dx%d %s, spacing %g %g %g, origin %g %g %g, values %g..%g\n", g.nx, g.ny, g.nz,
+               vol_type_name(g.source_type), g.spacing[0], g.spacing[1], g.spacing[2], g.origin[0], g.origin[1],
+               g.origin[2], g.value_min, g.value_max);
+        vol_grid_free(&g);
+    } else {
+        printf("dataset absent: %s (run scripts/fetch_volumes.sh); its checks were skipped\n", p);
+    }
+    snprintf(p, sizeof p, "%s/data/cache/volumes/cranium.nrrd", test_source_dir());
+    f = fopen(p, "rb");
+    if (f) {
+        fclose(f);
+        found++;
+        vol_grid g;
+        CHECK_OK(io_volume_load(ctx, p, NULL, &g), ctx);
+        CHECK(g.nx == 256 && g.ny == 256 && g.nz == 108 && g.source_type == VOL_TYPE_I16);
+        CHECK_NEAR(g.spacing[0], 0.9570312, 1e-9);
+        CHECK_NEAR(g.spacing[2], 1.5, 1e-12);
+        CHECK(g.value_min == -1024.0f && g.value_max == 2986.0f);
+        printf("cranium.nrrd: %dx%dx%d %s, spacing %g %g %g, values %g..%g\n", g.nx, g.ny, g.nz,
+               vol_type_name(g.source_type), g.spacing[0], g.spacing[1], g.spacing[2], g.value_min, g.value_max);
+        vol_grid_free(&g);
+    } else {
+        printf("dataset absent: %s (run scripts/fetch_volumes.sh); its checks were skipped\n", p);
+    }
+    printf("%d of 2 real datasets present and checked\n", found);
+    obs_context_destroy(ctx);
+}
