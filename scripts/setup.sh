@@ -65,3 +65,7 @@ if ! (cd "$cache" && sha256sum --quiet --check "$here/data/meshes.sha256" >/dev/
   echo "setup: warning: data/cache/*.off differ from data/meshes.sha256 (Debian 12's libcgal-demo 5.5.1-2):" >&2
   (cd "$cache" && sha256sum --check "$here/data/meshes.sha256" 2>&1 | grep -v ': OK$' >&2) || true
 fi
+# The real volumes (docs/volume.md, "Datasets"): the InVesalius head CT and the Colin27 MRI, from
+# Debian packages that are downloaded and unpacked, not installed. A failure is a warning: the tests
+# that need them say that they are absent.
+sh "$here/scripts/fetch_volumes.sh" || echo "setup: warning: volume datasets not fetched (tests will say so)" >&2

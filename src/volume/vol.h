@@ -93,8 +93,10 @@ typedef struct vol_tf {
     char name[64];
     int count;                 /* >= 1 */
     vol_tf_point *points;      /* owned */
-    double ref_step;           /* world units the opacities are given for (> 0); default 1 voxel of
-                                  the smallest spacing when 0 (resolved by vol_tf_resolve) */
+    double ref_step;           /* world units the opacities are given for; 0 (a file without
+                                  "ref_step") means the smallest spacing of the volume it is used
+                                  with (vol_tf_alpha_correct returns alpha unchanged for 0: the
+                                  user resolves it, as the ray caster and light volume do) */
 } vol_tf;
 
 /* Parse the documented JSON (docs/volume.md, "Transfer functions"):
