@@ -235,6 +235,20 @@ static void rc_brick_row(void *user, int64_t task, int thread)
 
 /* ---- Shading ----------------------------------------------------------------------------------- */
 
+void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3])
+{
+    for (int a = 0; a < 3; a++) {
+        double cp[3] = {c[0], c[1], c[2]}, cm[3] = {c[0], c[1], c[2]};
+        cp[a] += 1.0;
+        cm[a] -= 1.0;
+        double sp = vol_grid_sample(g, cp[0], cp[1], cp[2]);
+        double sm = vol_grid_sample(g, cm[0], cm[1], cm[2]);
+        /* [Levoy88] eq. 4 (central differences), divided by the axis' own spacing; at the grid's
+         * edge the sampler clamps, so the difference is one-sided in effect there. */
+        grad[a] = (sp - sm) / (2.0 * g->spacing[a]);
+    }
+}
+
 /* Gradient Phong at world point x (voxel coordinates c) with TF colour rgb; V = unit vector towards
  * the eye. Our formula (docs/volume/raycast.md, "Phong"):
  *   g    = central differences of s, one voxel each way, in world units ([Levoy88] eq. 4 with
@@ -247,17 +261,8 @@ static void rc_brick_row(void *user, int64_t task, int thread)
  * Where the gradient is weak the sample is lit unshaded (as Voreen's (1 - surf) l term). */
 static void rc_shade_phong(const rc_job *J, const double x[3], const double c[3], const double V[3], float rgb[3])
 {
-    const vol_grid *g = J->g;
     double gr[3];
-    for (int a = 0; a < 3; a++) {
-        double cp[3] = {c[0], c[1], c[2]}, cm[3] = {c[0], c[1], c[2]};
-        cp[a] += 1.0;
-        cm[a] -= 1.0;
-        double sp = vol_grid_sample(g, cp[0], cp[1], cp[2]);
-        double sm = vol_grid_sample(g, cm[0], cm[1], cm[2]);
-        gr[a] = (sp - sm) / (2.0 * g->spacing[a]); /* [Levoy88] eq. 4; one-sided in effect at the
-                                                      grid's edge, where the sampler clamps */
-    }
+    vol_i_rc_gradient(J->g, c, gr);
     double gm = sqrt(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]);
     double s = 0.0, diff = 0.0, spec = 0.0;
     if (gm > 0.0 && isfinite(gm)) {
