@@ -348,7 +348,8 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
         st->rays++;
         /* Steps of world length h (parameter dt); step k covers [t0 + k dt, t0 + (k+1) dt], the
          * last one ends at t1. Each is sampled at its midpoint and its opacity corrected for its
-         * length: alpha = 1 - (1 - alpha_TF)^(len / ref_step) [Engel06] eq. 1.? (vol.h). */
+         * length: alpha = 1 - (1 - alpha_TF)^(len / ref_step), [Engel06]'s opacity
+         * correction (vol_tf_alpha_correct; equation number not checked), vol.h's convention. */
         const double dt = J->h / dl;
         const int64_t n = (int64_t)ceil((t1 - t0) / dt);
         const double V[3] = {-d[0] / dl, -d[1] / dl, -d[2] / dl};
@@ -430,7 +431,8 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
             default:
                 break;
             }
-            /* Front to back, premultiplied [Porter84] "over"; [Engel06] eq. 1.? */
+            /* Front to back, premultiplied: [Porter84] "over" with the ray in front, as in [Levoy88]
+             * and [Engel06]: C += T a c, T *= 1 - a (T = 1 - accumulated alpha). */
             double w = T * (double)a;
             for (int q = 0; q < 3; q++)
                 C[q] += w * (double)rgb[q];
