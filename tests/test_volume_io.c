@@ -278,3 +278,80 @@ TEST(volume_tf_presets_equal_the_data_files)
     CHECK(msg_has(ctx, "ct-bone"));
     obs_context_destroy(ctx);
 }
+
+/* ---- synthetic volumes ------------------------------------------------------------------------- */
+
+TEST(volume_synth_is_deterministic_and_bucky_has_60_maxima)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid a, b;
+    CHECK_OK(vol_synth(ctx, "bucky", 0, &a), ctx);
+    CHECK_OK(vol_synth(ctx, "bucky", 32, &b), ctx);
+    CHECK(a.nx == 32 && a.ny == 32 && a.nz == 32);
+    CHECK(memcmp(a.data, b.data, sizeof(float) * 32 * 32 * 32) == 0);
+    CHECK(a.value_min >= 0.0f && a.value_max <= 255.0f && a.value_max > 200.0f);
+    /* Local maxima over the 26-neighbourhood, above half the peak. */
+    int maxima = 0;
+    const int n = 32;
+    for (int k = 1; k < n - 1; k++)
+        for (int j = 1; j < n - 1; j++)
+            for (int i = 1; i < n - 1; i++) {
+                float v = a.data[(k * n + j) * n + i];
+                if (v < 0.5f * a.value_max)
+                    continue;
+                int is_max = 1;
+                for (int dz = -1; dz <= 1 && is_max; dz++)
+                    for (int dy = -1; dy <= 1 && is_max; dy++)
+                        for (int dx = -1; dx <= 1; dx++)
+                            if (dx || dy || dz) {
+                                /* A plateau of equal voxels (a blob centred between voxels, as the
+                                 * 12 with a zero coordinate are) counts once: at its first voxel. */
+                                float w = a.data[((k + dz) * n + j + dy) * n + i + dx];
+                                int later = dz > 0 || (dz == 0 && (dy > 0 || (dy == 0 && dx > 0)));
+                                if (w > v || (w == v && !later)) {
+                                    is_max = 0;
+                                    break;
+                                }
+                            }
+                maxima += is_max;
+            }
+    CHECK_EQ_INT(maxima, 60);
+    /* Centred on the world origin; symmetric under x -> -x (the polyhedron is). */
+    CHECK(a.origin[0] == -15.5);
+    for (int q = 0; q < n * n * n; q += 97) {
+        int i = q % n, j = (q / n) % n, k = q / (n * n);
+        CHECK_NEAR(a.data[q], a.data[(k * n + j) * n + (n - 1 - i)], 1e-3);
+    }
+    vol_grid_free(&a);
+    vol_grid_free(&b);
+    obs_context_destroy(ctx);
+}
+
+TEST(volume_synth_slab_sphere_box_values)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    CHECK_OK(vol_synth(ctx, "slab", 16, &g), ctx);
+    for (int k = 0; k < 16; k++)
+        for (int q = 0; q < 256; q += 17)
+            CHECK(g.data[k * 256 + q] == ((k >= 4 && k < 12) ? 1.0f : 0.0f));
+    CHECK(g.value_min == 0.0f && g.value_max == 1.0f);
+    vol_grid_free(&g);
+    CHECK_OK(vol_synth(ctx, "sphere", 20, &g), ctx);
+    CHECK(g.data[(10 * 20 + 10) * 20 + 10] == 1.0f);
+    CHECK(g.data[0] == 0.0f);
+    /* Voxel (2, 9, 9): r = sqrt(7.5^2 + 0.5) about the centre 9.5; R = 8; value R + 0.5 - r. */
+    CHECK_NEAR(g.data[(9 * 20 + 9) * 20 + 2], 8.5 - sqrt(56.75), 1e-6);
+    CHECK(g.data[(9 * 20 + 9) * 20 + 1] == 0.0f); /* r = 8.53 */
+    vol_grid_free(&g);
+    CHECK_OK(vol_synth(ctx, "box", 10, &g), ctx);
+    CHECK(g.data[(5 * 10 + 5) * 10 + 1] == 1.0f);
+    CHECK(g.data[(5 * 10 + 5) * 10 + 2] == 0.0f);
+    CHECK(g.data[(5 * 10 + 8) * 10 + 5] == 1.0f);
+    CHECK(g.data[(5 * 10 + 5) * 10 + 5] == 0.0f);
+    vol_grid_free(&g);
+    CHECK_EQ_INT(vol_synth(ctx, "engine", 32, &g), OBS_STATUS_INVALID_ARGUMENT);
+    CHECK(msg_has(ctx, "bucky"));
+    CHECK_EQ_INT(vol_synth(ctx, "slab", 2, &g), OBS_STATUS_INVALID_ARGUMENT);
+    obs_context_destroy(ctx);
+}
