@@ -523,36 +523,45 @@ TEST(volume_raycast_skipping_keeps_the_image_and_reads_fewer_samples)
 {
     obs_context *ctx = obs_context_create();
     vol_grid g;
-    const double sp[3] = {1, 1, 1.2};
-    /* The sphere, TF transparent below 0.5 */
-    const double sph[4] = {15.5, 15.5, 15.5, 10.0};
-    CHECK_OK(mk_grid(ctx, 32, 32, 32, sp, fill_sphere, sph, &g), ctx);
+    /* The synthetic sphere (centred on the origin), TF transparent below 0.5 */
+    CHECK_OK(vol_synth(ctx, "sphere", 32, &g), ctx);
+    vol_grid_update_range(&g);
     vol_tf_point pts[3] = {{0.5, {0, 0, 0, 0}}, {0.75, {1, 0.5f, 0.2f, 0.1f}}, {1.0, {0.2f, 0.9f, 1, 0.4f}}};
     vol_tf tf = mk_tf(pts, 3, 1.0);
-    obs_camera pc = obs_camera_look_at(obs_v3(45, 35, 60), obs_v3(15.5, 15.5, 18), obs_v3(0, 1, 0), 0.8f, 0.1f, 300.0f);
+    obs_camera pc = obs_camera_look_at(obs_v3(30, 20, 45), obs_v3(0, 0, 2.5f), obs_v3(0, 1, 0), 0.8f, 0.1f, 300.0f);
     check_skipping(ctx, &g, &tf, &pc, VOL_SHADING_EMISSION_ABSORPTION);
     check_skipping(ctx, &g, &tf, &pc, VOL_SHADING_PHONG);
     vol_grid_free(&g);
-    if (test_failed())
-        goto done;
-    /* The bucky (vol_synth when it is there, else blobs), a TF with several transparent ranges */
+    /* Anisotropic spacing, own blobs */
     {
+        const double sp[3] = {1, 1, 1.2};
         int n = 32;
         CHECK_OK(mk_grid(ctx, 32, 32, 32, sp, fill_blobs, &n, &g), ctx);
-        vol_tf_point bp[5] = {{40.0, {0, 0, 0, 0}},
-                              {80.0, {1, 0.3f, 0.1f, 0.2f}},
-                              {100.0, {0, 0, 0, 0}},
-                              {180.0, {0, 0, 0, 0}},
-                              {220.0, {0.9f, 0.9f, 1, 0.6f}}};
-        vol_tf btf = mk_tf(bp, 5, 1.0);
-        obs_camera bc = obs_camera_look_at(obs_v3(-20, 45, 50), obs_v3(15.5, 15.5, 15.5), obs_v3(0, 1, 0), 0.8f, 0.1f,
+        vol_tf_point bp[3] = {{30.0, {0, 0, 0, 0}}, {120.0, {1, 0.3f, 0.1f, 0.3f}}, {255.0, {0.9f, 0.9f, 1, 0.8f}}};
+        vol_tf btf = mk_tf(bp, 3, 1.0);
+        obs_camera bc = obs_camera_look_at(obs_v3(-20, 45, 50), obs_v3(15.5, 15.5, 18), obs_v3(0, 1, 0), 0.8f, 0.1f,
                                            300.0f);
         check_skipping(ctx, &g, &btf, &bc, VOL_SHADING_PHONG);
-        obs_camera oc = ortho_down(15.5, 15.5, 100, 18, 15);
-        check_skipping(ctx, &g, &btf, &oc, VOL_SHADING_EMISSION_ABSORPTION);
         vol_grid_free(&g);
     }
-done:
+    /* The synthetic bucky: its preset TF, and one with several transparent value ranges */
+    CHECK_OK(vol_synth(ctx, "bucky", 32, &g), ctx);
+    vol_grid_update_range(&g);
+    vol_tf preset;
+    CHECK_OK(vol_tf_preset(ctx, "bucky", &preset), ctx);
+    obs_camera bc = obs_camera_look_at(obs_v3(-35, 30, 35), obs_v3(0, 0, 0), obs_v3(0, 1, 0), 0.8f, 0.1f, 300.0f);
+    check_skipping(ctx, &g, &preset, &bc, VOL_SHADING_PHONG);
+    vol_tf_free(&preset);
+    vol_tf_point bp[5] = {{40.0, {0, 0, 0, 0}},
+                          {80.0, {1, 0.3f, 0.1f, 0.2f}},
+                          {100.0, {0, 0, 0, 0}},
+                          {180.0, {0, 0, 0, 0}},
+                          {220.0, {0.9f, 0.9f, 1, 0.6f}}};
+    vol_tf btf = mk_tf(bp, 5, 1.0);
+    check_skipping(ctx, &g, &btf, &bc, VOL_SHADING_EMISSION_ABSORPTION);
+    obs_camera oc = ortho_down(0, 0, 100, 18, 15);
+    check_skipping(ctx, &g, &btf, &oc, VOL_SHADING_PHONG);
+    vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
 
