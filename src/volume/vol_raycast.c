@@ -179,7 +179,53 @@ static inline int rc_base_voxel(double c, int n)
         return 0;
     if (c >= (double)(n - 1))
         return n - 1;
-    return (int)floor(c);
+    return (int)c; /* c > 0: truncation is floor */
+}
+
+/* ---- Trilinear sampling ------------------------------------------------------------------------ */
+
+/* vol_grid_sample's arithmetic, inlined: the same clamping (c <= 0 or NaN -> voxel 0 with weight 0,
+ * c >= n - 1 -> voxel n - 1), the same float fraction and the same three nested lerps in the same
+ * order, so the result is bit for bit the same (tests/test_volume_raycast.c checks it); what is
+ * saved is the call and libm's floor (c > 0 here, so truncation is floor). */
+static inline void rc_split(double c, int n, int *i0, int *i1, float *t)
+{
+    if (!(c > 0.0)) {
+        *i0 = *i1 = 0;
+        *t = 0.0f;
+        return;
+    }
+    if (c >= (double)(n - 1)) {
+        *i0 = *i1 = n - 1;
+        *t = 0.0f;
+        return;
+    }
+    int f = (int)c;
+    *i0 = f;
+    *i1 = f + 1;
+    *t = (float)(c - (double)f);
+}
+
+static inline float rc_sample(const vol_grid *g, double ci, double cj, double ck)
+{
+    int x0, x1, y0, y1, z0, z1;
+    float tx, ty, tz;
+    rc_split(ci, g->nx, &x0, &x1, &tx);
+    rc_split(cj, g->ny, &y0, &y1, &ty);
+    rc_split(ck, g->nz, &z0, &z1, &tz);
+    const size_t sy = (size_t)g->nx, sz = (size_t)g->nx * (size_t)g->ny;
+    const float *r00 = g->data + (size_t)y0 * sy + (size_t)z0 * sz, *r10 = g->data + (size_t)y1 * sy + (size_t)z0 * sz;
+    const float *r01 = g->data + (size_t)y0 * sy + (size_t)z1 * sz, *r11 = g->data + (size_t)y1 * sy + (size_t)z1 * sz;
+    float ux = 1.0f - tx, uy = 1.0f - ty, uz = 1.0f - tz;
+    float c00 = r00[x0] * ux + r00[x1] * tx, c10 = r10[x0] * ux + r10[x1] * tx;
+    float c01 = r01[x0] * ux + r01[x1] * tx, c11 = r11[x0] * ux + r11[x1] * tx;
+    float c0 = c00 * uy + c10 * ty, c1 = c01 * uy + c11 * ty;
+    return c0 * uz + c1 * tz;
+}
+
+float vol_i_rc_sample(const vol_grid *g, double ci, double cj, double ck)
+{
+    return rc_sample(g, ci, cj, ck);
 }
 
 /* ---- Brick table ------------------------------------------------------------------------------- */
@@ -241,8 +287,8 @@ void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3])
         double cp[3] = {c[0], c[1], c[2]}, cm[3] = {c[0], c[1], c[2]};
         cp[a] += 1.0;
         cm[a] -= 1.0;
-        double sp = vol_grid_sample(g, cp[0], cp[1], cp[2]);
-        double sm = vol_grid_sample(g, cm[0], cm[1], cm[2]);
+        double sp = rc_sample(g, cp[0], cp[1], cp[2]);
+        double sm = rc_sample(g, cm[0], cm[1], cm[2]);
         /* [Levoy88] eq. 4 (central differences), divided by the axis' own spacing; at the grid's
          * edge the sampler clamps, so the difference is one-sided in effect there. */
         grad[a] = (sp - sm) / (2.0 * g->spacing[a]);
@@ -410,7 +456,7 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
             }
             st->samples++;
             float rgba[4];
-            float s = vol_grid_sample(g, c[0], c[1], c[2]);
+            float s = rc_sample(g, c[0], c[1], c[2]);
             vol_tf_eval(J->tf, s, rgba);
             if (!(rgba[3] > 0.0f))
                 continue; /* contributes exactly nothing: shading skipped */

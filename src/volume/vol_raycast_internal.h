@@ -38,6 +38,9 @@ obs_status vol_i_rc_params_validate(obs_context *ctx, const vol_rc_params *p);
  * a control point). */
 float vol_i_rc_tf_max_alpha(const vol_tf *tf, double lo, double hi);
 
+/* The ray caster's inlined trilinear sample: bit for bit vol_grid_sample. */
+float vol_i_rc_sample(const vol_grid *g, double ci, double cj, double ck);
+
 /* The gradient of the trilinear field at continuous voxel coordinate c, in value per world unit:
  * central differences one voxel each way along each axis, divided by 2 x that axis' spacing. */
 void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3]);
