@@ -355,3 +355,421 @@ TEST(volume_synth_slab_sphere_box_values)
     CHECK_EQ_INT(vol_synth(ctx, "slab", 2, &g), OBS_STATUS_INVALID_ARGUMENT);
     obs_context_destroy(ctx);
 }
+
+/* ---- loaders: fixtures written here, independently of the loaders ------------------------------ */
+
+/* Sample q (0..59) of the 5x4x3 fixtures as type t: spans negative values for i16/f32. */
+static double fixture_value(vol_type t, int q)
+{
+    switch (t) {
+    case VOL_TYPE_U8: return (q * 37) % 256;
+    case VOL_TYPE_U16: return (q * 1117) % 65536;
+    case VOL_TYPE_I16: return (q * 1117) % 65536 - 32768;
+    default: return (q - 30) * 0.375;
+    }
+}
+
+static size_t fixture_bytes(vol_type t)
+{
+    return t == VOL_TYPE_U8 ? 1 : t == VOL_TYPE_F32 ? 4 : 2;
+}
+
+/* The 60 samples of a fixture, little endian. */
+static void fixture_samples(vol_type t, unsigned char *out)
+{
+    for (int q = 0; q < 60; q++) {
+        double v = fixture_value(t, q);
+        unsigned char *p = out + (size_t)q * fixture_bytes(t);
+        if (t == VOL_TYPE_U8) {
+            p[0] = (unsigned char)v;
+        } else if (t == VOL_TYPE_F32) {
+            float f = (float)v;
+            uint32_t u;
+            memcpy(&u, &f, 4);
+            for (int b = 0; b < 4; b++)
+                p[b] = (unsigned char)(u >> (8 * b));
+        } else {
+            uint16_t u = t == VOL_TYPE_U16 ? (uint16_t)v : (uint16_t)(int16_t)v;
+            p[0] = (unsigned char)u;
+            p[1] = (unsigned char)(u >> 8);
+        }
+    }
+}
+
+static void put16(unsigned char *h, int off, int v)
+{
+    h[off] = (unsigned char)(v & 255);
+    h[off + 1] = (unsigned char)((v >> 8) & 255);
+}
+static void put32(unsigned char *h, int off, uint32_t v)
+{
+    for (int b = 0; b < 4; b++)
+        h[off + b] = (unsigned char)(v >> (8 * b));
+}
+static void putf(unsigned char *h, int off, float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    put32(h, off, u);
+}
+
+typedef struct nii_spec {
+    int dims[8];       /* dim[0..7] */
+    int datatype, bitpix;
+    float pixdim[3];
+    float slope, inter;
+    int qform_code;
+    float quatern[3];  /* b, c, d */
+    long data_bytes;   /* bytes of samples actually written (may be short) */
+    const unsigned char *data;
+} nii_spec;
+
+/* A NIfTI-1 single file (.nii) by the standard's byte layout [NIfTI1]: 348-byte header, 4 bytes
+ * of extension flags, data at byte 352. */
+static int write_nii(const char *path, const nii_spec *s)
+{
+    unsigned char h[352];
+    memset(h, 0, sizeof h);
+    put32(h, 0, 348);
+    for (int i = 0; i < 8; i++)
+        put16(h, 40 + 2 * i, s->dims[i]);
+    put16(h, 70, s->datatype);
+    put16(h, 72, s->bitpix);
+    putf(h, 76, 1.0f); /* qfac */
+    for (int i = 0; i < 3; i++)
+        putf(h, 80 + 4 * i, s->pixdim[i]);
+    putf(h, 108, 352.0f);
+    putf(h, 112, s->slope);
+    putf(h, 116, s->inter);
+    put16(h, 252, s->qform_code);
+    for (int i = 0; i < 3; i++)
+        putf(h, 256 + 4 * i, s->quatern[i]);
+    memcpy(h + 344, "n+1", 4);
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return 0;
+    int ok = fwrite(h, 1, 352, f) == 352 && fwrite(s->data, 1, (size_t)s->data_bytes, f) == (size_t)s->data_bytes;
+    return fclose(f) == 0 && ok;
+}
+
+static nii_spec nii_fixture(vol_type t, const unsigned char *data)
+{
+    static const int dt[4] = {2, 512, 4, 16};
+    nii_spec s;
+    memset(&s, 0, sizeof s);
+    s.dims[0] = 3;
+    s.dims[1] = 5;
+    s.dims[2] = 4;
+    s.dims[3] = 3;
+    for (int i = 4; i < 8; i++)
+        s.dims[i] = 1;
+    s.datatype = dt[t];
+    s.bitpix = 8 * (int)fixture_bytes(t);
+    s.pixdim[0] = 0.5f;
+    s.pixdim[1] = 0.75f;
+    s.pixdim[2] = 2.0f;
+    s.data_bytes = (long)(60 * fixture_bytes(t));
+    s.data = data;
+    return s;
+}
+
+static int write_bytes(const char *path, const void *a, size_t na, const void *b, size_t nb)
+{
+    FILE *f = fopen(path, "wb");
+    if (!f)
+        return 0;
+    int ok = fwrite(a, 1, na, f) == na && (nb == 0 || fwrite(b, 1, nb, f) == nb);
+    return fclose(f) == 0 && ok;
+}
+
+static int gzip_to(const char *src, const char *dst)
+{
+    const char *args[] = {"-c", "-n", src, NULL};
+    return test_spawn("/bin/gzip", args, dst, NULL) == 0;
+}
+
+/* The grid must hold the fixture's values, with the spacing given. */
+static int grid_matches_fixture(const vol_grid *g, vol_type t, double slope, double inter, const double sp[3])
+{
+    if (g->nx != 5 || g->ny != 4 || g->nz != 3 || g->source_type != t)
+        return 0;
+    for (int a = 0; a < 3; a++)
+        if (fabs(g->spacing[a] - sp[a]) > 1e-12)
+            return 0;
+    for (int q = 0; q < 60; q++)
+        if (g->data[q] != (float)(slope * fixture_value(t, q) + inter))
+            return 0;
+    return 1;
+}
+
+TEST(volume_nifti_and_nrrd_round_trips_equal_raw)
+{
+    obs_context *ctx = obs_context_create();
+    const char *dir = test_tmpdir();
+    const double sp[3] = {0.5, 0.75, 2.0};
+    static const char *const nrrd_type[4] = {"uchar", "ushort", "short", "float"};
+    for (int t = 0; t < VOL_TYPE_COUNT; t++) {
+        unsigned char data[240];
+        fixture_samples((vol_type)t, data);
+        size_t nb = 60 * fixture_bytes((vol_type)t);
+        /* raw */
+        char raw[512], nii[512], niigz[512], nrrd[512], nrrdgz[512], nhdr[512], tmp[512];
+        snprintf(raw, sizeof raw, "%s", test_path(dir, "v.raw"));
+        snprintf(nii, sizeof nii, "%s", test_path(dir, "v.nii"));
+        snprintf(niigz, sizeof niigz, "%s", test_path(dir, "v.nii.gz"));
+        snprintf(nrrd, sizeof nrrd, "%s", test_path(dir, "v.nrrd"));
+        snprintf(nrrdgz, sizeof nrrdgz, "%s", test_path(dir, "vgz.nrrd"));
+        snprintf(nhdr, sizeof nhdr, "%s", test_path(dir, "v.nhdr"));
+        snprintf(tmp, sizeof tmp, "%s", test_path(dir, "data.gz"));
+        CHECK(write_bytes(raw, data, nb, NULL, 0));
+        io_volume_options o = io_volume_options_default();
+        o.format = IO_VOLUME_RAW;
+        o.dims[0] = 5, o.dims[1] = 4, o.dims[2] = 3;
+        o.type = t;
+        o.spacing[0] = sp[0], o.spacing[1] = sp[1], o.spacing[2] = sp[2];
+        vol_grid gr, g;
+        CHECK_OK(io_volume_load(ctx, raw, &o, &gr), ctx);
+        CHECK(grid_matches_fixture(&gr, (vol_type)t, 1, 0, sp));
+        /* NIfTI, plain and gzipped */
+        nii_spec s = nii_fixture((vol_type)t, data);
+        CHECK(write_nii(nii, &s));
+        CHECK_OK(io_volume_load(ctx, nii, NULL, &g), ctx);
+        CHECK(memcmp(g.data, gr.data, 60 * sizeof(float)) == 0 && grid_matches_fixture(&g, (vol_type)t, 1, 0, sp));
+        CHECK(strcmp(g.source, nii) == 0);
+        vol_grid_free(&g);
+        CHECK(gzip_to(nii, niigz));
+        CHECK_OK(io_volume_load(ctx, niigz, NULL, &g), ctx);
+        CHECK(memcmp(g.data, gr.data, 60 * sizeof(float)) == 0 && grid_matches_fixture(&g, (vol_type)t, 1, 0, sp));
+        vol_grid_free(&g);
+        /* NRRD attached raw with spacings */
+        char head[512];
+        int hl = snprintf(head, sizeof head,
+                          "NRRD0004\ntype: %s\ndimension: 3\nsizes: 5 4 3\nspacings: 0.5 0.75 2\n%sencoding: raw\n\n",
+                          nrrd_type[t], t == VOL_TYPE_U8 ? "" : "endian: little\n");
+        CHECK(write_bytes(nrrd, head, (size_t)hl, data, nb));
+        CHECK_OK(io_volume_load(ctx, nrrd, NULL, &g), ctx);
+        CHECK(memcmp(g.data, gr.data, 60 * sizeof(float)) == 0 && grid_matches_fixture(&g, (vol_type)t, 1, 0, sp));
+        vol_grid_free(&g);
+        /* NRRD gzip encoding with space directions (spacing = their lengths) and an origin */
+        CHECK(gzip_to(raw, tmp));
+        size_t gzlen = 0;
+        char *gz = test_slurp(tmp, &gzlen);
+        CHECK(gz);
+        hl = snprintf(head, sizeof head,
+                      "NRRD0005\ntype: %s\ndimension: 3\nspace: right-anterior-superior\nsizes: 5 4 3\n"
+                      "space directions: (0.5,0,0) (0,0.75,0) (0,0,2)\nspace origin: (1,2,3)\n%sencoding: gzip\n\n",
+                      nrrd_type[t], t == VOL_TYPE_U8 ? "" : "endian: little\n");
+        CHECK(write_bytes(nrrdgz, head, (size_t)hl, gz, gzlen));
+        free(gz);
+        CHECK_OK(io_volume_load(ctx, nrrdgz, NULL, &g), ctx);
+        CHECK(memcmp(g.data, gr.data, 60 * sizeof(float)) == 0 && grid_matches_fixture(&g, (vol_type)t, 1, 0, sp));
+        CHECK(g.origin[0] == 1.0 && g.origin[1] == 2.0 && g.origin[2] == 3.0);
+        vol_grid_free(&g);
+        /* NRRD detached header pointing at the raw file */
+        hl = snprintf(head, sizeof head,
+                      "NRRD0004\ntype: %s\ndimension: 3\nsizes: 5 4 3\nspacings: 0.5 0.75 2\n%sencoding: raw\n"
+                      "data file: v.raw\n",
+                      nrrd_type[t], t == VOL_TYPE_U8 ? "" : "endian: little\n");
+        CHECK(write_bytes(nhdr, head, (size_t)hl, NULL, 0));
+        CHECK_OK(io_volume_load(ctx, nhdr, NULL, &g), ctx);
+        CHECK(memcmp(g.data, gr.data, 60 * sizeof(float)) == 0);
+        vol_grid_free(&g);
+        /* Our own writer reads back exactly */
+        char out[512];
+        snprintf(out, sizeof out, "%s", test_path(dir, "w.nrrd"));
+        CHECK_OK(io_volume_write_nrrd(ctx, out, &gr), ctx);
+        CHECK_OK(io_volume_load(ctx, out, NULL, &g), ctx);
+        CHECK(memcmp(g.data, gr.data, 60 * sizeof(float)) == 0 && g.source_type == VOL_TYPE_F32);
+        CHECK(g.spacing[0] == 0.5 && g.spacing[1] == 0.75 && g.spacing[2] == 2.0);
+        vol_grid_free(&g);
+        vol_grid_free(&gr);
+    }
+    obs_context_destroy(ctx);
+}
+
+TEST(volume_nifti_applies_scl_slope)
+{
+    obs_context *ctx = obs_context_create();
+    const double sp[3] = {0.5, 0.75, 2.0};
+    unsigned char data[240];
+    for (int t = 0; t < VOL_TYPE_COUNT; t++) {
+        fixture_samples((vol_type)t, data);
+        nii_spec s = nii_fixture((vol_type)t, data);
+        s.slope = 2.0f;
+        s.inter = -10.0f;
+        const char *p = test_path(test_tmpdir(), "slope.nii");
+        CHECK(write_nii(p, &s));
+        vol_grid g;
+        CHECK_OK(io_volume_load(ctx, p, NULL, &g), ctx);
+        CHECK(grid_matches_fixture(&g, (vol_type)t, 2.0, -10.0, sp));
+        vol_grid_free(&g);
+    }
+    obs_context_destroy(ctx);
+}
+
+/* Expect a refusal whose message names the file. */
+#define CHECK_REFUSED(expr, path)                                                                    \
+    do {                                                                                             \
+        obs_context_clear_error(ctx);                                                                \
+        vol_grid g_;                                                                                 \
+        obs_status s_ = (expr);                                                                      \
+        CHECK_MSG(s_ != OBS_STATUS_OK, "%s was accepted", #expr);                                    \
+        CHECK_MSG(strstr(obs_context_last_error(ctx), path), "message '%s' does not name %s",        \
+                  obs_context_last_error(ctx), path);                                                \
+        CHECK(g_.data == NULL);                                                                      \
+        printf("refused (%s): %s\n", obs_status_string(s_), obs_context_last_error(ctx));           \
+    } while (0)
+
+TEST(volume_loaders_refuse_bad_files_naming_them)
+{
+    obs_context *ctx = obs_context_create();
+    obs_context_set_log_level(ctx, OBS_LOG_ERROR);
+    const char *dir = test_tmpdir();
+    unsigned char data[240];
+    fixture_samples(VOL_TYPE_U16, data);
+    char p[512];
+
+    /* NIfTI: truncated data (the header says more voxels than the file has). */
+    nii_spec s = nii_fixture(VOL_TYPE_U16, data);
+    s.data_bytes = 100;
+    snprintf(p, sizeof p, "%s", test_path(dir, "short.nii"));
+    CHECK(write_nii(p, &s));
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    CHECK(strstr(obs_context_last_error(ctx), "truncated"));
+    /* ... and gzipped: caught by the read. */
+    char pgz[512];
+    snprintf(pgz, sizeof pgz, "%s", test_path(dir, "short.nii.gz"));
+    CHECK(gzip_to(p, pgz));
+    CHECK_REFUSED(io_volume_load(ctx, pgz, NULL, &g_), pgz);
+    /* A header cut short. */
+    snprintf(p, sizeof p, "%s", test_path(dir, "cut.nii"));
+    CHECK(write_bytes(p, "\x5c\x01\0\0", 4, NULL, 0));
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    /* 4D with t = 2. */
+    s = nii_fixture(VOL_TYPE_U16, data);
+    s.dims[0] = 4;
+    s.dims[3] = 1;
+    s.dims[4] = 2;
+    s.data_bytes = 5 * 4 * 2 * 2;
+    snprintf(p, sizeof p, "%s", test_path(dir, "4d.nii"));
+    CHECK(write_nii(p, &s));
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    CHECK_EQ_INT(obs_context_last_status(ctx), OBS_STATUS_UNSUPPORTED);
+    /* A zero dimension. */
+    s = nii_fixture(VOL_TYPE_U16, data);
+    s.dims[3] = 0;
+    snprintf(p, sizeof p, "%s", test_path(dir, "zero.nii"));
+    CHECK(write_nii(p, &s));
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    /* Complex (DT_COMPLEX64 = 32), RGB (DT_RGB24 = 128), double (64), an unknown code. */
+    static const int dts[4][2] = {{32, 64}, {128, 24}, {64, 64}, {4242, 16}};
+    for (int i = 0; i < 4; i++) {
+        s = nii_fixture(VOL_TYPE_U16, data);
+        s.datatype = dts[i][0];
+        s.bitpix = dts[i][1];
+        s.data_bytes = 60;
+        snprintf(p, sizeof p, "%s", test_path(dir, "type.nii"));
+        CHECK(write_nii(p, &s));
+        CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    }
+    /* Absurd sizes: refused by the limits before anything is read or allocated. */
+    s = nii_fixture(VOL_TYPE_U16, data);
+    s.dims[1] = s.dims[2] = s.dims[3] = 32767;
+    snprintf(p, sizeof p, "%s", test_path(dir, "huge.nii"));
+    CHECK(write_nii(p, &s));
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    CHECK_EQ_INT(obs_context_last_status(ctx), OBS_STATUS_LIMIT_EXCEEDED);
+
+    /* NRRD: truncated raw, a 4D file, an unsupported type, absurd sizes, no such file, garbage. */
+    static const char *const bad_nrrd[] = {
+        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\n\n",
+        "NRRD0004\ntype: ushort\ndimension: 4\nsizes: 5 4 3 1\nendian: little\nencoding: raw\n\n",
+        "NRRD0004\ntype: double\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\n\n",
+        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 100000 100000 100000\nendian: little\nencoding: raw\n\n",
+        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nspacings: 1 0 1\nendian: little\nencoding: raw\n\n",
+        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: gzip\n\n",
+        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\ndata file: missing.raw\n",
+        "NRRD0004\nthis is not a header\n\n",
+    };
+    for (size_t i = 0; i < sizeof bad_nrrd / sizeof bad_nrrd[0]; i++) {
+        snprintf(p, sizeof p, "%s", test_path(dir, i == 6 ? "bad.nhdr" : "bad.nrrd"));
+        CHECK(write_bytes(p, bad_nrrd[i], strlen(bad_nrrd[i]), data, i == 5 ? 20 : i == 6 ? 0 : 50));
+        CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    }
+    snprintf(p, sizeof p, "%s", test_path(dir, "absent.nrrd"));
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    CHECK_EQ_INT(obs_context_last_status(ctx), OBS_STATUS_IO_ERROR);
+
+    /* Raw: bad options, and a file shorter than they describe. */
+    snprintf(p, sizeof p, "%s", test_path(dir, "v.raw"));
+    CHECK(write_bytes(p, data, 120, NULL, 0));
+    io_volume_options o = io_volume_options_default();
+    o.format = IO_VOLUME_RAW;
+    o.dims[0] = 5, o.dims[1] = 4, o.dims[2] = 3;
+    o.type = VOL_TYPE_U16;
+    vol_grid g;
+    CHECK_OK(io_volume_load(ctx, p, &o, &g), ctx);
+    vol_grid_free(&g);
+    for (int i = 0; i < 7; i++) {
+        io_volume_options b = o;
+        switch (i) {
+        case 0: b.dims[1] = 0; break;
+        case 1: b.type = 9; break;
+        case 2: b.spacing[2] = 0.0; break;
+        case 3: b.spacing[0] = NAN; break;
+        case 4: b.header_skip = -4; break;
+        case 5: b.header_skip = 2; break;          /* then the file is 2 bytes short */
+        default: b.dims[2] = 4; break;             /* more voxels than the file has */
+        }
+        CHECK_REFUSED(io_volume_load(ctx, p, &b, &g_), p);
+    }
+    /* Auto never guesses raw. */
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    obs_context_destroy(ctx);
+}
+
+/* ---- the real datasets (scripts/fetch_volumes.sh; docs/volume.md "Datasets") ------------------- */
+
+TEST(volume_real_datasets_load_when_fetched)
+{
+    obs_context *ctx = obs_context_create();
+    char p[1024];
+    int found = 0;
+    snprintf(p, sizeof p, "%s/data/cache/volumes/ch2better.nii.gz", test_source_dir());
+    FILE *f = fopen(p, "rb");
+    if (f) {
+        fclose(f);
+        found++;
+        vol_grid g;
+        CHECK_OK(io_volume_load(ctx, p, NULL, &g), ctx);
+        CHECK(g.nx == 301 && g.ny == 370 && g.nz == 316 && g.source_type == VOL_TYPE_U8);
+        CHECK_NEAR(g.spacing[0], 0.5, 1e-6);
+        CHECK_NEAR(g.spacing[2], 0.5, 1e-6);
+        CHECK(g.value_min == 0.0f && g.value_max == 130.0f);
+        printf("ch2better.nii.gz: %dx%dx%d %s, spacing %g %g %g, origin %g %g %g, values %g..%g\n", g.nx, g.ny, g.nz,
+               vol_type_name(g.source_type), g.spacing[0], g.spacing[1], g.spacing[2], g.origin[0], g.origin[1],
+               g.origin[2], g.value_min, g.value_max);
+        vol_grid_free(&g);
+    } else {
+        printf("dataset absent: %s (run scripts/fetch_volumes.sh); its checks were skipped\n", p);
+    }
+    snprintf(p, sizeof p, "%s/data/cache/volumes/cranium.nrrd", test_source_dir());
+    f = fopen(p, "rb");
+    if (f) {
+        fclose(f);
+        found++;
+        vol_grid g;
+        CHECK_OK(io_volume_load(ctx, p, NULL, &g), ctx);
+        CHECK(g.nx == 256 && g.ny == 256 && g.nz == 108 && g.source_type == VOL_TYPE_I16);
+        CHECK_NEAR(g.spacing[0], 0.9570312, 1e-9);
+        CHECK_NEAR(g.spacing[2], 1.5, 1e-12);
+        CHECK(g.value_min == -1024.0f && g.value_max == 2986.0f);
+        printf("cranium.nrrd: %dx%dx%d %s, spacing %g %g %g, values %g..%g\n", g.nx, g.ny, g.nz,
+               vol_type_name(g.source_type), g.spacing[0], g.spacing[1], g.spacing[2], g.value_min, g.value_max);
+        vol_grid_free(&g);
+    } else {
+        printf("dataset absent: %s (run scripts/fetch_volumes.sh); its checks were skipped\n", p);
+    }
+    printf("%d of 2 real datasets present and checked\n", found);
+    obs_context_destroy(ctx);
+}

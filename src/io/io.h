@@ -206,6 +206,54 @@ obs_status io_png_write(obs_context *ctx, const char *path, const obs_image_f32 
 float io_srgb_encode(float linear);
 float io_srgb_decode(float encoded);
 
+
+/* ------------------------------------------------------------------------------------------------
+ * Volumes (docs/volume.md, "Volumes and loaders"): NIfTI-1/2 (.nii, .nii.gz, .hdr/.img) through
+ * nifticlib, NRRD (.nrrd, .nhdr) through teem, and raw files described by options. The grid type
+ * is vol_grid (src/volume/vol.h); values are converted to float.
+ * ---------------------------------------------------------------------------------------------- */
+
+struct vol_grid;
+
+typedef enum io_volume_format {
+    IO_VOLUME_AUTO = 0,   /* from the name: .nii/.nii.gz/.hdr -> NIfTI, .nrrd/.nhdr -> NRRD, else a
+                             file starting "NRRD" -> NRRD; raw is never guessed */
+    IO_VOLUME_NIFTI,
+    IO_VOLUME_NRRD,
+    IO_VOLUME_RAW,
+    IO_VOLUME_FORMAT_COUNT
+} io_volume_format;
+
+typedef struct io_volume_options {
+    io_volume_format format;   /* default IO_VOLUME_AUTO */
+    /* Raw files only (IO_VOLUME_RAW): */
+    int dims[3];               /* nx, ny, nz, each >= 1 (no default: 0 is refused) */
+    int type;                  /* a vol_type (VOL_TYPE_U8 ...); default VOL_TYPE_U8 */
+    int big_endian;            /* byte order of 16/32-bit samples; default 0 (little endian) */
+    double spacing[3];         /* default 1, 1, 1 */
+    int64_t header_skip;       /* bytes before the data; default 0 */
+} io_volume_options;
+
+io_volume_options io_volume_options_default(void);
+
+/* Load a scalar volume into *out (allocated by the call; free with vol_grid_free). Every size is
+ * checked against ctx's max_voxels and max_memory_bytes (the float grid plus the file's samples)
+ * and, for uncompressed data, against the file's length before anything is allocated.
+ * NIfTI: scl_slope/scl_inter applied when slope != 0; 4D with t > 1, complex/RGB and types other
+ * than u8/u16/i16/f32 refused; a rotated or flipped qform/sform is reported through obs_log (WARN)
+ * and the stored axes are kept. NRRD: 3D scalar u8/u16/i16/f32, any encoding teem reads; spacing
+ * from "spacings" or the lengths of "space directions" (1 when neither). Raw: from the options;
+ * a file shorter than header_skip + the data is refused, a longer one is loaded with a warning.
+ * Returns OK, INVALID_ARGUMENT (bad options), IO_ERROR (missing, unreadable, truncated),
+ * PARSE_ERROR (malformed header, sizes that disagree with the file), UNSUPPORTED (4D, type,
+ * non-scalar), LIMIT_EXCEEDED, OUT_OF_MEMORY; messages name the file. On failure *out is empty. */
+obs_status io_volume_load(obs_context *ctx, const char *path, const io_volume_options *opts, struct vol_grid *out);
+
+/* Write a grid as an attached, raw, little-endian NRRD (NRRD0004: type float, sizes, spacings;
+ * the origin is not stored), atomically. For fixtures and conversions; io_volume_load reads the
+ * values and spacing back exactly. Returns OK, INVALID_ARGUMENT, IO_ERROR, OUT_OF_MEMORY. */
+obs_status io_volume_write_nrrd(obs_context *ctx, const char *path, const struct vol_grid *g);
+
 #ifdef __cplusplus
 }
 #endif
