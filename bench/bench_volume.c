@@ -1,16 +1,18 @@
 /* bench_volume.c: the cost of the volume ray caster (issue 15; docs/volume/raycast.md, "Cost").
  *
- *   obscura_bench_volume [--synth bucky|sphere|slab|box] [--n 256] [--tf bucky]
+ *   obscura_bench_volume [--synth bucky|sphere|slab|box] [--n 256] [--file PATH] [--tf bucky]
  *                        [--shading ea|phong] [--step 0] [--brick 8] [--et 0.99]
  *                        [--threads 2] [--reps 3] [--size 1920x1080] [--sweep]
  *
  * Ray casts a synthetic volume (vol_synth, n^3, default the bucky at 256^3) with a transfer-function
- * preset, from a fixed perspective camera that frames it (the volume fills most of the image), at
+ * preset (or a file io_volume_load reads, e.g. the head CT as NRRD with --tf ct-skin), from a fixed
+ * perspective camera that frames it (the volume fills most of the image), at
  * --size. After one warm-up, REPS timed repetitions; the RESULT line gives the median (min, max) in
  * ms, the samples read, skipped and composited, and the rate of samples read per second.
  * --sweep times the brick sizes {0, 4, 8, 16} and the early-termination thresholds {1, 0.99, 0.95}
  * (one RESULT line each). Wall clock (CLOCK_MONOTONIC): on a shared machine, take the minimum. */
 #include "core/obs.h"
+#include "io/io.h"
 #include "volume/vol.h"
 #include "volume/vol_raycast_internal.h"
 
@@ -85,7 +87,7 @@ int main(int argc, char **argv)
 {
     bench b;
     memset(&b, 0, sizeof b);
-    const char *synth = "bucky", *tfname = NULL;
+    const char *synth = "bucky", *tfname = NULL, *file = NULL;
     int n = 256, threads = 2, sweep = 0;
     b.W = 1920;
     b.H = 1080;
@@ -105,6 +107,8 @@ int main(int argc, char **argv)
         i++;
         if (!strcmp(a, "--synth"))
             synth = v;
+        else if (!strcmp(a, "--file"))
+            file = v;
         else if (!strcmp(a, "--n"))
             n = atoi(v);
         else if (!strcmp(a, "--tf"))
@@ -139,8 +143,14 @@ int main(int argc, char **argv)
     if (!b.ctx || !b.pool)
         return 1;
     double t0 = now_ms();
-    if (vol_synth(b.ctx, synth, n, &b.g) != OBS_STATUS_OK)
+    if (file) {
+        io_volume_options vo = io_volume_options_default();
+        if (io_volume_load(b.ctx, file, &vo, &b.g) != OBS_STATUS_OK)
+            die(&b);
+        synth = "file";
+    } else if (vol_synth(b.ctx, synth, n, &b.g) != OBS_STATUS_OK) {
         die(&b);
+    }
     vol_grid_update_range(&b.g);
     double t_synth = now_ms() - t0;
     if (!tfname)
@@ -164,13 +174,23 @@ int main(int argc, char **argv)
     for (int a = 0; a < 3; a++)
         b.light.direction[a] /= l;
     b.light.color[0] = b.light.color[1] = b.light.color[2] = 1.0f;
-    float r = 0.5f * (float)n;
-    b.cam = obs_camera_look_at(obs_v3(1.3f * r, 0.9f * r, 2.6f * r), obs_v3(0, 0, 0), obs_v3(0, 1, 0), 0.7f, 0.01f * r,
-                               100.0f * r);
-    printf("# obscura_bench_volume: %s %d^3 (made in %.0f ms), TF %s, %dx%d, %d threads, %d reps\n", synth, n, t_synth,
+    /* The box's centre and half diagonal: for vol_synth (centred on 0, n^3) the camera is at
+     * (1.3, 0.9, 2.6) x n/2. */
+    double lo[3], hi[3];
+    vol_grid_bounds(&b.g, lo, hi);
+    float ctr[3], r = 0.0f;
+    for (int a = 0; a < 3; a++) {
+        ctr[a] = (float)(0.5 * (lo[a] + hi[a]));
+        float e = (float)(0.5 * (hi[a] - lo[a]));
+        r = e > r ? e : r;
+    }
+    b.cam = obs_camera_look_at(obs_v3(ctr[0] + 1.3f * r, ctr[1] + 0.9f * r, ctr[2] + 2.6f * r),
+                               obs_v3(ctr[0], ctr[1], ctr[2]), obs_v3(0, 1, 0), 0.7f, 0.01f * r, 100.0f * r);
+    printf("# obscura_bench_volume: %s %dx%dx%d (made/loaded in %.0f ms), TF %s, %dx%d, %d threads, %d reps\n",
+           file ? file : synth, b.g.nx, b.g.ny, b.g.nz, t_synth,
            tfname ? tfname : "bench", b.W, b.H, threads, b.reps);
     char label[64];
-    snprintf(label, sizeof label, "%s%d", synth, n);
+    snprintf(label, sizeof label, "%s%d", synth, b.g.nx);
     if (!sweep) {
         run_one(&b, &p, label);
     } else {
