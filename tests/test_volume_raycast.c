@@ -5,6 +5,7 @@
  * a sphere (lit side, radial gradient), thread-count independence, refusals. */
 #include "core/obs.h"
 #include "raster/raster.h"
+#include "scene_util.h"
 #include "test.h"
 #include "volume/vol.h"
 #include "volume/vol_raycast_internal.h"
@@ -523,6 +524,79 @@ TEST(volume_raycast_depth_limit_cuts_the_ray_exactly)
         free4(out);
         obs_image_f32_free(&depth);
     }
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
+/* The hybrid scene: the rasterizer's own depth plane of a tilted quad cutting through a
+ * homogeneous box stops each ray where the quad is: alpha = 1 - 0.9^(len), with len the world
+ * length from the box's entry to the quad's analytic plane (or the box's exit). */
+TEST(volume_raycast_rasterized_mesh_depth_lines_up_with_the_rays)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    float one = 1.0f;
+    const double sp[3] = {1, 1, 1};
+    CHECK_OK(mk_grid(ctx, 16, 16, 16, sp, fill_const, &one, &g), ctx);
+    vol_tf_point pts[2] = {{0.0, {1, 1, 1, 0.1f}}, {1.0, {1, 1, 1, 0.1f}}};
+    vol_tf tf = mk_tf(pts, 2, 1.0);
+    /* The quad: the plane z = 12 - 0.32 (x + 5), over x, y in [-5, 20]. */
+    const float pos[12] = {-5, -5, 12, 20, -5, 4, 20, 20, 4, -5, 20, 12};
+    const float nrm[12] = {0.3047f, 0, 0.9524f, 0.3047f, 0, 0.9524f, 0.3047f, 0, 0.9524f, 0.3047f, 0, 0.9524f};
+    const uint32_t idx[6] = {0, 1, 2, 0, 2, 3};
+    obs_scene scene;
+    tu_scene_one_mesh(&scene, pos, 4, nrm, idx, 2);
+    const int W = 64, H = 48;
+    for (int persp = 0; persp < 2; persp++) {
+        obs_camera cam = persp ? obs_camera_look_at(obs_v3(9, 6, 40), obs_v3(7.5f, 7.5f, 7.5f), obs_v3(0, 1, 0), 0.6f,
+                                                    0.5f, 100.0f)
+                               : ortho_down(7.5, 7.5, 40, 12, 9);
+        rast_params rp = rast_params_default();
+        rp.width = W;
+        rp.height = H;
+        rp.outputs = RAST_OUT_DEPTH;
+        rast_gbuffer gb;
+        CHECK_OK(rast_gbuffer_alloc(ctx, &rp, &gb), ctx);
+        rast_view view = {cam};
+        CHECK_OK(rast_render(ctx, NULL, &scene, &view, 1, &rp, &gb, NULL), ctx);
+        vol_rc_params p = vol_rc_params_default();
+        p.shading = VOL_SHADING_EMISSION_ABSORPTION;
+        p.early_termination = 1.0;
+        obs_image_f32 out[4];
+        CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, NULL, NULL, &cam, W, H, &gb.depth, &p, out), ctx);
+        double lo[3], hi[3];
+        vol_grid_bounds(&g, lo, hi);
+        int cut = 0;
+        for (int y = 0; y < H; y++)
+            for (int x = 0; x < W; x++) {
+                obs_dvec3 O, D;
+                rast_pixel_ray(&gb.constants, &cam, x + 0.5, y + 0.5, &O, &D);
+                /* The analytic plane: n.p = n.v0 with n = (0.32, 0, 1). */
+                double nd = 0.32 * D.x + D.z, tp = INFINITY;
+                if (nd != 0.0) {
+                    double th = ((0.32 * -5.0 + 12.0) - (0.32 * O.x + O.z)) / nd;
+                    double px = O.x + th * D.x, py = O.y + th * D.y;
+                    if (th > 0.0 && px > -5.0 && px < 20.0 && py > -5.0 && py < 20.0)
+                        tp = th;
+                }
+                double dz = obs_image_f32_row(&gb.depth, y)[x];
+                double t0, t1, a = 0.0;
+                if (box_clip(lo, hi, O, D, &t0, &t1)) {
+                    if (tp < t1) {
+                        t1 = tp;
+                        cut++;
+                        CHECK_NEAR(dz, tp, 1e-5 * tp);
+                    }
+                    if (t1 > t0)
+                        a = 1.0 - pow(0.9, (t1 - t0) * sqrt(D.x * D.x + D.y * D.y + D.z * D.z));
+                }
+                CHECK_NEAR(obs_image_f32_row(&out[3], y)[x], a, 1e-5);
+            }
+        CHECK(cut > 200);
+        free4(out);
+        rast_gbuffer_free(&gb);
+    }
+    obs_scene_free(&scene);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
