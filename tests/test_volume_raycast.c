@@ -431,6 +431,70 @@ TEST(volume_raycast_slab_matches_optical_depth_integral)
     obs_context_destroy(ctx);
 }
 
+/* A perspective eye inside the volume starts its rays at the near plane: alpha = 1 - 0.9^len with
+ * len from t = znear to the box's exit. And a NaN voxel (TF: transparent) leaves the image finite
+ * and the same with and without skipping. */
+TEST(volume_raycast_eye_inside_and_nan_voxels)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    float one = 1.0f;
+    const double sp[3] = {1, 1, 1};
+    CHECK_OK(mk_grid(ctx, 16, 16, 16, sp, fill_const, &one, &g), ctx);
+    vol_tf_point pts[2] = {{0.0, {1, 1, 1, 0.1f}}, {1.0, {1, 1, 1, 0.1f}}};
+    vol_tf tf = mk_tf(pts, 2, 1.0);
+    obs_camera cam = obs_camera_look_at(obs_v3(7, 8, 6), obs_v3(9, 7, -3), obs_v3(0, 1, 0), 1.2f, 0.25f, 100.0f);
+    vol_rc_params p = vol_rc_params_default();
+    p.shading = VOL_SHADING_EMISSION_ABSORPTION;
+    p.early_termination = 1.0;
+    obs_image_f32 out[4];
+    CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, NULL, NULL, &cam, 30, 20, NULL, &p, out), ctx);
+    rast_params rp = rast_params_default();
+    rp.width = 30;
+    rp.height = 20;
+    rast_view_constants vc;
+    CHECK_OK(rast_view_constants_make(ctx, &rp, &cam, &vc), ctx);
+    double lo[3], hi[3];
+    vol_grid_bounds(&g, lo, hi);
+    for (int y = 0; y < 20; y++)
+        for (int x = 0; x < 30; x++) {
+            obs_dvec3 O, D;
+            rast_pixel_ray(&vc, &cam, x + 0.5, y + 0.5, &O, &D);
+            double t0, t1;
+            CHECK(box_clip(lo, hi, O, D, &t0, &t1) && t0 < 0.0);
+            double a = 1.0 - pow(0.9, (t1 - vc.znear) * sqrt(D.x * D.x + D.y * D.y + D.z * D.z));
+            CHECK_NEAR(obs_image_f32_row(&out[3], y)[x], a, 2e-6);
+        }
+    free4(out);
+    vol_grid_free(&g);
+
+    const double sph[4] = {15.5, 15.5, 15.5, 10.0};
+    CHECK_OK(mk_grid(ctx, 32, 32, 32, sp, fill_sphere, sph, &g), ctx);
+    g.data[(20 * 32 + 16) * 32 + 16] = NAN;
+    g.data[(2 * 32 + 3) * 32 + 4] = NAN; /* in empty space */
+    vol_grid_update_range(&g);
+    vol_tf_point sp3[3] = {{0.5, {0, 0, 0, 0}}, {0.75, {1, 0.5f, 0.2f, 0.1f}}, {1.0, {0.2f, 0.9f, 1, 0.4f}}};
+    vol_tf stf = mk_tf(sp3, 3, 1.0);
+    vol_light light = {OBS_LIGHT_DIRECTIONAL, {-0.3, -0.8, -0.5}, {0, 0, 0}, {1, 1, 1}};
+    obs_camera pc = obs_camera_look_at(obs_v3(45, 35, 60), obs_v3(15.5, 15.5, 18), obs_v3(0, 1, 0), 0.8f, 0.1f, 300.0f);
+    obs_image_f32 ref[4];
+    p = vol_rc_params_default();
+    p.shading = VOL_SHADING_PHONG;
+    p.brick = 0;
+    CHECK_OK(vol_raycast(ctx, NULL, &g, &stf, &light, NULL, &pc, 40, 30, NULL, &p, ref), ctx);
+    p.brick = 4;
+    CHECK_OK(vol_raycast(ctx, NULL, &g, &stf, &light, NULL, &pc, 40, 30, NULL, &p, out), ctx);
+    CHECK(same4(ref, out));
+    for (int c = 0; c < 4; c++)
+        for (int y = 0; y < 30; y++)
+            for (int x = 0; x < 40; x++)
+                CHECK(isfinite(obs_image_f32_row(&out[c], y)[x]));
+    free4(out);
+    free4(ref);
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
 /* ---- early termination, depth limit ------------------------------------------------------------ */
 
 TEST(volume_raycast_early_termination_error_below_one_minus_threshold)
