@@ -22,8 +22,9 @@
 
 #define VOL_RC_DEFAULT_SHADING VOL_SHADING_LIGHT_VOLUME /* vol.h: the technique this module exists for */
 #define VOL_RC_DEFAULT_STEP 0.0 /* world units; 0 = VOL_RC_AUTO_STEP_FRACTION x the smallest spacing */
-#define VOL_RC_AUTO_STEP_FRACTION 0.5 /* two samples per voxel: the usual rate for trilinear
-                                         reconstruction, [Engel06] section 9.1 (sampling rate) */
+#define VOL_RC_AUTO_STEP_FRACTION 0.5 /* two samples per voxel (the Nyquist rate of the voxel
+                                         spacing); ours, a common choice, not checked against a
+                                         source */
 #define VOL_RC_DEFAULT_EARLY_TERMINATION 0.99 /* (0, 1]; vol.h default (ours): at most 1% of the
                                                  remaining light is dropped, see raycast.md */
 #define VOL_RC_DEFAULT_BRICK 8 /* voxels, >= 0 (0 = off); 8^3 blocks as in [Kruger03] (block size
