@@ -2,7 +2,8 @@
  * Beer-Lambert through homogeneous media (orthographic and perspective), independence of the step,
  * a slab against a fine quadrature of its optical depth, EA colour and background, empty-space
  * skipping (identical images, fewer samples), early termination's bound, the depth limit, Phong on
- * a sphere (lit side, radial gradient), thread-count independence, refusals. */
+ * a sphere (lit side, radial gradient), light-volume shading (the product, the shadowed side),
+ * thread-count independence, refusals. */
 #include "core/obs.h"
 #include "raster/raster.h"
 #include "scene_util.h"
@@ -12,15 +13,6 @@
 
 #include <stdlib.h>
 #include <string.h>
-
-/* STUB until p/vollv lands (vol_light_volume.c): weak, so the real definition wins when linked.
- * The ray caster references it; these tests do not use light-volume shading yet. */
-__attribute__((weak)) void vol_light_volume_sample(const vol_light_volume *lv, const double x[3], float *l, float c[3])
-{
-    (void)lv, (void)x;
-    *l = 1.0f;
-    c[0] = c[1] = c[2] = 1.0f;
-}
 
 /* ---- helpers ---------------------------------------------------------------------------------- */
 
@@ -844,6 +836,100 @@ TEST(volume_raycast_identical_for_1_2_and_8_threads)
         free4(out);
     }
     free4(ref);
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
+/* ---- light-volume shading ---------------------------------------------------------------------- */
+
+/* With a constant light volume (l = 0.5, c = (1, 0.5, 0.25)) the light-volume image is the EA image
+ * times Lc l c per channel (vol.h's product), alpha unchanged. */
+TEST(volume_raycast_light_volume_mode_is_tf_times_light_times_l_times_c)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    CHECK_OK(vol_synth(ctx, "sphere", 24, &g), ctx);
+    vol_grid_update_range(&g);
+    vol_tf_point pts[3] = {{0.3, {0, 0, 0, 0}}, {0.7, {1, 0.5f, 0.2f, 0.2f}}, {1.0, {0.2f, 0.9f, 1, 0.5f}}};
+    vol_tf tf = mk_tf(pts, 3, 1.0);
+    enum { N = 6 };
+    static float lvl[N * N * N], c0[N * N * N], c1[N * N * N], c2[N * N * N];
+    for (int i = 0; i < N * N * N; i++) {
+        lvl[i] = 0.5f;
+        c0[i] = 1.0f;
+        c1[i] = 0.5f;
+        c2[i] = 0.25f;
+    }
+    vol_light_volume lv;
+    memset(&lv, 0, sizeof lv);
+    lv.nx = lv.ny = lv.nz = N;
+    lv.scale = 4;
+    for (int a = 0; a < 3; a++) {
+        lv.spacing[a] = 4.0;
+        lv.origin[a] = -10.0;
+    }
+    lv.l = lvl;
+    lv.c[0] = c0;
+    lv.c[1] = c1;
+    lv.c[2] = c2;
+    lv.blend_weight = 1.0f;
+    vol_light light = {OBS_LIGHT_DIRECTIONAL, {0, -1, 0}, {0, 0, 0}, {0.8f, 1.0f, 2.0f}};
+    obs_camera pc = obs_camera_look_at(obs_v3(20, 15, 30), obs_v3(0, 0, 0), obs_v3(0, 1, 0), 0.8f, 0.1f, 300.0f);
+    vol_rc_params p = vol_rc_params_default();
+    p.shading = VOL_SHADING_EMISSION_ABSORPTION;
+    obs_image_f32 ea[4], lvimg[4];
+    CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, NULL, NULL, &pc, 40, 30, NULL, &p, ea), ctx);
+    p.shading = VOL_SHADING_LIGHT_VOLUME;
+    CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, &light, &lv, &pc, 40, 30, NULL, &p, lvimg), ctx);
+    const double f[3] = {0.8 * 0.5 * 1.0, 1.0 * 0.5 * 0.5, 2.0 * 0.5 * 0.25};
+    double amax = 0.0;
+    for (int y = 0; y < 30; y++)
+        for (int x = 0; x < 40; x++) {
+            double a = obs_image_f32_row(&ea[3], y)[x];
+            amax = fmax(amax, a);
+            CHECK(obs_image_f32_row(&lvimg[3], y)[x] == (float)a);
+            for (int c = 0; c < 3; c++)
+                CHECK_NEAR(obs_image_f32_row(&lvimg[c], y)[x], f[c] * obs_image_f32_row(&ea[c], y)[x], 1e-6);
+        }
+    CHECK(amax > 0.3);
+    free4(ea);
+    free4(lvimg);
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
+/* A built light volume on the sphere lit from +x: the +x half is brighter than the -x half (the
+ * far side is in the sphere's own shadow), and skipping still changes nothing. */
+TEST(volume_raycast_light_volume_sphere_lit_side_brighter)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    CHECK_OK(vol_synth(ctx, "sphere", 32, &g), ctx);
+    vol_grid_update_range(&g);
+    vol_tf_point pts[2] = {{0.3, {0.8f, 0.8f, 0.8f, 0.0f}}, {1.0, {0.8f, 0.8f, 0.8f, 0.3f}}};
+    vol_tf tf = mk_tf(pts, 2, 1.0);
+    vol_light light = {OBS_LIGHT_DIRECTIONAL, {-1, 0, 0}, {0, 0, 0}, {1, 1, 1}};
+    vol_lv_params lp = vol_lv_params_default();
+    vol_light_volume lv;
+    CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &light, &lp, &lv), ctx);
+    obs_camera cam = ortho_down(0, 0, 100, 16, 16);
+    vol_rc_params p = vol_rc_params_default();
+    p.shading = VOL_SHADING_LIGHT_VOLUME;
+    obs_image_f32 out[4], out0[4];
+    CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, &light, &lv, &cam, 32, 32, NULL, &p, out), ctx);
+    double lit = 0.0, dark = 0.0;
+    for (int y = 10; y < 22; y++)
+        for (int x = 0; x < 16; x++) {
+            dark += obs_image_f32_row(&out[0], y)[x];
+            lit += obs_image_f32_row(&out[0], y)[31 - x];
+        }
+    CHECK_MSG(lit > 1.5 * dark, "lit side %.4g, shadowed side %.4g", lit, dark);
+    p.brick = 0;
+    CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, &light, &lv, &cam, 32, 32, NULL, &p, out0), ctx);
+    CHECK(same4(out, out0));
+    free4(out);
+    free4(out0);
+    vol_light_volume_free(&lv);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
