@@ -820,22 +820,35 @@ TEST(volume_raycast_identical_for_1_2_and_8_threads)
     vol_light light = {OBS_LIGHT_POINT, {0, 0, 0}, {40, 50, 30}, {1, 1, 1}};
     obs_camera pc = obs_camera_look_at(obs_v3(-20, 45, 50), obs_v3(15.5, 15.5, 15.5), obs_v3(0, 1, 0), 0.8f, 0.1f,
                                        300.0f);
-    vol_rc_params p = vol_rc_params_default();
-    p.shading = VOL_SHADING_PHONG;
-    obs_image_f32 ref[4], out[4];
-    obs_pool *p1 = obs_pool_create(1);
-    CHECK_OK(vol_raycast(ctx, p1, &g, &tf, &light, NULL, &pc, 100, 70, NULL, &p, ref), ctx);
-    obs_pool_destroy(p1);
-    const int threads[] = {2, 8};
-    for (int i = 0; i < 2; i++) {
-        obs_pool *pool = obs_pool_create(threads[i]);
-        CHECK(pool != NULL);
-        CHECK_OK(vol_raycast(ctx, pool, &g, &tf, &light, NULL, &pc, 100, 70, NULL, &p, out), ctx);
-        obs_pool_destroy(pool);
-        CHECK_MSG(same4(ref, out), "%d threads differ from 1", threads[i]);
-        free4(out);
+    vol_lv_params lp = vol_lv_params_default();
+    vol_light_volume lv;
+    CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &light, &lp, &lv), ctx);
+    /* A depth limit on half the image. */
+    obs_image_f32 depth;
+    CHECK_OK(obs_image_f32_alloc(ctx, 100, 70, &depth), ctx);
+    for (int y = 0; y < 70; y++)
+        for (int x = 0; x < 100; x++)
+            obs_image_f32_row(&depth, y)[x] = x < 50 ? INFINITY : 62.0f + 0.1f * y;
+    for (int mode = 0; mode < VOL_SHADING_COUNT; mode++) {
+        vol_rc_params p = vol_rc_params_default();
+        p.shading = (vol_shading)mode;
+        obs_image_f32 ref[4], out[4];
+        obs_pool *p1 = obs_pool_create(1);
+        CHECK_OK(vol_raycast(ctx, p1, &g, &tf, &light, &lv, &pc, 100, 70, &depth, &p, ref), ctx);
+        obs_pool_destroy(p1);
+        const int threads[] = {2, 8};
+        for (int i = 0; i < 2; i++) {
+            obs_pool *pool = obs_pool_create(threads[i]);
+            CHECK(pool != NULL);
+            CHECK_OK(vol_raycast(ctx, pool, &g, &tf, &light, &lv, &pc, 100, 70, &depth, &p, out), ctx);
+            obs_pool_destroy(pool);
+            CHECK_MSG(same4(ref, out), "%s: %d threads differ from 1", vol_shading_name(p.shading), threads[i]);
+            free4(out);
+        }
+        free4(ref);
     }
-    free4(ref);
+    obs_image_f32_free(&depth);
+    vol_light_volume_free(&lv);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
