@@ -617,7 +617,7 @@ TEST(volume_nifti_applies_scl_slope)
         CHECK_MSG(strstr(obs_context_last_error(ctx), path), "message '%s' does not name %s",        \
                   obs_context_last_error(ctx), path);                                                \
         CHECK(g_.data == NULL);                                                                      \
-        (void)g_;                                                                                    \
+        printf("refused (%s): %s\n", obs_status_string(s_), obs_context_last_error(ctx));           \
     } while (0)
 
 TEST(volume_loaders_refuse_bad_files_naming_them)
@@ -680,20 +680,20 @@ TEST(volume_loaders_refuse_bad_files_naming_them)
     CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
     CHECK_EQ_INT(obs_context_last_status(ctx), OBS_STATUS_LIMIT_EXCEEDED);
 
-    /* NRRD: truncated raw, a 4D file, an unsupported type, absurd sizes, no such file, garbage. */
+    /* NRRD: truncated raw, a 4D file, an unsupported type, absurd sizes, zero spacing, a missing
+     * data file, garbage (a truncated gzip NRRD: its own test below). */
     static const char *const bad_nrrd[] = {
         "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: ushort\ndimension: 4\nsizes: 5 4 3 1\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: double\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 100000 100000 100000\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nspacings: 1 0 1\nendian: little\nencoding: raw\n\n",
-        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: gzip\n\n",
-        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nencoding: raw\ndata file: missing.raw\n",
+        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\ndata file: missing.raw\n",
         "NRRD0004\nthis is not a header\n\n",
     };
     for (size_t i = 0; i < sizeof bad_nrrd / sizeof bad_nrrd[0]; i++) {
-        snprintf(p, sizeof p, "%s", test_path(dir, i == 6 ? "bad.nhdr" : "bad.nrrd"));
-        CHECK(write_bytes(p, bad_nrrd[i], strlen(bad_nrrd[i]), data, i == 5 ? 20 : 50));
+        snprintf(p, sizeof p, "%s", test_path(dir, i == 5 ? "bad.nhdr" : "bad.nrrd"));
+        CHECK(write_bytes(p, bad_nrrd[i], strlen(bad_nrrd[i]), data, i == 5 ? 0 : 50));
         CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
     }
     snprintf(p, sizeof p, "%s", test_path(dir, "absent.nrrd"));
@@ -725,5 +725,78 @@ TEST(volume_loaders_refuse_bad_files_naming_them)
     }
     /* Auto never guesses raw. */
     CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    obs_context_destroy(ctx);
+}
+
+/* ---- the real datasets (scripts/fetch_volumes.sh; docs/volume.md "Datasets") ------------------- */
+
+TEST(volume_real_datasets_load_when_fetched)
+{
+    obs_context *ctx = obs_context_create();
+    char p[1024];
+    int found = 0;
+    snprintf(p, sizeof p, "%s/data/cache/volumes/ch2better.nii.gz", test_source_dir());
+    FILE *f = fopen(p, "rb");
+    if (f) {
+        fclose(f);
+        found++;
+        vol_grid g;
+        CHECK_OK(io_volume_load(ctx, p, NULL, &g), ctx);
+        CHECK(g.nx == 301 && g.ny == 370 && g.nz == 316 && g.source_type == VOL_TYPE_U8);
+        CHECK_NEAR(g.spacing[0], 0.5, 1e-6);
+        CHECK_NEAR(g.spacing[2], 0.5, 1e-6);
+        CHECK(g.value_min == 0.0f && g.value_max == 130.0f);
+        printf("ch2better.nii.gz: %dx%dx%d %s, spacing %g %g %g, origin %g %g %g, values %g..%g\n", g.nx, g.ny, g.nz,
+               vol_type_name(g.source_type), g.spacing[0], g.spacing[1], g.spacing[2], g.origin[0], g.origin[1],
+               g.origin[2], g.value_min, g.value_max);
+        vol_grid_free(&g);
+    } else {
+        printf("dataset absent: %s (run scripts/fetch_volumes.sh); its checks were skipped\n", p);
+    }
+    snprintf(p, sizeof p, "%s/data/cache/volumes/cranium.nrrd", test_source_dir());
+    f = fopen(p, "rb");
+    if (f) {
+        fclose(f);
+        found++;
+        vol_grid g;
+        CHECK_OK(io_volume_load(ctx, p, NULL, &g), ctx);
+        CHECK(g.nx == 256 && g.ny == 256 && g.nz == 108 && g.source_type == VOL_TYPE_I16);
+        CHECK_NEAR(g.spacing[0], 0.9570312, 1e-9);
+        CHECK_NEAR(g.spacing[2], 1.5, 1e-12);
+        CHECK(g.value_min == -1024.0f && g.value_max == 2986.0f);
+        printf("cranium.nrrd: %dx%dx%d %s, spacing %g %g %g, values %g..%g\n", g.nx, g.ny, g.nz,
+               vol_type_name(g.source_type), g.spacing[0], g.spacing[1], g.spacing[2], g.value_min, g.value_max);
+        vol_grid_free(&g);
+    } else {
+        printf("dataset absent: %s (run scripts/fetch_volumes.sh); its checks were skipped\n", p);
+    }
+    printf("%d of 2 real datasets present and checked\n", found);
+    obs_context_destroy(ctx);
+}
+
+/* Separate from the test above: teem 1.12.0~20160122 (Debian 12) leaks its gzip reader's state
+ * (_nrrdGzOpen, about 23 kB) when a gzip NRRD's data is short, which LeakSanitizer reports; the
+ * sanitizer build needs the suppression `leak:_nrrdGzOpen` for this test. */
+TEST(volume_nrrd_truncated_gzip_is_refused)
+{
+    obs_context *ctx = obs_context_create();
+    unsigned char data[240];
+    fixture_samples(VOL_TYPE_U16, data);
+    const char *dir = test_tmpdir();
+    char raw[512], gz[512], p[512];
+    snprintf(raw, sizeof raw, "%s", test_path(dir, "part.raw"));
+    snprintf(gz, sizeof gz, "%s", test_path(dir, "part.gz"));
+    snprintf(p, sizeof p, "%s", test_path(dir, "short-gzip.nrrd"));
+    CHECK(write_bytes(raw, data, 60, NULL, 0)); /* half the samples */
+    CHECK(gzip_to(raw, gz));
+    size_t gzlen = 0;
+    char *z = test_slurp(gz, &gzlen);
+    CHECK(z);
+    const char *head = "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: gzip\n\n";
+    int ok = write_bytes(p, head, strlen(head), z, gzlen);
+    free(z);
+    CHECK(ok);
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    CHECK_EQ_INT(obs_context_last_status(ctx), OBS_STATUS_IO_ERROR);
     obs_context_destroy(ctx);
 }

@@ -181,26 +181,39 @@ static obs_status load_nifti(obs_context *ctx, const char *path, vol_grid *out)
         int nver = 0;
         void *raw = nifti_read_header(path, &nver, 0);
         int64_t d[8] = {0};
+        int dt = -1;
         if (raw && nver == 1) {
             const nifti_1_header *h1 = (const nifti_1_header *)raw;
             for (int i = 0; i < 8; i++)
                 d[i] = h1->dim[i];
-            if (d[0] < 1 || d[0] > 7)
+            dt = (uint16_t)h1->datatype;
+            if (d[0] < 1 || d[0] > 7) {
                 for (int i = 0; i < 8; i++)
                     d[i] = (int16_t)(((uint16_t)h1->dim[i] >> 8) | ((uint16_t)h1->dim[i] << 8));
+                dt = (uint16_t)(((uint16_t)h1->datatype >> 8) | ((uint16_t)h1->datatype << 8));
+            }
         } else if (raw && nver == 2) {
             const nifti_2_header *h2 = (const nifti_2_header *)raw;
             for (int i = 0; i < 8; i++)
                 d[i] = h2->dim[i];
-            if (d[0] < 1 || d[0] > 7)
+            dt = h2->datatype;
+            if (d[0] < 1 || d[0] > 7) {
                 for (int i = 0; i < 8; i++) {
                     uint64_t u = (uint64_t)h2->dim[i], w = 0;
                     for (int b = 0; b < 8; b++)
                         w |= ((u >> (8 * b)) & 255u) << (8 * (7 - b));
                     d[i] = (int64_t)w;
                 }
+                dt = (int)(((uint32_t)h2->datatype >> 24) | (((uint32_t)h2->datatype >> 8) & 0xff00u) |
+                           (((uint32_t)h2->datatype << 8) & 0xff0000u) | ((uint32_t)h2->datatype << 24));
+            }
         }
         free(raw);
+        if (dt >= 0 && dt != DT_UINT8 && dt != DT_UINT16 && dt != DT_INT16 && dt != DT_FLOAT32)
+            return obs_error(ctx, OBS_STATUS_UNSUPPORTED,
+                             "%s: NIfTI datatype %d (%s) is not supported (u8, u16, i16 and f32 are; complex and "
+                             "RGB never)",
+                             path, dt, nifti_datatype_string(dt));
         if (d[0] >= 1 && d[0] <= 7)
             for (int i = 1; i <= d[0]; i++)
                 if (d[i] < 1)
@@ -338,6 +351,29 @@ static obs_status nrrd_error(obs_context *ctx, obs_status st, const char *path, 
     return obs_error(ctx, st, "%s: %s (teem: %s%s%s)", path, what, first, last[0] ? " ... " : "", last);
 }
 
+/* Bytes up to and including the blank line that ends an attached NRRD header (0 when not found
+ * in the first 1 MiB: then only the data's own length is checked). */
+static int64_t nrrd_attached_header_length(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    int64_t pos = 0, found = 0;
+    int prev = 0, c;
+    while (pos < (1 << 20) && (c = fgetc(f)) != EOF) {
+        pos++;
+        if (c == '\r')
+            continue;
+        if (c == '\n' && prev == '\n') {
+            found = pos;
+            break;
+        }
+        prev = c;
+    }
+    fclose(f);
+    return found;
+}
+
 static obs_status load_nrrd(obs_context *ctx, const char *path, vol_grid *out)
 {
     obs_status st = OBS_STATUS_OK;
@@ -438,13 +474,15 @@ static obs_status load_nrrd(obs_context *ctx, const char *path, vol_grid *out)
                            strerror(errno));
             goto done;
         }
+        else if (df == path && len >= 0)
+            skip = nrrd_attached_header_length(path) + (nio->byteSkip > 0 ? nio->byteSkip : 0);
         if (len >= 0 && len < need + skip) {
             st = obs_error(ctx, OBS_STATUS_IO_ERROR,
-                           "%s: truncated: the header says %llux%llux%llu %s voxels (%lld bytes) but %s has %lld "
-                           "bytes",
+                           "%s: truncated: the header says %llux%llux%llu %s voxels (%lld bytes after %lld bytes "
+                           "of header or skip) but %s has %lld bytes",
                            path, (unsigned long long)hdr->axis[0].size, (unsigned long long)hdr->axis[1].size,
-                           (unsigned long long)hdr->axis[2].size, vol_type_name(t), (long long)need, df,
-                           (long long)len);
+                           (unsigned long long)hdr->axis[2].size, vol_type_name(t), (long long)need, (long long)skip,
+                           df, (long long)len);
             goto done;
         }
     }
