@@ -21,11 +21,13 @@ if [ ! -f "$dest/ch2better.nii.gz" ] || [ ! -f "$dest/cranium.nrrd" ]; then
   ch2=/usr/share/mricron/templates/ch2better.nii.gz
   inv=/usr/share/doc/invesalius-examples/examples/Cranium.inv3
   if [ ! -f "$ch2" ]; then
-    (cd "$tmp" && apt-get download mricron-data >/dev/null 2>&1 && dpkg -x mricron-data_*.deb x)
+    (cd "$tmp" && apt-get download mricron-data >/dev/null 2>&1 && dpkg -x mricron-data_*.deb x) || {
+      echo "fetch_volumes: cannot download or unpack mricron-data (apt sources? network?)" >&2; exit 1; }
     ch2="$tmp/x/usr/share/mricron/templates/ch2better.nii.gz"
   fi
   if [ ! -f "$inv" ]; then
-    (cd "$tmp" && apt-get download invesalius-examples >/dev/null 2>&1 && dpkg -x invesalius-examples_*.deb x)
+    (cd "$tmp" && apt-get download invesalius-examples >/dev/null 2>&1 && dpkg -x invesalius-examples_*.deb x) || {
+      echo "fetch_volumes: cannot download or unpack invesalius-examples (apt sources? network?)" >&2; exit 1; }
     inv="$tmp/x/usr/share/doc/invesalius-examples/examples/Cranium.inv3"
   fi
   cp "$ch2" "$dest/ch2better.nii.gz"

@@ -680,20 +680,20 @@ TEST(volume_loaders_refuse_bad_files_naming_them)
     CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
     CHECK_EQ_INT(obs_context_last_status(ctx), OBS_STATUS_LIMIT_EXCEEDED);
 
-    /* NRRD: truncated raw, a 4D file, an unsupported type, absurd sizes, no such file, garbage. */
+    /* NRRD: truncated raw, a 4D file, an unsupported type, absurd sizes, zero spacing, a missing
+     * data file, garbage (a truncated gzip NRRD: its own test below). */
     static const char *const bad_nrrd[] = {
         "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: ushort\ndimension: 4\nsizes: 5 4 3 1\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: double\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 100000 100000 100000\nendian: little\nencoding: raw\n\n",
         "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nspacings: 1 0 1\nendian: little\nencoding: raw\n\n",
-        "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: gzip\n\n",
         "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: raw\ndata file: missing.raw\n",
         "NRRD0004\nthis is not a header\n\n",
     };
     for (size_t i = 0; i < sizeof bad_nrrd / sizeof bad_nrrd[0]; i++) {
-        snprintf(p, sizeof p, "%s", test_path(dir, i == 6 ? "bad.nhdr" : "bad.nrrd"));
-        CHECK(write_bytes(p, bad_nrrd[i], strlen(bad_nrrd[i]), data, i == 5 ? 20 : i == 6 ? 0 : 50));
+        snprintf(p, sizeof p, "%s", test_path(dir, i == 5 ? "bad.nhdr" : "bad.nrrd"));
+        CHECK(write_bytes(p, bad_nrrd[i], strlen(bad_nrrd[i]), data, i == 5 ? 0 : 50));
         CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
     }
     snprintf(p, sizeof p, "%s", test_path(dir, "absent.nrrd"));
@@ -771,5 +771,32 @@ TEST(volume_real_datasets_load_when_fetched)
         printf("dataset absent: %s (run scripts/fetch_volumes.sh); its checks were skipped\n", p);
     }
     printf("%d of 2 real datasets present and checked\n", found);
+    obs_context_destroy(ctx);
+}
+
+/* Separate from the test above: teem 1.12.0~20160122 (Debian 12) leaks its gzip reader's state
+ * (_nrrdGzOpen, about 23 kB) when a gzip NRRD's data is short, which LeakSanitizer reports; the
+ * sanitizer build needs the suppression `leak:_nrrdGzOpen` for this test. */
+TEST(volume_nrrd_truncated_gzip_is_refused)
+{
+    obs_context *ctx = obs_context_create();
+    unsigned char data[240];
+    fixture_samples(VOL_TYPE_U16, data);
+    const char *dir = test_tmpdir();
+    char raw[512], gz[512], p[512];
+    snprintf(raw, sizeof raw, "%s", test_path(dir, "part.raw"));
+    snprintf(gz, sizeof gz, "%s", test_path(dir, "part.gz"));
+    snprintf(p, sizeof p, "%s", test_path(dir, "short-gzip.nrrd"));
+    CHECK(write_bytes(raw, data, 60, NULL, 0)); /* half the samples */
+    CHECK(gzip_to(raw, gz));
+    size_t gzlen = 0;
+    char *z = test_slurp(gz, &gzlen);
+    CHECK(z);
+    const char *head = "NRRD0004\ntype: ushort\ndimension: 3\nsizes: 5 4 3\nendian: little\nencoding: gzip\n\n";
+    int ok = write_bytes(p, head, strlen(head), z, gzlen);
+    free(z);
+    CHECK(ok);
+    CHECK_REFUSED(io_volume_load(ctx, p, NULL, &g_), p);
+    CHECK_EQ_INT(obs_context_last_status(ctx), OBS_STATUS_IO_ERROR);
     obs_context_destroy(ctx);
 }

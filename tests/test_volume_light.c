@@ -214,6 +214,7 @@ static void error_on(const char *name, int n, const char *tfname, vol_light L, i
     CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
     CHECK(lv_all_finite_unit(&lv));
     truth_volume_params tp = truth_volume_params_default();
+    tp.step_fraction = 1.0 / 8.0; /* still on every kink of an axis-aligned ray; halves the test's time */
     truth_volume_error_stats st;
     float *T = NULL;
     CHECK_OK(truth_volume_light_error(ctx, NULL, &g, &tf, &L, &tp, &lv, &T, NULL, &st), ctx);
@@ -237,16 +238,16 @@ static void error_on(const char *name, int n, const char *tfname, vol_light L, i
 
 TEST(volume_light_sphere_error_within_bound)
 {
-    error_on("sphere", 48, NULL, dir_light(0, 0, 1), 1, 1e-5, 1e-6);
+    error_on("sphere", 40, NULL, dir_light(0, 0, 1), 1, 1e-5, 1e-6);
     if (test_failed())
         return;
-    error_on("sphere", 48, NULL, dir_light(0.3, -0.5, 0.8), 0, 0.4, 0.02);
+    error_on("sphere", 40, NULL, dir_light(0.3, -0.5, 0.8), 0, 0.4, 0.02);
     if (test_failed())
         return;
-    error_on("sphere", 48, NULL, dir_light(0.3, -0.5, 0.8), 1, 0.38, 0.016);
+    error_on("sphere", 40, NULL, dir_light(0.3, -0.5, 0.8), 1, 0.38, 0.016);
     if (test_failed())
         return;
-    error_on("sphere", 48, NULL, point_light(-30.0, 20.0, 70.0), 1, 0.28, 0.013);
+    error_on("sphere", 40, NULL, point_light(-30.0, 20.0, 70.0), 1, 0.28, 0.013);
 }
 
 TEST(volume_light_bucky_error_within_bound)
@@ -264,13 +265,13 @@ TEST(volume_light_point_light_inside_is_finite_and_near_exact)
 {
     /* Near the sphere's centre (the grid is centred on the origin), and off-centre exactly on a slice plane
      * (x = -5.5 is a voxel centre plane). */
-    error_on("sphere", 32, NULL, point_light(0.25, -0.4, 0.1), 1, 1.0, 1.0);
+    error_on("sphere", 32, NULL, point_light(0.25, -0.4, 0.1), 1, 0.13, 0.0065);
     if (test_failed())
         return;
-    error_on("sphere", 32, NULL, point_light(-5.5, 4.25, -3.0), 1, 1.0, 1.0);
+    error_on("sphere", 32, NULL, point_light(-5.5, 4.25, -3.0), 1, 0.17, 0.0075);
     if (test_failed())
         return;
-    error_on("sphere", 32, NULL, point_light(-5.5, 4.25, -3.0), 0, 1.0, 1.0);
+    error_on("sphere", 32, NULL, point_light(-5.5, 4.25, -3.0), 0, 0.19, 0.0098);
 }
 
 TEST(volume_light_one_voxel_thick_volume)

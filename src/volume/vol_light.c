@@ -97,6 +97,13 @@ typedef struct lv_pass {
     int point;                  /* 1: point light at P; 0: directional, travel direction D */
     double P[3], D[3];
     double tan_theta;
+    /* The cone stencils for R = 1..VOL_LV_MAX_RINGS rings (lv_stencil_init): tap k of stencil R at
+     * unit offset (cu, cv) (ring j at radius j/R, 8j taps at angles 2 pi m / 8j), Gaussian weight
+     * w = exp(-|o|^2 / (2 (1/2)^2)) = exp(-2 (j/R)^2), and the weights' sum with the centre's 1. */
+    int st_count[VOL_LV_MAX_RINGS + 1];
+    const double *st_cu[VOL_LV_MAX_RINGS + 1], *st_cv[VOL_LV_MAX_RINGS + 1];
+    const float *st_w[VOL_LV_MAX_RINGS + 1];
+    float st_wsum[VOL_LV_MAX_RINGS + 1];
     /* the slice being computed */
     int k, kprev;
     lv_mode mode;
@@ -169,6 +176,14 @@ static double lv_seed_march(const lv_pass *P, const double x[3])
  * is unattenuated, Inviwo's border colour 1, volume.md 1.2). */
 static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, float border)
 {
+    if (pu >= 0.0 && pv >= 0.0 && pu < (double)(P->nu - 1) && pv < (double)(P->nv - 1)) {
+        /* Interior: truncation is floor. */
+        int i0 = (int)pu, j0 = (int)pv;
+        float tu = (float)(pu - (double)i0), tv = (float)(pv - (double)j0);
+        const float *r0 = P->prev[ch] + (size_t)j0 * P->nu + i0, *r1 = r0 + P->nu;
+        float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
+        return a + (b - a) * tv;
+    }
     double fu = floor(pu), fv = floor(pv);
     int i0 = (int)fu, j0 = (int)fv;
     float tu = (float)(pu - fu), tv = (float)(pv - fv);
@@ -191,6 +206,27 @@ static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, flo
     /* Lerps as a + (b - a) t: a constant field is reproduced exactly (the empty-TF limit l = 1). */
     float a = t00 + (t10 - t00) * tu, b = t01 + (t11 - t01) * tu;
     return a + (b - a) * tv;
+}
+
+/* The same bilinear fetch of three channels (the chromaticity) sharing the index arithmetic. */
+static inline void lv_fetch3(const lv_pass *P, int ch0, double pu, double pv, float border, float out[3])
+{
+    const int nu = P->nu, nv = P->nv;
+    /* Interior fast path: for pu, pv in [0, n-1) truncation is floor (no libm call). */
+    if (pu >= 0.0 && pv >= 0.0 && pu < (double)(nu - 1) && pv < (double)(nv - 1)) {
+        int i0 = (int)pu, j0 = (int)pv;
+        double fu = (double)i0, fv = (double)j0;
+        float tu = (float)(pu - fu), tv = (float)(pv - fv);
+        size_t o = (size_t)j0 * nu + i0;
+        for (int c = 0; c < 3; c++) {
+            const float *r0 = P->prev[ch0 + c] + o, *r1 = r0 + nu;
+            float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
+            out[c] = a + (b - a) * tv;
+        }
+        return;
+    }
+    for (int c = 0; c < 3; c++)
+        out[c] = lv_fetch(P, ch0 + c, pu, pv, border);
 }
 
 /* One row (v) of the current slice. */
@@ -264,21 +300,17 @@ static void lv_row_task(void *user, int64_t task, int thread)
                 R = 1;
             if (R > VOL_LV_MAX_RINGS)
                 R = VOL_LV_MAX_RINGS;
-            float acc[3], wsum = 1.0f;
-            for (int c = 0; c < 3; c++)
-                acc[c] = lv_fetch(P, LV_C0 + c, pu, pv, 1.0f);
-            for (int j = 1; j <= R; j++) {
-                double f = (double)j / R;
-                float w = (float)exp(-2.0 * f * f);
-                int taps = 8 * j;
-                for (int m = 0; m < taps; m++) {
-                    double phi = 2.0 * OBS_PI * m / taps;
-                    double qu = pu + f * ru * cos(phi), qv = pv + f * rv * sin(phi);
-                    for (int c = 0; c < 3; c++)
-                        acc[c] += w * lv_fetch(P, LV_C0 + c, qu, qv, 1.0f);
-                    wsum += w;
-                }
+            float acc[3], q[3];
+            lv_fetch3(P, LV_C0, pu, pv, 1.0f, acc);
+            const int cnt = P->st_count[R];
+            const double *cu = P->st_cu[R], *cv = P->st_cv[R];
+            const float *w = P->st_w[R];
+            for (int m = 0; m < cnt; m++) {
+                lv_fetch3(P, LV_C0, pu + ru * cu[m], pv + rv * cv[m], 1.0f, q);
+                for (int c = 0; c < 3; c++)
+                    acc[c] += w[m] * q[c];
             }
+            const float wsum = P->st_wsum[R];
             for (int c = 0; c < 3; c++)
                 cc[c] = tau * (acc[c] / wsum) + (1.0f - tau) * ctf[c];
         }
@@ -372,6 +404,41 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     }
     obs_aligned_free(buf);
     return OBS_STATUS_OK;
+}
+
+/* ---- Cone stencils ------------------------------------------------------------------------------ */
+
+#define LV_STENCIL_TAPS (8 * (VOL_LV_MAX_RINGS * (VOL_LV_MAX_RINGS + 1) / 2)) /* all rings of R = 4 */
+typedef struct lv_stencils {
+    double cu[VOL_LV_MAX_RINGS + 1][LV_STENCIL_TAPS], cv[VOL_LV_MAX_RINGS + 1][LV_STENCIL_TAPS];
+    float w[VOL_LV_MAX_RINGS + 1][LV_STENCIL_TAPS];
+} lv_stencils;
+
+/* The Gaussian ring stencils (volume.md 1.6 [R]: "centre + a ring of 4-8, more as r grows",
+ * w = exp(-|u|^2 / (2 (r/2)^2))), in units of the footprint radius r. */
+static void lv_stencil_init(lv_pass *P, lv_stencils *S)
+{
+    for (int R = 1; R <= VOL_LV_MAX_RINGS; R++) {
+        int k = 0;
+        float wsum = 1.0f; /* the centre tap */
+        for (int j = 1; j <= R; j++) {
+            double f = (double)j / R;
+            float w = (float)exp(-2.0 * f * f);
+            int taps = 8 * j;
+            for (int m = 0; m < taps; m++, k++) {
+                double phi = 2.0 * OBS_PI * m / taps;
+                S->cu[R][k] = f * cos(phi);
+                S->cv[R][k] = f * sin(phi);
+                S->w[R][k] = w;
+                wsum += w;
+            }
+        }
+        P->st_count[R] = k;
+        P->st_cu[R] = S->cu[R];
+        P->st_cv[R] = S->cv[R];
+        P->st_w[R] = S->w[R];
+        P->st_wsum[R] = wsum;
+    }
 }
 
 /* ---- Face choice ------------------------------------------------------------------------------- */
@@ -534,6 +601,13 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
     out->face1 = p->blend_second ? f1 : -1;
     out->blend_weight = w;
 
+    lv_stencils *stencils = (lv_stencils *)malloc(sizeof *stencils);
+    if (!stencils) {
+        vol_light_volume_free(out);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory");
+    }
+    lv_stencil_init(&P, stencils);
+
     /* F0: light enters by face f0 (dir_max = -n_F0): from the low side when f0 is a minus face. */
     st = lv_propagate(ctx, pool, &P, f0 >> 1, (f0 & 1) == 0, out->l, out->c);
     if (st == OBS_STATUS_OK && need_second) {
@@ -550,6 +624,7 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
             obs_aligned_free(tmp);
         }
     }
+    free(stencils);
     if (st != OBS_STATUS_OK)
         vol_light_volume_free(out);
     return st;
