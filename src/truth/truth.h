@@ -413,6 +413,52 @@ int truth_sss_mesh_is_closed(const obs_mesh *mesh, uint64_t *open_edges);
 
 /* ============================================ end of SSS ground truth =========================== */
 
+/* ============================================ volume light ground truth ========================= */
+/* truth_volume.c: the exact hard-shadow transmittance that the light volume of [Ropinski10]
+ * (vol.h section 3) approximates (docs/volume/light.md, "Ground truth"; volume.md 1.9):
+ *   T(x) = exp(-integral_0^L sigma_t(x + t w) dt),
+ * w the unit direction towards the light, L the distance to the point light or to where the ray
+ * leaves the data's bounds (vol_grid_bounds); sigma_t = kappa * alpha_TF(s) / ref_step (vol.h's
+ * convention; ref_step 0 = the smallest spacing), s the data's trilinear value, 0 outside the
+ * bounds. Trapezoid rule with step step_fraction x the smallest spacing. */
+struct vol_grid;
+struct vol_tf;
+struct vol_light;
+struct vol_light_volume;
+
+typedef struct truth_volume_params {
+    double kappa;                   /* extinction scale, as vol_lv_params.kappa; default 1 */
+    double step_fraction;           /* march step / smallest spacing, (0, 1]; default 1/16 (exact
+                                       along grid lines for a TF linear in s) */
+} truth_volume_params;
+truth_volume_params truth_volume_params_default(void);
+
+/* T(x) at one world point (directional or point light; no checks: valid inputs assumed). */
+double truth_volume_transmittance_at(const struct vol_grid *g, const struct vol_tf *tf,
+                                     const struct vol_light *light, const truth_volume_params *p,
+                                     const double x[3]);
+
+typedef struct truth_volume_error_stats {
+    double max_abs;                 /* max |l - T| over the light volume's voxels */
+    double mean_abs, rmse;          /* mean |l - T| and root mean square of l - T */
+    double mean_signed;             /* mean of l - T (> 0: the light volume is too bright) */
+    int64_t argmax;                 /* voxel index (x fastest) of max_abs */
+    int64_t voxels;
+} truth_volume_error_stats;
+
+/* T at every voxel centre of lv (built from g, tf, light) and the error volume err = lv->l - T.
+ * *T_out and *err_out (either pointer may be NULL: not wanted) get lv->nx*ny*nz floats, x fastest,
+ * allocated here (free with obs_aligned_free). stats (may be NULL) are reduced in voxel order.
+ * Output identical for any pool and thread count.
+ * Returns OK, INVALID_ARGUMENT (NULLs, kappa < 0 or non-finite, step_fraction outside (0, 1], a zero
+ * direction, a non-finite position), UNSUPPORTED (spot light), OUT_OF_MEMORY. */
+obs_status truth_volume_light_error(obs_context *ctx, obs_pool *pool, const struct vol_grid *g,
+                                    const struct vol_tf *tf, const struct vol_light *light,
+                                    const truth_volume_params *p, const struct vol_light_volume *lv,
+                                    float **T_out, float **err_out, truth_volume_error_stats *stats);
+
+/* ============================================ end of volume light ground truth ================== */
+
 #ifdef __cplusplus
 }
 #endif
