@@ -18,10 +18,14 @@
  *     volume's axes are the world's; a loader that meets a rotated qform/sform says so and keeps
  *     the axes). Data is x fastest, then y, then z.
  *   - Values are converted to float on load (with NIfTI's scl_slope/scl_inter applied).
- *   - Extinction: sigma_t(x) = kappa * alpha_TF(s(x)) / ref_step (per world unit), with
- *     alpha_TF the transfer function's opacity for a step of ref_step; transmittance over a
- *     path of length d through constant material: exp(-sigma_t d) = (1 - alpha)^(d / ref_step).
- *     The light volume, the ray caster and the ground truths all use this one convention.
+ *   - Extinction: sigma_t(x) = -kappa ln(1 - alpha_TF(s(x))) / ref_step (per world unit), with
+ *     alpha_TF the transfer function's opacity for a step of ref_step (alpha_TF = 1: opaque,
+ *     infinite sigma_t); with kappa = 1 the transmittance over a path of length d through
+ *     constant material is exp(-sigma_t d) = (1 - alpha_TF)^(d / ref_step): exactly the opacity
+ *     correction (vol_tf_alpha_correct). The ray caster, the light volume and the ground truths
+ *     all use this one convention (the ray caster with kappa = 1). (A first draft of this header
+ *     wrote sigma_t = kappa alpha / ref_step, which agrees only for small alpha: at alpha 0.5,
+ *     0.5 against ln 2 = 0.693 per ref_step.)
  *   - Light directions: a directional light's `direction` is the way light TRAVELS (glTF).
  */
 #ifndef VOL_H
