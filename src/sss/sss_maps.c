@@ -171,6 +171,53 @@ void sss_i_halton_disk_free(sss_i_halton_disk *h)
     memset(h, 0, sizeof *h);
 }
 
+/* ------------------------------------------------------------------------------------------------
+ * The exponential sampler (sss_maps_internal.h has the recipe)
+ * ---------------------------------------------------------------------------------------------- */
+
+void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d)
+{
+    memset(d, 0, sizeof *d);
+    d->sigma = (float)sigma;
+    d->R = (float)R;
+    d->T = d->sigma * d->R;
+    const double T = sigma * R, q = (1.0 + T) * exp(-T);
+    d->q = (float)q;
+    d->Z = (float)(1.0 - q);
+    /* 1 / (N p(x)), p(x) = sigma^2 e^{-sigma rho} / (2 pi Z): the e^{sigma rho} factor per sample */
+    d->w0 = (float)(2.0 * OBS_PI * (1.0 - q) / ((double)N * sigma * sigma));
+    /* the LCG of sss_i_rand composed k times: a_k = a^k, c_k = c (a^{k-1} + ... + 1) (mod 2^32) */
+    uint32_t a = 1, c = 0;
+    for (int k = 0; k < 16; k++) {
+        a = 1664525u * a;
+        c = 1664525u * c + 1013904223u;
+        d->jump_a[k] = a;
+        d->jump_c[k] = c;
+    }
+}
+
+void sss_i_exp_samples_scalar(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w)
+{
+    for (int i = 0; i < n; i++) {
+        const float u1 = sss_i_rand(state), u2 = sss_i_rand(state);
+        sss_i_exp_sample(u1, u2, d, &ox[i], &oy[i], &w[i]);
+    }
+}
+
+void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w, int use_avx2)
+{
+    int done = 0;
+#if defined(OBS_HAVE_AVX2)
+    if (use_avx2 && n >= 8) {
+        sss_i_exp_samples_avx2(state, n / 8, d, ox, oy, w);
+        done = n / 8 * 8;
+    }
+#else
+    (void)use_avx2;
+#endif
+    sss_i_exp_samples_scalar(state, n - done, d, ox + done, oy + done, w + done);
+}
+
 int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_r, int keep, int *idx, int *visited)
 {
     /* [DalCorso14] method.tex, planeHaltonCircleRejectionExponential: accept when
@@ -352,10 +399,11 @@ typedef struct mat_info {
     const sss_constants *c; /* NULL: opaque */
     sss_gpu_constants g;
     double sigma_star;      /* min sigma_tr / q, per scene unit */
+    sss_i_exp_disk ed;      /* the exponential sampler's constants (sigma*, R, N) */
 } mat_info;
 
 typedef struct scratch {
-    float *buf;             /* xi[3], ni[3], wi[3], out[3]: 12 N floats */
+    float *buf;             /* xi[3], ni[3], wi[3], out[3], ox, oy, w: 15 N floats */
     double *w;              /* N */
     int *idx;               /* M */
 } scratch;
@@ -374,6 +422,7 @@ typedef struct build_job {
     scratch *scr;           /* one per thread */
     uint64_t *evaluated, *candidates; /* one per task */
     uint8_t *failed;        /* one per task */
+    int use_avx2;           /* the exponential sampler's sample generation */
 } build_job;
 
 static const mat_info *job_material(const build_job *j, uint32_t id)
@@ -445,7 +494,67 @@ static int gather_light(const build_job *j, const light_info *li, const double x
         n++;                                                                                           \
     } while (0)
 
-    if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE) {
+    if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
+        /* ours (docs/sss/maps.md "Samplers"): N samples of the density e^{-sigma* rho} on the disk,
+         * weight 1/(N pdf), drawn SoA (sss_i_exp_samples), then fetched and packed in order */
+        float *sox = s->buf + (size_t)12 * N, *soy = s->buf + (size_t)13 * N, *sw = s->buf + (size_t)14 * N;
+        sss_i_exp_samples(state, N, &mi->ed, sox, soy, sw, j->use_avx2);
+        *cand += (uint64_t)N;
+        const float fcx = (float)pcx, fcy = (float)pcy, fppu = (float)ppu, fsize = (float)size;
+        const float *P0 = lm->position[0].data, *P1 = lm->position[1].data, *P2 = lm->position[2].data;
+        const float *W0 = lm->wnormal[0].data, *W1 = lm->wnormal[1].data, *W2 = lm->wnormal[2].data;
+        const uint32_t *IID = lm->gb.instance_id.data;
+        const ptrdiff_t pst = lm->position[0].stride, ist = lm->gb.instance_id.stride;
+        if (!li->point) {
+            const float l0 = (float)li->to_light[0], l1 = (float)li->to_light[1], l2 = (float)li->to_light[2];
+            for (int i = 0; i < N; i++) {
+                const float tx = fcx + sox[i] * fppu, ty = fcy - soy[i] * fppu;
+                if (!(tx >= 0.0f && ty >= 0.0f && tx < fsize && ty < fsize))
+                    continue;
+                const int ix = (int)tx, iy = (int)ty; /* nearest texel (docs/sss/maps.md) */
+                const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
+                const float px = P0[o];
+                if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
+                    continue;
+                xi[0][n] = px;
+                xi[1][n] = P1[o];
+                xi[2][n] = P2[o];
+                ni[0][n] = W0[o];
+                ni[1][n] = W1[o];
+                ni[2][n] = W2[o];
+                wi[0][n] = l0;
+                wi[1][n] = l1;
+                wi[2][n] = l2;
+                s->w[n] = (double)sw[i];
+                n++;
+            }
+        } else {
+            for (int i = 0; i < N; i++) {
+                const float tx = fcx + sox[i] * fppu, ty = fcy - soy[i] * fppu;
+                if (!(tx >= 0.0f && ty >= 0.0f && tx < fsize && ty < fsize))
+                    continue;
+                const int ix = (int)tx, iy = (int)ty;
+                const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
+                const float px = P0[o];
+                if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
+                    continue;
+                const double x_i[3] = {px, P1[o], P2[o]};
+                double dx = li->pos[0] - x_i[0], dy = li->pos[1] - x_i[1], dz = li->pos[2] - x_i[2];
+                double d2 = dx * dx + dy * dy + dz * dz, il = 1.0 / sqrt(d2);
+                for (int a = 0; a < 3; a++)
+                    xi[a][n] = (float)x_i[a];
+                ni[0][n] = W0[o];
+                ni[1][n] = W1[o];
+                ni[2][n] = W2[o];
+                wi[0][n] = (float)(dx * il);
+                wi[1][n] = (float)(dy * il);
+                wi[2][n] = (float)(dz * il);
+                /* point light: E = I / |x_p - x_i|^2 ([DalCorso14] eq. inter2 variant) */
+                s->w[n] = (double)sw[i] / d2;
+                n++;
+            }
+        }
+    } else if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE) {
         /* [DalCorso14] final shader (#define RUSSIAN_ROULETTE, sss.md 3.4): rho = R sqrt(z1),
          * phi = 2 pi z2, accept if z3 < exp(-sigma* |x_o - x_i|) (3D distance), weight
          * disk_area / (N p) (sss.md 3.5: the unbiased Russian-roulette form). Three draws per
@@ -628,6 +737,19 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         sss_gpu_constants_make(cc, p->model, &mi[i].g);
         mi[i].sigma_star = cc->min_sigma_tr / p->spread_q; /* sigma* = min sigma_tr / q (sss.md 3.4) */
     }
+    /* disk radius: params, else half the diagonal of the bounds ([DalCorso14]: "the size of the
+     * object bounding box"; sss.md 3.5) */
+    job.R = p->disk_radius > 0.0 ? p->disk_radius : rad;
+    job.area = OBS_PI * job.R * job.R;
+    for (uint32_t i = 0; i <= mats->count; i++)
+        if (mi[i].c)
+            sss_i_exp_disk_make(mi[i].sigma_star, job.R, p->N, &mi[i].ed);
+    if (p->isa == SSS_ISA_AVX2)
+        job.use_avx2 = 1;
+    else if (p->isa == SSS_ISA_AUTO) {
+        const char *env = getenv("OBS_ISA");
+        job.use_avx2 = !(env && !strcmp(env, "scalar")) && sss_isa_available(SSS_ISA_AVX2);
+    }
     for (int l = 0; l < light_count; l++) {
         const obs_light *L = &lights[l].light;
         li[l].lm = &lights[l];
@@ -650,7 +772,7 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
             goto done;
     for (int t = 0; t < threads; t++) {
-        job.scr[t].buf = (float *)malloc(sizeof(float) * 12 * (size_t)p->N);
+        job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)p->N);
         job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)p->N);
         job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
         if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {
@@ -666,10 +788,6 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     job.light_count = light_count;
     job.mats = mi;
     job.mat_count = mats->count;
-    /* disk radius: params, else half the diagonal of the bounds ([DalCorso14]: "the size of the
-     * object bounding box"; sss.md 3.5) */
-    job.R = p->disk_radius > 0.0 ? p->disk_radius : rad;
-    job.area = OBS_PI * job.R * job.R;
     job.hd = &hd;
     int64_t tasks = (int64_t)K * job.tiles;
     job.evaluated = (uint64_t *)calloc((size_t)tasks, sizeof(uint64_t));

@@ -4,8 +4,10 @@
 #define SSS_MAPS_INTERNAL_H
 
 #include "sss.h"
+#include "sss_internal.h"
 
 #include <math.h>
+#include <string.h>
 
 /* ---- The per-texel random stream (docs/sss/maps.md, "Randomness": the exact recipe) ---------
  * Seeded with TEA [Wheeler94], 16 rounds, the key constants of Dal Corso's
@@ -46,6 +48,140 @@ static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, dou
     *ox = rho * cos(phi);
     *oy = rho * sin(phi);
 }
+
+/* ---- The exponential sampler (SSS_SAMPLER_EXPONENTIAL; docs/sss/maps.md "Samplers") ----------
+ * Importance sampling of the 2D density p(x) = sigma^2 e^{-sigma rho} / (2 pi Z) on the disk of
+ * radius R (sigma = sigma*, T = sigma R, Z = 1 - (1 + T) e^{-T}), i.e. the radial density
+ * sigma^2 rho e^{-sigma rho} / Z on [0, R] (the density Russian roulette accepts with, sss.md
+ * 3.5), by inversion of its CDF F(rho) = (1 - (1 + t) e^{-t}) / Z, t = sigma rho:
+ *   u1 -> w = -ln(1 - u1 Z)  (= -ln((1 - u1) + u1 (1+T) e^{-T})),
+ *   t solves t - ln(1 + t) = w (Newton from t0 = w + sqrt(2 w), which lies right of the root:
+ *   e^s >= 1 + s + s^2/2 with s = sqrt(2 w); g convex increasing, so the iterates decrease
+ *   monotonically; 3 steps reach float precision, test sss_exponential_sampler_inverts_the_cdf),
+ *   rho = min(t / sigma, R); phi = 2 pi u2.
+ * Weight of a sample: 1 / (N p(x)) = 2 pi Z e^{sigma rho} / (N sigma^2) (unbiased; every sample
+ * counts, none is rejected). Two draws per sample, u1 then u2, from the texel's stream.
+ * Everything is plain float arithmetic (+ - * / sqrt, compares, the kernel's sss_i_expf and the
+ * log below) so that the AVX2 path (sss_maps_avx2.c) gives the same bits. */
+typedef struct sss_i_exp_disk {
+    float sigma, R, T;       /* sigma*, the disk radius, T = sigma R (all float) */
+    float q, Z;              /* q = (1 + T) e^{-T}, Z = 1 - q (from double) */
+    float w0;                /* 2 pi Z / (N sigma^2) (from double) */
+    uint32_t jump_a[16], jump_c[16]; /* LCG jump-ahead: state_{+k} = a_k state + c_k, k = 1..16 */
+} sss_i_exp_disk;
+void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d);
+
+/* Natural log of a positive normal float: y = m 2^e with m in [sqrt(1/2), sqrt(2)), ln m =
+ * 2 atanh(s), s = (m - 1)/(m + 1), |s| <= 0.1716, series to s^9 (truncation < 1e-9), plus e ln 2
+ * (ln 2 in two parts). Plain float operations (a GLSL port can follow them). */
+#define SSS_I_LN2_HI 0.693145751953125f
+#define SSS_I_LN2_LO 1.42860676533018704e-6f
+static inline float sss_i_logf(float y)
+{
+    uint32_t b;
+    memcpy(&b, &y, sizeof b);
+    int32_t e = (int32_t)(b >> 23) - 127;
+    uint32_t mb = (b & 0x007fffffu) | 0x3f800000u;
+    float m;
+    memcpy(&m, &mb, sizeof m);
+    if (m > 1.41421356f) {
+        m = m * 0.5f;
+        e = e + 1;
+    }
+    const float s = (m - 1.0f) / (m + 1.0f), s2 = s * s;
+    float p = 1.0f / 9.0f;
+    p = p * s2 + 1.0f / 7.0f;
+    p = p * s2 + 1.0f / 5.0f;
+    p = p * s2 + 1.0f / 3.0f;
+    const float lnm = (2.0f * s) + (2.0f * s) * (s2 * p);
+    const float ef = (float)e;
+    return ef * SSS_I_LN2_HI + (ef * SSS_I_LN2_LO + lnm);
+}
+/* 2 atanh(s) - 2 s = 2 (s^3/3 + s^5/5 + ... + s^15/15), for |s| <= 1/3 (truncation < 1e-9 s). */
+static inline float sss_i_atanh_tail(float s)
+{
+    const float s2 = s * s;
+    float p = 1.0f / 15.0f;
+    p = p * s2 + 1.0f / 13.0f;
+    p = p * s2 + 1.0f / 11.0f;
+    p = p * s2 + 1.0f / 9.0f;
+    p = p * s2 + 1.0f / 7.0f;
+    p = p * s2 + 1.0f / 5.0f;
+    p = p * s2 + 1.0f / 3.0f;
+    return (2.0f * s) * (s2 * p);
+}
+/* g(t) = t - ln(1 + t) - w without cancellation: for t < 0.5, with s = t/(2 + t),
+ * t - ln(1 + t) = t^2/(2 + t) - (2 atanh(s) - 2 s); else t - ln(1 + t) directly. */
+static inline float sss_i_exp_g(float t, float w)
+{
+    if (t < 0.5f) {
+        const float s = t / (2.0f + t);
+        return ((t * t) / (2.0f + t) - sss_i_atanh_tail(s)) - w;
+    }
+    return (t - sss_i_logf(1.0f + t)) - w;
+}
+/* The radius t = sigma rho of draw u1 (see above). */
+static inline float sss_i_exp_t(float u1, const sss_i_exp_disk *d)
+{
+    const float v = u1 * d->Z;
+    float w;
+    if (v <= 0.5f) {
+        const float s = v / (2.0f - v); /* -ln(1 - v) = 2 atanh(v / (2 - v)) */
+        w = 2.0f * s + sss_i_atanh_tail(s);
+    } else {
+        w = -sss_i_logf((1.0f - u1) + u1 * d->q);
+    }
+    float t = w + sqrtf(2.0f * w);
+    for (int it = 0; it < 3; it++) {
+        const float g = sss_i_exp_g(t, w);
+        t = t - (g * (1.0f + t)) / sss_i_maxf(t, 1e-30f);
+    }
+    return sss_i_minf(sss_i_maxf(t, 0.0f), d->T);
+}
+/* cos and sin of 2 pi u, u in [0, 1): quadrant k = floor(4 u), a = (4 u - k) pi/2 in [0, pi/2),
+ * Taylor polynomials to a^11 (sin) and a^12 (cos) (truncation < 6e-8), rotated by k pi/2. */
+static inline void sss_i_sincos_2pi(float u, float *c, float *s)
+{
+    const float u4 = 4.0f * u;
+    const int32_t k = (int32_t)u4;
+    const float a = (u4 - (float)k) * 1.57079632679f, a2 = a * a;
+    float ps = -1.0f / 39916800.0f;
+    ps = ps * a2 + 1.0f / 362880.0f;
+    ps = ps * a2 - 1.0f / 5040.0f;
+    ps = ps * a2 + 1.0f / 120.0f;
+    ps = ps * a2 - 1.0f / 6.0f;
+    const float sa = a + a * (a2 * ps);
+    float pc = 1.0f / 479001600.0f;
+    pc = pc * a2 - 1.0f / 3628800.0f;
+    pc = pc * a2 + 1.0f / 40320.0f;
+    pc = pc * a2 - 1.0f / 720.0f;
+    pc = pc * a2 + 1.0f / 24.0f;
+    pc = pc * a2 - 0.5f;
+    const float ca = 1.0f + a2 * pc;
+    /* rotation by k quarter turns: (c, s) -> (-s, c) per turn */
+    const float c1 = (k & 1) ? -sa : ca, s1 = (k & 1) ? ca : sa;
+    *c = (k & 2) ? -c1 : c1;
+    *s = (k & 2) ? -s1 : s1;
+}
+/* One sample from draws (u1, u2): disk offset (ox, oy) (x right, y up in the light-map plane)
+ * and weight 1 / (N p(x)). */
+static inline void sss_i_exp_sample(float u1, float u2, const sss_i_exp_disk *d, float *ox, float *oy, float *w)
+{
+    const float t = sss_i_exp_t(u1, d);
+    const float rho = sss_i_minf(t / d->sigma, d->R);
+    float c, s;
+    sss_i_sincos_2pi(u2, &c, &s);
+    *ox = rho * c;
+    *oy = rho * s;
+    *w = d->w0 * sss_i_expf(d->sigma * rho);
+}
+/* n samples from *state (2 draws each, in order): the scalar path, and the AVX2 path for
+ * `groups` groups of 8 (sss_maps_avx2.c, same bits; defined only with OBS_HAVE_AVX2). Both
+ * advance *state past the draws they used. */
+void sss_i_exp_samples_scalar(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w);
+void sss_i_exp_samples_avx2(uint32_t *state, int groups, const sss_i_exp_disk *d, float *ox, float *oy, float *w);
+/* Dispatch: AVX2 for whole groups of 8 when use_avx2, the rest scalar. */
+void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w, int use_avx2);
 
 /* ---- The N-of-M candidate set: M Halton (2,3) points on the disk of radius 1 ----------------
  * [DalCorso14] method.tex "planeHaltonCircleRejectionExponential" with the final code's
