@@ -188,7 +188,7 @@ void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d)
     d->w0 = (float)(2.0 * OBS_PI * (1.0 - q) / ((double)N * sigma * sigma));
     /* the LCG of sss_i_rand composed k times: a_k = a^k, c_k = c (a^{k-1} + ... + 1) (mod 2^32) */
     uint32_t a = 1, c = 0;
-    for (int k = 0; k < 16; k++) {
+    for (int k = 0; k < 24; k++) {
         a = 1664525u * a;
         c = 1664525u * c + 1013904223u;
         d->jump_a[k] = a;
@@ -216,6 +216,44 @@ void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *o
     (void)use_avx2;
 #endif
     sss_i_exp_samples_scalar(state, n - done, d, ox + done, oy + done, w + done);
+}
+
+void sss_i_pack_lut_make(int32_t lut[256 * 8])
+{
+    /* entry m: the indices of m's set bits in increasing order, then zeros */
+    for (int m = 0; m < 256; m++) {
+        int q = 0;
+        for (int b = 0; b < 8; b++)
+            if (m >> b & 1)
+                lut[8 * m + q++] = b;
+        while (q < 8)
+            lut[8 * m + q++] = 0;
+    }
+}
+
+int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
+                       int use_avx2)
+{
+    int n = 0, done = 0;
+#if defined(OBS_HAVE_AVX2)
+    if (use_avx2 && N >= 8) {
+        n = sss_i_rr_prefilter_avx2(state, N / 8, f, u1, u2, zeta);
+        done = N / 8 * 8;
+    }
+#else
+    (void)use_avx2;
+#endif
+    for (int i = done; i < N; i++) {
+        const float a = sss_i_rand(state), b = sss_i_rand(state), z = sss_i_rand(state);
+        const float arg = f->sigma * (f->R * sqrtf(a) - f->m);
+        if (arg > 0.0f && z >= 1.0001f * sss_i_expf(-arg))
+            continue;
+        u1[n] = a;
+        u2[n] = b;
+        zeta[n] = z;
+        n++;
+    }
+    return n;
 }
 
 int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_r, int keep, int *idx, int *visited)
@@ -403,6 +441,7 @@ typedef struct mat_info {
 } mat_info;
 
 typedef struct scratch {
+    uint32_t seeds[40];     /* one row of a 32-texel tile, rounded up to 8 */
     float *buf;             /* xi[3], ni[3], wi[3], out[3], ox, oy, w: 15 N floats */
     double *w;              /* N */
     int *idx;               /* M */
@@ -422,7 +461,9 @@ typedef struct build_job {
     scratch *scr;           /* one per thread */
     uint64_t *evaluated, *candidates; /* one per task */
     uint8_t *failed;        /* one per task */
-    int use_avx2;           /* the exponential sampler's sample generation */
+    int use_avx2;           /* the exponential sampler's sample generation; batch padding */
+    int np;                 /* N rounded up to a multiple of 8: the scratch arrays' length */
+    int32_t pack_lut[256 * 8]; /* left-pack permutations (sss_i_pack_lut_make) */
 } build_job;
 
 static const mat_info *job_material(const build_job *j, uint32_t id)
@@ -445,9 +486,9 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     double pcx, pcy, dl, ppu;
     float *xi[3], *ni[3], *wi[3];
     for (int a = 0; a < 3; a++) {
-        xi[a] = s->buf + (size_t)a * N;
-        ni[a] = s->buf + (size_t)(3 + a) * N;
-        wi[a] = s->buf + (size_t)(6 + a) * N;
+        xi[a] = s->buf + (size_t)a * j->np;
+        ni[a] = s->buf + (size_t)(3 + a) * j->np;
+        wi[a] = s->buf + (size_t)(6 + a) * j->np;
     }
     /* the disk's centre: the light-space projection of x_o ([DalCorso14] "circle_center =
      * (L x_o).xy", sss.md 3.2); for a point light the disk lies in the plane perpendicular to
@@ -497,7 +538,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
         /* ours (docs/sss/maps.md "Samplers"): N samples of the density e^{-sigma* rho} on the disk,
          * weight 1/(N pdf), drawn SoA (sss_i_exp_samples), then fetched and packed in order */
-        float *sox = s->buf + (size_t)12 * N, *soy = s->buf + (size_t)13 * N, *sw = s->buf + (size_t)14 * N;
+        float *sox = s->buf + (size_t)12 * j->np, *soy = s->buf + (size_t)13 * j->np, *sw = s->buf + (size_t)14 * j->np;
         sss_i_exp_samples(state, N, &mi->ed, sox, soy, sw, j->use_avx2);
         *cand += (uint64_t)N;
         const float fcx = (float)pcx, fcy = (float)pcy, fppu = (float)ppu, fsize = (float)size;
@@ -507,7 +548,16 @@ static int gather_light(const build_job *j, const light_info *li, const double x
         const ptrdiff_t pst = lm->position[0].stride, ist = lm->gb.instance_id.stride;
         if (!li->point) {
             const float l0 = (float)li->to_light[0], l1 = (float)li->to_light[1], l2 = (float)li->to_light[2];
-            for (int i = 0; i < N; i++) {
+            int i = 0;
+#if defined(OBS_HAVE_AVX2)
+            if (j->use_avx2) {
+                /* the loop below, 8 samples per vector (gathers, left-packed by a table) */
+                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}};
+                n = sss_i_exp_fetch_dir_avx2(&in, N / 8, sox, soy, sw, j->pack_lut, xi, ni, wi, s->w, n);
+                i = N / 8 * 8;
+            }
+#endif
+            for (; i < N; i++) {
                 const float tx = fcx + sox[i] * fppu, ty = fcy - soy[i] * fppu;
                 if (!(tx >= 0.0f && ty >= 0.0f && tx < fsize && ty < fsize))
                     continue;
@@ -559,16 +609,42 @@ static int gather_light(const build_job *j, const light_info *li, const double x
          * phi = 2 pi z2, accept if z3 < exp(-sigma* |x_o - x_i|) (3D distance), weight
          * disk_area / (N p) (sss.md 3.5: the unbiased Russian-roulette form). Three draws per
          * candidate, always, so the stream position never depends on the geometry. */
-        for (int i = 0; i < N; i++) {
-            double ox, oy, zeta;
-            sss_i_rr_candidate(state, R, &ox, &oy, &zeta);
-            SSS_FETCH(ox, oy, {
-                double dx = xo[0] - x_i[0], dy = xo[1] - x_i[1], dz = xo[2] - x_i[2];
-                double pa = exp(-mi->sigma_star * sqrt(dx * dx + dy * dy + dz * dz));
-                if (zeta < pa)
-                    SSS_PUSH(j->area / ((double)N * pa));
-            });
+#define SSS_RR_TEST                                                                                    \
+    {                                                                                                  \
+        double dx = xo[0] - x_i[0], dy = xo[1] - x_i[1], dz = xo[2] - x_i[2];                          \
+        double pa = exp(-mi->sigma_star * sqrt(dx * dx + dy * dy + dz * dz));                          \
+        if (zeta < pa)                                                                                 \
+            SSS_PUSH(j->area / ((double)N * pa));                                                      \
+    }
+        const rast_view_constants *lvc = &lm->gb.constants;
+        if (!li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
+            /* The pre-filter (sss_maps_internal.h; no bit changes): only candidates that may pass
+             * the exact test below get their cos, sin, fetch and exp. Margin: half a texel
+             * diagonal (0.7072 texel, as 0.75) plus float rounding of rho, positions and the view
+             * matrix (1e-4 R + 1e-5 (|x_o|_inf + R)). */
+            double xmax = fmax(fabs(xo[0]), fmax(fabs(xo[1]), fabs(xo[2])));
+            sss_i_rr_filter f;
+            f.R = (float)R;
+            f.sigma = (float)mi->sigma_star;
+            f.m = (float)(0.75 / ppu + 1e-4 * R + 1e-5 * (xmax + R));
+            f.jump_a = mi->ed.jump_a;
+            f.jump_c = mi->ed.jump_c;
+            float *fu1 = s->buf + (size_t)12 * j->np, *fu2 = s->buf + (size_t)13 * j->np,
+                  *fz = s->buf + (size_t)14 * j->np;
+            const int nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
+            for (int q = 0; q < nc; q++) {
+                double ox, oy, zeta = fz[q];
+                sss_i_rr_offset(R, fu1[q], fu2[q], &ox, &oy);
+                SSS_FETCH(ox, oy, SSS_RR_TEST);
+            }
+        } else {
+            for (int i = 0; i < N; i++) {
+                double ox, oy, zeta;
+                sss_i_rr_candidate(state, R, &ox, &oy, &zeta);
+                SSS_FETCH(ox, oy, SSS_RR_TEST);
+            }
         }
+#undef SSS_RR_TEST
         *cand += (uint64_t)N;
     } else {
         /* [DalCorso14] method.tex (the thesis text): M Halton points, exponential rejection
@@ -601,9 +677,13 @@ static void build_task(void *user, int64_t task, int thread)
     obs_tiling_rect(&j->tiling, task % j->tiles, &x0, &y0, &x1, &y1);
     const rast_gbuffer *gb = &m->views[k];
     scratch *s = &j->scr[thread];
-    const int N = p->N;
     uint64_t evaluated = 0, cand = 0;
+    /* the streams' seeds of a row, 8 texels per vector (one frame, AVX2): the same values as
+     * sss_i_stream_seed per texel */
+    const int row_seeds = p->frames == 1 && j->use_avx2;
     for (int y = y0; y < y1; y++) {
+        if (row_seeds)
+            sss_i_stream_seeds_avx2((uint32_t)(y * m->size + x0), (x1 - x0 + 7) & ~7, (uint32_t)k, p->seed, s->seeds);
         for (int x = x0; x < x1; x++) {
             float *out[3];
             for (int c = 0; c < 3; c++)
@@ -625,7 +705,9 @@ static void build_task(void *user, int64_t task, int thread)
             float nof[3] = {(float)no[0], (float)no[1], (float)no[2]};
             double acc[3] = {0, 0, 0};
             for (int f = 0; f < p->frames; f++) {
-                uint32_t state = sss_i_stream_seed((uint32_t)(y * m->size + x), (uint32_t)(k * p->frames + f), p->seed);
+                uint32_t state = row_seeds ? s->seeds[x - x0]
+                                           : sss_i_stream_seed((uint32_t)(y * m->size + x),
+                                                               (uint32_t)(k * p->frames + f), p->seed);
                 double theta = 0.0;
                 if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) /* theta = 2 pi (r + t/T), [DalCorso14] method.tex */
                     theta = 2.0 * OBS_PI * ((double)sss_i_rand(&state) + (double)f / p->frames);
@@ -637,16 +719,33 @@ static void build_task(void *user, int64_t task, int thread)
                     sss_batch b;
                     b.n = n;
                     for (int a = 0; a < 3; a++) {
-                        b.xi[a] = s->buf + (size_t)a * N;
-                        b.ni[a] = s->buf + (size_t)(3 + a) * N;
-                        b.wi[a] = s->buf + (size_t)(6 + a) * N;
-                        b.out[a] = s->buf + (size_t)(9 + a) * N;
+                        b.xi[a] = s->buf + (size_t)a * j->np;
+                        b.ni[a] = s->buf + (size_t)(3 + a) * j->np;
+                        b.wi[a] = s->buf + (size_t)(6 + a) * j->np;
+                        b.out[a] = s->buf + (size_t)(9 + a) * j->np;
                     }
-                    /* T12 S_d per sample ([DalCorso14] eq. inter2: L_d A_c/N sum S e^{sigma r}) */
-                    if (sss_eval_batch(NULL, &mi->g, xof, nof, &b, 1, p->isa) != OBS_STATUS_OK) {
-                        j->failed[task] = 1;
-                        continue;
+                    /* With AVX2, pad to whole vectors with copies of sample 0: the kernel gives
+                     * every lane the scalar path's bits, so the n real outputs are unchanged and the
+                     * tail does not run on the (8x slower) scalar path; the pad lanes are not summed. */
+                    if (j->use_avx2 && (n & 7)) {
+                        const int n8 = (n + 7) & ~7;
+                        for (int t = 0; t < 9; t++) {
+                            float *col = s->buf + (size_t)t * j->np;
+                            for (int q = n; q < n8; q++)
+                                col[q] = col[0];
+                        }
+                        b.n = n8;
                     }
+                    /* T12 S_d per sample ([DalCorso14] eq. inter2: L_d A_c/N sum S e^{sigma r}):
+                     * sss_eval_batch's two paths, called directly (the arguments are checked
+                     * once, in sss_maps_build; the ISA is resolved once, not per call) */
+#if defined(OBS_HAVE_AVX2)
+                    if (j->use_avx2) {
+                        sss_i_eval_avx2(&mi->g, xof, nof, &b, 1, 0, b.n / 8);
+                        sss_i_eval_scalar(&mi->g, xof, nof, &b, 1, b.n / 8 * 8, b.n);
+                    } else
+#endif
+                        sss_i_eval_scalar(&mi->g, xof, nof, &b, 1, 0, b.n);
                     evaluated += (uint64_t)n;
                     for (int c = 0; c < 3; c++) {
                         double sum = 0.0;
@@ -741,6 +840,8 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
      * object bounding box"; sss.md 3.5) */
     job.R = p->disk_radius > 0.0 ? p->disk_radius : rad;
     job.area = OBS_PI * job.R * job.R;
+    job.np = (p->N + 7) & ~7;
+    sss_i_pack_lut_make(job.pack_lut);
     for (uint32_t i = 0; i <= mats->count; i++)
         if (mi[i].c)
             sss_i_exp_disk_make(mi[i].sigma_star, job.R, p->N, &mi[i].ed);
@@ -772,7 +873,7 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
             goto done;
     for (int t = 0; t < threads; t++) {
-        job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)p->N);
+        job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)job.np);
         job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)p->N);
         job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
         if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {

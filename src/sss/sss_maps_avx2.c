@@ -159,4 +159,133 @@ void sss_i_exp_samples_avx2(uint32_t *state, int groups, const sss_i_exp_disk *d
     *state = st;
 }
 
+/* sss_i_tea16 on 8 lanes */
+static inline vi vtea16(vi v0, vi v1)
+{
+    vi s0 = _mm256_setzero_si256();
+    const vi d = _mm256_set1_epi32((int32_t)0x9e3779b9u), k0 = _mm256_set1_epi32((int32_t)0xa341316cu),
+             k1 = _mm256_set1_epi32((int32_t)0xc8013ea4u), k2 = _mm256_set1_epi32((int32_t)0xad90777du),
+             k3 = _mm256_set1_epi32((int32_t)0x7e95761eu);
+    for (int n = 0; n < 16; n++) {
+        s0 = _mm256_add_epi32(s0, d);
+        v0 = _mm256_add_epi32(
+            v0, _mm256_xor_si256(_mm256_xor_si256(_mm256_add_epi32(_mm256_slli_epi32(v1, 4), k0), _mm256_add_epi32(v1, s0)),
+                                 _mm256_add_epi32(_mm256_srli_epi32(v1, 5), k1)));
+        v1 = _mm256_add_epi32(
+            v1, _mm256_xor_si256(_mm256_xor_si256(_mm256_add_epi32(_mm256_slli_epi32(v0, 4), k2), _mm256_add_epi32(v0, s0)),
+                                 _mm256_add_epi32(_mm256_srli_epi32(v0, 5), k3)));
+    }
+    return v0;
+}
+
+void sss_i_stream_seeds_avx2(uint32_t texel0, int count, uint32_t layer_frame, uint64_t seed, uint32_t *out)
+{
+    const vi lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const vi lf = _mm256_set1_epi32((int32_t)layer_frame);
+    const vi sf = _mm256_set1_epi32((int32_t)((uint32_t)seed ^ (uint32_t)(seed >> 32)));
+    for (int i = 0; i < count; i += 8) {
+        const vi t = _mm256_add_epi32(_mm256_set1_epi32((int32_t)(texel0 + (uint32_t)i)), lanes);
+        _mm256_storeu_si256((vi *)(out + i), vtea16(vtea16(t, lf), sf));
+    }
+}
+
+int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
+                             const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
+                             double *wout, int n)
+{
+    const vf cx = VSET(in->cx), cy = VSET(in->cy), ppu = VSET(in->ppu), size = VSET(in->size), zero = VSET(0.0f);
+    const vi pst = _mm256_set1_epi32((int32_t)in->pst), ist = _mm256_set1_epi32((int32_t)in->ist);
+    const vi inst = _mm256_set1_epi32((int32_t)in->inst);
+    const vf l0 = VSET(in->l[0]), l1 = VSET(in->l[1]), l2 = VSET(in->l[2]);
+    for (int g = 0; g < groups; g++) {
+        const vf tx = VADD(cx, VMUL(_mm256_loadu_ps(ox + 8 * g), ppu));
+        const vf ty = VSUB(cy, VMUL(_mm256_loadu_ps(oy + 8 * g), ppu));
+        const vf inside = _mm256_and_ps(
+            _mm256_and_ps(_mm256_cmp_ps(tx, zero, _CMP_GE_OQ), _mm256_cmp_ps(ty, zero, _CMP_GE_OQ)),
+            _mm256_and_ps(_mm256_cmp_ps(tx, size, _CMP_LT_OQ), _mm256_cmp_ps(ty, size, _CMP_LT_OQ)));
+        if (_mm256_testz_ps(inside, inside))
+            continue;
+        const vi ix = _mm256_and_si256(_mm256_cvttps_epi32(tx), _mm256_castps_si256(inside));
+        const vi iy = _mm256_and_si256(_mm256_cvttps_epi32(ty), _mm256_castps_si256(inside));
+        const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, pst), ix);
+        const vi oi = _mm256_add_epi32(_mm256_mullo_epi32(iy, ist), ix);
+        const vf px = _mm256_mask_i32gather_ps(zero, in->P[0], o, inside, 4);
+        const vi id = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)in->iid, oi,
+                                                  _mm256_castps_si256(inside), 4);
+        const vf keepv = _mm256_and_ps(_mm256_and_ps(inside, _mm256_cmp_ps(px, px, _CMP_ORD_Q)),
+                                       _mm256_castsi256_ps(_mm256_cmpeq_epi32(id, inst)));
+        const int mask = _mm256_movemask_ps(keepv);
+        if (!mask)
+            continue;
+        const vi perm = _mm256_loadu_si256((const vi *)(lut + 8 * mask));
+        const vf py = _mm256_mask_i32gather_ps(zero, in->P[1], o, keepv, 4);
+        const vf pz = _mm256_mask_i32gather_ps(zero, in->P[2], o, keepv, 4);
+        const vf n0 = _mm256_mask_i32gather_ps(zero, in->W[0], o, keepv, 4);
+        const vf n1 = _mm256_mask_i32gather_ps(zero, in->W[1], o, keepv, 4);
+        const vf n2 = _mm256_mask_i32gather_ps(zero, in->W[2], o, keepv, 4);
+        _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(px, perm));
+        _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
+        _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
+        _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
+        _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
+        _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
+        _mm256_storeu_ps(wi[0] + n, l0);
+        _mm256_storeu_ps(wi[1] + n, l1);
+        _mm256_storeu_ps(wi[2] + n, l2);
+        const vf wp = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w + 8 * g), perm);
+        _mm256_storeu_pd(wout + n, _mm256_cvtps_pd(_mm256_castps256_ps128(wp)));
+        _mm256_storeu_pd(wout + n + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(wp, 1)));
+        n += __builtin_popcount((unsigned)mask);
+    }
+    return n;
+}
+
+int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
+                            float *zeta)
+{
+    /* lane j: draws 3j+1 (u1), 3j+2 (u2), 3j+3 (zeta) after the group's start */
+    int32_t a[3][8], c[3][8];
+    for (int j = 0; j < 8; j++)
+        for (int d = 0; d < 3; d++) {
+            a[d][j] = (int32_t)f->jump_a[3 * j + d];
+            c[d][j] = (int32_t)f->jump_c[3 * j + d];
+        }
+    vi A[3], C[3];
+    for (int d = 0; d < 3; d++) {
+        A[d] = _mm256_loadu_si256((const vi *)a[d]);
+        C[d] = _mm256_loadu_si256((const vi *)c[d]);
+    }
+    const vf R = VSET(f->R), sigma = VSET(f->sigma), m = VSET(f->m), zero = VSET(0.0f);
+    uint32_t st = *state;
+    int n = 0;
+    float t1[8], t2[8], t3[8];
+    for (int g = 0; g < groups; g++) {
+        const vi s0 = _mm256_set1_epi32((int32_t)st);
+        const vf x1 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[0], s0), C[0]));
+        const vf x2 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[1], s0), C[1]));
+        const vf z = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[2], s0), C[2]));
+        st = f->jump_a[23] * st + f->jump_c[23];
+        const vf arg = VMUL(sigma, VSUB(VMUL(R, _mm256_sqrt_ps(x1)), m));
+        const vf bound = VMUL(VSET(1.0001f), vexpf(_mm256_xor_ps(arg, VSET(-0.0f))));
+        /* reject: arg > 0 and z >= bound */
+        const vf rej = _mm256_and_ps(_mm256_cmp_ps(arg, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, bound, _CMP_GE_OQ));
+        unsigned keep = (unsigned)(~_mm256_movemask_ps(rej)) & 0xffu;
+        if (!keep)
+            continue;
+        _mm256_storeu_ps(t1, x1);
+        _mm256_storeu_ps(t2, x2);
+        _mm256_storeu_ps(t3, z);
+        while (keep) {
+            const int j = __builtin_ctz(keep);
+            keep &= keep - 1;
+            u1[n] = t1[j];
+            u2[n] = t2[j];
+            zeta[n] = t3[j];
+            n++;
+        }
+    }
+    *state = st;
+    return n;
+}
+
 #endif /* OBS_HAVE_AVX2 */

@@ -31,6 +31,9 @@ static inline uint32_t sss_i_stream_seed(uint32_t texel, uint32_t layer_frame, u
 {
     return sss_i_tea16(sss_i_tea16(texel, layer_frame), (uint32_t)seed ^ (uint32_t)(seed >> 32));
 }
+/* The seeds of `count` consecutive texels texel0, texel0 + 1, ... (count a multiple of 8) with
+ * AVX2 (sss_maps_avx2.c; the same uint32 operations, so the same values as sss_i_stream_seed). */
+void sss_i_stream_seeds_avx2(uint32_t texel0, int count, uint32_t layer_frame, uint64_t seed, uint32_t *out);
 static inline float sss_i_rand(uint32_t *state)
 {
     *state = 1664525u * *state + 1013904223u;
@@ -40,14 +43,34 @@ static inline float sss_i_rand(uint32_t *state)
 /* One Russian-roulette candidate ([DalCorso14] final shader, sss.md 3.4): three draws, in this
  * order: rho = R sqrt(z1), phi = 2 pi z2, zeta = z3; the disk offset is (rho cos phi, rho sin phi)
  * in the light-map plane (x right, y up). The caller accepts when zeta < exp(-sigma* |x_o - x_i|). */
-static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, double *oy, double *zeta)
+static inline void sss_i_rr_offset(double R, float u1, float u2, double *ox, double *oy)
 {
-    double u1 = sss_i_rand(state), u2 = sss_i_rand(state);
-    *zeta = sss_i_rand(state);
-    double rho = R * sqrt(u1), phi = 2.0 * OBS_PI * u2;
+    double rho = R * sqrt((double)u1), phi = 2.0 * OBS_PI * (double)u2;
     *ox = rho * cos(phi);
     *oy = rho * sin(phi);
 }
+static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, double *oy, double *zeta)
+{
+    float u1 = sss_i_rand(state), u2 = sss_i_rand(state);
+    *zeta = sss_i_rand(state);
+    sss_i_rr_offset(R, u1, u2, ox, oy);
+}
+/* The Russian-roulette pre-filter (a speed-up that changes no bit; docs/sss/maps.md "Cost"): for
+ * an orthographic light map the 3D distance |x_o - x_i| is at least the in-plane distance, which
+ * is at least rho - (half a texel diagonal), so p <= exp(-sigma* (rho - m)) for a margin m that
+ * also covers float rounding. A candidate whose zeta >= (1 + 1e-4) expf(-sigma* (rho_f - m))
+ * (float rho_f = R sqrtf(u1)) is certainly rejected by the exact test and is skipped without its
+ * cos, sin, fetch and exp. Draws N candidates (3 draws each, in order) from *state and returns
+ * how many may pass; their draws are packed into u1, u2, zeta (room for N). The AVX2 path may
+ * pass a slightly different set (its exp need not match the scalar one): the exact test decides. */
+typedef struct sss_i_rr_filter {
+    float R, sigma, m;       /* disk radius, sigma*, margin (world units) */
+    const uint32_t *jump_a, *jump_c; /* 24 entries: the LCG's jump-ahead (sss_i_exp_disk) */
+} sss_i_rr_filter;
+int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
+                       int use_avx2);
+int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
+                            float *zeta);
 
 /* ---- The exponential sampler (SSS_SAMPLER_EXPONENTIAL; docs/sss/maps.md "Samplers") ----------
  * Importance sampling of the 2D density p(x) = sigma^2 e^{-sigma rho} / (2 pi Z) on the disk of
@@ -67,7 +90,7 @@ typedef struct sss_i_exp_disk {
     float sigma, R, T;       /* sigma*, the disk radius, T = sigma R (all float) */
     float q, Z;              /* q = (1 + T) e^{-T}, Z = 1 - q (from double) */
     float w0;                /* 2 pi Z / (N sigma^2) (from double) */
-    uint32_t jump_a[16], jump_c[16]; /* LCG jump-ahead: state_{+k} = a_k state + c_k, k = 1..16 */
+    uint32_t jump_a[24], jump_c[24]; /* LCG jump-ahead: state_{+k} = a_k state + c_k, k = 1..24 */
 } sss_i_exp_disk;
 void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d);
 
@@ -180,6 +203,24 @@ static inline void sss_i_exp_sample(float u1, float u2, const sss_i_exp_disk *d,
  * advance *state past the draws they used. */
 void sss_i_exp_samples_scalar(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w);
 void sss_i_exp_samples_avx2(uint32_t *state, int groups, const sss_i_exp_disk *d, float *ox, float *oy, float *w);
+/* The exponential sampler's fetch for a directional light, AVX2, `groups` groups of 8 samples:
+ * texel (int)(cx + ox ppu), (int)(cy - oy ppu) (float), kept when inside the map, not empty
+ * (position x not NaN) and of instance inst; kept samples are appended in order at index n of the
+ * SoA outputs (x_i, n_i, w_i = l, weight as double). Returns the new n. The same float
+ * operations as the scalar loop of sss_maps.c, so the same samples. lut: 256 x 8 left-pack
+ * indices (sss_i_pack_lut_make). */
+typedef struct sss_i_fetch_in {
+    const float *P[3], *W[3];   /* light map world positions and normals */
+    const uint32_t *iid;        /* instance ids */
+    ptrdiff_t pst, ist;         /* their strides */
+    float cx, cy, ppu, size;
+    uint32_t inst;
+    float l[3];
+} sss_i_fetch_in;
+int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
+                             const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
+                             double *wout, int n);
+void sss_i_pack_lut_make(int32_t lut[256 * 8]);
 /* Dispatch: AVX2 for whole groups of 8 when use_avx2, the rest scalar. */
 void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w, int use_avx2);
 
