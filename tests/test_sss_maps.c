@@ -809,6 +809,57 @@ TEST(sss_maps_and_combination_are_identical_for_1_2_8_threads_and_both_isas)
     sphere_fixture_free(&f);
 }
 
+TEST(sss_rr_prefilter_changes_no_bit)
+{
+    /* The Russian-roulette pre-filter (docs/sss/maps.md "Cost") only skips candidates that the
+     * exact test rejects: the maps are the same bytes with it off, on the sphere (curved: the 3D
+     * distance exceeds the in-plane one) and on the plane at sigma* R ~ 10, for both ISAs. */
+    sphere_fixture f;
+    CHECK(sphere_fixture_make(&f));
+    f.p.sampler = SSS_SAMPLER_RUSSIAN_ROULETTE;
+    f.p.N = 203;
+    obs_pool *pool = obs_pool_create(2);
+    for (int isa = 0; isa < 2; isa++) {
+        f.p.isa = isa ? SSS_ISA_SCALAR : SSS_ISA_AUTO;
+        sss_maps a, b;
+        sss_i_rr_prefilter_off = 1;
+        CHECK_OK(build_and_combine(&f, pool, NULL, &a, NULL, NULL), f.ctx);
+        sss_i_rr_prefilter_off = 0;
+        CHECK_OK(build_and_combine(&f, pool, NULL, &b, NULL, NULL), f.ctx);
+        CHECK_MSG(maps_equal(&a, &b), "sphere, isa %s: the pre-filter changed the maps", sss_isa_name(f.p.isa));
+        CHECK(a.samples_evaluated > 0 && a.samples_evaluated == b.samples_evaluated);
+        sss_maps_free(&a);
+        sss_maps_free(&b);
+    }
+    obs_scene s;
+    plane_scene(&s, 40.0f, 4);
+    tmats tm;
+    CHECK(tmats_make(f.ctx, &tm, 10.0, 1));
+    obs_light L = dir_light(0.3f, 0.1f, -1, 2.0f);
+    sss_params p = sss_params_default();
+    p.sampler = SSS_SAMPLER_RUSSIAN_ROULETTE;
+    p.K = 2;
+    p.map_size = 32;
+    p.light_map_size = 256;
+    p.N = 256;
+    p.disk_radius = 15.0;
+    sss_light_map lm;
+    CHECK_OK(sss_light_map_render(f.ctx, pool, &s, &L, &p, &lm), f.ctx);
+    sss_maps a, b;
+    sss_i_rr_prefilter_off = 1;
+    CHECK_OK(sss_maps_build(f.ctx, pool, &s, &tm.m, &lm, 1, &p, &a), f.ctx);
+    sss_i_rr_prefilter_off = 0;
+    CHECK_OK(sss_maps_build(f.ctx, pool, &s, &tm.m, &lm, 1, &p, &b), f.ctx);
+    CHECK_MSG(maps_equal(&a, &b), "plane: the pre-filter changed the maps");
+    CHECK(a.samples_evaluated > 0);
+    sss_maps_free(&a);
+    sss_maps_free(&b);
+    sss_light_map_free(&lm);
+    obs_scene_free(&s);
+    obs_pool_destroy(pool);
+    sphere_fixture_free(&f);
+}
+
 TEST(sss_maps_serve_any_camera_and_follow_the_light)
 {
     sphere_fixture f;

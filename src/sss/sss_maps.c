@@ -218,6 +218,8 @@ void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *o
     sss_i_exp_samples_scalar(state, n - done, d, ox + done, oy + done, w + done);
 }
 
+int sss_i_rr_prefilter_off = 0;
+
 void sss_i_pack_lut_make(int32_t lut[256 * 8])
 {
     /* entry m: the indices of m's set bits in increasing order, then zeros */
@@ -617,7 +619,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
             SSS_PUSH(j->area / ((double)N * pa));                                                      \
     }
         const rast_view_constants *lvc = &lm->gb.constants;
-        if (!li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
+        if (!sss_i_rr_prefilter_off && !li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
             /* The pre-filter (sss_maps_internal.h; no bit changes): only candidates that may pass
              * the exact test below get their cos, sin, fetch and exp. Margin: half a texel
              * diagonal (0.7072 texel, as 0.75) plus float rounding of rho, positions and the view

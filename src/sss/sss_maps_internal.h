@@ -63,6 +63,8 @@ static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, dou
  * cos, sin, fetch and exp. Draws N candidates (3 draws each, in order) from *state and returns
  * how many may pass; their draws are packed into u1, u2, zeta (room for N). The AVX2 path may
  * pass a slightly different set (its exp need not match the scalar one): the exact test decides. */
+/* Test hook: non-zero turns the pre-filter off (test sss_rr_prefilter_changes_no_bit). */
+extern int sss_i_rr_prefilter_off;
 typedef struct sss_i_rr_filter {
     float R, sigma, m;       /* disk radius, sigma*, margin (world units) */
     const uint32_t *jump_a, *jump_c; /* 24 entries: the LCG's jump-ahead (sss_i_exp_disk) */
