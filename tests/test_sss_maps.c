@@ -416,6 +416,19 @@ TEST(sss_nearest_n_of_m_accepts_with_the_exponential_density)
     CHECK_EQ_INT(n, 10);
     for (int q = 0; q < 10; q++)
         CHECK_EQ_INT(idx[q], first[q]);
+    /* the table form (the maps' speed-up) accepts the same set */
+    double *ptab = (double *)malloc(sizeof(double) * 1000);
+    for (int j = 0; j < 1000; j++)
+        ptab[j] = exp(-sr * (double)hd.rho[j]);
+    for (uint32_t t = 0; t < 200; t++) {
+        int *idx2 = (int *)malloc(sizeof(int) * 1000);
+        uint32_t s1 = sss_i_stream_seed(t, 5, 7), s2 = s1;
+        int v1 = 0, v2 = 0;
+        int n1 = sss_i_nofm_accept(&hd, &s1, sr, 48, idx, &v1), n2 = sss_i_nofm_accept_tab(&hd, &s2, ptab, 48, idx2, &v2);
+        CHECK(n1 == n2 && v1 == v2 && s1 == s2 && memcmp(idx, idx2, sizeof(int) * (size_t)n1) == 0);
+        free(idx2);
+    }
+    free(ptab);
     free(idx);
     sss_i_halton_disk_free(&hd);
     obs_context_destroy(ctx);

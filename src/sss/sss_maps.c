@@ -279,6 +279,24 @@ int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_
     return n;
 }
 
+int sss_i_nofm_accept_tab(const sss_i_halton_disk *h, uint32_t *state, const double *p, int keep, int *idx,
+                          int *visited)
+{
+    int n = 0, v = 0;
+    for (int i = 0; i < h->M; i++) {
+        float zeta = sss_i_rand(state);
+        v++;
+        if (p[i] > (double)zeta) {
+            idx[n++] = i;
+            if (keep > 0 && n >= keep)
+                break;
+        }
+    }
+    if (visited)
+        *visited = v;
+    return n;
+}
+
 /* ------------------------------------------------------------------------------------------------
  * Pass 1: the light G-buffer
  * ---------------------------------------------------------------------------------------------- */
@@ -440,6 +458,7 @@ typedef struct mat_info {
     sss_gpu_constants g;
     double sigma_star;      /* min sigma_tr / q, per scene unit */
     sss_i_exp_disk ed;      /* the exponential sampler's constants (sigma*, R, N) */
+    double *nofm_p;         /* N-of-M: exp(-sigma* R rho_j), M entries */
 } mat_info;
 
 typedef struct scratch {
@@ -460,6 +479,7 @@ typedef struct build_job {
     uint32_t mat_count;
     double R, area;
     const sss_i_halton_disk *hd;
+    double *hd_cos, *hd_sin; /* N-of-M: cos and sin of the Halton phi_j */
     scratch *scr;           /* one per thread */
     uint64_t *evaluated, *candidates; /* one per task */
     uint8_t *failed;        /* one per task */
@@ -653,12 +673,14 @@ static int gather_light(const build_job *j, const light_info *li, const double x
          * exp(-sigma* rho) > zeta, the N accepted nearest to x_o, weight A_c / N (biased:
          * docs/sss/maps.md measures it), pattern rotated per texel and frame by theta. */
         int visited = 0;
-        int na = sss_i_nofm_accept(j->hd, state, mi->sigma_star * R, N, s->idx, &visited);
+        /* exp(-sigma* R rho_j) and cos, sin of phi_j come from tables made once per build (the same
+         * expressions, so the same bits; docs/sss/maps.md "Cost") */
+        int na = sss_i_nofm_accept_tab(j->hd, state, mi->nofm_p, N, s->idx, &visited);
         double ct = cos(theta), st = sin(theta);
         for (int q = 0; q < na; q++) {
             int i = s->idx[q];
-            double rho = R * j->hd->rho[i], phi = j->hd->phi[i];
-            double ox0 = rho * cos(phi), oy0 = rho * sin(phi);
+            double rho = R * j->hd->rho[i];
+            double ox0 = rho * j->hd_cos[i], oy0 = rho * j->hd_sin[i];
             double ox = ct * ox0 - st * oy0, oy = st * ox0 + ct * oy0;
             SSS_FETCH(ox, oy, { SSS_PUSH(j->area / (double)N); });
         }
@@ -871,9 +893,33 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         li[l].radiance[1] = (double)L->color.y * L->intensity;
         li[l].radiance[2] = (double)L->color.z * L->intensity;
     }
-    if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M)
+    if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) {
         if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
             goto done;
+        job.hd_cos = (double *)malloc(sizeof(double) * (size_t)p->M);
+        job.hd_sin = (double *)malloc(sizeof(double) * (size_t)p->M);
+        if (!job.hd_cos || !job.hd_sin) {
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+            goto done;
+        }
+        for (int i = 0; i < p->M; i++) {
+            job.hd_cos[i] = cos((double)hd.phi[i]);
+            job.hd_sin[i] = sin((double)hd.phi[i]);
+        }
+        const double Rd = p->disk_radius > 0.0 ? p->disk_radius : rad;
+        for (uint32_t i = 0; i <= mats->count; i++) {
+            if (!mi[i].c)
+                continue;
+            mi[i].nofm_p = (double *)malloc(sizeof(double) * (size_t)p->M);
+            if (!mi[i].nofm_p) {
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+                goto done;
+            }
+            const double sigma_r = mi[i].sigma_star * Rd; /* as gather_light's sigma* R */
+            for (int q = 0; q < p->M; q++)
+                mi[i].nofm_p[q] = exp(-sigma_r * (double)hd.rho[q]);
+        }
+    }
     for (int t = 0; t < threads; t++) {
         job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)job.np);
         job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)p->N);
@@ -920,6 +966,11 @@ done:
     free(job.failed);
     sss_i_halton_disk_free(&hd);
     free(views);
+    if (mi)
+        for (uint32_t i = 0; i <= mats->count; i++)
+            free(mi[i].nofm_p);
+    free(job.hd_cos);
+    free(job.hd_sin);
     free(mi);
     free(li);
     if (st != OBS_STATUS_OK)

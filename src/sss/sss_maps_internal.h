@@ -243,6 +243,10 @@ void sss_i_halton_disk_free(sss_i_halton_disk *h);
  * disk); stop after `keep` acceptances (keep <= 0: visit all M). Writes accepted indices into
  * idx (room for M) and returns how many. */
 int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_r, int keep, int *idx, int *visited);
+/* The same with the acceptance probabilities precomputed: p[i] = exp(-sigma_r * (double)h->rho[i])
+ * (the same expression, so the same accepted set; sss_maps_build makes one table per material). */
+int sss_i_nofm_accept_tab(const sss_i_halton_disk *h, uint32_t *state, const double *p, int keep, int *idx,
+                          int *visited);
 
 /* The receiver's depth in a map as a plane over pixel positions:
  * depth(x, y) = d0 + gx (x - px0) + gy (y - py0). */
