@@ -194,6 +194,16 @@ void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d)
         d->jump_a[k] = a;
         d->jump_c[k] = c;
     }
+    for (int j = 0; j < 8; j++) {
+        for (int q = 0; q < 2; q++) {
+            d->lane2_a[q][j] = d->jump_a[2 * j + q];
+            d->lane2_c[q][j] = d->jump_c[2 * j + q];
+        }
+        for (int q = 0; q < 3; q++) {
+            d->lane3_a[q][j] = d->jump_a[3 * j + q];
+            d->lane3_c[q][j] = d->jump_c[3 * j + q];
+        }
+    }
 }
 
 void sss_i_exp_samples_scalar(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w)
@@ -649,8 +659,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
             f.R = (float)R;
             f.sigma = (float)mi->sigma_star;
             f.m = (float)(0.75 / ppu + 1e-4 * R + 1e-5 * (xmax + R));
-            f.jump_a = mi->ed.jump_a;
-            f.jump_c = mi->ed.jump_c;
+            f.jd = &mi->ed;
             float *fu1 = s->buf + (size_t)12 * j->np, *fu2 = s->buf + (size_t)13 * j->np,
                   *fz = s->buf + (size_t)14 * j->np;
             const int nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
@@ -706,8 +715,17 @@ static void build_task(void *user, int64_t task, int thread)
      * sss_i_stream_seed per texel */
     const int row_seeds = p->frames == 1 && j->use_avx2;
     for (int y = y0; y < y1; y++) {
-        if (row_seeds)
-            sss_i_stream_seeds_avx2((uint32_t)(y * m->size + x0), (x1 - x0 + 7) & ~7, (uint32_t)k, p->seed, s->seeds);
+        if (row_seeds) {
+            /* only the blocks of 8 that hold a covered texel */
+            const float *dr = obs_image_f32_row(&gb->depth, y);
+            for (int b = x0; b < x1; b += 8) {
+                int any = 0;
+                for (int x = b; x < b + 8 && x < x1; x++)
+                    any |= dr[x] < INFINITY;
+                if (any)
+                    sss_i_stream_seeds_avx2((uint32_t)(y * m->size + b), 8, (uint32_t)k, p->seed, s->seeds + (b - x0));
+            }
+        }
         for (int x = x0; x < x1; x++) {
             float *out[3];
             for (int c = 0; c < 3; c++)
@@ -771,11 +789,35 @@ static void build_task(void *user, int64_t task, int thread)
 #endif
                         sss_i_eval_scalar(&mi->g, xof, nof, &b, 1, 0, b.n);
                     evaluated += (uint64_t)n;
-                    for (int c = 0; c < 3; c++) {
-                        double sum = 0.0;
-                        for (int q = 0; q < n; q++)
-                            sum += s->w[q] * (double)b.out[c][q];
-                        acc[c] += li->radiance[c] * sum;
+                    if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
+                        /* four interleaved partial sums (sample q into q mod 4), then
+                         * (s0 + s1) + (s2 + s3): a fixed order that the compiler can vectorise */
+                        const int n4 = n & ~3;
+                        for (int c = 0; c < 3; c++) {
+                            const float *o = b.out[c];
+                            double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;
+                            for (int q = 0; q < n4; q += 4) {
+                                a0 += s->w[q] * (double)o[q];
+                                a1 += s->w[q + 1] * (double)o[q + 1];
+                                a2 += s->w[q + 2] * (double)o[q + 2];
+                                a3 += s->w[q + 3] * (double)o[q + 3];
+                            }
+                            if (n4 < n)
+                                a0 += s->w[n4] * (double)o[n4];
+                            if (n4 + 1 < n)
+                                a1 += s->w[n4 + 1] * (double)o[n4 + 1];
+                            if (n4 + 2 < n)
+                                a2 += s->w[n4 + 2] * (double)o[n4 + 2];
+                            acc[c] += li->radiance[c] * ((a0 + a1) + (a2 + a3));
+                        }
+                    } else {
+                        /* sequential (the order the rr and N-of-M maps were pinned with) */
+                        for (int c = 0; c < 3; c++) {
+                            double sum = 0.0;
+                            for (int q = 0; q < n; q++)
+                                sum += s->w[q] * (double)b.out[c][q];
+                            acc[c] += li->radiance[c] * sum;
+                        }
                     }
                 }
             }

@@ -97,15 +97,8 @@ static inline vf vunit(vi st)
 void sss_i_exp_samples_avx2(uint32_t *state, int groups, const sss_i_exp_disk *d, float *ox, float *oy, float *w)
 {
     /* jump constants of draws 1, 3, .., 15 (u1) and 2, 4, .., 16 (u2) */
-    int32_t a1[8], c1[8], a2[8], c2[8];
-    for (int j = 0; j < 8; j++) {
-        a1[j] = (int32_t)d->jump_a[2 * j];
-        c1[j] = (int32_t)d->jump_c[2 * j];
-        a2[j] = (int32_t)d->jump_a[2 * j + 1];
-        c2[j] = (int32_t)d->jump_c[2 * j + 1];
-    }
-    const vi A1 = _mm256_loadu_si256((const vi *)a1), C1 = _mm256_loadu_si256((const vi *)c1);
-    const vi A2 = _mm256_loadu_si256((const vi *)a2), C2 = _mm256_loadu_si256((const vi *)c2);
+    const vi A1 = _mm256_loadu_si256((const vi *)d->lane2_a[0]), C1 = _mm256_loadu_si256((const vi *)d->lane2_c[0]);
+    const vi A2 = _mm256_loadu_si256((const vi *)d->lane2_a[1]), C2 = _mm256_loadu_si256((const vi *)d->lane2_c[1]);
     const vf Z = VSET(d->Z), q = VSET(d->q), T = VSET(d->T), sigma = VSET(d->sigma), R = VSET(d->R);
     const vf w0 = VSET(d->w0), one = VSET(1.0f), zero = VSET(0.0f);
     uint32_t st = *state;
@@ -244,16 +237,10 @@ int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *
                             float *zeta)
 {
     /* lane j: draws 3j+1 (u1), 3j+2 (u2), 3j+3 (zeta) after the group's start */
-    int32_t a[3][8], c[3][8];
-    for (int j = 0; j < 8; j++)
-        for (int d = 0; d < 3; d++) {
-            a[d][j] = (int32_t)f->jump_a[3 * j + d];
-            c[d][j] = (int32_t)f->jump_c[3 * j + d];
-        }
     vi A[3], C[3];
     for (int d = 0; d < 3; d++) {
-        A[d] = _mm256_loadu_si256((const vi *)a[d]);
-        C[d] = _mm256_loadu_si256((const vi *)c[d]);
+        A[d] = _mm256_loadu_si256((const vi *)f->jd->lane3_a[d]);
+        C[d] = _mm256_loadu_si256((const vi *)f->jd->lane3_c[d]);
     }
     const vf R = VSET(f->R), sigma = VSET(f->sigma), m = VSET(f->m), zero = VSET(0.0f);
     uint32_t st = *state;
@@ -264,7 +251,7 @@ int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *
         const vf x1 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[0], s0), C[0]));
         const vf x2 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[1], s0), C[1]));
         const vf z = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[2], s0), C[2]));
-        st = f->jump_a[23] * st + f->jump_c[23];
+        st = f->jd->jump_a[23] * st + f->jd->jump_c[23];
         const vf arg = VMUL(sigma, VSUB(VMUL(R, _mm256_sqrt_ps(x1)), m));
         const vf bound = VMUL(VSET(1.0001f), vexpf(_mm256_xor_ps(arg, VSET(-0.0f))));
         /* reject: arg > 0 and z >= bound */

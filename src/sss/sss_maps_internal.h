@@ -67,7 +67,7 @@ static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, dou
 extern int sss_i_rr_prefilter_off;
 typedef struct sss_i_rr_filter {
     float R, sigma, m;       /* disk radius, sigma*, margin (world units) */
-    const uint32_t *jump_a, *jump_c; /* 24 entries: the LCG's jump-ahead (sss_i_exp_disk) */
+    const struct sss_i_exp_disk *jd; /* the LCG's jump-ahead constants */
 } sss_i_rr_filter;
 int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
                        int use_avx2);
@@ -93,6 +93,9 @@ typedef struct sss_i_exp_disk {
     float q, Z;              /* q = (1 + T) e^{-T}, Z = 1 - q (from double) */
     float w0;                /* 2 pi Z / (N sigma^2) (from double) */
     uint32_t jump_a[24], jump_c[24]; /* LCG jump-ahead: state_{+k} = a_k state + c_k, k = 1..24 */
+    /* the same in lane order for 8-wide groups: draw d of sample j is k = D j + d + 1 (D = 2 for
+     * this sampler, 3 for the Russian-roulette pre-filter) */
+    uint32_t lane2_a[2][8], lane2_c[2][8], lane3_a[3][8], lane3_c[3][8];
 } sss_i_exp_disk;
 void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d);
 
