@@ -592,7 +592,8 @@ TEST(sss_exponential_gather_is_unbiased_with_a_smaller_se_than_rr)
      * the exponential sampler's mean is the quadrature within 3 SE, and the spread of one N = 48
      * estimate (its SE) is reported for both samplers. Two scales: one unit = 0.1 mm (sigma* R =
      * 0.105: rr accepts almost every candidate) and one unit = 10 mm (sigma* R = 10.5, as the
-     * bunny's ~11: rr accepts ~2%). */
+     * bunny's ~11: rr accepts ~2%). The exponential sampler's exact 3 x 3 near field is active
+     * (R is ~67 light-map texels). */
     obs_context *ctx = obs_context_create();
     obs_pool *pool = obs_pool_create(2);
     obs_scene s;

@@ -199,7 +199,9 @@ typedef enum sss_sampler {
     SSS_SAMPLER_EXPONENTIAL,          /* the default. Unbiased importance sampling of the same
                                          density: rho by inversion of the CDF of
                                          rho e^{-sigma* rho} on [0, R], phi uniform, weight
-                                         1/(N pdf); every one of the N samples counts.
+                                         1/(N pdf); every one of the N samples counts,
+                                         except that the 3 x 3 light-map texels around x_o are
+                                         integrated exactly instead (their samples count 0).
                                          DEVIATION: the shipped shader is rr with 1000 frames
                                          (CONVERGENCE_FRAMES); a one-call CPU reference needs an
                                          estimator that converges in one call; `--sampler rr

@@ -578,13 +578,20 @@ static int gather_light(const build_job *j, const light_info *li, const double x
         const float *W0 = lm->wnormal[0].data, *W1 = lm->wnormal[1].data, *W2 = lm->wnormal[2].data;
         const uint32_t *IID = lm->gb.instance_id.data;
         const ptrdiff_t pst = lm->position[0].stride, ist = lm->gb.instance_id.stride;
+        /* The near field (docs/sss/maps.md "Samplers"): the 3 x 3 light-map texels around x_o's
+         * projection are integrated exactly (each texel's value times its area 1/ppu^2, appended
+         * after the samples) and samples that land in them count 0. Unbiased: the integrand is
+         * constant over a texel (nearest fetch). Only when the block lies inside the disk. */
+        const int bx = (int)floorf(fcx) - 1, by = (int)floorf(fcy) - 1;
+        const int block = R * ppu >= 3.0;
+#define SSS_IN_BLOCK(ix, iy) (block && (unsigned)((ix) - bx) < 3u && (unsigned)((iy) - by) < 3u)
         if (!li->point) {
             const float l0 = (float)li->to_light[0], l1 = (float)li->to_light[1], l2 = (float)li->to_light[2];
             int i = 0;
 #if defined(OBS_HAVE_AVX2)
             if (j->use_avx2) {
                 /* the loop below, 8 samples per vector (gathers, left-packed by a table) */
-                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}};
+                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}, bx, by, block};
                 n = sss_i_exp_fetch_dir_avx2(&in, N / 8, sox, soy, sw, j->pack_lut, xi, ni, wi, s->w, n);
                 i = N / 8 * 8;
             }
@@ -594,6 +601,8 @@ static int gather_light(const build_job *j, const light_info *li, const double x
                 if (!(tx >= 0.0f && ty >= 0.0f && tx < fsize && ty < fsize))
                     continue;
                 const int ix = (int)tx, iy = (int)ty; /* nearest texel (docs/sss/maps.md) */
+                if (SSS_IN_BLOCK(ix, iy))
+                    continue;
                 const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
                 const float px = P0[o];
                 if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
@@ -616,6 +625,8 @@ static int gather_light(const build_job *j, const light_info *li, const double x
                 if (!(tx >= 0.0f && ty >= 0.0f && tx < fsize && ty < fsize))
                     continue;
                 const int ix = (int)tx, iy = (int)ty;
+                if (SSS_IN_BLOCK(ix, iy))
+                    continue;
                 const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
                 const float px = P0[o];
                 if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
@@ -636,6 +647,38 @@ static int gather_light(const build_job *j, const light_info *li, const double x
                 n++;
             }
         }
+        /* the block, row by row: weight = texel area in the disk plane, 1/ppu^2 */
+        for (int iy = by; block && iy < by + 3; iy++)
+            for (int ix = bx; ix < bx + 3; ix++) {
+                if (ix < 0 || iy < 0 || ix >= size || iy >= size)
+                    continue;
+                const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
+                const float px = P0[o];
+                if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
+                    continue;
+                double wgt = 1.0 / (ppu * ppu);
+                xi[0][n] = px;
+                xi[1][n] = P1[o];
+                xi[2][n] = P2[o];
+                ni[0][n] = W0[o];
+                ni[1][n] = W1[o];
+                ni[2][n] = W2[o];
+                if (li->point) {
+                    double dx = li->pos[0] - px, dy = li->pos[1] - P1[o], dz = li->pos[2] - P2[o];
+                    double d2 = dx * dx + dy * dy + dz * dz, il = 1.0 / sqrt(d2);
+                    wi[0][n] = (float)(dx * il);
+                    wi[1][n] = (float)(dy * il);
+                    wi[2][n] = (float)(dz * il);
+                    wgt /= d2;
+                } else {
+                    wi[0][n] = (float)li->to_light[0];
+                    wi[1][n] = (float)li->to_light[1];
+                    wi[2][n] = (float)li->to_light[2];
+                }
+                s->w[n] = wgt;
+                n++;
+            }
+#undef SSS_IN_BLOCK
     } else if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE) {
         /* [DalCorso14] final shader (#define RUSSIAN_ROULETTE, sss.md 3.4): rho = R sqrt(z1),
          * phi = 2 pi z2, accept if z3 < exp(-sigma* |x_o - x_i|) (3D distance), weight
@@ -906,7 +949,7 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
      * object bounding box"; sss.md 3.5) */
     job.R = p->disk_radius > 0.0 ? p->disk_radius : rad;
     job.area = OBS_PI * job.R * job.R;
-    job.np = (p->N + 7) & ~7;
+    job.np = (p->N + 9 + 7) & ~7; /* + the exponential sampler's 3 x 3 near-field texels */
     sss_i_pack_lut_make(job.pack_lut);
     for (uint32_t i = 0; i <= mats->count; i++)
         if (mi[i].c)
@@ -964,7 +1007,7 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     }
     for (int t = 0; t < threads; t++) {
         job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)job.np);
-        job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)p->N);
+        job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)job.np);
         job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
         if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");

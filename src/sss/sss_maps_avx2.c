@@ -193,13 +193,21 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
     for (int g = 0; g < groups; g++) {
         const vf tx = VADD(cx, VMUL(_mm256_loadu_ps(ox + 8 * g), ppu));
         const vf ty = VSUB(cy, VMUL(_mm256_loadu_ps(oy + 8 * g), ppu));
-        const vf inside = _mm256_and_ps(
+        vf inside = _mm256_and_ps(
             _mm256_and_ps(_mm256_cmp_ps(tx, zero, _CMP_GE_OQ), _mm256_cmp_ps(ty, zero, _CMP_GE_OQ)),
             _mm256_and_ps(_mm256_cmp_ps(tx, size, _CMP_LT_OQ), _mm256_cmp_ps(ty, size, _CMP_LT_OQ)));
         if (_mm256_testz_ps(inside, inside))
             continue;
         const vi ix = _mm256_and_si256(_mm256_cvttps_epi32(tx), _mm256_castps_si256(inside));
         const vi iy = _mm256_and_si256(_mm256_cvttps_epi32(ty), _mm256_castps_si256(inside));
+        if (in->block) {
+            const vi dx = _mm256_sub_epi32(ix, _mm256_set1_epi32(in->bx)), dy = _mm256_sub_epi32(iy, _mm256_set1_epi32(in->by));
+            const vi three = _mm256_set1_epi32(3), m1 = _mm256_set1_epi32(-1);
+            const vi inb = _mm256_and_si256(
+                _mm256_and_si256(_mm256_cmpgt_epi32(three, dx), _mm256_cmpgt_epi32(dx, m1)),
+                _mm256_and_si256(_mm256_cmpgt_epi32(three, dy), _mm256_cmpgt_epi32(dy, m1)));
+            inside = _mm256_andnot_ps(_mm256_castsi256_ps(inb), inside);
+        }
         const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, pst), ix);
         const vi oi = _mm256_add_epi32(_mm256_mullo_epi32(iy, ist), ix);
         const vf px = _mm256_mask_i32gather_ps(zero, in->P[0], o, inside, 4);

@@ -86,6 +86,8 @@ int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *
  *   rho = min(t / sigma, R); phi = 2 pi u2.
  * Weight of a sample: 1 / (N p(x)) = 2 pi Z e^{sigma rho} / (N sigma^2) (unbiased; every sample
  * counts, none is rejected). Two draws per sample, u1 then u2, from the texel's stream.
+ * The near field (sss_maps.c, docs/sss/maps.md): the 3 x 3 light-map texels around x_o's
+ * projection are added exactly (value x texel area) and samples landing in them count 0.
  * Everything is plain float arithmetic (+ - * / sqrt, compares, the kernel's sss_i_expf and the
  * log below) so that the AVX2 path (sss_maps_avx2.c) gives the same bits. */
 typedef struct sss_i_exp_disk {
@@ -221,6 +223,7 @@ typedef struct sss_i_fetch_in {
     float cx, cy, ppu, size;
     uint32_t inst;
     float l[3];
+    int bx, by, block;          /* block: samples in texels [bx, bx+3) x [by, by+3) are dropped */
 } sss_i_fetch_in;
 int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
                              const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
