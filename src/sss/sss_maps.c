@@ -582,8 +582,8 @@ static int gather_light(const build_job *j, const light_info *li, const double x
          * projection are integrated exactly (each texel's value times its area 1/ppu^2, appended
          * after the samples) and samples that land in them count 0. Unbiased: the integrand is
          * constant over a texel (nearest fetch). Only when the block lies inside the disk. */
-        const int bx = (int)floorf(fcx) - 1, by = (int)floorf(fcy) - 1;
-        const int block = R * ppu >= 3.0;
+        const int block = R * ppu >= 3.0 && fcx > -4.0f && fcy > -4.0f && fcx < fsize + 4.0f && fcy < fsize + 4.0f;
+        const int bx = block ? (int)floorf(fcx) - 1 : 0, by = block ? (int)floorf(fcy) - 1 : 0;
 #define SSS_IN_BLOCK(ix, iy) (block && (unsigned)((ix) - bx) < 3u && (unsigned)((iy) - by) < 3u)
         if (!li->point) {
             const float l0 = (float)li->to_light[0], l1 = (float)li->to_light[1], l2 = (float)li->to_light[2];
