@@ -232,6 +232,15 @@ TEST(sss_texel_stream_is_tea_then_lcg_top_24_bits)
     /* distinct texels and layers give distinct streams */
     CHECK(sss_i_stream_seed(1, 0, 0) != sss_i_stream_seed(2, 0, 0));
     CHECK(sss_i_stream_seed(1, 0, 0) != sss_i_stream_seed(1, 1, 0));
+#if defined(OBS_HAVE_AVX2)
+    /* the maps' 8-texels-per-vector seeds are the same values */
+    if (sss_isa_available(SSS_ISA_AVX2)) {
+        uint32_t v[64];
+        sss_i_stream_seeds_avx2(1000, 64, 7, 0x123456789abcdefull, v);
+        for (int i = 0; i < 64; i++)
+            CHECK_EQ_INT(v[i], sss_i_stream_seed(1000u + (uint32_t)i, 7, 0x123456789abcdefull));
+    }
+#endif
 }
 
 TEST(sss_russian_roulette_accepts_with_the_exponential_density)
