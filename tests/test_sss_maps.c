@@ -232,6 +232,15 @@ TEST(sss_texel_stream_is_tea_then_lcg_top_24_bits)
     /* distinct texels and layers give distinct streams */
     CHECK(sss_i_stream_seed(1, 0, 0) != sss_i_stream_seed(2, 0, 0));
     CHECK(sss_i_stream_seed(1, 0, 0) != sss_i_stream_seed(1, 1, 0));
+#if defined(OBS_HAVE_AVX2)
+    /* the maps' 8-texels-per-vector seeds are the same values */
+    if (sss_isa_available(SSS_ISA_AVX2)) {
+        uint32_t v[64];
+        sss_i_stream_seeds_avx2(1000, 64, 7, 0x123456789abcdefull, v);
+        for (int i = 0; i < 64; i++)
+            CHECK_EQ_INT(v[i], sss_i_stream_seed(1000u + (uint32_t)i, 7, 0x123456789abcdefull));
+    }
+#endif
 }
 
 TEST(sss_russian_roulette_accepts_with_the_exponential_density)
@@ -267,6 +276,101 @@ TEST(sss_russian_roulette_accepts_with_the_exponential_density)
     /* the acceptance rate is Z / (pi R^2), Z = 2 pi F / sigma^2 */
     double rate = (double)acc / (20000.0 * 16.0), expect = 2.0 * Ftot / (sigma * sigma * R * R);
     CHECK_NEAR(rate, expect, 0.005);
+}
+
+/* F(rho) of the truncated radial density rho e^{-sigma rho} on [0, R], in double. */
+static double exp_cdf(double sigma, double R, double rho)
+{
+    const double T = sigma * R, t = sigma * rho;
+    return (1.0 - (1.0 + t) * exp(-t)) / (1.0 - (1.0 + T) * exp(-T));
+}
+
+TEST(sss_exponential_sampler_inverts_the_cdf)
+{
+    /* rho(u) of the float inversion (3 Newton steps) against the double CDF: F(rho(u)) = u within
+     * float rounding, for sigma* R from 0.05 to 80 and u over [0, 1) (including 2^-24 and
+     * 1 - 2^-24); the weight is 1 / (N pdf) */
+    const double srs[6] = {0.05, 0.5, 3.0, 11.0, 30.0, 80.0};
+    double worst = 0.0;
+    for (int i = 0; i < 6; i++) {
+        sss_i_exp_disk d;
+        sss_i_exp_disk_make(srs[i] / 2.0, 2.0, 48, &d); /* R = 2 */
+        const double sg = d.sigma, Z = 1.0 - (1.0 + srs[i]) * exp(-srs[i]);
+        for (int k = 0; k <= 4096; k++) {
+            float u = k < 4096 ? (float)k / 4096.0f : 1.0f - 1.0f / 16777216.0f;
+            if (k == 1)
+                u = 1.0f / 16777216.0f;
+            float ox, oy, w;
+            sss_i_exp_sample(u, 0.3f, &d, &ox, &oy, &w);
+            double rho = sqrt((double)ox * ox + (double)oy * oy);
+            CHECK(rho <= 2.0 * (1.0 + 1e-6) && isfinite(w) && w > 0.0f);
+            double err = fabs(exp_cdf(sg, d.R, rho) - u);
+            /* float rounding of rho (relative 2e-6) times the radial density, + 1e-6 */
+            double tol = 1e-6 + 2e-6 * rho * (sg * sg * rho * exp(-sg * rho) / Z);
+            if (err / tol > worst)
+                worst = err / tol;
+            CHECK_MSG(err <= tol, "sigma R %g, u %.9g: F(rho) = %.9g", srs[i], (double)u, exp_cdf(sg, d.R, rho));
+            /* 1 / (N pdf) = 2 pi Z e^{sigma rho} / (N sigma^2) */
+            double wexp = 2.0 * OBS_PI * Z * exp(sg * rho) / (48.0 * sg * sg);
+            CHECK_MSG(fabs(w / wexp - 1.0) < 2e-5, "sigma R %g, u %.9g: weight %g vs %g", srs[i], (double)u,
+                      (double)w, wexp);
+        }
+    }
+    fprintf(stderr, "exponential inversion: worst |F(rho(u)) - u| / tolerance = %.3f\n", worst);
+}
+
+TEST(sss_exponential_sampler_has_the_exponential_radial_density)
+{
+    /* Radii from the texel streams (sss_i_exp_samples, both ISAs) against rho e^{-sigma rho} on
+     * [0, R] (chi-square, 20 equal-probability bins), and phi uniform (16 sectors). */
+    const double sigma = 5.5, R = 2.0; /* sigma* R = 11: the bunny's */
+    sss_i_exp_disk d;
+    sss_i_exp_disk_make(sigma, R, 16, &d);
+    enum { B = 20, P = 16, STREAMS = 20000 };
+    double hist[B] = {0}, sect[P] = {0};
+    float ox[16], oy[16], w[16];
+    for (uint32_t t = 0; t < STREAMS; t++) {
+        uint32_t st = sss_i_stream_seed(t, 3, 11);
+        sss_i_exp_samples(&st, 16, &d, ox, oy, w, (int)(t & 1));
+        for (int i = 0; i < 16; i++) {
+            double rho = sqrt((double)ox[i] * ox[i] + (double)oy[i] * oy[i]);
+            int b = (int)(exp_cdf(sigma, R, rho) * B);
+            hist[b > B - 1 ? B - 1 : b] += 1.0;
+            double ph = atan2((double)oy[i], (double)ox[i]);
+            int q = (int)((ph + OBS_PI) / (2.0 * OBS_PI) * P);
+            sect[q > P - 1 ? P - 1 : q] += 1.0;
+        }
+    }
+    double n = 16.0 * STREAMS, chi = 0.0, chp = 0.0;
+    for (int b = 0; b < B; b++)
+        chi += (hist[b] - n / B) * (hist[b] - n / B) / (n / B);
+    for (int q = 0; q < P; q++)
+        chp += (sect[q] - n / P) * (sect[q] - n / P) / (n / P);
+    fprintf(stderr, "exponential sampler: radial chi-square %.2f (bound %.2f), phi chi-square %.2f (bound %.2f)\n",
+            chi, chi2_999(B - 1), chp, chi2_999(P - 1));
+    CHECK_MSG(chi < chi2_999(B - 1), "radial chi-square %g >= %g", chi, chi2_999(B - 1));
+    CHECK_MSG(chp < chi2_999(P - 1), "phi chi-square %g >= %g", chp, chi2_999(P - 1));
+}
+
+TEST(sss_exponential_sampler_avx2_matches_scalar_bit_for_bit)
+{
+    if (!sss_isa_available(SSS_ISA_AVX2)) {
+        fprintf(stderr, "AVX2 not available: skipped\n");
+        return;
+    }
+    const double srs[4] = {0.02, 1.0, 11.0, 95.0};
+    for (int i = 0; i < 4; i++) {
+        sss_i_exp_disk d;
+        sss_i_exp_disk_make(srs[i], 1.0, 48, &d);
+        for (uint32_t t = 0; t < 3000; t++) {
+            float a[3][53], b[3][53];
+            uint32_t sa = sss_i_stream_seed(t, 1, 5), sb = sa;
+            sss_i_exp_samples(&sa, 53, &d, a[0], a[1], a[2], 0);
+            sss_i_exp_samples(&sb, 53, &d, b[0], b[1], b[2], 1);
+            CHECK_EQ_INT(sa, sb);
+            CHECK_MSG(memcmp(a, b, sizeof a) == 0, "sigma R %g, stream %u: scalar and AVX2 samples differ", srs[i], t);
+        }
+    }
 }
 
 TEST(sss_nearest_n_of_m_accepts_with_the_exponential_density)
@@ -321,6 +425,19 @@ TEST(sss_nearest_n_of_m_accepts_with_the_exponential_density)
     CHECK_EQ_INT(n, 10);
     for (int q = 0; q < 10; q++)
         CHECK_EQ_INT(idx[q], first[q]);
+    /* the table form (the maps' speed-up) accepts the same set */
+    double *ptab = (double *)malloc(sizeof(double) * 1000);
+    for (int j = 0; j < 1000; j++)
+        ptab[j] = exp(-sr * (double)hd.rho[j]);
+    for (uint32_t t = 0; t < 200; t++) {
+        int *idx2 = (int *)malloc(sizeof(int) * 1000);
+        uint32_t s1 = sss_i_stream_seed(t, 5, 7), s2 = s1;
+        int v1 = 0, v2 = 0;
+        int n1 = sss_i_nofm_accept(&hd, &s1, sr, 48, idx, &v1), n2 = sss_i_nofm_accept_tab(&hd, &s2, ptab, 48, idx2, &v2);
+        CHECK(n1 == n2 && v1 == v2 && s1 == s2 && memcmp(idx, idx2, sizeof(int) * (size_t)n1) == 0);
+        free(idx2);
+    }
+    free(ptab);
     free(idx);
     sss_i_halton_disk_free(&hd);
     obs_context_destroy(ctx);
@@ -401,6 +518,7 @@ TEST(sss_russian_roulette_gather_converges_to_the_disk_integral)
     p.N = 2048;
     p.frames = 4;
     p.disk_radius = 15.0;
+    p.sampler = SSS_SAMPLER_RUSSIAN_ROULETTE;
     sss_light_map lm;
     CHECK_OK(sss_light_map_render(ctx, pool, &s, &L, &p, &lm), ctx);
     enum { B = 12 };
@@ -436,6 +554,104 @@ TEST(sss_russian_roulette_gather_converges_to_the_disk_integral)
     }
 
     sss_light_map_free(&lm);
+    obs_scene_free(&s);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}
+
+/* What the gather estimates exactly: the disk integral of the integrand at the NEAREST light-map
+ * texel (docs/sss/maps.md: each disk point reads its nearest texel's x_i): the sum over light-map
+ * texels of T12 S_d(x_i of the texel; x_o) E times the area of the texel's square inside the disk
+ * (8 x 8 sub-points per texel). Where the kernel varies within a texel it differs from
+ * plane_reference's continuous integral. */
+static double plane_reference_snapped(const sss_light_map *lm, const sss_constants *c, sss_model model, int ch,
+                                      const double xo[3], double R, double E)
+{
+    double pcx, pcy, dl, ppu;
+    const double x0[3] = {xo[0], xo[1], 0.0}, n[3] = {0, 0, 1};
+    if (!sss_i_project(&lm->gb.constants, x0, &pcx, &pcy, &dl, &ppu))
+        return NAN;
+    const int size = lm->gb.width, S = 8;
+    const double rp = R * ppu;
+    int y0 = (int)floor(pcy - rp) - 1, y1 = (int)ceil(pcy + rp) + 1;
+    int xa = (int)floor(pcx - rp) - 1, xb = (int)ceil(pcx + rp) + 1;
+    double sum = 0.0;
+    for (int iy = y0 < 0 ? 0 : y0; iy <= y1 && iy < size; iy++)
+        for (int ix = xa < 0 ? 0 : xa; ix <= xb && ix < size; ix++) {
+            int inside = 0;
+            for (int b = 0; b < S; b++)
+                for (int a = 0; a < S; a++) {
+                    double ox = (ix + (a + 0.5) / S - pcx) / ppu, oy = -(iy + (b + 0.5) / S - pcy) / ppu;
+                    inside += ox * ox + oy * oy <= R * R;
+                }
+            if (!inside)
+                continue;
+            double xi[3] = {obs_image_f32_row(&lm->position[0], iy)[ix], obs_image_f32_row(&lm->position[1], iy)[ix],
+                            obs_image_f32_row(&lm->position[2], iy)[ix]};
+            if (xi[0] != xi[0])
+                continue;
+            sum += sss_sd(c, model, ch, xi, n, n, x0, n) * inside / (S * S * ppu * ppu);
+        }
+    return E * (1.0 - sss_fresnel_reflectance(1.0, c->eta)) * sum;
+}
+
+TEST(sss_exponential_gather_is_unbiased_with_a_smaller_se_than_rr)
+{
+    /* The centre texel of the lit plane at N = 48, one frame, 160 independent builds per sampler:
+     * the exponential sampler's mean is the quadrature within 3 SE, and the spread of one N = 48
+     * estimate (its SE) is reported for both samplers. Two scales: one unit = 0.1 mm (sigma* R =
+     * 0.105: rr accepts almost every candidate) and one unit = 10 mm (sigma* R = 10.5, as the
+     * bunny's ~11: rr accepts ~2%). The exponential sampler's exact 3 x 3 near field is active
+     * (R is ~67 light-map texels). */
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    obs_scene s;
+    plane_scene(&s, 40.0f, 4);
+    const double mm[2] = {0.1, 10.0};
+    for (int c = 0; c < 2; c++) {
+        tmats tm;
+        CHECK(tmats_make(ctx, &tm, mm[c], 1));
+        obs_light L = dir_light(0, 0, -1, 2.0f);
+        sss_params p = sss_params_default();
+        CHECK(p.sampler == SSS_SAMPLER_EXPONENTIAL);
+        p.K = 1;
+        p.map_size = 16;
+        p.light_map_size = 512;
+        p.N = 48;
+        p.frames = 1;
+        p.disk_radius = 15.0;
+        sss_light_map lm;
+        CHECK_OK(sss_light_map_render(ctx, pool, &s, &L, &p, &lm), ctx);
+        enum { B = 160 };
+        double sd[2], mean[2], xo[3];
+        for (int smp = 0; smp < 2; smp++) {
+            p.sampler = smp == 0 ? SSS_SAMPLER_EXPONENTIAL : SSS_SAMPLER_RUSSIAN_ROULETTE;
+            double est[B];
+            CHECK(plane_estimates(ctx, pool, &s, &tm.m, &lm, p, B, 0, est, xo));
+            double m = 0.0, var = 0.0;
+            for (int b = 0; b < B; b++)
+                m += est[b] / B;
+            for (int b = 0; b < B; b++)
+                var += (est[b] - m) * (est[b] - m) / (B - 1);
+            mean[smp] = m;
+            sd[smp] = sqrt(var);
+        }
+        double ref = plane_reference_snapped(&lm, &tm.c, p.model, 0, xo, p.disk_radius, 2.0);
+        double cont = 2.0 * plane_reference(&tm.c, p.model, 0, xo, p.disk_radius);
+        double se = sd[0] / sqrt((double)B);
+        fprintf(stderr,
+                "plane, %g mm per unit (sigma* R = %.3g), N = 48, %d builds: reference %.6g (continuous %.6g); exponential mean %.6g "
+                "(ratio %.4f, %.2f SE), SE of one estimate %.4g (%.2f%%); rr mean %.6g, SE of one estimate %.4g "
+                "(%.2f%%); rr/exponential SE %.1f\n",
+                mm[c], tm.c.min_sigma_tr * p.disk_radius, (int)B, ref, cont, mean[0], mean[0] / ref, (mean[0] - ref) / se,
+                sd[0], 100.0 * sd[0] / ref, mean[1], sd[1], 100.0 * sd[1] / ref, sd[1] / sd[0]);
+        CHECK_MSG(fabs(mean[0] - ref) <= 3.0 * se, "|%g - %g| > 3 SE = %g", mean[0], ref, 3.0 * se);
+        CHECK(sd[0] < sd[1]);
+        if (c == 1)
+            CHECK_MSG(sd[0] < 0.25 * sd[1], "at sigma* R ~ 10 the exponential SE %g is not well below rr's %g", sd[0],
+                      sd[1]);
+        sss_light_map_free(&lm);
+    }
     obs_scene_free(&s);
     obs_pool_destroy(pool);
     obs_context_destroy(ctx);
@@ -578,27 +794,33 @@ TEST(sss_maps_and_combination_are_identical_for_1_2_8_threads_and_both_isas)
         for (int c = 0; c < 3; c++)
             CHECK_MSG(planes_equal(&out[0][c], &out[i][c]), "image differs with %d threads", threads[i]);
     }
-    /* the N-of-M sampler too */
-    f.p.sampler = SSS_SAMPLER_NEAREST_N_OF_M;
+    /* the other samplers too (the default above is the exponential one); N = 19: the AVX2
+     * paths' tails */
+    CHECK(f.p.sampler == SSS_SAMPLER_EXPONENTIAL);
     f.p.M = 200;
+    f.p.N = 19;
     sss_maps a, b;
     obs_pool *p1 = obs_pool_create(1), *p8 = obs_pool_create(8);
-    CHECK_OK(build_and_combine(&f, p1, NULL, &a, NULL, NULL), f.ctx);
-    CHECK_OK(build_and_combine(&f, p8, NULL, &b, NULL, NULL), f.ctx);
-    CHECK(maps_equal(&a, &b));
-    sss_maps_free(&a);
-    sss_maps_free(&b);
-    f.p.sampler = SSS_SAMPLER_RUSSIAN_ROULETTE;
-    if (sss_isa_available(SSS_ISA_AVX2)) {
-        f.p.isa = SSS_ISA_SCALAR;
-        CHECK_OK(build_and_combine(&f, p8, NULL, &a, NULL, NULL), f.ctx);
-        f.p.isa = SSS_ISA_AVX2;
+    for (int smp = 0; smp < SSS_SAMPLER_COUNT; smp++) {
+        f.p.sampler = (sss_sampler)smp;
+        f.p.isa = SSS_ISA_AUTO;
+        CHECK_OK(build_and_combine(&f, p1, NULL, &a, NULL, NULL), f.ctx);
         CHECK_OK(build_and_combine(&f, p8, NULL, &b, NULL, NULL), f.ctx);
-        CHECK_MSG(maps_equal(&a, &b), "scalar and AVX2 maps differ");
+        CHECK_MSG(maps_equal(&a, &b), "%s: maps differ for 1 and 8 threads", sss_sampler_name(f.p.sampler));
         sss_maps_free(&a);
         sss_maps_free(&b);
-    } else {
-        fprintf(stderr, "AVX2 sss_eval_batch not available: the ISA comparison is skipped\n");
+        if (sss_isa_available(SSS_ISA_AVX2)) {
+            f.p.isa = SSS_ISA_SCALAR;
+            CHECK_OK(build_and_combine(&f, p8, NULL, &a, NULL, NULL), f.ctx);
+            f.p.isa = SSS_ISA_AVX2;
+            CHECK_OK(build_and_combine(&f, p1, NULL, &b, NULL, NULL), f.ctx);
+            CHECK_MSG(maps_equal(&a, &b), "%s: scalar and AVX2 maps differ", sss_sampler_name(f.p.sampler));
+            CHECK(plane_sum(&a.radiance[0]) > 0.0);
+            sss_maps_free(&a);
+            sss_maps_free(&b);
+        } else {
+            fprintf(stderr, "AVX2 not available: the ISA comparison is skipped\n");
+        }
     }
     obs_pool_destroy(p1);
     obs_pool_destroy(p8);
@@ -607,6 +829,57 @@ TEST(sss_maps_and_combination_are_identical_for_1_2_8_threads_and_both_isas)
         for (int c = 0; c < 3; c++)
             obs_image_f32_free(&out[i][c]);
     }
+    sphere_fixture_free(&f);
+}
+
+TEST(sss_rr_prefilter_changes_no_bit)
+{
+    /* The Russian-roulette pre-filter (docs/sss/maps.md "Cost") only skips candidates that the
+     * exact test rejects: the maps are the same bytes with it off, on the sphere (curved: the 3D
+     * distance exceeds the in-plane one) and on the plane at sigma* R ~ 10, for both ISAs. */
+    sphere_fixture f;
+    CHECK(sphere_fixture_make(&f));
+    f.p.sampler = SSS_SAMPLER_RUSSIAN_ROULETTE;
+    f.p.N = 203;
+    obs_pool *pool = obs_pool_create(2);
+    for (int isa = 0; isa < 2; isa++) {
+        f.p.isa = isa ? SSS_ISA_SCALAR : SSS_ISA_AUTO;
+        sss_maps a, b;
+        sss_i_rr_prefilter_off = 1;
+        CHECK_OK(build_and_combine(&f, pool, NULL, &a, NULL, NULL), f.ctx);
+        sss_i_rr_prefilter_off = 0;
+        CHECK_OK(build_and_combine(&f, pool, NULL, &b, NULL, NULL), f.ctx);
+        CHECK_MSG(maps_equal(&a, &b), "sphere, isa %s: the pre-filter changed the maps", sss_isa_name(f.p.isa));
+        CHECK(a.samples_evaluated > 0 && a.samples_evaluated == b.samples_evaluated);
+        sss_maps_free(&a);
+        sss_maps_free(&b);
+    }
+    obs_scene s;
+    plane_scene(&s, 40.0f, 4);
+    tmats tm;
+    CHECK(tmats_make(f.ctx, &tm, 10.0, 1));
+    obs_light L = dir_light(0.3f, 0.1f, -1, 2.0f);
+    sss_params p = sss_params_default();
+    p.sampler = SSS_SAMPLER_RUSSIAN_ROULETTE;
+    p.K = 2;
+    p.map_size = 32;
+    p.light_map_size = 256;
+    p.N = 256;
+    p.disk_radius = 15.0;
+    sss_light_map lm;
+    CHECK_OK(sss_light_map_render(f.ctx, pool, &s, &L, &p, &lm), f.ctx);
+    sss_maps a, b;
+    sss_i_rr_prefilter_off = 1;
+    CHECK_OK(sss_maps_build(f.ctx, pool, &s, &tm.m, &lm, 1, &p, &a), f.ctx);
+    sss_i_rr_prefilter_off = 0;
+    CHECK_OK(sss_maps_build(f.ctx, pool, &s, &tm.m, &lm, 1, &p, &b), f.ctx);
+    CHECK_MSG(maps_equal(&a, &b), "plane: the pre-filter changed the maps");
+    CHECK(a.samples_evaluated > 0);
+    sss_maps_free(&a);
+    sss_maps_free(&b);
+    sss_light_map_free(&lm);
+    obs_scene_free(&s);
+    obs_pool_destroy(pool);
     sphere_fixture_free(&f);
 }
 
@@ -889,7 +1162,7 @@ TEST(sss_map_params_bad_values_are_refused_naming_the_field)
     CHECK_EQ_INT(d.M, 1000);
     CHECK_EQ_INT(d.map_size, 512);
     CHECK_EQ_INT(d.light_map_size, 512);
-    CHECK(d.sampler == SSS_SAMPLER_RUSSIAN_ROULETTE && d.visibility == SSS_VISIBILITY_PRODUCT5);
+    CHECK(d.sampler == SSS_SAMPLER_EXPONENTIAL && d.visibility == SSS_VISIBILITY_PRODUCT5);
     p = d; p.K = 0;
     CHECK(refused_naming(ctx, &p, "K ="));
     p = d; p.K = 257;
@@ -932,6 +1205,8 @@ TEST(sss_map_params_bad_values_are_refused_naming_the_field)
     CHECK(sss_visibility_from_name("PCF3x3", &vv) && vv == SSS_VISIBILITY_PCF3X3);
     CHECK(!sss_sampler_from_name("halton", &sm));
     CHECK(strcmp(sss_sampler_name(SSS_SAMPLER_RUSSIAN_ROULETTE), "russian-roulette") == 0);
+    CHECK(sss_sampler_from_name("Exponential", &sm) && sm == SSS_SAMPLER_EXPONENTIAL);
+    CHECK(strcmp(sss_sampler_name(SSS_SAMPLER_EXPONENTIAL), "exponential") == 0);
     CHECK(strcmp(sss_visibility_name(SSS_VISIBILITY_PRODUCT5), "product5") == 0);
     /* and the passes refuse them too */
     obs_scene s;

@@ -196,8 +196,20 @@ typedef enum sss_sampler {
     SSS_SAMPLER_NEAREST_N_OF_M,       /* the thesis text: M Halton points with exponential
                                          rejection, keep the N nearest to x_o, weight A_c/N
                                          (biased; docs/sss.md measures it) */
+    SSS_SAMPLER_EXPONENTIAL,          /* the default. Unbiased importance sampling of the same
+                                         density: rho by inversion of the CDF of
+                                         rho e^{-sigma* rho} on [0, R], phi uniform, weight
+                                         1/(N pdf); every one of the N samples counts,
+                                         except that the 3 x 3 light-map texels around x_o are
+                                         integrated exactly instead (their samples count 0).
+                                         DEVIATION: the shipped shader is rr with 1000 frames
+                                         (CONVERGENCE_FRAMES); a one-call CPU reference needs an
+                                         estimator that converges in one call; `--sampler rr
+                                         --frames 1000` is the shipped configuration
+                                         (docs/sss/maps.md "Samplers") */
     SSS_SAMPLER_COUNT
 } sss_sampler;
+/* Names: "russian-roulette", "nearest-n-of-m", "exponential" (case-insensitive). */
 const char *sss_sampler_name(sss_sampler s);
 int sss_sampler_from_name(const char *name, sss_sampler *out);
 
@@ -210,7 +222,10 @@ typedef enum sss_visibility {
 const char *sss_visibility_name(sss_visibility v);
 int sss_visibility_from_name(const char *name, sss_visibility *out);
 
-/* Defaults name their source (sss.md section 3.7, the thesis' final code, unless said). */
+/* Defaults name their source (sss.md section 3.7, the thesis' final code, unless said).
+ * The default sampler is SSS_SAMPLER_EXPONENTIAL (ours, a DEVIATION: the shipped shader is rr
+ * with 1000 frames, CONVERGENCE_FRAMES = 1000; a one-call CPU reference needs an estimator that
+ * converges in one call; `--sampler rr --frames 1000` is the shipped configuration). */
 #define SSS_DEFAULT_K 16                 /* LAYERS = 16 (TranslucentMaterials.cpp) */
 #define SSS_DEFAULT_N 48                 /* samples per texel per frame; the bar (bunny, K=16, N=48) */
 #define SSS_DEFAULT_M 1000               /* candidate points of the N-of-M variant (thesis results chapter) */
@@ -224,14 +239,15 @@ int sss_visibility_from_name(const char *name, sss_visibility *out);
 typedef struct sss_params {
     sss_model model;          /* default SSS_MODEL_DIRECTIONAL */
     int K;                    /* scattering-map directions, 1..256 */
-    int N;                    /* samples per texel (accepted, or candidates for Russian roulette) */
+    int N;                    /* samples per texel and light (all count for exponential; candidates
+                                 for Russian roulette; accepted for N-of-M) */
     int M;                    /* candidates for SSS_SAMPLER_NEAREST_N_OF_M */
     int map_size;             /* scattering-map side, 16..4096 */
     int light_map_size;       /* light G-buffer side, 16..4096 */
     int frames;               /* progressive frames accumulated, >= 1; default 1 */
     double spread_q;          /* > 0 */
     double disk_radius;       /* world units; 0 = half the diagonal of the lit mesh's bounds (default) */
-    sss_sampler sampler;      /* default SSS_SAMPLER_RUSSIAN_ROULETTE */
+    sss_sampler sampler;      /* default SSS_SAMPLER_EXPONENTIAL (a deviation, see above) */
     sss_visibility visibility;/* default SSS_VISIBILITY_PRODUCT5 */
     double shadow_bias;
     double shrink_eps;

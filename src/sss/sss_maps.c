@@ -171,6 +171,103 @@ void sss_i_halton_disk_free(sss_i_halton_disk *h)
     memset(h, 0, sizeof *h);
 }
 
+/* ------------------------------------------------------------------------------------------------
+ * The exponential sampler (sss_maps_internal.h has the recipe)
+ * ---------------------------------------------------------------------------------------------- */
+
+void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d)
+{
+    memset(d, 0, sizeof *d);
+    d->sigma = (float)sigma;
+    d->R = (float)R;
+    d->T = d->sigma * d->R;
+    const double T = sigma * R, q = (1.0 + T) * exp(-T);
+    d->q = (float)q;
+    d->Z = (float)(1.0 - q);
+    /* 1 / (N p(x)), p(x) = sigma^2 e^{-sigma rho} / (2 pi Z): the e^{sigma rho} factor per sample */
+    d->w0 = (float)(2.0 * OBS_PI * (1.0 - q) / ((double)N * sigma * sigma));
+    /* the LCG of sss_i_rand composed k times: a_k = a^k, c_k = c (a^{k-1} + ... + 1) (mod 2^32) */
+    uint32_t a = 1, c = 0;
+    for (int k = 0; k < 24; k++) {
+        a = 1664525u * a;
+        c = 1664525u * c + 1013904223u;
+        d->jump_a[k] = a;
+        d->jump_c[k] = c;
+    }
+    for (int j = 0; j < 8; j++) {
+        for (int q = 0; q < 2; q++) {
+            d->lane2_a[q][j] = d->jump_a[2 * j + q];
+            d->lane2_c[q][j] = d->jump_c[2 * j + q];
+        }
+        for (int q = 0; q < 3; q++) {
+            d->lane3_a[q][j] = d->jump_a[3 * j + q];
+            d->lane3_c[q][j] = d->jump_c[3 * j + q];
+        }
+    }
+}
+
+void sss_i_exp_samples_scalar(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w)
+{
+    for (int i = 0; i < n; i++) {
+        const float u1 = sss_i_rand(state), u2 = sss_i_rand(state);
+        sss_i_exp_sample(u1, u2, d, &ox[i], &oy[i], &w[i]);
+    }
+}
+
+void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w, int use_avx2)
+{
+    int done = 0;
+#if defined(OBS_HAVE_AVX2)
+    if (use_avx2 && n >= 8) {
+        sss_i_exp_samples_avx2(state, n / 8, d, ox, oy, w);
+        done = n / 8 * 8;
+    }
+#else
+    (void)use_avx2;
+#endif
+    sss_i_exp_samples_scalar(state, n - done, d, ox + done, oy + done, w + done);
+}
+
+int sss_i_rr_prefilter_off = 0;
+
+void sss_i_pack_lut_make(int32_t lut[256 * 8])
+{
+    /* entry m: the indices of m's set bits in increasing order, then zeros */
+    for (int m = 0; m < 256; m++) {
+        int q = 0;
+        for (int b = 0; b < 8; b++)
+            if (m >> b & 1)
+                lut[8 * m + q++] = b;
+        while (q < 8)
+            lut[8 * m + q++] = 0;
+    }
+}
+
+int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
+                       int use_avx2)
+{
+    int n = 0, done = 0;
+#if defined(OBS_HAVE_AVX2)
+    if (use_avx2 && N >= 8) {
+        n = sss_i_rr_prefilter_avx2(state, N / 8, f, u1, u2, zeta);
+        done = N / 8 * 8;
+    }
+#else
+    (void)use_avx2;
+#endif
+    for (int i = done; i < N; i++) {
+        const float a = sss_i_rand(state), b = sss_i_rand(state), z = sss_i_rand(state);
+        const float arg = f->sigma * (f->R * sqrtf(a) - f->m);
+        if (arg > 0.0f && z >= 1.0001f * sss_i_expf(-arg))
+            continue;
+        u1[n] = a;
+        u2[n] = b;
+        zeta[n] = z;
+        n++;
+    }
+    return n;
+}
+
 int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_r, int keep, int *idx, int *visited)
 {
     /* [DalCorso14] method.tex, planeHaltonCircleRejectionExponential: accept when
@@ -182,6 +279,24 @@ int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_
         float zeta = sss_i_rand(state);
         v++;
         if (exp(-sigma_r * (double)h->rho[i]) > (double)zeta) {
+            idx[n++] = i;
+            if (keep > 0 && n >= keep)
+                break;
+        }
+    }
+    if (visited)
+        *visited = v;
+    return n;
+}
+
+int sss_i_nofm_accept_tab(const sss_i_halton_disk *h, uint32_t *state, const double *p, int keep, int *idx,
+                          int *visited)
+{
+    int n = 0, v = 0;
+    for (int i = 0; i < h->M; i++) {
+        float zeta = sss_i_rand(state);
+        v++;
+        if (p[i] > (double)zeta) {
             idx[n++] = i;
             if (keep > 0 && n >= keep)
                 break;
@@ -352,10 +467,13 @@ typedef struct mat_info {
     const sss_constants *c; /* NULL: opaque */
     sss_gpu_constants g;
     double sigma_star;      /* min sigma_tr / q, per scene unit */
+    sss_i_exp_disk ed;      /* the exponential sampler's constants (sigma*, R, N) */
+    double *nofm_p;         /* N-of-M: exp(-sigma* R rho_j), M entries */
 } mat_info;
 
 typedef struct scratch {
-    float *buf;             /* xi[3], ni[3], wi[3], out[3]: 12 N floats */
+    uint32_t seeds[40];     /* one row of a 32-texel tile, rounded up to 8 */
+    float *buf;             /* xi[3], ni[3], wi[3], out[3], ox, oy, w: 15 N floats */
     double *w;              /* N */
     int *idx;               /* M */
 } scratch;
@@ -371,9 +489,13 @@ typedef struct build_job {
     uint32_t mat_count;
     double R, area;
     const sss_i_halton_disk *hd;
+    double *hd_cos, *hd_sin; /* N-of-M: cos and sin of the Halton phi_j */
     scratch *scr;           /* one per thread */
     uint64_t *evaluated, *candidates; /* one per task */
     uint8_t *failed;        /* one per task */
+    int use_avx2;           /* the exponential sampler's sample generation; batch padding */
+    int np;                 /* N rounded up to a multiple of 8: the scratch arrays' length */
+    int32_t pack_lut[256 * 8]; /* left-pack permutations (sss_i_pack_lut_make) */
 } build_job;
 
 static const mat_info *job_material(const build_job *j, uint32_t id)
@@ -396,9 +518,9 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     double pcx, pcy, dl, ppu;
     float *xi[3], *ni[3], *wi[3];
     for (int a = 0; a < 3; a++) {
-        xi[a] = s->buf + (size_t)a * N;
-        ni[a] = s->buf + (size_t)(3 + a) * N;
-        wi[a] = s->buf + (size_t)(6 + a) * N;
+        xi[a] = s->buf + (size_t)a * j->np;
+        ni[a] = s->buf + (size_t)(3 + a) * j->np;
+        wi[a] = s->buf + (size_t)(6 + a) * j->np;
     }
     /* the disk's centre: the light-space projection of x_o ([DalCorso14] "circle_center =
      * (L x_o).xy", sss.md 3.2); for a point light the disk lies in the plane perpendicular to
@@ -445,33 +567,172 @@ static int gather_light(const build_job *j, const light_info *li, const double x
         n++;                                                                                           \
     } while (0)
 
-    if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE) {
+    if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
+        /* ours (docs/sss/maps.md "Samplers"): N samples of the density e^{-sigma* rho} on the disk,
+         * weight 1/(N pdf), drawn SoA (sss_i_exp_samples), then fetched and packed in order */
+        float *sox = s->buf + (size_t)12 * j->np, *soy = s->buf + (size_t)13 * j->np, *sw = s->buf + (size_t)14 * j->np;
+        sss_i_exp_samples(state, N, &mi->ed, sox, soy, sw, j->use_avx2);
+        *cand += (uint64_t)N;
+        const float fcx = (float)pcx, fcy = (float)pcy, fppu = (float)ppu, fsize = (float)size;
+        const float *P0 = lm->position[0].data, *P1 = lm->position[1].data, *P2 = lm->position[2].data;
+        const float *W0 = lm->wnormal[0].data, *W1 = lm->wnormal[1].data, *W2 = lm->wnormal[2].data;
+        const uint32_t *IID = lm->gb.instance_id.data;
+        const ptrdiff_t pst = lm->position[0].stride, ist = lm->gb.instance_id.stride;
+        /* The near field (docs/sss/maps.md "Samplers"): the 3 x 3 light-map texels around x_o's
+         * projection are integrated exactly (each texel's value times its area 1/ppu^2, appended
+         * after the samples) and samples that land in them count 0. Unbiased: the integrand is
+         * constant over a texel (nearest fetch). Only when the block lies inside the disk. */
+        const int block = R * ppu >= 3.0 && fcx > -4.0f && fcy > -4.0f && fcx < fsize + 4.0f && fcy < fsize + 4.0f;
+        const int bx = block ? (int)floorf(fcx) - 1 : 0, by = block ? (int)floorf(fcy) - 1 : 0;
+#define SSS_IN_BLOCK(ix, iy) (block && (unsigned)((ix) - bx) < 3u && (unsigned)((iy) - by) < 3u)
+        if (!li->point) {
+            const float l0 = (float)li->to_light[0], l1 = (float)li->to_light[1], l2 = (float)li->to_light[2];
+            int i = 0;
+#if defined(OBS_HAVE_AVX2)
+            if (j->use_avx2) {
+                /* the loop below, 8 samples per vector (gathers, left-packed by a table) */
+                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}, bx, by, block};
+                n = sss_i_exp_fetch_dir_avx2(&in, N / 8, sox, soy, sw, j->pack_lut, xi, ni, wi, s->w, n);
+                i = N / 8 * 8;
+            }
+#endif
+            for (; i < N; i++) {
+                const float tx = fcx + sox[i] * fppu, ty = fcy - soy[i] * fppu;
+                if (!(tx >= 0.0f && ty >= 0.0f && tx < fsize && ty < fsize))
+                    continue;
+                const int ix = (int)tx, iy = (int)ty; /* nearest texel (docs/sss/maps.md) */
+                if (SSS_IN_BLOCK(ix, iy))
+                    continue;
+                const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
+                const float px = P0[o];
+                if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
+                    continue;
+                xi[0][n] = px;
+                xi[1][n] = P1[o];
+                xi[2][n] = P2[o];
+                ni[0][n] = W0[o];
+                ni[1][n] = W1[o];
+                ni[2][n] = W2[o];
+                wi[0][n] = l0;
+                wi[1][n] = l1;
+                wi[2][n] = l2;
+                s->w[n] = (double)sw[i];
+                n++;
+            }
+        } else {
+            for (int i = 0; i < N; i++) {
+                const float tx = fcx + sox[i] * fppu, ty = fcy - soy[i] * fppu;
+                if (!(tx >= 0.0f && ty >= 0.0f && tx < fsize && ty < fsize))
+                    continue;
+                const int ix = (int)tx, iy = (int)ty;
+                if (SSS_IN_BLOCK(ix, iy))
+                    continue;
+                const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
+                const float px = P0[o];
+                if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
+                    continue;
+                const double x_i[3] = {px, P1[o], P2[o]};
+                double dx = li->pos[0] - x_i[0], dy = li->pos[1] - x_i[1], dz = li->pos[2] - x_i[2];
+                double d2 = dx * dx + dy * dy + dz * dz, il = 1.0 / sqrt(d2);
+                for (int a = 0; a < 3; a++)
+                    xi[a][n] = (float)x_i[a];
+                ni[0][n] = W0[o];
+                ni[1][n] = W1[o];
+                ni[2][n] = W2[o];
+                wi[0][n] = (float)(dx * il);
+                wi[1][n] = (float)(dy * il);
+                wi[2][n] = (float)(dz * il);
+                /* point light: E = I / |x_p - x_i|^2 ([DalCorso14] eq. inter2 variant) */
+                s->w[n] = (double)sw[i] / d2;
+                n++;
+            }
+        }
+        /* the block, row by row: weight = texel area in the disk plane, 1/ppu^2 */
+        for (int iy = by; block && iy < by + 3; iy++)
+            for (int ix = bx; ix < bx + 3; ix++) {
+                if (ix < 0 || iy < 0 || ix >= size || iy >= size)
+                    continue;
+                const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
+                const float px = P0[o];
+                if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
+                    continue;
+                double wgt = 1.0 / (ppu * ppu);
+                xi[0][n] = px;
+                xi[1][n] = P1[o];
+                xi[2][n] = P2[o];
+                ni[0][n] = W0[o];
+                ni[1][n] = W1[o];
+                ni[2][n] = W2[o];
+                if (li->point) {
+                    double dx = li->pos[0] - px, dy = li->pos[1] - P1[o], dz = li->pos[2] - P2[o];
+                    double d2 = dx * dx + dy * dy + dz * dz, il = 1.0 / sqrt(d2);
+                    wi[0][n] = (float)(dx * il);
+                    wi[1][n] = (float)(dy * il);
+                    wi[2][n] = (float)(dz * il);
+                    wgt /= d2;
+                } else {
+                    wi[0][n] = (float)li->to_light[0];
+                    wi[1][n] = (float)li->to_light[1];
+                    wi[2][n] = (float)li->to_light[2];
+                }
+                s->w[n] = wgt;
+                n++;
+            }
+#undef SSS_IN_BLOCK
+    } else if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE) {
         /* [DalCorso14] final shader (#define RUSSIAN_ROULETTE, sss.md 3.4): rho = R sqrt(z1),
          * phi = 2 pi z2, accept if z3 < exp(-sigma* |x_o - x_i|) (3D distance), weight
          * disk_area / (N p) (sss.md 3.5: the unbiased Russian-roulette form). Three draws per
          * candidate, always, so the stream position never depends on the geometry. */
-        for (int i = 0; i < N; i++) {
-            double ox, oy, zeta;
-            sss_i_rr_candidate(state, R, &ox, &oy, &zeta);
-            SSS_FETCH(ox, oy, {
-                double dx = xo[0] - x_i[0], dy = xo[1] - x_i[1], dz = xo[2] - x_i[2];
-                double pa = exp(-mi->sigma_star * sqrt(dx * dx + dy * dy + dz * dz));
-                if (zeta < pa)
-                    SSS_PUSH(j->area / ((double)N * pa));
-            });
+#define SSS_RR_TEST                                                                                    \
+    {                                                                                                  \
+        double dx = xo[0] - x_i[0], dy = xo[1] - x_i[1], dz = xo[2] - x_i[2];                          \
+        double pa = exp(-mi->sigma_star * sqrt(dx * dx + dy * dy + dz * dz));                          \
+        if (zeta < pa)                                                                                 \
+            SSS_PUSH(j->area / ((double)N * pa));                                                      \
+    }
+        const rast_view_constants *lvc = &lm->gb.constants;
+        if (!sss_i_rr_prefilter_off && !li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
+            /* The pre-filter (sss_maps_internal.h; no bit changes): only candidates that may pass
+             * the exact test below get their cos, sin, fetch and exp. Margin: half a texel
+             * diagonal (0.7072 texel, as 0.75) plus float rounding of rho, positions and the view
+             * matrix (1e-4 R + 1e-5 (|x_o|_inf + R)). */
+            double xmax = fmax(fabs(xo[0]), fmax(fabs(xo[1]), fabs(xo[2])));
+            sss_i_rr_filter f;
+            f.R = (float)R;
+            f.sigma = (float)mi->sigma_star;
+            f.m = (float)(0.75 / ppu + 1e-4 * R + 1e-5 * (xmax + R));
+            f.jd = &mi->ed;
+            float *fu1 = s->buf + (size_t)12 * j->np, *fu2 = s->buf + (size_t)13 * j->np,
+                  *fz = s->buf + (size_t)14 * j->np;
+            const int nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
+            for (int q = 0; q < nc; q++) {
+                double ox, oy, zeta = fz[q];
+                sss_i_rr_offset(R, fu1[q], fu2[q], &ox, &oy);
+                SSS_FETCH(ox, oy, SSS_RR_TEST);
+            }
+        } else {
+            for (int i = 0; i < N; i++) {
+                double ox, oy, zeta;
+                sss_i_rr_candidate(state, R, &ox, &oy, &zeta);
+                SSS_FETCH(ox, oy, SSS_RR_TEST);
+            }
         }
+#undef SSS_RR_TEST
         *cand += (uint64_t)N;
     } else {
         /* [DalCorso14] method.tex (the thesis text): M Halton points, exponential rejection
          * exp(-sigma* rho) > zeta, the N accepted nearest to x_o, weight A_c / N (biased:
          * docs/sss/maps.md measures it), pattern rotated per texel and frame by theta. */
         int visited = 0;
-        int na = sss_i_nofm_accept(j->hd, state, mi->sigma_star * R, N, s->idx, &visited);
+        /* exp(-sigma* R rho_j) and cos, sin of phi_j come from tables made once per build (the same
+         * expressions, so the same bits; docs/sss/maps.md "Cost") */
+        int na = sss_i_nofm_accept_tab(j->hd, state, mi->nofm_p, N, s->idx, &visited);
         double ct = cos(theta), st = sin(theta);
         for (int q = 0; q < na; q++) {
             int i = s->idx[q];
-            double rho = R * j->hd->rho[i], phi = j->hd->phi[i];
-            double ox0 = rho * cos(phi), oy0 = rho * sin(phi);
+            double rho = R * j->hd->rho[i];
+            double ox0 = rho * j->hd_cos[i], oy0 = rho * j->hd_sin[i];
             double ox = ct * ox0 - st * oy0, oy = st * ox0 + ct * oy0;
             SSS_FETCH(ox, oy, { SSS_PUSH(j->area / (double)N); });
         }
@@ -492,9 +753,22 @@ static void build_task(void *user, int64_t task, int thread)
     obs_tiling_rect(&j->tiling, task % j->tiles, &x0, &y0, &x1, &y1);
     const rast_gbuffer *gb = &m->views[k];
     scratch *s = &j->scr[thread];
-    const int N = p->N;
     uint64_t evaluated = 0, cand = 0;
+    /* the streams' seeds of a row, 8 texels per vector (one frame, AVX2): the same values as
+     * sss_i_stream_seed per texel */
+    const int row_seeds = p->frames == 1 && j->use_avx2;
     for (int y = y0; y < y1; y++) {
+        if (row_seeds) {
+            /* only the blocks of 8 that hold a covered texel */
+            const float *dr = obs_image_f32_row(&gb->depth, y);
+            for (int b = x0; b < x1; b += 8) {
+                int any = 0;
+                for (int x = b; x < b + 8 && x < x1; x++)
+                    any |= dr[x] < INFINITY;
+                if (any)
+                    sss_i_stream_seeds_avx2((uint32_t)(y * m->size + b), 8, (uint32_t)k, p->seed, s->seeds + (b - x0));
+            }
+        }
         for (int x = x0; x < x1; x++) {
             float *out[3];
             for (int c = 0; c < 3; c++)
@@ -516,7 +790,9 @@ static void build_task(void *user, int64_t task, int thread)
             float nof[3] = {(float)no[0], (float)no[1], (float)no[2]};
             double acc[3] = {0, 0, 0};
             for (int f = 0; f < p->frames; f++) {
-                uint32_t state = sss_i_stream_seed((uint32_t)(y * m->size + x), (uint32_t)(k * p->frames + f), p->seed);
+                uint32_t state = row_seeds ? s->seeds[x - x0]
+                                           : sss_i_stream_seed((uint32_t)(y * m->size + x),
+                                                               (uint32_t)(k * p->frames + f), p->seed);
                 double theta = 0.0;
                 if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) /* theta = 2 pi (r + t/T), [DalCorso14] method.tex */
                     theta = 2.0 * OBS_PI * ((double)sss_i_rand(&state) + (double)f / p->frames);
@@ -528,22 +804,63 @@ static void build_task(void *user, int64_t task, int thread)
                     sss_batch b;
                     b.n = n;
                     for (int a = 0; a < 3; a++) {
-                        b.xi[a] = s->buf + (size_t)a * N;
-                        b.ni[a] = s->buf + (size_t)(3 + a) * N;
-                        b.wi[a] = s->buf + (size_t)(6 + a) * N;
-                        b.out[a] = s->buf + (size_t)(9 + a) * N;
+                        b.xi[a] = s->buf + (size_t)a * j->np;
+                        b.ni[a] = s->buf + (size_t)(3 + a) * j->np;
+                        b.wi[a] = s->buf + (size_t)(6 + a) * j->np;
+                        b.out[a] = s->buf + (size_t)(9 + a) * j->np;
                     }
-                    /* T12 S_d per sample ([DalCorso14] eq. inter2: L_d A_c/N sum S e^{sigma r}) */
-                    if (sss_eval_batch(NULL, &mi->g, xof, nof, &b, 1, p->isa) != OBS_STATUS_OK) {
-                        j->failed[task] = 1;
-                        continue;
+                    /* With AVX2, pad to whole vectors with copies of sample 0: the kernel gives
+                     * every lane the scalar path's bits, so the n real outputs are unchanged and the
+                     * tail does not run on the (8x slower) scalar path; the pad lanes are not summed. */
+                    if (j->use_avx2 && (n & 7)) {
+                        const int n8 = (n + 7) & ~7;
+                        for (int t = 0; t < 9; t++) {
+                            float *col = s->buf + (size_t)t * j->np;
+                            for (int q = n; q < n8; q++)
+                                col[q] = col[0];
+                        }
+                        b.n = n8;
                     }
+                    /* T12 S_d per sample ([DalCorso14] eq. inter2: L_d A_c/N sum S e^{sigma r}):
+                     * sss_eval_batch's two paths, called directly (the arguments are checked
+                     * once, in sss_maps_build; the ISA is resolved once, not per call) */
+#if defined(OBS_HAVE_AVX2)
+                    if (j->use_avx2) {
+                        sss_i_eval_avx2(&mi->g, xof, nof, &b, 1, 0, b.n / 8);
+                        sss_i_eval_scalar(&mi->g, xof, nof, &b, 1, b.n / 8 * 8, b.n);
+                    } else
+#endif
+                        sss_i_eval_scalar(&mi->g, xof, nof, &b, 1, 0, b.n);
                     evaluated += (uint64_t)n;
-                    for (int c = 0; c < 3; c++) {
-                        double sum = 0.0;
-                        for (int q = 0; q < n; q++)
-                            sum += s->w[q] * (double)b.out[c][q];
-                        acc[c] += li->radiance[c] * sum;
+                    if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
+                        /* four interleaved partial sums (sample q into q mod 4), then
+                         * (s0 + s1) + (s2 + s3): a fixed order that the compiler can vectorise */
+                        const int n4 = n & ~3;
+                        for (int c = 0; c < 3; c++) {
+                            const float *o = b.out[c];
+                            double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;
+                            for (int q = 0; q < n4; q += 4) {
+                                a0 += s->w[q] * (double)o[q];
+                                a1 += s->w[q + 1] * (double)o[q + 1];
+                                a2 += s->w[q + 2] * (double)o[q + 2];
+                                a3 += s->w[q + 3] * (double)o[q + 3];
+                            }
+                            if (n4 < n)
+                                a0 += s->w[n4] * (double)o[n4];
+                            if (n4 + 1 < n)
+                                a1 += s->w[n4 + 1] * (double)o[n4 + 1];
+                            if (n4 + 2 < n)
+                                a2 += s->w[n4 + 2] * (double)o[n4 + 2];
+                            acc[c] += li->radiance[c] * ((a0 + a1) + (a2 + a3));
+                        }
+                    } else {
+                        /* sequential (the order the rr and N-of-M maps were pinned with) */
+                        for (int c = 0; c < 3; c++) {
+                            double sum = 0.0;
+                            for (int q = 0; q < n; q++)
+                                sum += s->w[q] * (double)b.out[c][q];
+                            acc[c] += li->radiance[c] * sum;
+                        }
                     }
                 }
             }
@@ -628,6 +945,21 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         sss_gpu_constants_make(cc, p->model, &mi[i].g);
         mi[i].sigma_star = cc->min_sigma_tr / p->spread_q; /* sigma* = min sigma_tr / q (sss.md 3.4) */
     }
+    /* disk radius: params, else half the diagonal of the bounds ([DalCorso14]: "the size of the
+     * object bounding box"; sss.md 3.5) */
+    job.R = p->disk_radius > 0.0 ? p->disk_radius : rad;
+    job.area = OBS_PI * job.R * job.R;
+    job.np = (p->N + 9 + 7) & ~7; /* + the exponential sampler's 3 x 3 near-field texels */
+    sss_i_pack_lut_make(job.pack_lut);
+    for (uint32_t i = 0; i <= mats->count; i++)
+        if (mi[i].c)
+            sss_i_exp_disk_make(mi[i].sigma_star, job.R, p->N, &mi[i].ed);
+    if (p->isa == SSS_ISA_AVX2)
+        job.use_avx2 = 1;
+    else if (p->isa == SSS_ISA_AUTO) {
+        const char *env = getenv("OBS_ISA");
+        job.use_avx2 = !(env && !strcmp(env, "scalar")) && sss_isa_available(SSS_ISA_AVX2);
+    }
     for (int l = 0; l < light_count; l++) {
         const obs_light *L = &lights[l].light;
         li[l].lm = &lights[l];
@@ -646,12 +978,36 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         li[l].radiance[1] = (double)L->color.y * L->intensity;
         li[l].radiance[2] = (double)L->color.z * L->intensity;
     }
-    if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M)
+    if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) {
         if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
             goto done;
+        job.hd_cos = (double *)malloc(sizeof(double) * (size_t)p->M);
+        job.hd_sin = (double *)malloc(sizeof(double) * (size_t)p->M);
+        if (!job.hd_cos || !job.hd_sin) {
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+            goto done;
+        }
+        for (int i = 0; i < p->M; i++) {
+            job.hd_cos[i] = cos((double)hd.phi[i]);
+            job.hd_sin[i] = sin((double)hd.phi[i]);
+        }
+        const double Rd = p->disk_radius > 0.0 ? p->disk_radius : rad;
+        for (uint32_t i = 0; i <= mats->count; i++) {
+            if (!mi[i].c)
+                continue;
+            mi[i].nofm_p = (double *)malloc(sizeof(double) * (size_t)p->M);
+            if (!mi[i].nofm_p) {
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+                goto done;
+            }
+            const double sigma_r = mi[i].sigma_star * Rd; /* as gather_light's sigma* R */
+            for (int q = 0; q < p->M; q++)
+                mi[i].nofm_p[q] = exp(-sigma_r * (double)hd.rho[q]);
+        }
+    }
     for (int t = 0; t < threads; t++) {
-        job.scr[t].buf = (float *)malloc(sizeof(float) * 12 * (size_t)p->N);
-        job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)p->N);
+        job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)job.np);
+        job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)job.np);
         job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
         if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
@@ -666,10 +1022,6 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     job.light_count = light_count;
     job.mats = mi;
     job.mat_count = mats->count;
-    /* disk radius: params, else half the diagonal of the bounds ([DalCorso14]: "the size of the
-     * object bounding box"; sss.md 3.5) */
-    job.R = p->disk_radius > 0.0 ? p->disk_radius : rad;
-    job.area = OBS_PI * job.R * job.R;
     job.hd = &hd;
     int64_t tasks = (int64_t)K * job.tiles;
     job.evaluated = (uint64_t *)calloc((size_t)tasks, sizeof(uint64_t));
@@ -699,6 +1051,11 @@ done:
     free(job.failed);
     sss_i_halton_disk_free(&hd);
     free(views);
+    if (mi)
+        for (uint32_t i = 0; i <= mats->count; i++)
+            free(mi[i].nofm_p);
+    free(job.hd_cos);
+    free(job.hd_sin);
     free(mi);
     free(li);
     if (st != OBS_STATUS_OK)

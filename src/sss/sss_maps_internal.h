@@ -4,8 +4,10 @@
 #define SSS_MAPS_INTERNAL_H
 
 #include "sss.h"
+#include "sss_internal.h"
 
 #include <math.h>
+#include <string.h>
 
 /* ---- The per-texel random stream (docs/sss/maps.md, "Randomness": the exact recipe) ---------
  * Seeded with TEA [Wheeler94], 16 rounds, the key constants of Dal Corso's
@@ -29,6 +31,9 @@ static inline uint32_t sss_i_stream_seed(uint32_t texel, uint32_t layer_frame, u
 {
     return sss_i_tea16(sss_i_tea16(texel, layer_frame), (uint32_t)seed ^ (uint32_t)(seed >> 32));
 }
+/* The seeds of `count` consecutive texels texel0, texel0 + 1, ... (count a multiple of 8) with
+ * AVX2 (sss_maps_avx2.c; the same uint32 operations, so the same values as sss_i_stream_seed). */
+void sss_i_stream_seeds_avx2(uint32_t texel0, int count, uint32_t layer_frame, uint64_t seed, uint32_t *out);
 static inline float sss_i_rand(uint32_t *state)
 {
     *state = 1664525u * *state + 1013904223u;
@@ -38,14 +43,194 @@ static inline float sss_i_rand(uint32_t *state)
 /* One Russian-roulette candidate ([DalCorso14] final shader, sss.md 3.4): three draws, in this
  * order: rho = R sqrt(z1), phi = 2 pi z2, zeta = z3; the disk offset is (rho cos phi, rho sin phi)
  * in the light-map plane (x right, y up). The caller accepts when zeta < exp(-sigma* |x_o - x_i|). */
-static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, double *oy, double *zeta)
+static inline void sss_i_rr_offset(double R, float u1, float u2, double *ox, double *oy)
 {
-    double u1 = sss_i_rand(state), u2 = sss_i_rand(state);
-    *zeta = sss_i_rand(state);
-    double rho = R * sqrt(u1), phi = 2.0 * OBS_PI * u2;
+    double rho = R * sqrt((double)u1), phi = 2.0 * OBS_PI * (double)u2;
     *ox = rho * cos(phi);
     *oy = rho * sin(phi);
 }
+static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, double *oy, double *zeta)
+{
+    float u1 = sss_i_rand(state), u2 = sss_i_rand(state);
+    *zeta = sss_i_rand(state);
+    sss_i_rr_offset(R, u1, u2, ox, oy);
+}
+/* The Russian-roulette pre-filter (a speed-up that changes no bit; docs/sss/maps.md "Cost"): for
+ * an orthographic light map the 3D distance |x_o - x_i| is at least the in-plane distance, which
+ * is at least rho - (half a texel diagonal), so p <= exp(-sigma* (rho - m)) for a margin m that
+ * also covers float rounding. A candidate whose zeta >= (1 + 1e-4) expf(-sigma* (rho_f - m))
+ * (float rho_f = R sqrtf(u1)) is certainly rejected by the exact test and is skipped without its
+ * cos, sin, fetch and exp. Draws N candidates (3 draws each, in order) from *state and returns
+ * how many may pass; their draws are packed into u1, u2, zeta (room for N). The AVX2 path may
+ * pass a slightly different set (its exp need not match the scalar one): the exact test decides. */
+/* Test hook: non-zero turns the pre-filter off (test sss_rr_prefilter_changes_no_bit). */
+extern int sss_i_rr_prefilter_off;
+typedef struct sss_i_rr_filter {
+    float R, sigma, m;       /* disk radius, sigma*, margin (world units) */
+    const struct sss_i_exp_disk *jd; /* the LCG's jump-ahead constants */
+} sss_i_rr_filter;
+int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
+                       int use_avx2);
+int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
+                            float *zeta);
+
+/* ---- The exponential sampler (SSS_SAMPLER_EXPONENTIAL; docs/sss/maps.md "Samplers") ----------
+ * Importance sampling of the 2D density p(x) = sigma^2 e^{-sigma rho} / (2 pi Z) on the disk of
+ * radius R (sigma = sigma*, T = sigma R, Z = 1 - (1 + T) e^{-T}), i.e. the radial density
+ * sigma^2 rho e^{-sigma rho} / Z on [0, R] (the density Russian roulette accepts with, sss.md
+ * 3.5), by inversion of its CDF F(rho) = (1 - (1 + t) e^{-t}) / Z, t = sigma rho:
+ *   u1 -> w = -ln(1 - u1 Z)  (= -ln((1 - u1) + u1 (1+T) e^{-T})),
+ *   t solves t - ln(1 + t) = w (Newton from t0 = w + sqrt(2 w), which lies right of the root:
+ *   e^s >= 1 + s + s^2/2 with s = sqrt(2 w); g convex increasing, so the iterates decrease
+ *   monotonically; 3 steps reach float precision, test sss_exponential_sampler_inverts_the_cdf),
+ *   rho = min(t / sigma, R); phi = 2 pi u2.
+ * Weight of a sample: 1 / (N p(x)) = 2 pi Z e^{sigma rho} / (N sigma^2) (unbiased; every sample
+ * counts, none is rejected). Two draws per sample, u1 then u2, from the texel's stream.
+ * The near field (sss_maps.c, docs/sss/maps.md): the 3 x 3 light-map texels around x_o's
+ * projection are added exactly (value x texel area) and samples landing in them count 0.
+ * Everything is plain float arithmetic (+ - * / sqrt, compares, the kernel's sss_i_expf and the
+ * log below) so that the AVX2 path (sss_maps_avx2.c) gives the same bits. */
+typedef struct sss_i_exp_disk {
+    float sigma, R, T;       /* sigma*, the disk radius, T = sigma R (all float) */
+    float q, Z;              /* q = (1 + T) e^{-T}, Z = 1 - q (from double) */
+    float w0;                /* 2 pi Z / (N sigma^2) (from double) */
+    uint32_t jump_a[24], jump_c[24]; /* LCG jump-ahead: state_{+k} = a_k state + c_k, k = 1..24 */
+    /* the same in lane order for 8-wide groups: draw d of sample j is k = D j + d + 1 (D = 2 for
+     * this sampler, 3 for the Russian-roulette pre-filter) */
+    uint32_t lane2_a[2][8], lane2_c[2][8], lane3_a[3][8], lane3_c[3][8];
+} sss_i_exp_disk;
+void sss_i_exp_disk_make(double sigma, double R, int N, sss_i_exp_disk *d);
+
+/* Natural log of a positive normal float: y = m 2^e with m in [sqrt(1/2), sqrt(2)), ln m =
+ * 2 atanh(s), s = (m - 1)/(m + 1), |s| <= 0.1716, series to s^9 (truncation < 1e-9), plus e ln 2
+ * (ln 2 in two parts). Plain float operations (a GLSL port can follow them). */
+#define SSS_I_LN2_HI 0.693145751953125f
+#define SSS_I_LN2_LO 1.42860676533018704e-6f
+static inline float sss_i_logf(float y)
+{
+    uint32_t b;
+    memcpy(&b, &y, sizeof b);
+    int32_t e = (int32_t)(b >> 23) - 127;
+    uint32_t mb = (b & 0x007fffffu) | 0x3f800000u;
+    float m;
+    memcpy(&m, &mb, sizeof m);
+    if (m > 1.41421356f) {
+        m = m * 0.5f;
+        e = e + 1;
+    }
+    const float s = (m - 1.0f) / (m + 1.0f), s2 = s * s;
+    float p = 1.0f / 9.0f;
+    p = p * s2 + 1.0f / 7.0f;
+    p = p * s2 + 1.0f / 5.0f;
+    p = p * s2 + 1.0f / 3.0f;
+    const float lnm = (2.0f * s) + (2.0f * s) * (s2 * p);
+    const float ef = (float)e;
+    return ef * SSS_I_LN2_HI + (ef * SSS_I_LN2_LO + lnm);
+}
+/* 2 atanh(s) - 2 s = 2 (s^3/3 + s^5/5 + ... + s^15/15), for |s| <= 1/3 (truncation < 1e-9 s). */
+static inline float sss_i_atanh_tail(float s)
+{
+    const float s2 = s * s;
+    float p = 1.0f / 15.0f;
+    p = p * s2 + 1.0f / 13.0f;
+    p = p * s2 + 1.0f / 11.0f;
+    p = p * s2 + 1.0f / 9.0f;
+    p = p * s2 + 1.0f / 7.0f;
+    p = p * s2 + 1.0f / 5.0f;
+    p = p * s2 + 1.0f / 3.0f;
+    return (2.0f * s) * (s2 * p);
+}
+/* g(t) = t - ln(1 + t) - w without cancellation: for t < 0.5, with s = t/(2 + t),
+ * t - ln(1 + t) = t^2/(2 + t) - (2 atanh(s) - 2 s); else t - ln(1 + t) directly. */
+static inline float sss_i_exp_g(float t, float w)
+{
+    if (t < 0.5f) {
+        const float s = t / (2.0f + t);
+        return ((t * t) / (2.0f + t) - sss_i_atanh_tail(s)) - w;
+    }
+    return (t - sss_i_logf(1.0f + t)) - w;
+}
+/* The radius t = sigma rho of draw u1 (see above). */
+static inline float sss_i_exp_t(float u1, const sss_i_exp_disk *d)
+{
+    const float v = u1 * d->Z;
+    float w;
+    if (v <= 0.5f) {
+        const float s = v / (2.0f - v); /* -ln(1 - v) = 2 atanh(v / (2 - v)) */
+        w = 2.0f * s + sss_i_atanh_tail(s);
+    } else {
+        w = -sss_i_logf((1.0f - u1) + u1 * d->q);
+    }
+    float t = w + sqrtf(2.0f * w);
+    for (int it = 0; it < 3; it++) {
+        const float g = sss_i_exp_g(t, w);
+        t = t - (g * (1.0f + t)) / sss_i_maxf(t, 1e-30f);
+    }
+    return sss_i_minf(sss_i_maxf(t, 0.0f), d->T);
+}
+/* cos and sin of 2 pi u, u in [0, 1): quadrant k = floor(4 u), a = (4 u - k) pi/2 in [0, pi/2),
+ * Taylor polynomials to a^11 (sin) and a^12 (cos) (truncation < 6e-8), rotated by k pi/2. */
+static inline void sss_i_sincos_2pi(float u, float *c, float *s)
+{
+    const float u4 = 4.0f * u;
+    const int32_t k = (int32_t)u4;
+    const float a = (u4 - (float)k) * 1.57079632679f, a2 = a * a;
+    float ps = -1.0f / 39916800.0f;
+    ps = ps * a2 + 1.0f / 362880.0f;
+    ps = ps * a2 - 1.0f / 5040.0f;
+    ps = ps * a2 + 1.0f / 120.0f;
+    ps = ps * a2 - 1.0f / 6.0f;
+    const float sa = a + a * (a2 * ps);
+    float pc = 1.0f / 479001600.0f;
+    pc = pc * a2 - 1.0f / 3628800.0f;
+    pc = pc * a2 + 1.0f / 40320.0f;
+    pc = pc * a2 - 1.0f / 720.0f;
+    pc = pc * a2 + 1.0f / 24.0f;
+    pc = pc * a2 - 0.5f;
+    const float ca = 1.0f + a2 * pc;
+    /* rotation by k quarter turns: (c, s) -> (-s, c) per turn */
+    const float c1 = (k & 1) ? -sa : ca, s1 = (k & 1) ? ca : sa;
+    *c = (k & 2) ? -c1 : c1;
+    *s = (k & 2) ? -s1 : s1;
+}
+/* One sample from draws (u1, u2): disk offset (ox, oy) (x right, y up in the light-map plane)
+ * and weight 1 / (N p(x)). */
+static inline void sss_i_exp_sample(float u1, float u2, const sss_i_exp_disk *d, float *ox, float *oy, float *w)
+{
+    const float t = sss_i_exp_t(u1, d);
+    const float rho = sss_i_minf(t / d->sigma, d->R);
+    float c, s;
+    sss_i_sincos_2pi(u2, &c, &s);
+    *ox = rho * c;
+    *oy = rho * s;
+    *w = d->w0 * sss_i_expf(d->sigma * rho);
+}
+/* n samples from *state (2 draws each, in order): the scalar path, and the AVX2 path for
+ * `groups` groups of 8 (sss_maps_avx2.c, same bits; defined only with OBS_HAVE_AVX2). Both
+ * advance *state past the draws they used. */
+void sss_i_exp_samples_scalar(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w);
+void sss_i_exp_samples_avx2(uint32_t *state, int groups, const sss_i_exp_disk *d, float *ox, float *oy, float *w);
+/* The exponential sampler's fetch for a directional light, AVX2, `groups` groups of 8 samples:
+ * texel (int)(cx + ox ppu), (int)(cy - oy ppu) (float), kept when inside the map, not empty
+ * (position x not NaN) and of instance inst; kept samples are appended in order at index n of the
+ * SoA outputs (x_i, n_i, w_i = l, weight as double). Returns the new n. The same float
+ * operations as the scalar loop of sss_maps.c, so the same samples. lut: 256 x 8 left-pack
+ * indices (sss_i_pack_lut_make). */
+typedef struct sss_i_fetch_in {
+    const float *P[3], *W[3];   /* light map world positions and normals */
+    const uint32_t *iid;        /* instance ids */
+    ptrdiff_t pst, ist;         /* their strides */
+    float cx, cy, ppu, size;
+    uint32_t inst;
+    float l[3];
+    int bx, by, block;          /* block: samples in texels [bx, bx+3) x [by, by+3) are dropped */
+} sss_i_fetch_in;
+int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
+                             const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
+                             double *wout, int n);
+void sss_i_pack_lut_make(int32_t lut[256 * 8]);
+/* Dispatch: AVX2 for whole groups of 8 when use_avx2, the rest scalar. */
+void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w, int use_avx2);
 
 /* ---- The N-of-M candidate set: M Halton (2,3) points on the disk of radius 1 ----------------
  * [DalCorso14] method.tex "planeHaltonCircleRejectionExponential" with the final code's
@@ -64,6 +249,10 @@ void sss_i_halton_disk_free(sss_i_halton_disk *h);
  * disk); stop after `keep` acceptances (keep <= 0: visit all M). Writes accepted indices into
  * idx (room for M) and returns how many. */
 int sss_i_nofm_accept(const sss_i_halton_disk *h, uint32_t *state, double sigma_r, int keep, int *idx, int *visited);
+/* The same with the acceptance probabilities precomputed: p[i] = exp(-sigma_r * (double)h->rho[i])
+ * (the same expression, so the same accepted set; sss_maps_build makes one table per material). */
+int sss_i_nofm_accept_tab(const sss_i_halton_disk *h, uint32_t *state, const double *p, int keep, int *idx,
+                          int *visited);
 
 /* The receiver's depth in a map as a plane over pixel positions:
  * depth(x, y) = d0 + gx (x - px0) + gy (y - py0). */

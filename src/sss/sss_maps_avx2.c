@@ -1,0 +1,286 @@
+/* sss_maps_avx2.c: the exponential sampler's sample generation (sss_maps_internal.h,
+ * sss_i_exp_sample) on 8 samples per vector. Compiled with -mavx2 (no FMA); selected by the
+ * params' ISA like sss_eval_batch. Every lane runs the scalar helpers' float operations in the
+ * same order (sss_i_logf, sss_i_atanh_tail, sss_i_exp_g, sss_i_exp_t, sss_i_sincos_2pi and the
+ * kernel's sss_i_expf); their branches are computed on both sides and selected per lane. So the
+ * two paths give the same bits (test sss_exponential_sampler_avx2_matches_scalar_bit_for_bit).
+ *
+ * The stream: lane j of a group uses draws 2j+1 (u1) and 2j+2 (u2) after the group's start
+ * state, computed with the LCG's jump-ahead constants (state_{+k} = a_k state + c_k mod 2^32:
+ * the same states as drawing one by one). */
+#include "sss_maps_internal.h"
+
+#if defined(OBS_HAVE_AVX2)
+#include <immintrin.h>
+
+typedef __m256 vf;
+typedef __m256i vi;
+#define VSET(x) _mm256_set1_ps(x)
+#define VADD(a, b) _mm256_add_ps(a, b)
+#define VSUB(a, b) _mm256_sub_ps(a, b)
+#define VMUL(a, b) _mm256_mul_ps(a, b)
+#define VDIV(a, b) _mm256_div_ps(a, b)
+#define VSEL(mask, a, b) _mm256_blendv_ps(b, a, mask)
+
+/* sss_i_logf */
+static inline vf vlog(vf y)
+{
+    const vi b = _mm256_castps_si256(y);
+    vi e = _mm256_sub_epi32(_mm256_srli_epi32(b, 23), _mm256_set1_epi32(127));
+    vf m = _mm256_castsi256_ps(
+        _mm256_or_si256(_mm256_and_si256(b, _mm256_set1_epi32(0x007fffff)), _mm256_set1_epi32(0x3f800000)));
+    const vf big = _mm256_cmp_ps(m, VSET(1.41421356f), _CMP_GT_OQ);
+    m = VSEL(big, VMUL(m, VSET(0.5f)), m);
+    e = _mm256_sub_epi32(e, _mm256_castps_si256(big)); /* big lanes are -1 as integers: e + 1 */
+    const vf s = VDIV(VSUB(m, VSET(1.0f)), VADD(m, VSET(1.0f))), s2 = VMUL(s, s);
+    vf p = VSET(1.0f / 9.0f);
+    p = VADD(VMUL(p, s2), VSET(1.0f / 7.0f));
+    p = VADD(VMUL(p, s2), VSET(1.0f / 5.0f));
+    p = VADD(VMUL(p, s2), VSET(1.0f / 3.0f));
+    const vf two_s = VMUL(VSET(2.0f), s);
+    const vf lnm = VADD(two_s, VMUL(two_s, VMUL(s2, p)));
+    const vf ef = _mm256_cvtepi32_ps(e);
+    return VADD(VMUL(ef, VSET(SSS_I_LN2_HI)), VADD(VMUL(ef, VSET(SSS_I_LN2_LO)), lnm));
+}
+
+/* sss_i_atanh_tail */
+static inline vf vatanh_tail(vf s)
+{
+    const vf s2 = VMUL(s, s);
+    vf p = VSET(1.0f / 15.0f);
+    p = VADD(VMUL(p, s2), VSET(1.0f / 13.0f));
+    p = VADD(VMUL(p, s2), VSET(1.0f / 11.0f));
+    p = VADD(VMUL(p, s2), VSET(1.0f / 9.0f));
+    p = VADD(VMUL(p, s2), VSET(1.0f / 7.0f));
+    p = VADD(VMUL(p, s2), VSET(1.0f / 5.0f));
+    p = VADD(VMUL(p, s2), VSET(1.0f / 3.0f));
+    return VMUL(VMUL(VSET(2.0f), s), VMUL(s2, p));
+}
+
+/* sss_i_exp_g */
+static inline vf vexp_g(vf t, vf w)
+{
+    const vf two_t = VADD(VSET(2.0f), t);
+    const vf s = VDIV(t, two_t);
+    const vf small = VSUB(VSUB(VDIV(VMUL(t, t), two_t), vatanh_tail(s)), w);
+    const vf large = VSUB(VSUB(t, vlog(VADD(VSET(1.0f), t))), w);
+    return VSEL(_mm256_cmp_ps(t, VSET(0.5f), _CMP_LT_OQ), small, large);
+}
+
+/* sss_i_expf (as sss_batch_avx2.c's vexp) */
+static inline vf vexpf(vf x)
+{
+    const vf under = _mm256_cmp_ps(x, VSET(-87.0f), _CMP_LT_OQ);
+    x = _mm256_min_ps(x, VSET(88.0f));
+    const vf t = VMUL(x, VSET(SSS_I_EXPF_LOG2E));
+    const vf n = VSUB(VADD(t, VSET(SSS_I_EXPF_MAGIC)), VSET(SSS_I_EXPF_MAGIC));
+    const vf r = VSUB(VSUB(x, VMUL(n, VSET(SSS_I_EXPF_LN2_HI))), VMUL(n, VSET(SSS_I_EXPF_LN2_LO)));
+    vf p = VSET(SSS_I_EXPF_C7);
+    p = VADD(VMUL(p, r), VSET(SSS_I_EXPF_C6));
+    p = VADD(VMUL(p, r), VSET(SSS_I_EXPF_C5));
+    p = VADD(VMUL(p, r), VSET(SSS_I_EXPF_C4));
+    p = VADD(VMUL(p, r), VSET(SSS_I_EXPF_C3));
+    p = VADD(VMUL(p, r), VSET(SSS_I_EXPF_C2));
+    p = VADD(VMUL(p, r), VSET(1.0f));
+    p = VADD(VMUL(p, r), VSET(1.0f));
+    const vi ni = _mm256_cvttps_epi32(n);
+    const vi bits = _mm256_slli_epi32(_mm256_add_epi32(ni, _mm256_set1_epi32(127)), 23);
+    return _mm256_andnot_ps(under, VMUL(p, _mm256_castsi256_ps(bits)));
+}
+
+/* (state >> 8) * 2^-24 of 8 states */
+static inline vf vunit(vi st)
+{
+    return VMUL(_mm256_cvtepi32_ps(_mm256_srli_epi32(st, 8)), VSET(1.0f / 16777216.0f));
+}
+
+void sss_i_exp_samples_avx2(uint32_t *state, int groups, const sss_i_exp_disk *d, float *ox, float *oy, float *w)
+{
+    /* jump constants of draws 1, 3, .., 15 (u1) and 2, 4, .., 16 (u2) */
+    const vi A1 = _mm256_loadu_si256((const vi *)d->lane2_a[0]), C1 = _mm256_loadu_si256((const vi *)d->lane2_c[0]);
+    const vi A2 = _mm256_loadu_si256((const vi *)d->lane2_a[1]), C2 = _mm256_loadu_si256((const vi *)d->lane2_c[1]);
+    const vf Z = VSET(d->Z), q = VSET(d->q), T = VSET(d->T), sigma = VSET(d->sigma), R = VSET(d->R);
+    const vf w0 = VSET(d->w0), one = VSET(1.0f), zero = VSET(0.0f);
+    uint32_t st = *state;
+    for (int g = 0; g < groups; g++) {
+        const vi s0 = _mm256_set1_epi32((int32_t)st);
+        const vf u1 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A1, s0), C1));
+        const vf u2 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A2, s0), C2));
+        st = d->jump_a[15] * st + d->jump_c[15];
+        /* sss_i_exp_t */
+        const vf v = VMUL(u1, Z);
+        const vf sv = VDIV(v, VSUB(VSET(2.0f), v));
+        const vf w_small = VADD(VMUL(VSET(2.0f), sv), vatanh_tail(sv));
+        const vf w_large = _mm256_xor_ps(vlog(VADD(VSUB(one, u1), VMUL(u1, q))), VSET(-0.0f));
+        const vf wv = VSEL(_mm256_cmp_ps(v, VSET(0.5f), _CMP_LE_OQ), w_small, w_large);
+        vf t = VADD(wv, _mm256_sqrt_ps(VMUL(VSET(2.0f), wv)));
+        for (int it = 0; it < 3; it++) {
+            const vf gg = vexp_g(t, wv);
+            t = VSUB(t, VDIV(VMUL(gg, VADD(one, t)), _mm256_max_ps(t, VSET(1e-30f))));
+        }
+        t = _mm256_min_ps(_mm256_max_ps(t, zero), T);
+        /* sss_i_exp_sample */
+        const vf rho = _mm256_min_ps(VDIV(t, sigma), R);
+        /* sss_i_sincos_2pi */
+        const vf u4 = VMUL(VSET(4.0f), u2);
+        const vi k = _mm256_cvttps_epi32(u4);
+        const vf a = VMUL(VSUB(u4, _mm256_cvtepi32_ps(k)), VSET(1.57079632679f)), a2v = VMUL(a, a);
+        vf ps = VSET(-1.0f / 39916800.0f);
+        ps = VADD(VMUL(ps, a2v), VSET(1.0f / 362880.0f));
+        ps = VSUB(VMUL(ps, a2v), VSET(1.0f / 5040.0f));
+        ps = VADD(VMUL(ps, a2v), VSET(1.0f / 120.0f));
+        ps = VSUB(VMUL(ps, a2v), VSET(1.0f / 6.0f));
+        const vf sa = VADD(a, VMUL(a, VMUL(a2v, ps)));
+        vf pc = VSET(1.0f / 479001600.0f);
+        pc = VSUB(VMUL(pc, a2v), VSET(1.0f / 3628800.0f));
+        pc = VADD(VMUL(pc, a2v), VSET(1.0f / 40320.0f));
+        pc = VSUB(VMUL(pc, a2v), VSET(1.0f / 720.0f));
+        pc = VADD(VMUL(pc, a2v), VSET(1.0f / 24.0f));
+        pc = VSUB(VMUL(pc, a2v), VSET(0.5f));
+        const vf ca = VADD(one, VMUL(a2v, pc));
+        const vf odd = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(k, _mm256_set1_epi32(1)),
+                                                              _mm256_set1_epi32(1)));
+        const vf half = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(k, _mm256_set1_epi32(2)),
+                                                               _mm256_set1_epi32(2)));
+        const vf neg = VSET(-0.0f);
+        const vf cc1 = VSEL(odd, _mm256_xor_ps(sa, neg), ca), ss1 = VSEL(odd, ca, sa);
+        const vf cs = VSEL(half, _mm256_xor_ps(cc1, neg), cc1), sn = VSEL(half, _mm256_xor_ps(ss1, neg), ss1);
+        _mm256_storeu_ps(ox + 8 * g, VMUL(rho, cs));
+        _mm256_storeu_ps(oy + 8 * g, VMUL(rho, sn));
+        _mm256_storeu_ps(w + 8 * g, VMUL(w0, vexpf(VMUL(sigma, rho))));
+    }
+    *state = st;
+}
+
+/* sss_i_tea16 on 8 lanes */
+static inline vi vtea16(vi v0, vi v1)
+{
+    vi s0 = _mm256_setzero_si256();
+    const vi d = _mm256_set1_epi32((int32_t)0x9e3779b9u), k0 = _mm256_set1_epi32((int32_t)0xa341316cu),
+             k1 = _mm256_set1_epi32((int32_t)0xc8013ea4u), k2 = _mm256_set1_epi32((int32_t)0xad90777du),
+             k3 = _mm256_set1_epi32((int32_t)0x7e95761eu);
+    for (int n = 0; n < 16; n++) {
+        s0 = _mm256_add_epi32(s0, d);
+        v0 = _mm256_add_epi32(
+            v0, _mm256_xor_si256(_mm256_xor_si256(_mm256_add_epi32(_mm256_slli_epi32(v1, 4), k0), _mm256_add_epi32(v1, s0)),
+                                 _mm256_add_epi32(_mm256_srli_epi32(v1, 5), k1)));
+        v1 = _mm256_add_epi32(
+            v1, _mm256_xor_si256(_mm256_xor_si256(_mm256_add_epi32(_mm256_slli_epi32(v0, 4), k2), _mm256_add_epi32(v0, s0)),
+                                 _mm256_add_epi32(_mm256_srli_epi32(v0, 5), k3)));
+    }
+    return v0;
+}
+
+void sss_i_stream_seeds_avx2(uint32_t texel0, int count, uint32_t layer_frame, uint64_t seed, uint32_t *out)
+{
+    const vi lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+    const vi lf = _mm256_set1_epi32((int32_t)layer_frame);
+    const vi sf = _mm256_set1_epi32((int32_t)((uint32_t)seed ^ (uint32_t)(seed >> 32)));
+    for (int i = 0; i < count; i += 8) {
+        const vi t = _mm256_add_epi32(_mm256_set1_epi32((int32_t)(texel0 + (uint32_t)i)), lanes);
+        _mm256_storeu_si256((vi *)(out + i), vtea16(vtea16(t, lf), sf));
+    }
+}
+
+int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
+                             const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
+                             double *wout, int n)
+{
+    const vf cx = VSET(in->cx), cy = VSET(in->cy), ppu = VSET(in->ppu), size = VSET(in->size), zero = VSET(0.0f);
+    const vi pst = _mm256_set1_epi32((int32_t)in->pst), ist = _mm256_set1_epi32((int32_t)in->ist);
+    const vi inst = _mm256_set1_epi32((int32_t)in->inst);
+    const vf l0 = VSET(in->l[0]), l1 = VSET(in->l[1]), l2 = VSET(in->l[2]);
+    for (int g = 0; g < groups; g++) {
+        const vf tx = VADD(cx, VMUL(_mm256_loadu_ps(ox + 8 * g), ppu));
+        const vf ty = VSUB(cy, VMUL(_mm256_loadu_ps(oy + 8 * g), ppu));
+        vf inside = _mm256_and_ps(
+            _mm256_and_ps(_mm256_cmp_ps(tx, zero, _CMP_GE_OQ), _mm256_cmp_ps(ty, zero, _CMP_GE_OQ)),
+            _mm256_and_ps(_mm256_cmp_ps(tx, size, _CMP_LT_OQ), _mm256_cmp_ps(ty, size, _CMP_LT_OQ)));
+        if (_mm256_testz_ps(inside, inside))
+            continue;
+        const vi ix = _mm256_and_si256(_mm256_cvttps_epi32(tx), _mm256_castps_si256(inside));
+        const vi iy = _mm256_and_si256(_mm256_cvttps_epi32(ty), _mm256_castps_si256(inside));
+        if (in->block) {
+            const vi dx = _mm256_sub_epi32(ix, _mm256_set1_epi32(in->bx)), dy = _mm256_sub_epi32(iy, _mm256_set1_epi32(in->by));
+            const vi three = _mm256_set1_epi32(3), m1 = _mm256_set1_epi32(-1);
+            const vi inb = _mm256_and_si256(
+                _mm256_and_si256(_mm256_cmpgt_epi32(three, dx), _mm256_cmpgt_epi32(dx, m1)),
+                _mm256_and_si256(_mm256_cmpgt_epi32(three, dy), _mm256_cmpgt_epi32(dy, m1)));
+            inside = _mm256_andnot_ps(_mm256_castsi256_ps(inb), inside);
+        }
+        const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, pst), ix);
+        const vi oi = _mm256_add_epi32(_mm256_mullo_epi32(iy, ist), ix);
+        const vf px = _mm256_mask_i32gather_ps(zero, in->P[0], o, inside, 4);
+        const vi id = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)in->iid, oi,
+                                                  _mm256_castps_si256(inside), 4);
+        const vf keepv = _mm256_and_ps(_mm256_and_ps(inside, _mm256_cmp_ps(px, px, _CMP_ORD_Q)),
+                                       _mm256_castsi256_ps(_mm256_cmpeq_epi32(id, inst)));
+        const int mask = _mm256_movemask_ps(keepv);
+        if (!mask)
+            continue;
+        const vi perm = _mm256_loadu_si256((const vi *)(lut + 8 * mask));
+        const vf py = _mm256_mask_i32gather_ps(zero, in->P[1], o, keepv, 4);
+        const vf pz = _mm256_mask_i32gather_ps(zero, in->P[2], o, keepv, 4);
+        const vf n0 = _mm256_mask_i32gather_ps(zero, in->W[0], o, keepv, 4);
+        const vf n1 = _mm256_mask_i32gather_ps(zero, in->W[1], o, keepv, 4);
+        const vf n2 = _mm256_mask_i32gather_ps(zero, in->W[2], o, keepv, 4);
+        _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(px, perm));
+        _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
+        _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
+        _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
+        _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
+        _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
+        _mm256_storeu_ps(wi[0] + n, l0);
+        _mm256_storeu_ps(wi[1] + n, l1);
+        _mm256_storeu_ps(wi[2] + n, l2);
+        const vf wp = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w + 8 * g), perm);
+        _mm256_storeu_pd(wout + n, _mm256_cvtps_pd(_mm256_castps256_ps128(wp)));
+        _mm256_storeu_pd(wout + n + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(wp, 1)));
+        n += __builtin_popcount((unsigned)mask);
+    }
+    return n;
+}
+
+int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
+                            float *zeta)
+{
+    /* lane j: draws 3j+1 (u1), 3j+2 (u2), 3j+3 (zeta) after the group's start */
+    vi A[3], C[3];
+    for (int d = 0; d < 3; d++) {
+        A[d] = _mm256_loadu_si256((const vi *)f->jd->lane3_a[d]);
+        C[d] = _mm256_loadu_si256((const vi *)f->jd->lane3_c[d]);
+    }
+    const vf R = VSET(f->R), sigma = VSET(f->sigma), m = VSET(f->m), zero = VSET(0.0f);
+    uint32_t st = *state;
+    int n = 0;
+    float t1[8], t2[8], t3[8];
+    for (int g = 0; g < groups; g++) {
+        const vi s0 = _mm256_set1_epi32((int32_t)st);
+        const vf x1 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[0], s0), C[0]));
+        const vf x2 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[1], s0), C[1]));
+        const vf z = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[2], s0), C[2]));
+        st = f->jd->jump_a[23] * st + f->jd->jump_c[23];
+        const vf arg = VMUL(sigma, VSUB(VMUL(R, _mm256_sqrt_ps(x1)), m));
+        const vf bound = VMUL(VSET(1.0001f), vexpf(_mm256_xor_ps(arg, VSET(-0.0f))));
+        /* reject: arg > 0 and z >= bound */
+        const vf rej = _mm256_and_ps(_mm256_cmp_ps(arg, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, bound, _CMP_GE_OQ));
+        unsigned keep = (unsigned)(~_mm256_movemask_ps(rej)) & 0xffu;
+        if (!keep)
+            continue;
+        _mm256_storeu_ps(t1, x1);
+        _mm256_storeu_ps(t2, x2);
+        _mm256_storeu_ps(t3, z);
+        while (keep) {
+            const int j = __builtin_ctz(keep);
+            keep &= keep - 1;
+            u1[n] = t1[j];
+            u2[n] = t2[j];
+            zeta[n] = t3[j];
+            n++;
+        }
+    }
+    *state = st;
+    return n;
+}
+
+#endif /* OBS_HAVE_AVX2 */
