@@ -91,7 +91,7 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
             if (!parse_choice(v, model_from, &c)) return cli_usage_error("--model needs directional or standard");
             p.model = (sss_model)c; i++;
         } else if (!strcmp(a, "--sampler")) {
-            if (!parse_choice(v, sampler_from, &c)) return cli_usage_error("--sampler needs rr or nearest");
+            if (!parse_choice(v, sampler_from, &c)) return cli_usage_error("--sampler needs exponential, rr (russian-roulette) or nearest (nearest-n-of-m)");
             p.sampler = (sss_sampler)c; i++;
         } else if (!strcmp(a, "--visibility")) {
             if (!parse_choice(v, visibility_from, &c)) return cli_usage_error("--visibility needs product5 or pcf3x3");
