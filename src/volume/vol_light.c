@@ -112,16 +112,13 @@ typedef struct lv_pass {
 } lv_pass;
 
 /* Classification of a light-volume voxel: the data trilinearly at its centre, then the TF. */
-static void lv_classify(const lv_pass *P, const double x[3], float *sigma, float ctf[3])
+static void lv_classify(const lv_pass *P, const int idx[3], const double x[3], float *sigma, float ctf[3])
 {
     const vol_grid *g = P->g;
     float s;
     if (P->scale == 1) {
-        /* The light volume's centres are the data's: the exact voxel value. */
-        int i = (int)lrint((x[0] - g->origin[0]) / g->spacing[0]);
-        int j = (int)lrint((x[1] - g->origin[1]) / g->spacing[1]);
-        int k = (int)lrint((x[2] - g->origin[2]) / g->spacing[2]);
-        s = g->data[((size_t)k * (size_t)g->ny + (size_t)j) * (size_t)g->nx + (size_t)i];
+        /* The light volume's voxels are the data's: the exact voxel value. */
+        s = g->data[((size_t)idx[2] * (size_t)g->ny + (size_t)idx[1]) * (size_t)g->nx + (size_t)idx[0]];
     } else {
         s = vol_grid_sample(g, (x[0] - g->origin[0]) / g->spacing[0], (x[1] - g->origin[1]) / g->spacing[1],
                             (x[2] - g->origin[2]) / g->spacing[2]);
@@ -246,7 +243,7 @@ static void lv_row_task(void *user, int64_t task, int thread)
         for (int c = 0; c < 3; c++)
             x[c] = P->org[c] + idx[c] * P->sp[c];
         float sigma, ctf[3];
-        lv_classify(P, x, &sigma, ctf);
+        lv_classify(P, idx, x, &sigma, ctf);
         size_t si = (size_t)jv * P->nu + iu;
         float l, cc[3];
 
@@ -569,6 +566,10 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
         P.n[c] = (nd[c] + p->scale - 1) / p->scale;
         P.sp[c] = (P.hi[c] - P.lo[c]) / P.n[c];
         P.org[c] = P.lo[c] + 0.5 * P.sp[c];
+        if (p->scale == 1) { /* the data's own centres, bit for bit */
+            P.sp[c] = g->spacing[c];
+            P.org[c] = g->origin[c];
+        }
     }
     int f0, f1;
     double c0;
