@@ -104,6 +104,14 @@ typedef struct lv_pass {
     const double *st_cu[VOL_LV_MAX_RINGS + 1], *st_cv[VOL_LV_MAX_RINGS + 1];
     const float *st_w[VOL_LV_MAX_RINGS + 1];
     float st_wsum[VOL_LV_MAX_RINGS + 1];
+    /* The kernel path (directional lights; lv_kernel_init): every voxel of a pass has the same
+     * offsets to p and to the cone's taps, so the bilinear fetch of l and sigma_t is one fixed 2x2
+     * kernel at (bu, bv) with fractions (fu, fv), and the cone one fixed kW x kH kernel K at
+     * (kI0, kJ0) with the sum Ksum. Used for voxels whose kernels lie inside the slice. */
+    int kern;
+    int bu, bv, kI0, kJ0, kW, kH;
+    float fu, fv, Ksum;
+    float *K;
     /* the slice being computed */
     int k, kprev;
     lv_mode mode;
@@ -112,16 +120,13 @@ typedef struct lv_pass {
 } lv_pass;
 
 /* Classification of a light-volume voxel: the data trilinearly at its centre, then the TF. */
-static void lv_classify(const lv_pass *P, const double x[3], float *sigma, float ctf[3])
+static void lv_classify(const lv_pass *P, const int idx[3], const double x[3], float *sigma, float ctf[3])
 {
     const vol_grid *g = P->g;
     float s;
     if (P->scale == 1) {
-        /* The light volume's centres are the data's: the exact voxel value. */
-        int i = (int)lrint((x[0] - g->origin[0]) / g->spacing[0]);
-        int j = (int)lrint((x[1] - g->origin[1]) / g->spacing[1]);
-        int k = (int)lrint((x[2] - g->origin[2]) / g->spacing[2]);
-        s = g->data[((size_t)k * (size_t)g->ny + (size_t)j) * (size_t)g->nx + (size_t)i];
+        /* The light volume's voxels are the data's: the exact voxel value. */
+        s = g->data[((size_t)idx[2] * (size_t)g->ny + (size_t)idx[1]) * (size_t)g->nx + (size_t)idx[0]];
     } else {
         s = vol_grid_sample(g, (x[0] - g->origin[0]) / g->spacing[0], (x[1] - g->origin[1]) / g->spacing[1],
                             (x[2] - g->origin[2]) / g->spacing[2]);
@@ -246,7 +251,7 @@ static void lv_row_task(void *user, int64_t task, int thread)
         for (int c = 0; c < 3; c++)
             x[c] = P->org[c] + idx[c] * P->sp[c];
         float sigma, ctf[3];
-        lv_classify(P, x, &sigma, ctf);
+        lv_classify(P, idx, x, &sigma, ctf);
         size_t si = (size_t)jv * P->nu + iu;
         float l, cc[3];
 
@@ -279,6 +284,37 @@ static void lv_row_task(void *user, int64_t task, int thread)
             l = tau;
             for (int c = 0; c < 3; c++)
                 cc[c] = tau + (1.0f - tau) * ctf[c];
+        } else if (P->kern && iu + P->kI0 >= 0 && iu + P->kI0 + P->kW <= P->nu && jv + P->kJ0 >= 0 &&
+                   jv + P->kJ0 + P->kH <= P->nv && iu + P->bu >= 0 && iu + P->bu + 1 < P->nu &&
+                   jv + P->bv >= 0 && jv + P->bv + 1 < P->nv) {
+            /* The kernel path: the same quantities as the per-tap path below, with the bilinear
+             * weights of all taps gathered into one kernel per pass (lv_kernel_init). */
+            double ds = P->sp[a] / cos_g;
+            size_t o = (size_t)(jv + P->bv) * P->nu + (size_t)(iu + P->bu);
+            const float *s0 = P->prev[LV_SIGMA] + o, *s1 = s0 + P->nu;
+            const float *l0 = P->prev[LV_L] + o, *l1 = l0 + P->nu;
+            float fu = P->fu, fv = P->fv;
+            float sa = s0[0] + (s0[1] - s0[0]) * fu, sb = s1[0] + (s1[1] - s1[0]) * fu;
+            float sigma_p = sa + (sb - sa) * fv;
+            float tau = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds);
+            float la = l0[0] + (l0[1] - l0[0]) * fu, lb = l1[0] + (l1[1] - l1[0]) * fu;
+            l = tau * (la + (lb - la) * fv);
+            float acc[3] = {0.0f, 0.0f, 0.0f};
+            const float *K = P->K;
+            size_t ko = (size_t)(jv + P->kJ0) * P->nu + (size_t)(iu + P->kI0);
+            for (int dj = 0; dj < P->kH; dj++) {
+                const float *r0 = P->prev[LV_C0] + ko + (size_t)dj * P->nu;
+                const float *r1 = P->prev[LV_C1] + ko + (size_t)dj * P->nu;
+                const float *r2 = P->prev[LV_C2] + ko + (size_t)dj * P->nu;
+                for (int di = 0; di < P->kW; di++) {
+                    float w = K[dj * P->kW + di];
+                    acc[0] += w * r0[di];
+                    acc[1] += w * r1[di];
+                    acc[2] += w * r2[di];
+                }
+            }
+            for (int c = 0; c < 3; c++)
+                cc[c] = tau * (acc[c] / P->Ksum) + (1.0f - tau) * ctf[c];
         } else {
             /* Where the light ray through x meets the previous slice ([Ropinski10] via Voreen /
              * Inviwo, volume.md 1.4): p = x - t D with t = Delta_a / |D_a| (= ds, |D| = 1). */
@@ -341,6 +377,69 @@ static void lv_run_slice(obs_pool *pool, lv_pass *P, int k, lv_mode mode, float 
     *which = 1 - *which;
 }
 
+/* Set up the kernel path for a directional light along axis a (P->kern = 0 otherwise, or when
+ * OBS_ISA=scalar asks for the per-tap reference). The kernel gathers, per integer texel offset, the
+ * bilinear weights of the centre tap (weight 1) and of every ring tap (weight w_m) at the pass's
+ * constant offsets; Ksum is the sum of its entries in the order the voxel loop uses them, so a
+ * constant slice gives exactly that constant. Agreement with the per-tap path:
+ * volume_light_kernel_path_matches_per_tap_path. Returns 0 when out of memory. */
+#define LV_KERNEL_MAX 64 /* texels per side of the gathered kernel; wider footprints use the per-tap path */
+static int lv_kernel_init(lv_pass *P)
+{
+    free(P->K);
+    P->K = NULL;
+    P->kern = 0;
+    const char *env = getenv("OBS_ISA");
+    if (P->point || (env && strcmp(env, "scalar") == 0))
+        return 1;
+    const int a = P->a, u = P->u, v = P->v;
+    double cos_g = fabs(P->D[a]);
+    if (cos_g < 1e-12)
+        return 1;
+    double ds = P->sp[a] / cos_g;
+    double ou = -ds * P->D[u] / P->sp[u], ov = -ds * P->D[v] / P->sp[v]; /* p - x in voxels */
+    double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
+    double rmax = ru > rv ? ru : rv;
+    int R = (int)ceil(rmax - 1e-9);
+    R = R < 1 ? 1 : (R > VOL_LV_MAX_RINGS ? VOL_LV_MAX_RINGS : R);
+    const int cnt = P->st_count[R];
+    /* The taps' offsets: the centre, then the rings. */
+    int lo_u = 1 << 30, hi_u = -(1 << 30), lo_v = 1 << 30, hi_v = -(1 << 30);
+    for (int m = -1; m < cnt; m++) {
+        double qu = ou + (m < 0 ? 0.0 : ru * P->st_cu[R][m]), qv = ov + (m < 0 ? 0.0 : rv * P->st_cv[R][m]);
+        int iu0 = (int)floor(qu), iv0 = (int)floor(qv);
+        lo_u = iu0 < lo_u ? iu0 : lo_u;
+        hi_u = iu0 + 1 > hi_u ? iu0 + 1 : hi_u;
+        lo_v = iv0 < lo_v ? iv0 : lo_v;
+        hi_v = iv0 + 1 > hi_v ? iv0 + 1 : hi_v;
+    }
+    P->kI0 = lo_u, P->kJ0 = lo_v, P->kW = hi_u - lo_u + 1, P->kH = hi_v - lo_v + 1;
+    if (P->kW < 2 || P->kH < 2 || P->kW > LV_KERNEL_MAX || P->kH > LV_KERNEL_MAX)
+        return 1; /* a footprint wider than the kernel limit: the per-tap path */
+    P->K = (float *)calloc((size_t)P->kW * (size_t)P->kH, sizeof(float));
+    if (!P->K)
+        return 0;
+    for (int m = -1; m < cnt; m++) {
+        double qu = ou + (m < 0 ? 0.0 : ru * P->st_cu[R][m]), qv = ov + (m < 0 ? 0.0 : rv * P->st_cv[R][m]);
+        double fu = floor(qu), fv = floor(qv);
+        float tu = (float)(qu - fu), tv = (float)(qv - fv), w = m < 0 ? 1.0f : P->st_w[R][m];
+        int i = (int)fu - lo_u, j = (int)fv - lo_v;
+        P->K[j * P->kW + i] += w * (1.0f - tu) * (1.0f - tv);
+        P->K[j * P->kW + i + 1] += w * tu * (1.0f - tv);
+        P->K[(j + 1) * P->kW + i] += w * (1.0f - tu) * tv;
+        P->K[(j + 1) * P->kW + i + 1] += w * tu * tv;
+    }
+    float ks = 0.0f;
+    for (int k = 0; k < P->kW * P->kH; k++)
+        ks += P->K[k];
+    P->Ksum = ks;
+    double fbu = floor(ou), fbv = floor(ov);
+    P->bu = (int)fbu, P->bv = (int)fbv;
+    P->fu = (float)(ou - fbu), P->fv = (float)(ov - fbv);
+    P->kern = 1;
+    return 1;
+}
+
 /* Propagate along axis a (light entering from the low side when lowside, else the high side, for a
  * light outside the slab range; both ways from the light's plane for a light inside it). */
 static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int a, int lowside, float *out_l,
@@ -362,6 +461,10 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     for (int s = 0; s < 2; s++)
         for (int c = 0; c < LV_CH; c++)
             slices[s][c] = buf + (size_t)(s * LV_CH + c) * plane;
+    if (!lv_kernel_init(P)) {
+        obs_aligned_free(buf);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the cone kernel");
+    }
     const int na = P->n[a];
     int which = 0;
 
@@ -569,6 +672,10 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
         P.n[c] = (nd[c] + p->scale - 1) / p->scale;
         P.sp[c] = (P.hi[c] - P.lo[c]) / P.n[c];
         P.org[c] = P.lo[c] + 0.5 * P.sp[c];
+        if (p->scale == 1) { /* the data's own centres, bit for bit */
+            P.sp[c] = g->spacing[c];
+            P.org[c] = g->origin[c];
+        }
     }
     int f0, f1;
     double c0;
@@ -625,6 +732,7 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
         }
     }
     free(stencils);
+    free(P.K);
     if (st != OBS_STATUS_OK)
         vol_light_volume_free(out);
     return st;
