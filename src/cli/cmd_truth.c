@@ -65,8 +65,10 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     }
     if (!strcmp(argv[1], "sss"))
         return cmd_truth_sss(g, argc, argv);
+    if (!strcmp(argv[1], "volume"))
+        return cmd_volume(g, argc, argv, 1);
     if (strcmp(argv[1], "ao") != 0)
-        return cli_usage_error("truth: unknown kind '%s' ('truth ao' or 'truth sss')", argv[1]);
+        return cli_usage_error("truth: unknown kind '%s' ('truth ao', 'truth sss' or 'truth volume')", argv[1]);
     const char *scene_path = NULL, *prefix = "truth_ao", *camera = "";
     char prefix_buf[4000], exr_ext[5] = ".exr";
     truth_ao_params p = truth_ao_params_default();

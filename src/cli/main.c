@@ -23,6 +23,8 @@ static const char *usage_text =
     "  ao --method M   screen-space AO (ao --list: every technique) on a scene's or an external G-buffer\n"
     "  sss SCENE       subsurface scattering (Dal Corso's scattering maps, directional or standard dipole):\n"
     "                  image EXR/PNG, the maps as a layered EXR, JSON\n"
+    "  volume FILE     ray cast a volume (NIfTI, NRRD, raw, synthetic), lit by Ropinski's light volume\n"
+    "  truth volume F  the exact transmittance against the light volume: NRRD volumes and error statistics\n"
     "  study ao        what accuracy costs in time: sweep the AO techniques against ground truth, report\n"
     "\n"
     "global options:\n"
@@ -174,6 +176,8 @@ int cli_main(int argc, char **argv)
         return cmd_study(&g, argc - i, argv + i);
     if (!strcmp(cmd, "sss"))
         return cmd_sss(&g, argc - i, argv + i);
+    if (!strcmp(cmd, "volume"))
+        return cmd_volume(&g, argc - i, argv + i, 0);
     if (!strcmp(cmd, "help")) {
         fputs(usage_text, stdout);
         return CLI_EXIT_OK;

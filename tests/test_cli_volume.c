@@ -1,0 +1,112 @@
+/* test_cli_volume.c: `obscura volume` and `obscura truth volume` end to end: their files, a lit
+ * synthetic volume, refusals that name the problem and write nothing. */
+#include "core/obs.h"
+#include "io/io.h"
+#include "test.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static int vol_cli(const char *const *args, const char *tag)
+{
+    char out[4200], err[4200];
+    snprintf(out, sizeof out, "%s/%s.stdout", test_tmpdir(), tag);
+    snprintf(err, sizeof err, "%s/%s.stderr", test_tmpdir(), tag);
+    return test_spawn(OBS_CLI_PATH, args, out, err);
+}
+
+static int vol_stderr_has(const char *tag, const char *needle)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s/%s.stderr", test_tmpdir(), tag);
+    char *b = test_slurp(path, NULL);
+    int r = b && strstr(b, needle) != NULL;
+    if (!r)
+        fprintf(stderr, "%s: stderr lacks '%s': %s\n", tag, needle, b ? b : "(none)");
+    free(b);
+    return r;
+}
+
+static int vol_exists(const char *name)
+{
+    struct stat st;
+    return stat(test_path(test_tmpdir(), name), &st) == 0;
+}
+
+TEST(cli_volume_ray_casts_a_lit_synthetic_volume_and_writes_its_files)
+{
+    char prefix[4200];
+    snprintf(prefix, sizeof prefix, "%s/bucky", test_tmpdir());
+    const char *a[] = {"volume", "synth:bucky:24", "--size", "80x60", "--write-light-volume", "-o", prefix, NULL};
+    CHECK_EQ_INT(vol_cli(a, "run"), 0);
+    CHECK(vol_exists("bucky.exr") && vol_exists("bucky.png") && vol_exists("bucky.json") && vol_exists("bucky_l.nrrd"));
+    obs_context *ctx = obs_context_create();
+    io_image im;
+    memset(&im, 0, sizeof im);
+    CHECK_EQ_INT(io_image_read(ctx, test_path(test_tmpdir(), "bucky.exr"), &im), OBS_STATUS_OK);
+    int ca = io_image_find_channel(&im, "A"), cr = io_image_find_channel(&im, "R");
+    CHECK(ca >= 0 && cr >= 0);
+    if (ca >= 0 && cr >= 0) {
+        int64_t covered = 0, bad = 0;
+        for (int y = 0; y < im.height; y++)
+            for (int x = 0; x < im.width; x++) {
+                const float al = obs_image_f32_row(&im.f32[ca], y)[x], r = obs_image_f32_row(&im.f32[cr], y)[x];
+                bad += !(al >= 0.0f && al <= 1.0f + 1e-6f) || !(r >= 0.0f && r <= al + 1e-5f);
+                covered += al > 0.01f;
+            }
+        CHECK_EQ_INT(bad, 0);          /* premultiplied: 0 <= R <= A <= 1 */
+        CHECK(covered > 200);
+    }
+    io_image_free(&im);
+    obs_context_destroy(ctx);
+    char *js = test_slurp(test_path(test_tmpdir(), "bucky.json"), NULL);
+    CHECK(js && strstr(js, "\"lightvolume\"") && strstr(js, "face0"));
+    free(js);
+}
+
+TEST(cli_truth_volume_writes_the_exact_transmittance_and_the_error)
+{
+    char prefix[4200];
+    snprintf(prefix, sizeof prefix, "%s/tv", test_tmpdir());
+    const char *a[] = {"truth", "volume", "synth:sphere:20", "--light-dir", "0,0,-1", "-o", prefix, NULL};
+    CHECK_EQ_INT(vol_cli(a, "tv"), 0);
+    CHECK(vol_exists("tv_T.nrrd") && vol_exists("tv_err.nrrd") && vol_exists("tv.json"));
+    char *js = test_slurp(test_path(test_tmpdir(), "tv.json"), NULL);
+    CHECK(js && strstr(js, "light_volume_error") && strstr(js, "max_abs"));
+    free(js);
+}
+
+TEST(cli_volume_bad_inputs_are_refused_naming_the_problem_and_write_nothing)
+{
+    char prefix[4200], path[4200];
+    snprintf(prefix, sizeof prefix, "%s/never", test_tmpdir());
+    /* a truncated NRRD: the header promises more samples than the file holds */
+    snprintf(path, sizeof path, "%s/short.nrrd", test_tmpdir());
+    FILE *f = fopen(path, "wb");
+    CHECK(f != NULL);
+    if (f) {
+        fputs("NRRD0004\ntype: float\ndimension: 3\nsizes: 8 8 8\nencoding: raw\nendian: little\n\n", f);
+        float v[10] = {0};
+        fwrite(v, sizeof v[0], 10, f);
+        fclose(f);
+    }
+    const char *a1[] = {"volume", path, "-o", prefix, NULL};
+    CHECK(vol_cli(a1, "a1") != 0);
+    CHECK(vol_stderr_has("a1", "short.nrrd"));
+    const char *a2[] = {"volume", "synth:bucky:16", "--tf", "glass", "-o", prefix, NULL};
+    CHECK_EQ_INT(vol_cli(a2, "a2"), 2);
+    CHECK(vol_stderr_has("a2", "glass"));
+    const char *a3[] = {"volume", "synth:teapot", "-o", prefix, NULL};
+    CHECK(vol_cli(a3, "a3") != 0);
+    CHECK(vol_stderr_has("a3", "teapot"));
+    const char *a4[] = {"volume", "synth:bucky:16", "--lv-scale", "3", "-o", prefix, NULL};
+    CHECK(vol_cli(a4, "a4") != 0);
+    const char *a5[] = {"volume", "synth:bucky:16", "--raw", "8x8:u8", "-o", prefix, NULL};
+    CHECK_EQ_INT(vol_cli(a5, "a5"), 2);
+    const char *a6[] = {"volume", "synth:bucky:16", "--mode", "xray", "-o", prefix, NULL};
+    CHECK_EQ_INT(vol_cli(a6, "a6"), 2);
+    CHECK(!vol_exists("never.exr") && !vol_exists("never.png") && !vol_exists("never.json"));
+}
