@@ -1,6 +1,10 @@
 /* Ropinski's light volume (src/volume/vol_light.c) against analytic transmittance and against the
  * exact march of src/truth/truth_volume.c; limits, continuity, scales, threads, refusals.
- * The bounds asserted here are the measured errors rounded up (docs/volume/light.md, "Measured"). */
+ * The bounds asserted here are the measured errors rounded up (docs/volume/light.md, "Measured").
+ * Extinction is vol.h's convention, sigma_t = -kappa ln(1 - alpha_TF) / ref_step: with the
+ * two-point TFs below (alpha linear in the data value) sigma_t is NOT linear in the trilinear value,
+ * so the light volume's trapezoid is exact only where sigma_t is constant along the step
+ * (homogeneous media); across a one-voxel ramp it carries a discretisation error, measured here. */
 #include "test.h"
 
 #include "core/obs.h"
@@ -11,8 +15,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* A two-point TF: value 0 -> (rgb, 0), value 1 -> (rgb, alpha1); linear between, so alpha_TF of a
- * trilinear value is itself trilinear. ref_step 0 (one voxel). */
+/* A two-point TF: value 0 -> (rgb, alpha0), value 1 -> (rgb, alpha1); linear between, so alpha_TF
+ * of a trilinear value is itself trilinear (sigma_t = -ln(1 - alpha_TF) is not). ref_step 0 (one
+ * voxel). alpha0 = alpha1: a homogeneous medium over the data's range. */
 static int make_tf(vol_tf *tf, float alpha0, float alpha1, const float rgb[3])
 {
     memset(tf, 0, sizeof *tf);
@@ -64,8 +69,10 @@ static int lv_all_finite_unit(const vol_light_volume *lv)
     return 1;
 }
 
-/* The slab's optical depth in voxels from voxel k (light travelling +z) with the trilinear sigma:
- * 1 on [k0, k1], linear ramps of one voxel either side; the face is half a voxel below voxel 0. */
+/* The slab's optical depth in voxels from voxel k (light travelling +z) as the light volume's
+ * trapezoid sees it, in units of the slab's sigma_t: 1 on [k0, k1], the one-voxel trilinear ramps
+ * either side counted as 1/2 (the mean of their end values); the face is half a voxel below voxel 0.
+ * Exact for a sigma_t linear in the data value (the mean of a linear ramp). */
 static double slab_depth(int k, int k0, int k1)
 {
     double d = (double)k - k0 + 0.5;
@@ -73,40 +80,82 @@ static double slab_depth(int k, int k0, int k1)
     return d < 0.0 ? 0.0 : (d > N ? N : d);
 }
 
-TEST(volume_light_slab_axis_is_exact)
+/* The exact optical depth, in voxels, of the same slab under vol.h's convention with the TF alpha
+ * linear from 0 to a over the data's [0, 1] and ref_step one voxel: sigma_t(v) = -ln(1 - a v), so
+ * inside the slab sigma_1 = -ln(1 - a), and each one-voxel ramp (v from 0 to 1) contributes
+ *   integral_0^1 -ln(1 - a v) dv = 1 + (1 - a) ln(1 - a) / a
+ * (substitute u = 1 - a v: (1/a) integral_{1-a}^1 -ln u du). The light volume's trapezoid counts a
+ * ramp as sigma_1 / 2, which is larger (-ln(1 - a v) is convex in v): the post-classification
+ * discretisation error that vol.h's convention brings (docs/volume/light.md, "Measured errors"). */
+static double slab_depth_exact(int k, int k0, int k1, double a)
+{
+    const double s1 = -log1p(-a), ramp = 1.0 + (1.0 - a) * log1p(-a) / a;
+    if (k < k0)
+        return 0.0;
+    if (k <= k1)
+        return ramp + (double)(k - k0) * s1;
+    return 2.0 * ramp + (double)(k1 - k0) * s1;
+}
+
+/* The slab's data with a TF constant over the data's range [0, 1]: a homogeneous medium filling
+ * the box (no ramps), sigma_1 = -ln(1 - 0.3) per voxel. The light volume is then exact where its
+ * fetches stay inside the slices: along the axis everywhere, along a diagonal wherever the ray
+ * towards the light leaves by the lit face (the issue: "a homogeneous slab gives transmittance
+ * exp(-sigma d) exactly, with the light along an axis and along a diagonal"). */
+TEST(volume_light_homogeneous_slab_is_exact)
 {
     obs_context *ctx = obs_context_create();
     vol_grid g;
     CHECK_OK(vol_synth(ctx, "slab", 32, &g), ctx);
     const float white[3] = {1, 1, 1};
     vol_tf tf;
-    CHECK(make_tf(&tf, 0.0f, 0.3f, white));
-    vol_lv_params p = vol_lv_params_default();
-    const int n = 32, k0 = n / 4, k1 = 3 * n / 4 - 1;
-    for (int sgn = -1; sgn <= 1; sgn += 2) {
-        vol_light L = dir_light(0, 0, sgn);
+    CHECK(make_tf(&tf, 0.3f, 0.3f, white));
+    const double s1 = -log1p(-(double)0.3f); /* per voxel (ref_step 0: one voxel) */
+    const int n = 32;
+    vol_light Ls[3] = {dir_light(0, 0, 1), dir_light(0, 0, -1), dir_light(0.6, 0.0, 0.8)};
+    for (int t = 0; t < 3; t++) {
+        vol_lv_params p = vol_lv_params_default();
+        p.blend_second = 0; /* the F1 pass of the diagonal reads the border where rays leave by z */
         vol_light_volume lv;
-        CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
-        CHECK_EQ_INT(lv.face0, sgn > 0 ? 4 : 5);
-        CHECK(lv.blend_weight == 1.0f);
-        double maxe = 0.0;
-        for (int k = 0; k < n; k++) {
-            int kk = sgn > 0 ? k : n - 1 - k;  /* index counted from the lit face */
-            double T = exp(-0.3 * slab_depth(kk, sgn > 0 ? k0 : n - 1 - k1, sgn > 0 ? k1 : n - 1 - k0));
-            for (int j = 0; j < n; j++)
-                for (int i = 0; i < n; i++) {
-                    double e = fabs(lv.l[((size_t)k * n + j) * n + i] - T);
-                    if (e > maxe)
-                        maxe = e;
-                }
-        }
-        printf("slab axis sgn %d: max |l - exp(-sigma d)| = %.3g\n", sgn, maxe);
-        CHECK(maxe <= 2e-6);
+        CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[t], &p, &lv), ctx);
+        CHECK(lv_all_finite_unit(&lv));
+        CHECK_EQ_INT(lv.face0, t == 1 ? 5 : 4);
         truth_volume_params tp = truth_volume_params_default();
         truth_volume_error_stats st;
-        CHECK_OK(truth_volume_light_error(ctx, NULL, &g, &tf, &L, &tp, &lv, NULL, NULL, &st), ctx);
-        printf("slab axis sgn %d vs march: max %.3g mean %.3g\n", sgn, st.max_abs, st.mean_abs);
-        CHECK(st.max_abs <= 2e-6);
+        float *T = NULL;
+        CHECK_OK(truth_volume_light_error(ctx, NULL, &g, &tf, &Ls[t], &tp, &lv, &T, NULL, &st), ctx);
+        double maxa = 0.0, maxm = 0.0, maxam = 0.0;
+        int cnt = 0;
+        for (int k = 0; k < n; k++)
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    double d; /* path length in voxels to the lit face */
+                    if (t < 2) {
+                        d = (t == 0 ? k : n - 1 - k) + 0.5;
+                    } else {
+                        /* p = x - (0.75, 0, 1) voxels: voxel i of slice k fetches i - 1 and i of
+                         * slice k - 1, so its domain of dependence reaches i - k on slice 0 and
+                         * stays clear of the border (exact values only) iff i >= k. */
+                        if (i < k)
+                            continue;
+                        d = ((double)k + 0.5) / 0.8;
+                    }
+                    size_t idx = ((size_t)k * n + j) * n + i;
+                    double Ta = exp(-s1 * d);
+                    maxa = fmax(maxa, fabs(lv.l[idx] - Ta));
+                    maxm = fmax(maxm, fabs(lv.l[idx] - (double)T[idx]));
+                    maxam = fmax(maxam, fabs((double)T[idx] - Ta));
+                    cnt++;
+                }
+        obs_aligned_free(T);
+        printf("homogeneous slab, light %d (%d voxels): max |l - exp(-sigma d)| %.3g, |l - march| %.3g, "
+               "|march - exp(-sigma d)| %.3g; all voxels vs march: max %.3g mean %.3g\n",
+               t, cnt, maxa, maxm, maxam, st.max_abs, st.mean_abs);
+        CHECK_EQ_INT(cnt, t < 2 ? n * n * n : n * n * (n + 1) / 2);
+        CHECK(maxa <= 2e-6);
+        CHECK(maxm <= 2e-6);
+        if (t < 2)
+            CHECK(st.max_abs <= 2e-6);
         vol_light_volume_free(&lv);
     }
     vol_tf_free(&tf);
@@ -120,32 +169,63 @@ TEST(volume_light_truth_march_matches_slab_analytic)
     vol_grid g;
     CHECK_OK(vol_synth(ctx, "slab", 32, &g), ctx);
     const float white[3] = {1, 1, 1};
-    vol_tf tf;
-    CHECK(make_tf(&tf, 0.0f, 0.3f, white));
+    const double a = (double)0.3f, s1 = -log1p(-a);
     truth_volume_params tp = truth_volume_params_default();
     const int n = 32, k0 = n / 4, k1 = 3 * n / 4 - 1;
-    /* A diagonal light in xz: the depth is the vertical one over cos(gamma) where the ray leaves by
-     * the bottom face (x far enough from the -x face). */
     vol_light L = dir_light(0.6, 0.0, 0.8);
-    double maxe = 0.0;
+    /* Homogeneous (TF constant): exact at every voxel of a plane, the path ending at the -z face
+     * or at the -x face, whichever comes first. */
+    vol_tf tf;
+    CHECK(make_tf(&tf, 0.3f, 0.3f, white));
+    double maxh = 0.0;
+    for (int k = 0; k < n; k++)
+        for (int i = 0; i < n; i++) {
+            double x[3] = {g.origin[0] + i * g.spacing[0], g.origin[1] + 5 * g.spacing[1], g.origin[2] + k * g.spacing[2]};
+            double d = fmin(((double)k + 0.5) / 0.8, ((double)i + 0.5) / 0.6);
+            double T = truth_volume_transmittance_at(&g, &tf, &L, &tp, x);
+            maxh = fmax(maxh, fabs(T - exp(-s1 * d)));
+        }
+    vol_tf_free(&tf);
+    /* The ramped slab (TF alpha 0 -> 0.3 over the data's [0, 1]): the depth is the vertical one over
+     * cos(gamma) where the ray leaves by the bottom face (x far enough from the -x face); with
+     * vol.h's convention sigma_t is not linear across the ramps, so the march's trapezoid (h = 1/16
+     * voxel) has an O(h^2) error there. */
+    CHECK(make_tf(&tf, 0.0f, 0.3f, white));
+    double maxr = 0.0;
     for (int k = 0; k < n; k++)
         for (int i = 0; i < n; i++) {
             if ((double)i - 0.75 * ((double)k + 0.5) < 0.0)
                 continue;
             double x[3] = {g.origin[0] + i * g.spacing[0], g.origin[1] + 5 * g.spacing[1], g.origin[2] + k * g.spacing[2]};
             double T = truth_volume_transmittance_at(&g, &tf, &L, &tp, x);
-            double e = fabs(T - exp(-0.3 * slab_depth(k, k0, k1) / 0.8));
-            if (e > maxe)
-                maxe = e;
+            maxr = fmax(maxr, fabs(T - exp(-slab_depth_exact(k, k0, k1, a) / 0.8)));
         }
-    printf("march vs analytic, diagonal slab: max %.3g\n", maxe);
-    CHECK(maxe <= 1e-5);
+    /* Halving the step quarters the ramp error: a discretisation error of order h^2, not a bias. */
+    tp.step_fraction = 1.0 / 32.0;
+    double maxr2 = 0.0;
+    for (int k = 0; k < n; k++)
+        for (int i = 0; i < n; i++) {
+            if ((double)i - 0.75 * ((double)k + 0.5) < 0.0)
+                continue;
+            double x[3] = {g.origin[0] + i * g.spacing[0], g.origin[1] + 5 * g.spacing[1], g.origin[2] + k * g.spacing[2]};
+            double T = truth_volume_transmittance_at(&g, &tf, &L, &tp, x);
+            maxr2 = fmax(maxr2, fabs(T - exp(-slab_depth_exact(k, k0, k1, a) / 0.8)));
+        }
+    printf("march vs analytic, diagonal: homogeneous max %.3g; ramped slab max %.3g at h = 1/16, %.3g at h = 1/32\n",
+           maxh, maxr, maxr2);
+    CHECK(maxh <= 1e-12);
+    CHECK(maxr <= 3e-5);
+    CHECK(maxr2 <= maxr / 3.5 && maxr2 >= maxr / 4.5);
     vol_tf_free(&tf);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
 
-TEST(volume_light_slab_diagonal_within_bound)
+/* The ramped slab (TF alpha 0 -> 0.3): the light volume's trapezoid counts each one-voxel ramp as
+ * sigma_1 / 2 (slab_depth), the exact integral is 1 + (1 - a) ln(1 - a) / a (slab_depth_exact).
+ * Along the axis the light volume is exactly its own discretisation, exp(-sigma_1 slab_depth), and
+ * its error against the exact T is the difference of the two, which the test computes and bounds. */
+TEST(volume_light_ramped_slab_within_bound)
 {
     obs_context *ctx = obs_context_create();
     vol_grid g;
@@ -153,7 +233,44 @@ TEST(volume_light_slab_diagonal_within_bound)
     const float white[3] = {1, 1, 1};
     vol_tf tf;
     CHECK(make_tf(&tf, 0.0f, 0.3f, white));
+    const double a = (double)0.3f, s1 = -log1p(-a);
     const int n = 32, k0 = n / 4, k1 = 3 * n / 4 - 1;
+    double disc = 0.0; /* max over k of |exp(-s1 slab_depth) - exp(-slab_depth_exact)|: the ramp error */
+    for (int k = 0; k < n; k++)
+        disc = fmax(disc, fabs(exp(-s1 * slab_depth(k, k0, k1)) - exp(-slab_depth_exact(k, k0, k1, a))));
+    printf("ramped slab: the trapezoid's ramp error, analytic: max %.4g\n", disc);
+    for (int sgn = -1; sgn <= 1; sgn += 2) {
+        vol_lv_params p = vol_lv_params_default();
+        vol_light L = dir_light(0, 0, sgn);
+        vol_light_volume lv;
+        CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
+        CHECK_EQ_INT(lv.face0, sgn > 0 ? 4 : 5);
+        CHECK(lv.blend_weight == 1.0f);
+        double maxd = 0.0, maxe = 0.0;
+        for (int k = 0; k < n; k++) {
+            int kk = sgn > 0 ? k : n - 1 - k; /* index counted from the lit face */
+            int a0 = sgn > 0 ? k0 : n - 1 - k1, a1 = sgn > 0 ? k1 : n - 1 - k0;
+            double Td = exp(-s1 * slab_depth(kk, a0, a1)), Te = exp(-slab_depth_exact(kk, a0, a1, a));
+            for (int j = 0; j < n; j++)
+                for (int i = 0; i < n; i++) {
+                    double l = lv.l[((size_t)k * n + j) * n + i];
+                    maxd = fmax(maxd, fabs(l - Td));
+                    maxe = fmax(maxe, fabs(l - Te));
+                }
+        }
+        truth_volume_params tp = truth_volume_params_default();
+        truth_volume_error_stats st;
+        CHECK_OK(truth_volume_light_error(ctx, NULL, &g, &tf, &L, &tp, &lv, NULL, NULL, &st), ctx);
+        printf("ramped slab axis sgn %d: max |l - exp(-sigma_1 slab_depth)| %.3g; |l - exact| %.4g; vs march: "
+               "max %.4g mean %.3g bias %.3g\n",
+               sgn, maxd, maxe, st.max_abs, st.mean_abs, st.mean_signed);
+        CHECK(maxd <= 2e-6);                   /* exactly its own trapezoid */
+        CHECK(fabs(maxe - disc) <= 2e-6);      /* so its error is the ramp error, no more */
+        CHECK(fabs(st.max_abs - disc) <= 5e-5); /* the march agrees (its own O(h^2) in the ramps) */
+        CHECK(st.max_abs <= 0.0095);
+        CHECK(st.mean_signed < 0.0);           /* darker: the trapezoid of a convex sigma_t(v) */
+        vol_light_volume_free(&lv);
+    }
     vol_light L = dir_light(0.6, 0.0, 0.8);
     for (int blend = 0; blend <= 1; blend++) {
         vol_lv_params p = vol_lv_params_default();
@@ -162,31 +279,32 @@ TEST(volume_light_slab_diagonal_within_bound)
         CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
         CHECK(lv_all_finite_unit(&lv));
         CHECK_EQ_INT(lv.face0, 4);
-        /* Interior voxels (the ray leaves by the bottom face): against exp(-sigma d / cos gamma). */
-        double maxe = 0.0;
+        /* Interior voxels (the ray leaves by the bottom face): against the light volume's own
+         * discretisation exp(-sigma_1 slab_depth / cos gamma) and against the exact depth. */
+        double maxd = 0.0, maxe = 0.0;
         for (int k = 0; k < n; k++)
             for (int j = 0; j < n; j++)
                 for (int i = 0; i < n; i++) {
                     if ((double)i - 0.75 * ((double)k + 0.5) < 2.0)
                         continue;
-                    double T = exp(-0.3 * slab_depth(k, k0, k1) / 0.8);
-                    double e = fabs(lv.l[((size_t)k * n + j) * n + i] - T);
-                    if (e > maxe)
-                        maxe = e;
+                    double l = lv.l[((size_t)k * n + j) * n + i];
+                    maxd = fmax(maxd, fabs(l - exp(-s1 * slab_depth(k, k0, k1) / 0.8)));
+                    maxe = fmax(maxe, fabs(l - exp(-slab_depth_exact(k, k0, k1, a) / 0.8)));
                 }
         truth_volume_params tp = truth_volume_params_default();
         truth_volume_error_stats st;
         CHECK_OK(truth_volume_light_error(ctx, NULL, &g, &tf, &L, &tp, &lv, NULL, NULL, &st), ctx);
-        printf("slab diagonal (0.6,0,0.8) blend %d (w %.4f): interior max %.3g; all voxels vs march: max %.3g "
-               "mean %.3g rmse %.3g\n",
-               blend, lv.blend_weight, maxe, st.max_abs, st.mean_abs, st.rmse);
+        printf("ramped slab diagonal (0.6,0,0.8) blend %d (w %.4f): interior max |l - own trapezoid| %.3g, "
+               "|l - exact| %.4g; all voxels vs march: max %.4g mean %.4g rmse %.4g bias %.3g\n",
+               blend, lv.blend_weight, maxd, maxe, st.max_abs, st.mean_abs, st.rmse, st.mean_signed);
         if (!blend) {
-            CHECK(maxe <= 1e-5);        /* laterally constant: the bilinear fetch is exact inside */
+            CHECK(maxd <= 1e-5);       /* laterally constant: the bilinear fetch is exact inside */
+            CHECK(maxe <= 0.012);      /* the ramp error over a longer path */
             CHECK(st.max_abs <= 0.17); /* the edge where rays leave by the -x face */
-            CHECK(st.mean_abs <= 0.005);
+            CHECK(st.mean_abs <= 0.006);
         } else {
             CHECK(st.max_abs <= 0.14);
-            CHECK(st.mean_abs <= 0.005);
+            CHECK(st.mean_abs <= 0.006);
         }
         vol_light_volume_free(&lv);
     }
@@ -238,7 +356,10 @@ static void error_on(const char *name, int n, const char *tfname, vol_light L, i
 
 TEST(volume_light_sphere_error_within_bound)
 {
-    error_on("sphere", 40, NULL, dir_light(0, 0, 1), 1, 1e-5, 1e-6);
+    /* Along +z the only error is the post-classification ramp error: the sphere's one-voxel edge
+     * (value linear in r) through sigma_t(v) = -ln(1 - 0.25 v), convex, so the trapezoid over an
+     * edge cell overestimates the extinction (bias < 0); the rest adds the bilinear diffusion. */
+    error_on("sphere", 40, NULL, dir_light(0, 0, 1), 1, 0.006, 2e-4);
     if (test_failed())
         return;
     error_on("sphere", 40, NULL, dir_light(0.3, -0.5, 0.8), 0, 0.4, 0.02);
@@ -252,13 +373,13 @@ TEST(volume_light_sphere_error_within_bound)
 
 TEST(volume_light_bucky_error_within_bound)
 {
-    error_on("bucky", 32, "bucky", dir_light(0, 0, 1), 1, 0.06, 0.0065);
+    error_on("bucky", 32, "bucky", dir_light(0, 0, 1), 1, 0.09, 0.007);
     if (test_failed())
         return;
-    error_on("bucky", 32, "bucky", dir_light(0.3, -0.5, 0.8), 0, 0.6, 0.07);
+    error_on("bucky", 32, "bucky", dir_light(0.3, -0.5, 0.8), 0, 0.65, 0.075);
     if (test_failed())
         return;
-    error_on("bucky", 32, "bucky", dir_light(0.3, -0.5, 0.8), 1, 0.55, 0.064);
+    error_on("bucky", 32, "bucky", dir_light(0.3, -0.5, 0.8), 1, 0.58, 0.064);
 }
 
 TEST(volume_light_point_light_inside_is_finite_and_near_exact)
@@ -287,13 +408,14 @@ TEST(volume_light_one_voxel_thick_volume)
     vol_tf tf;
     CHECK(make_tf(&tf, 0.0f, 0.4f, rgb));
     vol_lv_params p = vol_lv_params_default();
-    /* Along z: half a voxel of sigma = 0.4 between the centre and the face. */
+    /* Along z: half a voxel of sigma_t = -ln(1 - 0.4) (a homogeneous medium) between the centre and
+     * the face: l = (1 - 0.4)^(1/2). */
     vol_light L = dir_light(0, 0, 1);
     vol_light_volume lv;
     CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
     CHECK(lv_all_finite_unit(&lv));
     for (int i = 0; i < 16 * 12; i++)
-        CHECK_NEAR(lv.l[i], exp(-0.2), 1e-6);
+        CHECK_NEAR(lv.l[i], exp(0.5 * log1p(-(double)0.4f)), 1e-6);
     vol_light_volume_free(&lv);
     /* Diagonal and in-plane lights, a point light in the plane: finite, in [0, 1]. */
     vol_light Ls[3] = {dir_light(0.5, 0.3, 0.8), dir_light(1, 0.2, 0.01), point_light(7.0, 5.0, 0.0)};
@@ -352,29 +474,59 @@ TEST(volume_light_opaque_volume_is_dark_beyond_first_slice)
     const float rgb[3] = {0.8f, 0.4f, 0.2f};
     vol_tf tf;
     CHECK(make_tf(&tf, 1.0f, 1.0f, rgb));
-    /* alpha_TF = 1 everywhere; kappa = 200: the first slice keeps exp(-100) (a float > 0), one voxel
-     * further exp(-300) underflows to 0. */
+    /* alpha_TF = 1 everywhere with the default kappa = 1. vol_sigma_from_alpha clamps alpha to
+     * 1 - 2^-24, so the medium is not opaque but 24 ln 2 = 16.6 per voxel (ref_step 0: one voxel):
+     * transmittance 2^-24 = 6.0e-8 per voxel of path (vol.h). The claim, precisely: every voxel has
+     * l <= 2^-12 (each propagation step is at least one voxel long, ds >= 1, what it fetches is
+     * <= 1, and the trapezoid counts at least half the step's medium: exp(-ds sigma_t / 2) even
+     * where the fetch reads the border's sigma_t = 0) and l > 0 on the lit face's slice. Beyond
+     * that slice, where no fetch of l and sigma_t reads the border, l <= 2^-24 and c = c_TF to
+     * within 2^-24 (c = tau c_bar + (1 - tau) c_TF). Along the axis no fetch reads the border, and
+     * m slices beyond the lit one l = 2^-(12 + 24 m): a float 0 from m = 6 on (2^-156 is below the
+     * smallest subnormal). For the oblique light (ds = 1.077 voxels, p = x + (-0.22, -1, +0.33)
+     * voxels) the fetch reads the border at i = 0 and k = 15: there the light does enter through
+     * the side faces after less than a voxel of medium, and l reaches 4.5e-7. */
     vol_lv_params p = vol_lv_params_default();
-    p.kappa = 200.0;
+    CHECK(p.kappa == 1.0);
+    const double t1 = ldexp(1.0, -24);
     vol_light Ls[2] = {dir_light(0, -1, 0), dir_light(0.2, 0.9, -0.3)};
     for (int t = 0; t < 2; t++) {
         vol_light_volume lv;
         CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[t], &p, &lv), ctx);
         CHECK(lv_all_finite_unit(&lv));
         int first = t == 0 ? 15 : 0; /* the lit face's slice along y */
+        double maxl = 0.0, maxc = 0.0, maxe = 0.0;
         for (int k = 0; k < 16; k++)
             for (int j = 0; j < 16; j++)
                 for (int i = 0; i < 16; i++) {
                     size_t idx = ((size_t)k * 16 + j) * 16 + i;
+                    CHECK_MSG(lv.l[idx] <= ldexp(1.0, -12) * (1.0 + 1e-5), "light %d voxel (%d %d %d): l = %g", t,
+                              i, j, k, lv.l[idx]);
                     if (j == first) {
-                        if (t == 0)
-                            CHECK(lv.l[idx] > 0.0f && lv.l[idx] < 1e-40f);
+                        CHECK_MSG(lv.l[idx] > 0.0f, "light %d voxel (%d %d %d): l = 0", t, i, j, k);
                         continue;
                     }
-                    CHECK_MSG(lv.l[idx] == 0.0f, "light %d voxel (%d %d %d): l = %g", t, i, j, k, lv.l[idx]);
-                    for (int c = 0; c < 3; c++)
-                        CHECK_NEAR(lv.c[c][idx], rgb[c], 1e-6);
+                    if (t == 1 && (i == 0 || k == 15)) {
+                        maxe = fmax(maxe, lv.l[idx]);
+                        continue; /* the fetch reads the border (see above) */
+                    }
+                    CHECK_MSG(lv.l[idx] <= t1 * (1.0 + 1e-5), "light %d voxel (%d %d %d): l = %g", t, i, j, k,
+                              lv.l[idx]);
+                    maxl = fmax(maxl, lv.l[idx]);
+                    if (t == 0) {
+                        int m = 15 - j;
+                        if (m >= 6)
+                            CHECK_MSG(lv.l[idx] == 0.0f, "voxel (%d %d %d): l = %g", i, j, k, lv.l[idx]);
+                        else
+                            CHECK_NEAR(lv.l[idx] / ldexp(1.0, -(12 + 24 * m)), 1.0, 1e-4);
+                    }
+                    for (int c = 0; c < 3; c++) {
+                        maxc = fmax(maxc, fabs(lv.c[c][idx] - rgb[c]));
+                        CHECK_NEAR(lv.c[c][idx], rgb[c], t1 + 6e-8); /* + one float ulp at 0.8 */
+                    }
                 }
+        printf("alpha 1, light %d: beyond the lit slice max l %.3g (%.3g where the fetch reads the border), "
+               "max |c - c_TF| %.3g\n", t, maxl, maxe, maxc);
         vol_light_volume_free(&lv);
     }
     vol_tf_free(&tf);

@@ -119,6 +119,12 @@ void vol_tf_eval(const vol_tf *tf, double value, float rgba[4]);
  * given for ref_step: 1 - (1 - alpha)^(step / ref_step). */
 float vol_tf_alpha_correct(float alpha, double step, double ref_step);
 
+/* The extinction of the convention above, per world unit: -ln(1 - alpha) / ref_step (times kappa
+ * by the caller). alpha is clamped to 1 - 2^-24 so that an opaque value gives a large finite
+ * extinction (16.6 per ref_step: transmittance 6e-8 over one ref_step) instead of infinity, which
+ * keeps kappa = 0 and trapezoid means free of NaN. alpha <= 0 gives 0. */
+double vol_sigma_from_alpha(float alpha, double ref_step);
+
 /* ------------------------------------------------------------------------------------------------
  * 3. The light volume [Ropinski10]
  * ---------------------------------------------------------------------------------------------- */

@@ -270,3 +270,12 @@ float vol_tf_alpha_correct(float alpha, double step, double ref_step)
     double a = -expm1(r * log1p(-(double)alpha));
     return (float)(a < 0.0 ? 0.0 : a > 1.0 ? 1.0 : a);
 }
+
+double vol_sigma_from_alpha(float alpha, double ref_step)
+{
+    /* vol.h's convention: (1 - alpha)^(d / ref_step) = exp(-sigma d). */
+    if (!(alpha > 0.0f) || !(ref_step > 0.0))
+        return 0.0;
+    const double a = alpha < 1.0f - 0x1p-24f ? (double)alpha : 1.0 - 0x1p-24;
+    return -log1p(-a) / ref_step;
+}
