@@ -593,7 +593,7 @@ obs_status study_sss_report(obs_context *ctx, obs_pool *pool, study_sss *s)
             snprintf(mv, sizeof mv, "%.0f", q->maps);
         fprintf(md, "| %d | %s | %s | %s |\n", S, b, mv, tv);
     }
-    fprintf(md, "\n## The seed's Table 5.3: scene changed against fixed scene\n\n"
+    fprintf(md, "\n## The seed's Table 5.3 [Alvarez18]: scene changed against fixed scene\n\n"
                 "Ours: K = 4, 8, 16 directions (\"cameras\") with N = 12, 24, 48 samples, maps 512, light %s, %dx%d, "
                 "each scene with its own material (the seed used cream for all). *Rebuilt*: light G-buffers + maps + "
                 "camera G-buffer + combination; *fixed*: camera G-buffer + combination (maps reused). The seed: GTX "
