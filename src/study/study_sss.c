@@ -234,13 +234,18 @@ void study_sss_close(study_sss *s)
 
 /* ---- the plan ------------------------------------------------------------------------------------ */
 
-/* The cost model (docs/study.md, "SSS: cost"): the maps pass costs about
- * STUDY_SSS_NS_PER_EVAL ns per BSSRDF evaluation (K N covered texels) on the 2-core development
- * machine, and a covered texel is about a quarter of a map (the models fill about half of the
- * framing square in each direction); the references about STUDY_SSS_NS_PER_CANDIDATE per
- * candidate (brute force) and 20 times that (random walk), a fifth of the pixels translucent. */
-#define STUDY_SSS_NS_PER_EVAL 9.0
-#define STUDY_SSS_NS_PER_CANDIDATE 60.0
+/* The cost model (docs/study.md, "SSS: cost"), measured on the shared 2-core development machine
+ * (2026-12-02, the reduced study, 2 threads, other jobs running): the maps pass costs about
+ * STUDY_SSS_NS_PER_MAP_CANDIDATE ns per disk candidate, and draws N candidates per covered texel
+ * and layer, a covered texel being about STUDY_SSS_MAP_COVER of a map (the bunny: 0.2); the
+ * brute-force reference about STUDY_SSS_NS_PER_REF_CANDIDATE per candidate and the random walk
+ * STUDY_SSS_RW_FACTOR times that (cream: 9, marble: 2), on about STUDY_SSS_PIXEL_COVER of the
+ * pixels (0.18 to 0.25 at the mkdata cameras). */
+#define STUDY_SSS_NS_PER_MAP_CANDIDATE 270.0
+#define STUDY_SSS_MAP_COVER 0.2
+#define STUDY_SSS_NS_PER_REF_CANDIDATE 600.0
+#define STUDY_SSS_RW_FACTOR 7.0
+#define STUDY_SSS_PIXEL_COVER 0.25
 study_sss_plan study_sss_plan_of(const study_sss *s)
 {
     study_sss_plan p;
@@ -256,15 +261,17 @@ study_sss_plan study_sss_plan_of(const study_sss *s)
     p.points = frames * s->ncombos;
     double evals = 0.0;
     for (int i = 0; i < s->ncombos; i++)
-        evals += (double)s->combos[i].K * s->combos[i].N * 0.25 * s->combos[i].map_size * s->combos[i].map_size;
-    p.sweep_min = (double)frames * evals * p.runs * STUDY_SSS_NS_PER_EVAL * 1e-9 / 60.0;
+        evals += (double)s->combos[i].K * s->combos[i].N * STUDY_SSS_MAP_COVER * s->combos[i].map_size *
+                 s->combos[i].map_size;
+    p.sweep_min = (double)frames * evals * p.runs * STUDY_SSS_NS_PER_MAP_CANDIDATE * 1e-9 / 60.0;
     double px = 0.0;
     for (int r = 0; r < s->resolutions.n; r++) {
         int w = 0, h = 0;
         obs_parse_size(s->resolutions.v[r], RAST_MAX_DIM, &w, &h);
-        px += 0.2 * w * h;
+        px += STUDY_SSS_PIXEL_COVER * w * h;
     }
-    p.ref_min = (double)p.scenes * p.lights * px * (double)s->o.ref_samples * 21.0 * STUDY_SSS_NS_PER_CANDIDATE * 1e-9 / 60.0;
+    p.ref_min = (double)p.scenes * p.lights * px * (double)s->o.ref_samples * (1.0 + STUDY_SSS_RW_FACTOR) *
+                STUDY_SSS_NS_PER_REF_CANDIDATE * 1e-9 / 60.0;
     return p;
 }
 

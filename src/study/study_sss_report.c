@@ -20,7 +20,7 @@ typedef struct prow {
     const char *scene, *light, *sampler;
     int W, H, K, N, S;
     double rebuilt, fixed, maps, lightmaps, combine, gbuffer, evals;
-    double err[2], ratio[2], ref_seconds[2], ref_pixels[2];
+    double err[2], ratio[2], ref_seconds[2], ref_pixels[2], ref_mean[2], ref_noise[2];
     int ok;
 } prow;
 
@@ -58,6 +58,10 @@ static prow *read_rows(const study_table *t, int *n)
         q->ref_seconds[1] = num(t, r, "rw_seconds");
         q->ref_pixels[0] = num(t, r, "bf_pixels");
         q->ref_pixels[1] = num(t, r, "rw_pixels");
+        q->ref_mean[0] = num(t, r, "bf_mean");
+        q->ref_mean[1] = num(t, r, "rw_mean");
+        q->ref_noise[0] = num(t, r, "bf_noise_rms");
+        q->ref_noise[1] = num(t, r, "rw_noise_rms");
     }
     *n = (int)t->rows;
     return p;
@@ -75,13 +79,25 @@ static const prow *find(const prow *p, int n, const char *scene, const char *lig
     return NULL;
 }
 
-/* The preferred value if the axis has it, else its middle value. */
-static int pick(const study_axis *a, int preferred)
+/* The value of an axis the tables and grids hold fixed: the one with the most measured points at
+ * W x H (which: 0 K, 1 N, 2 map size), ties going to the one nearest the preferred value (the
+ * thesis' K 16, N 48 ~ 50, maps 512). On the full grid every value has as many points, so the
+ * preferred one is chosen; on a reduced study, the best-measured one. */
+static int pick(const study_axis *a, int preferred, const prow *rows, int n, int W, int H, int which)
 {
-    for (int i = 0; i < a->n; i++)
-        if (atoi(a->v[i]) == preferred)
-            return preferred;
-    return atoi(a->v[a->n / 2]);
+    int best = atoi(a->v[0]), best_count = -1;
+    for (int i = 0; i < a->n; i++) {
+        const int v = atoi(a->v[i]);
+        int count = 0;
+        for (int r = 0; r < n; r++)
+            count += rows[r].ok && rows[r].W == W && rows[r].H == H &&
+                     (which == 0 ? rows[r].K : which == 1 ? rows[r].N : rows[r].S) == v;
+        if (count > best_count || (count == best_count && abs(v - preferred) < abs(best - preferred))) {
+            best = v;
+            best_count = count;
+        }
+    }
+    return best;
 }
 
 static void cell(char *buf, size_t size, const prow *q)
@@ -234,11 +250,12 @@ static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_sss *
     memset(gr, 0, sizeof gr);
     int ng = 0;
     obs_status st = OBS_STATUS_OK;
-    const int Kp = pick(&s->Ks, 16), Np = pick(&s->Ns, 48), Sp = pick(&s->map_sizes, 512);
+    const int Kp = pick(&s->Ks, 16, rows, nrows, W, H, 0), Np = pick(&s->Ns, 48, rows, nrows, W, H, 1),
+              Sp = pick(&s->map_sizes, 512, rows, nrows, W, H, 2);
     for (int li = 0; li < s->lights.n && ng < 2 && st == OBS_STATUS_OK; li++) {
         const char *light = s->lights.v[li];
         const prow *q = find(rows, nrows, scene, light, W, H, Kp, Np, Sp);
-        for (int i = 0; !q && i < nrows; i++) /* else its most expensive measured point */
+        for (int i = 0; !q && i < nrows; i++) /* else its first measured point */
             if (rows[i].ok && !strcmp(rows[i].sampler, main_sampler) && !strcmp(rows[i].scene, scene) &&
                 !strcmp(rows[i].light, light) && rows[i].W == W && rows[i].H == H)
                 q = &rows[i];
@@ -255,13 +272,13 @@ static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_sss *
         if (st == OBS_STATUS_OK)
             st = study_sss_i_run_point(ctx, pool, &f, &p, 1, gr[ng].ours, &t);
         study_sss_i_frame_free(&f);
-        char e0[32] = "missing", e1[32] = "missing";
+        char e0[32] = "-", e1[32] = "-";
         if (!isnan(q->err[0]))
-            snprintf(e0, sizeof e0, "%.3f", q->err[0]);
+            snprintf(e0, sizeof e0, "%.2f", q->err[0]);
         if (!isnan(q->err[1]))
-            snprintf(e1, sizeof e1, "%.3f", q->err[1]);
-        snprintf(gr[ng].label, sizeof gr[ng].label, "%s, light %s, K %d N %d maps %d: %.0f ms; rel. RMSE BF %s RW %s",
-                 scene, light, q->K, q->N, q->S, q->rebuilt, e0, e1);
+            snprintf(e1, sizeof e1, "%.2f", q->err[1]);
+        snprintf(gr[ng].label, sizeof gr[ng].label, "%s %s K%d N%d S%d: %.0f ms, rel.RMSE BF %s RW %s", scene,
+                 light, q->K, q->N, q->S, q->rebuilt, e0, e1);
         ng++;
     }
     const int d = (W + 239) / 240, cw = (W + d - 1) / d, chh = (H + d - 1) / d, gap = 4, title_h = 34, label_h = 14;
@@ -403,11 +420,11 @@ static void full_cost(const study_sss *s, const prow *rows, int n, double *sweep
     for (int i = 0; i < 3; i++) /* the seed's points */
         ms += ms_per_eval * (4 << i) * (12 << i) * cover * 512.0 * 512.0 + other;
     *sweep_min = 8.0 * ms * d.runs / 60000.0; /* 4 scenes x 2 lights */
-    /* references: a fifth of 320x240 translucent (the models fill about that), both estimators */
+    /* references: a quarter of 320x240 translucent (the models fill about that), both estimators */
     double ref = 0;
     for (int e = 0; e < 2; e++)
         if (nr[e])
-            ref += ref_ns[e] / nr[e] * 1e-9 * 0.2 * 320 * 240 * (double)d.ref_samples;
+            ref += ref_ns[e] / nr[e] * 1e-9 * 0.25 * 320 * 240 * (double)d.ref_samples;
     *ref_min = 8.0 * ref / 60.0;
 }
 
@@ -529,8 +546,60 @@ obs_status study_sss_report(obs_context *ctx, obs_pool *pool, study_sss *s)
         }
     fprintf(md, "%s\n", nmiss ? "" : "None: every point has both references.\n");
 
+    /* the references themselves: their noise, and the model against the method */
+    fprintf(md, "## The references\n\nPer scene and light (%dx%d): each reference's mean luminance on the "
+                "translucent pixels, its per-pixel noise relative to that mean (s / mean, s the RMS of the "
+                "replicate standard error of Y), the seconds it took, and mean(RW) / mean(BF): how much the "
+                "directional dipole's light differs from radiative transfer in the mesh on average (the model's "
+                "bias, independent of the maps).\n\n| scene | light | BF mean | BF s / mean | BF time (s) | RW mean | "
+                "RW s / mean | RW time (s) | mean(RW) / mean(BF) |\n|---|---|---|---|---|---|---|---|---|\n",
+            W, H);
+    double worst_noise = 0.0;
+    for (int si = 0; si < s->scenes.n; si++)
+        for (int li = 0; li < s->lights.n; li++) {
+            const prow *q = NULL;
+            for (int i = 0; i < n && !q; i++)
+                if (rows[i].ok && !strcmp(rows[i].scene, s->scenes.v[si]) && !strcmp(rows[i].light, s->lights.v[li]) &&
+                    rows[i].W == W && rows[i].H == H)
+                    q = &rows[i];
+            if (!q)
+                continue;
+            char c[2][3][32];
+            for (int e = 0; e < 2; e++) {
+                snprintf(c[e][0], 32, "%.4g", q->ref_mean[e]);
+                snprintf(c[e][1], 32, "%.2f", q->ref_noise[e] / q->ref_mean[e]);
+                double sec = NAN;
+                for (int i = 0; i < n; i++) /* the row that computed it */
+                    if (!strcmp(rows[i].scene, q->scene) && !strcmp(rows[i].light, q->light) && rows[i].W == W &&
+                        rows[i].H == H && rows[i].ref_seconds[e] > 0)
+                        sec = rows[i].ref_seconds[e];
+                snprintf(c[e][2], 32, isnan(sec) ? "–" : "%.0f", sec);
+                if (isnan(q->ref_mean[e]))
+                    snprintf(c[e][0], 32, "–"), snprintf(c[e][1], 32, "–");
+                else if (q->ref_noise[e] / q->ref_mean[e] > worst_noise)
+                    worst_noise = q->ref_noise[e] / q->ref_mean[e];
+            }
+            char ratio[32] = "–";
+            if (!isnan(q->ref_mean[0]) && !isnan(q->ref_mean[1]))
+                snprintf(ratio, sizeof ratio, "%.3f", q->ref_mean[1] / q->ref_mean[0]);
+            fprintf(md, "| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n", q->scene, q->light, c[0][0], c[0][1],
+                    c[0][2], c[1][0], c[1][1], c[1][2], ratio);
+        }
+    if (worst_noise > 0.5)
+        fprintf(md, "\n**Read the errors with care.** A reference's per-pixel noise here is up to %.1f times its mean "
+                    "luminance (%lld candidates per pixel): area sampling of the whole mesh with a roulette is "
+                    "heavy-tailed when the mean free path is millimetres on a 30 cm object. The noise-corrected "
+                    "RMSE takes the reference's noise out in expectation, but one run's value still varies by "
+                    "large factors, and the maps' own Russian roulette is heavy-tailed too (rare accepted far "
+                    "samples with weight 1/p). The ratio of means, averaged over thousands of pixels, is the "
+                    "stabler number; the references need far more candidates (the noise falls as "
+                    "1/sqrt(candidates)) for the per-pixel errors to mean much.\n",
+                worst_noise, s->o.ref_samples);
+    fprintf(md, "\n");
+
     /* the seed's table layouts */
-    const int Kp = pick(&s->Ks, 16), Np = pick(&s->Ns, 48), Sp = pick(&s->map_sizes, 512);
+    const int Kp = pick(&s->Ks, 16, rows, n, W, H, 0), Np = pick(&s->Ns, 48, rows, n, W, H, 1),
+              Sp = pick(&s->map_sizes, 512, rows, n, W, H, 2);
     char b[128];
     fprintf(md, "## Time against N per model ([DalCorso14]'s layout)\n\nOurs: K = %d, maps %d, light %s, %dx%d, "
                 "CPU (%d threads). Cells: `time (BF / RW)`.\n\n| model |",
@@ -636,7 +705,7 @@ obs_status study_sss_report(obs_context *ctx, obs_pool *pool, study_sss *s)
             Kp, Np, Sp, GRID_ERR_MAX);
     for (int si = 0; si < s->scenes.n && st == OBS_STATUS_OK; si++)
         st = write_grid(ctx, pool, s, rows, n, s->scenes.v[si], W, H, md);
-    fprintf(md, "## Columns\n\n`results.csv`: the key (scene, light, width, height, K, N, map_size), the maps' "
+    fprintf(md, "## Columns\n\n`results.csv`: the key (scene, light, width, height, sampler, K, N, map_size), the maps' "
                 "settings (`params`), per-pass times (median, min, max), `rebuilt_ms`, `fixed_ms`, then per reference "
                 "(`bf_`, `rw_`): status (`ok` or `missing: reason`), RMSE and relative RMSE of luminance raw and "
                 "noise-corrected, the ratio of means (ours over the reference), the reference's noise, mean "
