@@ -417,7 +417,7 @@ static void full_cost(const study_sss *s, const prow *rows, int n, double *sweep
         for (int nn = 0; nn < 3; nn++)
             for (int q = 0; q < 3; q++)
                 ms += ms_per_eval * Ks[k] * Ns[nn] * cover * Ss[q] * Ss[q] + other;
-    for (int i = 0; i < 3; i++) /* the seed's points */
+    for (int i = 0; i < 2; i++) /* the seed's points outside the grid (K 16, N 48, 512 is in it) */
         ms += ms_per_eval * (4 << i) * (12 << i) * cover * 512.0 * 512.0 + other;
     *sweep_min = 8.0 * ms * d.runs / 60000.0; /* 4 scenes x 2 lights */
     /* references: a quarter of 320x240 translucent (the models fill about that), both estimators */
@@ -477,11 +477,14 @@ obs_status study_sss_report(obs_context *ctx, obs_pool *pool, study_sss *s)
     if (!isnan(full_sweep))
         fprintf(md, "> Estimated from this table's measured per-point costs: the sweep about %.0f min (%d points, "
                     "3 runs each), the references about %.0f min more (first run; cached after).\n\n",
-                full_sweep, 8 * 39, full_ref);
+                full_sweep, 8 * 38, full_ref);
     else
         fprintf(md, "\n");
-    fprintf(md, "The axes here: scenes %s; lights %s; resolutions %s; samplers %s (the tables and images show the "
-                "first); K %s; N %s; map sizes %s; %lld reference candidates per pixel%s. Time is per frame in ms (median of the runs); errors are the relative "
+    fprintf(md, "docs/study.md (\"Subsurface scattering\") gives the commands that made this table, what each column "
+                "means, and how the references are cached.\n\n");
+    fprintf(md, "The axes asked for: scenes %s; lights %s; resolutions %s; samplers %s (the tables and images show the "
+                "first); K %s; N %s; map sizes %s; %lld reference candidates per pixel%s (— marks a point not "
+                "measured). Time is per frame in ms (median of the runs); errors are the relative "
                 "RMSE of the luminance on the translucent pixels (RMSE over the reference's mean luminance) with "
                 "the reference's own noise taken out, against the brute-force BSSRDF integral (**BF**: the "
                 "method's error, the same directional dipole) and the volumetric random walk (**RW**: the model's "
