@@ -94,11 +94,26 @@ TEST(study_sss_quick_runs_resumes_and_reports)
     CHECK_EQ_INT(study_sss_table(s)->rows, 4);
     char *after = test_slurp(test_path(out, "results.csv"), NULL);
     CHECK(before && after && !strcmp(before, after));
-    free(before);
     free(after);
     study_sss_close(s);
     obs_pool_destroy(pool);
     obs_context_destroy(ctx);
+    /* and through the command: everything resumed, the table unchanged, the report rewritten */
+    char log[1100];
+    snprintf(log, sizeof log, "%s/sss_cli.txt", dir);
+    const char *a[] = {"--threads", "2", "study", "sss", "--quick", "--data", data, "-o", out, "--report", rep,
+                       "--K", "4,8", "--N", "16,32", "--samplers", "Russian-Roulette", NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, a, NULL, log), 0);
+    after = test_slurp(test_path(out, "results.csv"), NULL);
+    CHECK(before && after && !strcmp(before, after));
+    free(before);
+    free(after);
+    char *msg = test_slurp(log, NULL);
+    CHECK(msg && strstr(msg, "resuming: 4 points"));
+    free(msg);
+    /* a bad axis is a usage error */
+    const char *b[] = {"study", "sss", "--quick", "-o", out, "--lights", "side", NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, NULL), 2);
 }
 
 TEST(study_sss_missing_reference_is_recorded_with_its_reason)

@@ -134,7 +134,9 @@ static obs_status build_combos(obs_context *ctx, study_sss *s)
     if (!s->combos)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory");
     for (int a = 0; a < s->samplers.n; a++) {
-        const char *sp = s->samplers.v[a];
+        sss_sampler smp = SSS_SAMPLER_RUSSIAN_ROULETTE;
+        sss_sampler_from_name(s->samplers.v[a], &smp);
+        const char *sp = sss_sampler_name(smp); /* the canonical name is the key (a static string) */
         for (int m = 0; m < s->map_sizes.n; m++)
             for (int k = 0; k < s->Ks.n; k++)
                 for (int n = 0; n < s->Ns.n; n++)
