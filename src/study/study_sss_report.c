@@ -332,7 +332,7 @@ static obs_status write_grid(obs_context *ctx, obs_pool *pool, const study_sss *
 /* ---- plots ----------------------------------------------------------------------------------------- */
 
 static obs_status write_plot(obs_context *ctx, const study_sss *s, const prow *rows, int n, int e, int fixed_time,
-                             const char *file, const char *title)
+                             const char *only_scene, const char *file, const char *title)
 {
     enum { MAXS = 16 };
     double *x = (double *)calloc((size_t)(n ? n : 1), sizeof(double) * 2 * MAXS);
@@ -344,6 +344,8 @@ static obs_status write_plot(obs_context *ctx, const study_sss *s, const prow *r
     for (int si = 0; si < s->scenes.n; si++)
         for (int li = 0; li < s->lights.n; li++)
         for (int ai = 0; ai < s->samplers.n && ns < MAXS; ai++) {
+            if (only_scene && strcmp(only_scene, s->scenes.v[si]))
+                continue;
             double *xs = x + (size_t)ns * 2 * n, *ys = xs + n;
             int m = 0;
             for (int i = 0; i < n; i++)
@@ -494,11 +496,24 @@ obs_status study_sss_report(obs_context *ctx, obs_pool *pool, study_sss *s)
 
     /* plots */
     if (st == OBS_STATUS_OK)
-        st = write_plot(ctx, s, rows, n, 0, 0, "error_bf.svg", "SSS: error against the brute-force BSSRDF (the method's)");
+        st = write_plot(ctx, s, rows, n, 0, 0, NULL, "error_bf.svg",
+                        "SSS: error against the brute-force BSSRDF (the method's)");
     if (st == OBS_STATUS_OK)
-        st = write_plot(ctx, s, rows, n, 1, 0, "error_rw.svg", "SSS: error against the random walk (the model's)");
-    fprintf(md, "## Error against time\n\nThe dashed staircase is the Pareto front of all points.\n\n"
-                "![error against the brute force](error_bf.svg)\n\n![error against the random walk](error_rw.svg)\n\n");
+        st = write_plot(ctx, s, rows, n, 1, 0, NULL, "error_rw.svg", "SSS: error against the random walk (the model's)");
+    fprintf(md, "## Error against time\n\nThe dashed staircase is the Pareto front of the plot's points. All "
+                "scenes:\n\n![error against the brute force](error_bf.svg)\n\n![error against the random walk]"
+                "(error_rw.svg)\n\nPer scene (brute force, random walk):\n\n");
+    for (int si = 0; si < s->scenes.n && st == OBS_STATUS_OK; si++) {
+        char f0[256], f1[256], t0[256], t1[256];
+        snprintf(f0, sizeof f0, "error_bf_%.200s.svg", s->scenes.v[si]);
+        snprintf(f1, sizeof f1, "error_rw_%.200s.svg", s->scenes.v[si]);
+        snprintf(t0, sizeof t0, "%.200s: error against the brute force", s->scenes.v[si]);
+        snprintf(t1, sizeof t1, "%.200s: error against the random walk", s->scenes.v[si]);
+        st = write_plot(ctx, s, rows, n, 0, 0, s->scenes.v[si], f0, t0);
+        if (st == OBS_STATUS_OK)
+            st = write_plot(ctx, s, rows, n, 1, 0, s->scenes.v[si], f1, t1);
+        fprintf(md, "![%s](%s) ![%s](%s)\n\n", t0, f0, t1, f1);
+    }
 
     /* the Pareto front against each reference */
     for (int e = 0; e < 2 && st == OBS_STATUS_OK; e++) {
@@ -518,10 +533,17 @@ obs_status study_sss_report(obs_context *ctx, obs_pool *pool, study_sss *s)
         fprintf(md, "### Pareto front against the %s (%d points)\n\n| scene | light | sampler | K | N | map | time (ms) | "
                     "rel. RMSE | mean ratio |\n|---|---|---|---|---|---|---|---|---|\n",
                 e ? "random walk" : "brute force", nf);
-        for (int i = 0; i < n; i++)
-            if (on[i])
-                fprintf(md, "| %s | %s | %s | %d | %d | %d | %.0f | %.3f | %.3f |\n", rows[i].scene, rows[i].light,
-                        rows[i].sampler, rows[i].K, rows[i].N, rows[i].S, rows[i].rebuilt, rows[i].err[e], rows[i].ratio[e]);
+        for (int done = 0; done < nf; done++) { /* by increasing time */
+            int i = -1;
+            for (int j = 0; j < n; j++)
+                if (on[j] == 1 && (i < 0 || c[j] < c[i]))
+                    i = j;
+            if (i < 0)
+                break;
+            on[i] = 2;
+            fprintf(md, "| %s | %s | %s | %d | %d | %d | %.0f | %.3f | %.3f |\n", rows[i].scene, rows[i].light,
+                    rows[i].sampler, rows[i].K, rows[i].N, rows[i].S, rows[i].rebuilt, rows[i].err[e], rows[i].ratio[e]);
+        }
         fprintf(md, "\n");
         free(c);
         free(on);
