@@ -140,7 +140,8 @@ TEST(study_sss_missing_reference_is_recorded_with_its_reason)
     CHECK_EQ_INT(t->rows, 1);
     CHECK(!strcmp(study_table_get(t, 0, study_table_column(t, "status")), "ok"));
     CHECK(!strcmp(study_table_get(t, 0, study_table_column(t, "bf_status")), "ok"));
-    const char *rw = study_table_get(t, 0, study_table_column(t, "rw_status"));
+    char rw[1024];
+    snprintf(rw, sizeof rw, "%s", study_table_get(t, 0, study_table_column(t, "rw_status")));
     CHECK_MSG(!strncmp(rw, "missing: ", 9) && strstr(rw, "closed"), "rw_status = %s", rw);
     CHECK(isnan(study_table_num(t, 0, study_table_column(t, "rw_rmse"))));
     CHECK(isfinite(study_table_num(t, 0, study_table_column(t, "bf_rmse"))));
@@ -156,8 +157,7 @@ TEST(study_sss_missing_reference_is_recorded_with_its_reason)
     CHECK_OK(study_sss_sweep(ctx, pool, s), ctx);
     t = study_sss_table(s);
     CHECK_EQ_INT(t->rows, 2);
-    CHECK(!strcmp(study_table_get(t, 1, study_table_column(t, "rw_status")), rw) ||
-          strstr(study_table_get(t, 1, study_table_column(t, "rw_status")), "closed"));
+    CHECK(!strcmp(study_table_get(t, 1, study_table_column(t, "rw_status")), rw));
     study_sss_close(s);
     obs_pool_destroy(pool);
     obs_context_destroy(ctx);
