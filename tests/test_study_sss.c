@@ -111,6 +111,9 @@ TEST(study_sss_quick_runs_resumes_and_reports)
     char *msg = test_slurp(log, NULL);
     CHECK(msg && strstr(msg, "resuming: 4 points"));
     free(msg);
+    /* a bare `study sss` does not start the hours-long full study: a usage error */
+    const char *c0[] = {"study", "sss", NULL};
+    CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, c0, NULL, NULL), 2);
     /* a bad axis is a usage error */
     const char *b[] = {"study", "sss", "--quick", "-o", out, "--lights", "side", NULL};
     CHECK_EQ_INT(test_spawn(OBS_CLI_PATH, b, NULL, NULL), 2);

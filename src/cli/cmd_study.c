@@ -194,6 +194,11 @@ static const char *study_sss_help =
 
 static int cmd_study_sss(cli_globals *g, int argc, char **argv)
 {
+    /* The full study takes hours: a bare `obscura study sss` prints the usage instead of starting it */
+    if (argc < 3) {
+        fputs(study_sss_help, stderr);
+        return cli_usage_error("study sss: give -o DIR (the full study takes hours: --dry-run says how long), or --quick");
+    }
     int quick = 0;
     for (int i = 2; i < argc; i++)
         quick |= !strcmp(argv[i], "--quick");
