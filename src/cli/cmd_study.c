@@ -1,8 +1,10 @@
-/* cmd_study.c: `obscura study ao`: parses the flags into study_ao_options and drives the AO study
- * library (src/study/study_ao.h): open, then the dry run, the ground truths only, the sweep and/or
- * the report. Everything the study does is in the library; docs/study.md. */
+/* cmd_study.c: `obscura study ao` and `obscura study sss`: parse the flags into study_ao_options
+ * or study_sss_options and drive the study libraries (src/study/study_ao.h, study_sss.h): open,
+ * then the dry run, the references only, the sweep and/or the report. Everything a study does is
+ * in its library; docs/study.md. */
 #include "cli.h"
 #include "study/study_ao.h"
+#include "study/study_sss.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -11,6 +13,7 @@
 
 static const char *study_help =
     "usage: obscura study ao [--quick] [-o DIR] [--report DIR] [options]\n"
+    "       obscura study sss --help   (the subsurface-scattering study)\n"
     "Sweeps every AO technique and measures time per pass and error against its matched ground truth.\n"
     "  --quick                a small sweep for CI (the bunny, 192x108, 8 samples, radius 1 unit)\n"
     "  -o, --out DIR          results: DIR/results.csv, DIR/results.json, ground truth cache DIR/gt/\n"
@@ -37,15 +40,19 @@ static const char *study_help =
 #define OBS_STUDY_DATA_DIR "build/data"
 #endif
 
+static int cmd_study_sss(cli_globals *g, int argc, char **argv);
+
 int cmd_study(cli_globals *g, int argc, char **argv)
 {
+    if (argc >= 2 && !strcmp(argv[1], "sss"))
+        return cmd_study_sss(g, argc, argv);
     if (argc < 2 || strcmp(argv[1], "ao") != 0) {
         if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
             fputs(study_help, stdout);
             return CLI_EXIT_OK;
         }
         fputs(study_help, stderr);
-        return argc < 2 ? CLI_EXIT_USAGE : cli_usage_error("study: unknown study '%s' (only 'ao' exists)", argv[1]);
+        return argc < 2 ? CLI_EXIT_USAGE : cli_usage_error("study: unknown study '%s' (ao or sss)", argv[1]);
     }
     /* --quick chooses the starting point; flags given explicitly override it wherever they stand */
     int quick = 0;
@@ -154,6 +161,147 @@ int cmd_study(cli_globals *g, int argc, char **argv)
     if (st != OBS_STATUS_OK)
         code = cli_fail(ctx, st);
     study_ao_close(s);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+    return code;
+}
+
+
+/* ---- obscura study sss ------------------------------------------------------------------------ */
+
+static const char *study_sss_help =
+    "usage: obscura study sss [--quick] [-o DIR] [--report DIR] [options]\n"
+    "Times the scattering maps (light G-buffers, maps, combination) and measures their error against\n"
+    "the brute-force BSSRDF integral (the method's) and the random walk (the model's); docs/study.md.\n"
+    "  --quick                a small sweep for CI (the sphere, 64x48, K 4, N 16, maps 64, 1024 candidates)\n"
+    "  -o, --out DIR          results: DIR/results.csv, DIR/results.json, reference cache DIR/ref/\n"
+    "                         (default out/study-sss); points already in results.csv are not redone\n"
+    "  --report DIR           also write DIR/README.md with plots (SVG), image grids (PNG) and tables\n"
+    "  --scenes LIST          default bunny_cream,dragon_skin,armadillo_marble,sphere_potato\n"
+    "  --lights LIST          front (the scene's key light) and/or behind (its opposite); default both\n"
+    "  --resolutions LIST     default 320x240\n"
+    "  --samplers LIST        the maps' disk samplers (the technique axis), default russian-roulette\n"
+    "  --K LIST               scattering-map directions, default 4,8,16,32\n"
+    "  --N LIST               samples per texel, default 16,48,128\n"
+    "  --map-sizes LIST       scattering-map side, default 256,512,1024\n"
+    "  --no-seed-points       leave out the seed's Table 5.3 points (K 4, 8, 16 with N 12, 24, 48 at 512)\n"
+    "  --runs N               timed runs per point (default 3; the median is reported)\n"
+    "  --ref-samples N        candidates per pixel of both references, a multiple of 64 (default 16384)\n"
+    "  --data DIR             where the scenes are (default: the build's data directory)\n"
+    "  --dry-run              print the points and the expected duration, measure nothing\n"
+    "  --truth-only           compute (and cache) the references, measure nothing\n"
+    "  --report-only          write the --report from DIR/results.csv as it is\n";
+
+static int cmd_study_sss(cli_globals *g, int argc, char **argv)
+{
+    /* The full study takes hours: a bare `obscura study sss` prints the usage instead of starting it */
+    if (argc < 3) {
+        fputs(study_sss_help, stderr);
+        return cli_usage_error("study sss: give -o DIR (the full study takes hours: --dry-run says how long), or --quick");
+    }
+    int quick = 0;
+    for (int i = 2; i < argc; i++)
+        quick |= !strcmp(argv[i], "--quick");
+    study_sss_options o = quick ? study_sss_options_quick() : study_sss_options_default();
+    o.data_dir = OBS_STUDY_DATA_DIR;
+    int dry_run = 0, truth_only = 0, report_only = 0;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        long long ll;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            fputs(study_sss_help, stdout);
+            return CLI_EXIT_OK;
+        } else if (!strcmp(a, "--quick")) {
+            continue;
+        } else if (!strcmp(a, "--dry-run")) {
+            dry_run = 1;
+        } else if (!strcmp(a, "--truth-only")) {
+            truth_only = 1;
+        } else if (!strcmp(a, "--report-only")) {
+            report_only = 1;
+        } else if (!strcmp(a, "--no-seed-points")) {
+            o.seed_points = 0;
+        } else if ((!strcmp(a, "-o") || !strcmp(a, "--out")) && v) {
+            o.out_dir = v, i++;
+        } else if (!strcmp(a, "--report") && v) {
+            o.report_dir = v, i++;
+        } else if (!strcmp(a, "--data") && v) {
+            o.data_dir = v, i++;
+        } else if (!strcmp(a, "--scenes") && v) {
+            o.scenes = v, i++;
+        } else if (!strcmp(a, "--lights") && v) {
+            o.lights = v, i++;
+        } else if (!strcmp(a, "--resolutions") && v) {
+            o.resolutions = v, i++;
+        } else if (!strcmp(a, "--samplers") && v) {
+            o.samplers = v, i++;
+        } else if (!strcmp(a, "--K") && v) {
+            o.Ks = v, i++;
+        } else if (!strcmp(a, "--N") && v) {
+            o.Ns = v, i++;
+        } else if (!strcmp(a, "--map-sizes") && v) {
+            o.map_sizes = v, i++;
+        } else if (!strcmp(a, "--runs")) {
+            if (!cli_parse_int(v, 1, 64, &ll))
+                return cli_usage_error("--runs needs an integer in [1, 64]");
+            o.runs = (int)ll, i++;
+        } else if (!strcmp(a, "--ref-samples")) {
+            if (!cli_parse_int(v, 64, 1 << 20, &ll) || ll % 64 != 0)
+                return cli_usage_error("--ref-samples needs a multiple of 64 in [64, 1048576]");
+            o.ref_samples = ll, i++;
+        } else {
+            int r = cli_limit_flag(g, argc, argv, &i);
+            if (r < 0)
+                return CLI_EXIT_USAGE;
+            if (r > 0)
+                continue;
+            return cli_usage_error("study sss: unknown option '%s' (or a missing value)", a);
+        }
+    }
+    if (report_only && !o.report_dir)
+        return cli_usage_error("study sss: --report-only needs --report DIR");
+    if (report_only + truth_only + dry_run > 1)
+        return cli_usage_error("study sss: --report-only, --truth-only and --dry-run exclude each other");
+    o.log = g->quiet ? NULL : stderr;
+
+    obs_context *ctx = obs_context_create();
+    if (!ctx)
+        return CLI_EXIT_INTERNAL;
+    obs_context_set_limits(ctx, &g->limits);
+    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
+    int code = CLI_EXIT_OK;
+    study_sss *s = NULL;
+    obs_status st = study_sss_open(ctx, &o, &s);
+    if (st == OBS_STATUS_INVALID_ARGUMENT) {
+        code = cli_usage_error("%s", obs_context_last_error(ctx));
+        obs_context_destroy(ctx);
+        return code;
+    }
+    obs_pool *pool = st == OBS_STATUS_OK ? obs_pool_create(g->threads) : NULL;
+    if (st == OBS_STATUS_OK && !pool)
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study sss: cannot create the thread pool");
+    if (st == OBS_STATUS_OK && dry_run) {
+        const study_sss_plan p = study_sss_plan_of(s);
+        printf("study sss: %lld points (%d scenes x %d lights x %d resolutions; K %d, N %d, map sizes %d values, "
+               "plus the seed's points), %d runs each\n",
+               (long long)p.points, p.scenes, p.lights, p.resolutions, p.Ks, p.Ns, p.map_sizes, p.runs);
+        printf("expected duration on 2 cores: sweep about %.0f min, references about %.0f min (first run; cached after)\n",
+               p.sweep_min, p.ref_min);
+    } else if (st == OBS_STATUS_OK) {
+        if (truth_only)
+            st = study_sss_truth(ctx, pool, s);
+        else if (!report_only)
+            st = study_sss_sweep(ctx, pool, s);
+        if (st == OBS_STATUS_OK && o.report_dir && !truth_only)
+            st = study_sss_report(ctx, pool, s);
+        if (st == OBS_STATUS_OK && !g->quiet)
+            fprintf(stderr, "obscura: study sss: %lld points in %s/results.csv%s%s\n",
+                    (long long)study_sss_table(s)->rows, o.out_dir, o.report_dir ? ", report in " : "",
+                    o.report_dir ? o.report_dir : "");
+    }
+    if (st != OBS_STATUS_OK)
+        code = cli_fail(ctx, st);
+    study_sss_close(s);
     obs_pool_destroy(pool);
     obs_context_destroy(ctx);
     return code;
