@@ -22,6 +22,10 @@ const char *test_path(const char *dir, const char *name);
 int test_spawn(const char *exe, const char *const *args, const char *out_path, const char *err_path);
 /* A whole file, NUL-terminated, malloc'd (NULL when unreadable); *len gets its size if non-NULL. */
 char *test_slurp(const char *path, size_t *len);
+/* Run the obscura command with args; stdout and stderr go to <tmpdir>/<tag>.stdout / .stderr. */
+int test_cli_run(const char *const *args, const char *tag);
+/* 1 when <tmpdir>/<tag>.stderr contains needle (printing the stderr when it does not). */
+int test_cli_stderr_has(const char *tag, const char *needle);
 /* Generated data directory (the build's data/), and the source tree. */
 const char *test_data_dir(void);
 const char *test_source_dir(void);

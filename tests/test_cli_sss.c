@@ -10,26 +10,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-static int sss_cli(const char *const *args, const char *tag)
-{
-    char out[4200], err[4200];
-    snprintf(out, sizeof out, "%s/%s.stdout", test_tmpdir(), tag);
-    snprintf(err, sizeof err, "%s/%s.stderr", test_tmpdir(), tag);
-    return test_spawn(OBS_CLI_PATH, args, out, err);
-}
-
-static int sss_stderr_has(const char *tag, const char *needle)
-{
-    char path[4200];
-    snprintf(path, sizeof path, "%s/%s.stderr", test_tmpdir(), tag);
-    char *b = test_slurp(path, NULL);
-    int r = b && strstr(b, needle) != NULL;
-    if (!r)
-        fprintf(stderr, "%s: stderr lacks '%s': %s\n", tag, needle, b ? b : "(none)");
-    free(b);
-    return r;
-}
-
 static int sss_exists(const char *dir, const char *name)
 {
     struct stat st;
@@ -46,7 +26,7 @@ TEST(cli_sss_writes_image_maps_and_sidecar_from_the_scene_materials)
     char prefix[4200];
     snprintf(prefix, sizeof prefix, "%s/out/sphere", test_tmpdir());
     const char *a[] = {"sss", sss_scene("sphere_potato.glb"), SSS_SMALL, "-o", prefix, NULL};
-    CHECK_EQ_INT(sss_cli(a, "run"), 0);
+    CHECK_EQ_INT(test_cli_run(a, "run"), 0);
     const char *dir = test_path(test_tmpdir(), "out");
     CHECK(sss_exists(dir, "sphere.exr"));
     CHECK(sss_exists(dir, "sphere.png"));
@@ -96,7 +76,7 @@ TEST(cli_sss_bytes_identical_for_1_2_and_8_threads)
         snprintf(prefix[t], sizeof prefix[t], "%s/t%s", test_tmpdir(), threads[t]);
         const char *a[] = {"--threads", threads[t], "sss", sss_scene("bunny.glb"), "--material", "cream",
                            "--scale-mm", "150", SSS_SMALL, "-o", prefix[t], NULL};
-        CHECK_EQ_INT(sss_cli(a, threads[t]), 0);
+        CHECK_EQ_INT(test_cli_run(a, threads[t]), 0);
     }
     const char *suffix[2] = {".exr", "_maps.exr"};
     for (int s = 0; s < 2; s++) {
@@ -121,33 +101,33 @@ TEST(cli_sss_bad_materials_and_params_are_refused_and_write_nothing)
     snprintf(prefix, sizeof prefix, "%s/never", test_tmpdir());
     /* An unknown preset: usage error, the message lists the presets. */
     const char *a1[] = {"sss", sss_scene("bunny.glb"), "--material", "jelly", "-o", prefix, NULL};
-    CHECK_EQ_INT(sss_cli(a1, "a1"), 2);
-    CHECK(sss_stderr_has("a1", "jelly") && sss_stderr_has("a1", "Cream"));
+    CHECK_EQ_INT(test_cli_run(a1, "a1"), 2);
+    CHECK(test_cli_stderr_has("a1", "jelly") && test_cli_stderr_has("a1", "Cream"));
     /* Negative and non-finite coefficients, eta <= 0. */
     const char *a2[] = {"sss", sss_scene("bunny.glb"), "--sigma-s-prime", "1,-2,1", "--sigma-a", "0.1,0.1,0.1",
                         "--eta", "1.3", "-o", prefix, NULL};
-    CHECK(sss_cli(a2, "a2") != 0);
-    CHECK(sss_stderr_has("a2", "sigma"));
+    CHECK(test_cli_run(a2, "a2") != 0);
+    CHECK(test_cli_stderr_has("a2", "sigma"));
     const char *a3[] = {"sss", sss_scene("bunny.glb"), "--sigma-s-prime", "1,1,1", "--sigma-a", "0.1,nan,0.1",
                         "--eta", "1.3", "-o", prefix, NULL};
-    CHECK(sss_cli(a3, "a3") != 0);
+    CHECK(test_cli_run(a3, "a3") != 0);
     const char *a4[] = {"sss", sss_scene("bunny.glb"), "--sigma-s-prime", "1,1,1", "--sigma-a", "0.1,0.1,0.1",
                         "--eta", "0", "-o", prefix, NULL};
-    CHECK(sss_cli(a4, "a4") != 0);
-    CHECK(sss_stderr_has("a4", "eta"));
+    CHECK(test_cli_run(a4, "a4") != 0);
+    CHECK(test_cli_stderr_has("a4", "eta"));
     /* Parameters out of range. */
     const char *a5[] = {"sss", sss_scene("sphere_potato.glb"), "--K", "0", "-o", prefix, NULL};
-    CHECK_EQ_INT(sss_cli(a5, "a5"), 2);
+    CHECK_EQ_INT(test_cli_run(a5, "a5"), 2);
     const char *a6[] = {"sss", sss_scene("sphere_potato.glb"), "--gamma", "0", "-o", prefix, NULL};
-    CHECK(sss_cli(a6, "a6") != 0);
-    CHECK(sss_stderr_has("a6", "gamma"));
+    CHECK(test_cli_run(a6, "a6") != 0);
+    CHECK(test_cli_stderr_has("a6", "gamma"));
     /* A scene without a translucent material, and no --material: refused, naming the file. */
     const char *a7[] = {"sss", sss_scene("bunny.glb"), "-o", prefix, NULL};
-    CHECK_EQ_INT(sss_cli(a7, "a7"), 3);
-    CHECK(sss_stderr_has("a7", "bunny.glb") && sss_stderr_has("a7", "--material"));
+    CHECK_EQ_INT(test_cli_run(a7, "a7"), 3);
+    CHECK(test_cli_stderr_has("a7", "bunny.glb") && test_cli_stderr_has("a7", "--material"));
     /* Two material sources at once. */
     const char *a8[] = {"sss", sss_scene("sphere_potato.glb"), "--material", "cream", "--from-scene", "-o", prefix, NULL};
-    CHECK_EQ_INT(sss_cli(a8, "a8"), 2);
+    CHECK_EQ_INT(test_cli_run(a8, "a8"), 2);
     CHECK(!sss_exists(test_tmpdir(), "never.exr"));
     CHECK(!sss_exists(test_tmpdir(), "never.json"));
     CHECK(!sss_exists(test_tmpdir(), "never_maps.exr"));
@@ -159,7 +139,7 @@ TEST(cli_truth_sss_writes_both_references_and_refuses_an_open_mesh_for_the_walk)
     snprintf(prefix, sizeof prefix, "%s/ref", test_tmpdir());
     const char *a[] = {"truth", "sss", sss_scene("sphere_potato.glb"), "--size", "24x18", "--min-samples", "512",
                        "--max-samples", "1024", "--batch", "512", "-o", prefix, NULL};
-    CHECK_EQ_INT(sss_cli(a, "ref"), 0);
+    CHECK_EQ_INT(test_cli_run(a, "ref"), 0);
     CHECK(sss_exists(test_tmpdir(), "ref.exr"));
     CHECK(sss_exists(test_tmpdir(), "ref_brute.png"));
     CHECK(sss_exists(test_tmpdir(), "ref_walk.png"));
@@ -192,8 +172,8 @@ TEST(cli_truth_sss_writes_both_references_and_refuses_an_open_mesh_for_the_walk)
     snprintf(prefix, sizeof prefix, "%s/open", test_tmpdir());
     const char *b[] = {"truth", "sss", sss_scene("dragon.glb"), "--material", "skin1", "--reference", "random-walk",
                        "--size", "16x12", "-o", prefix, NULL};
-    CHECK(sss_cli(b, "open") != 0);
-    CHECK(sss_stderr_has("open", "dragon") && sss_stderr_has("open", "closed"));
+    CHECK(test_cli_run(b, "open") != 0);
+    CHECK(test_cli_stderr_has("open", "dragon") && test_cli_stderr_has("open", "closed"));
     CHECK(!sss_exists(test_tmpdir(), "open.exr"));
     CHECK(!sss_exists(test_tmpdir(), "open.json"));
 }

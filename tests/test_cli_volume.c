@@ -10,26 +10,6 @@
 #include <string.h>
 #include <sys/stat.h>
 
-static int vol_cli(const char *const *args, const char *tag)
-{
-    char out[4200], err[4200];
-    snprintf(out, sizeof out, "%s/%s.stdout", test_tmpdir(), tag);
-    snprintf(err, sizeof err, "%s/%s.stderr", test_tmpdir(), tag);
-    return test_spawn(OBS_CLI_PATH, args, out, err);
-}
-
-static int vol_stderr_has(const char *tag, const char *needle)
-{
-    char path[4200];
-    snprintf(path, sizeof path, "%s/%s.stderr", test_tmpdir(), tag);
-    char *b = test_slurp(path, NULL);
-    int r = b && strstr(b, needle) != NULL;
-    if (!r)
-        fprintf(stderr, "%s: stderr lacks '%s': %s\n", tag, needle, b ? b : "(none)");
-    free(b);
-    return r;
-}
-
 static int vol_exists(const char *name)
 {
     struct stat st;
@@ -41,7 +21,7 @@ TEST(cli_volume_ray_casts_a_lit_synthetic_volume_and_writes_its_files)
     char prefix[4200];
     snprintf(prefix, sizeof prefix, "%s/bucky", test_tmpdir());
     const char *a[] = {"volume", "synth:bucky:24", "--size", "80x60", "--write-light-volume", "-o", prefix, NULL};
-    CHECK_EQ_INT(vol_cli(a, "run"), 0);
+    CHECK_EQ_INT(test_cli_run(a, "run"), 0);
     CHECK(vol_exists("bucky.exr") && vol_exists("bucky.png") && vol_exists("bucky.json") && vol_exists("bucky_l.nrrd"));
     obs_context *ctx = obs_context_create();
     io_image im;
@@ -72,7 +52,7 @@ TEST(cli_truth_volume_writes_the_exact_transmittance_and_the_error)
     char prefix[4200];
     snprintf(prefix, sizeof prefix, "%s/tv", test_tmpdir());
     const char *a[] = {"truth", "volume", "synth:sphere:20", "--light-dir", "0,0,-1", "-o", prefix, NULL};
-    CHECK_EQ_INT(vol_cli(a, "tv"), 0);
+    CHECK_EQ_INT(test_cli_run(a, "tv"), 0);
     CHECK(vol_exists("tv_T.nrrd") && vol_exists("tv_err.nrrd") && vol_exists("tv.json"));
     char *js = test_slurp(test_path(test_tmpdir(), "tv.json"), NULL);
     CHECK(js && strstr(js, "light_volume_error") && strstr(js, "max_abs"));
@@ -94,19 +74,19 @@ TEST(cli_volume_bad_inputs_are_refused_naming_the_problem_and_write_nothing)
         fclose(f);
     }
     const char *a1[] = {"volume", path, "-o", prefix, NULL};
-    CHECK(vol_cli(a1, "a1") != 0);
-    CHECK(vol_stderr_has("a1", "short.nrrd"));
+    CHECK(test_cli_run(a1, "a1") != 0);
+    CHECK(test_cli_stderr_has("a1", "short.nrrd"));
     const char *a2[] = {"volume", "synth:bucky:16", "--tf", "glass", "-o", prefix, NULL};
-    CHECK_EQ_INT(vol_cli(a2, "a2"), 2);
-    CHECK(vol_stderr_has("a2", "glass"));
+    CHECK_EQ_INT(test_cli_run(a2, "a2"), 2);
+    CHECK(test_cli_stderr_has("a2", "glass"));
     const char *a3[] = {"volume", "synth:teapot", "-o", prefix, NULL};
-    CHECK(vol_cli(a3, "a3") != 0);
-    CHECK(vol_stderr_has("a3", "teapot"));
+    CHECK(test_cli_run(a3, "a3") != 0);
+    CHECK(test_cli_stderr_has("a3", "teapot"));
     const char *a4[] = {"volume", "synth:bucky:16", "--lv-scale", "3", "-o", prefix, NULL};
-    CHECK(vol_cli(a4, "a4") != 0);
+    CHECK(test_cli_run(a4, "a4") != 0);
     const char *a5[] = {"volume", "synth:bucky:16", "--raw", "8x8:u8", "-o", prefix, NULL};
-    CHECK_EQ_INT(vol_cli(a5, "a5"), 2);
+    CHECK_EQ_INT(test_cli_run(a5, "a5"), 2);
     const char *a6[] = {"volume", "synth:bucky:16", "--mode", "xray", "-o", prefix, NULL};
-    CHECK_EQ_INT(vol_cli(a6, "a6"), 2);
+    CHECK_EQ_INT(test_cli_run(a6, "a6"), 2);
     CHECK(!vol_exists("never.exr") && !vol_exists("never.png") && !vol_exists("never.json"));
 }

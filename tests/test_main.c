@@ -124,6 +124,26 @@ char *test_slurp(const char *path, size_t *len)
     return b;
 }
 
+int test_cli_run(const char *const *args, const char *tag)
+{
+    char out[8400], err[8400];
+    snprintf(out, sizeof out, "%s/%s.stdout", test_tmpdir(), tag);
+    snprintf(err, sizeof err, "%s/%s.stderr", test_tmpdir(), tag);
+    return test_spawn(OBS_CLI_PATH, args, out, err);
+}
+
+int test_cli_stderr_has(const char *tag, const char *needle)
+{
+    char path[8400];
+    snprintf(path, sizeof path, "%s/%s.stderr", test_tmpdir(), tag);
+    char *b = test_slurp(path, NULL);
+    int r = b && strstr(b, needle) != NULL;
+    if (!r)
+        fprintf(stderr, "%s: stderr lacks '%s': %s\n", tag, needle, b ? b : "(none)");
+    free(b);
+    return r;
+}
+
 int main(int argc, char **argv)
 {
     if (argc < 2 || !strcmp(argv[1], "--list")) {

@@ -34,6 +34,7 @@ int cli_usage_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 int cli_parse_int(const char *s, long long lo, long long hi, long long *out);
 int cli_parse_float(const char *s, double *out);
 int cli_parse_size(const char *s, int *w, int *h);   /* "1920x1080" */
+int cli_parse_triple(const char *s, double out[3]);   /* "x,y,z": three finite numbers */
 
 /* Try to consume a global limit flag at argv[*i]; returns 1 if consumed, 0 if not a limit
  * flag, -1 on a malformed value (after printing the error). */

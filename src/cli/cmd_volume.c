@@ -41,26 +41,6 @@ static const char *volume_help =
     "                        volume's transmittance). truth volume: PREFIX_T.nrrd (exact\n"
     "                        transmittance), PREFIX_err.nrrd (light volume - exact), PREFIX.json\n";
 
-static int parse_triple(const char *v, double out[3])
-{
-    if (!v)
-        return 0;
-    char *end;
-    const char *s = v;
-    for (int c = 0; c < 3; c++) {
-        out[c] = strtod(s, &end);
-        if (end == s || !isfinite(out[c]))
-            return 0;
-        s = end;
-        if (c < 2) {
-            if (*s != ',')
-                return 0;
-            s++;
-        }
-    }
-    return *s == '\0';
-}
-
 static void json_stats(io_json *j, const char *key, const truth_volume_error_stats *s)
 {
     io_json_begin_object(j, key);
@@ -122,7 +102,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             if (!v) return cli_usage_error("--raw needs NXxNYxNZ:TYPE");
             raw = v; i++;
         } else if (!strcmp(a, "--spacing")) {
-            if (!parse_triple(v, spacing)) return cli_usage_error("--spacing needs SX,SY,SZ");
+            if (!cli_parse_triple(v, spacing)) return cli_usage_error("--spacing needs SX,SY,SZ");
             i++;
         } else if (!strcmp(a, "--big-endian")) {
             big_endian = 1;
@@ -130,14 +110,14 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             if (!v || !vol_shading_from_name(v, &rp.shading)) return cli_usage_error("--mode needs ea, phong or lightvolume");
             i++;
         } else if (!strcmp(a, "--light-dir")) {
-            if (!parse_triple(v, light_dir) || (light_dir[0] == 0 && light_dir[1] == 0 && light_dir[2] == 0))
+            if (!cli_parse_triple(v, light_dir) || (light_dir[0] == 0 && light_dir[1] == 0 && light_dir[2] == 0))
                 return cli_usage_error("--light-dir needs X,Y,Z, not all zero");
             light_dir_given = 1; i++;
         } else if (!strcmp(a, "--light-pos")) {
-            if (!parse_triple(v, light_pos)) return cli_usage_error("--light-pos needs X,Y,Z");
+            if (!cli_parse_triple(v, light_pos)) return cli_usage_error("--light-pos needs X,Y,Z");
             light_pos_given = 1; i++;
         } else if (!strcmp(a, "--camera-dir")) {
-            if (!parse_triple(v, cam_dir) || (cam_dir[0] == 0 && cam_dir[1] == 0 && cam_dir[2] == 0))
+            if (!cli_parse_triple(v, cam_dir) || (cam_dir[0] == 0 && cam_dir[1] == 0 && cam_dir[2] == 0))
                 return cli_usage_error("--camera-dir needs X,Y,Z, not all zero");
             i++;
         } else if (!strcmp(a, "--lv-scale")) {

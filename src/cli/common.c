@@ -133,3 +133,23 @@ void cli_progress_draw(void *user, int64_t done, int64_t total, uint64_t rays)
     fflush(stderr);
     pr->drawn = 1;
 }
+
+int cli_parse_triple(const char *v, double out[3])
+{
+    if (!v)
+        return 0;
+    char *end;
+    const char *s = v;
+    for (int c = 0; c < 3; c++) {
+        out[c] = strtod(s, &end);
+        if (end == s || !isfinite(out[c]))
+            return 0;
+        s = end;
+        if (c < 2) {
+            if (*s != ',')
+                return 0;
+            s++;
+        }
+    }
+    return *s == '\0';
+}

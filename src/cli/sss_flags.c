@@ -27,26 +27,6 @@ void cli_sss_options_init(cli_sss_options *o)
     o->light_intensity = 1.0;
 }
 
-static int parse_triple(const char *v, double out[3])
-{
-    if (!v)
-        return 0;
-    char *end;
-    const char *s = v;
-    for (int c = 0; c < 3; c++) {
-        out[c] = strtod(s, &end);
-        if (end == s || !isfinite(out[c]))
-            return 0;
-        s = end;
-        if (c < 2) {
-            if (*s != ',')
-                return 0;
-            s++;
-        }
-    }
-    return *s == '\0';
-}
-
 int cli_sss_flag(cli_sss_options *o, int argc, char **argv, int *i)
 {
     const char *a = argv[*i];
@@ -59,7 +39,7 @@ int cli_sss_flag(cli_sss_options *o, int argc, char **argv, int *i)
         return 1;
     } else if (!strcmp(a, "--sigma-s-prime") || !strcmp(a, "--sigma-a")) {
         const int sp = !strcmp(a, "--sigma-s-prime");
-        if (!parse_triple(v, sp ? o->sigma_s_prime : o->sigma_a))
+        if (!cli_parse_triple(v, sp ? o->sigma_s_prime : o->sigma_a))
             return cli_usage_error("%s needs R,G,B (three finite numbers, per mm)", a), -1;
         if (sp) o->sigma_s_prime_given = 1; else o->sigma_a_given = 1;
     } else if (!strcmp(a, "--eta")) {
@@ -69,7 +49,7 @@ int cli_sss_flag(cli_sss_options *o, int argc, char **argv, int *i)
         if (!cli_parse_float(v, &o->mm_per_unit) || !(o->mm_per_unit > 0) || !isfinite(o->mm_per_unit))
             return cli_usage_error("--scale-mm needs a number > 0 (millimetres per scene unit)"), -1;
     } else if (!strcmp(a, "--light-dir")) {
-        if (!parse_triple(v, o->light_dir) || (o->light_dir[0] == 0 && o->light_dir[1] == 0 && o->light_dir[2] == 0))
+        if (!cli_parse_triple(v, o->light_dir) || (o->light_dir[0] == 0 && o->light_dir[1] == 0 && o->light_dir[2] == 0))
             return cli_usage_error("--light-dir needs X,Y,Z, not all zero"), -1;
         o->light_dir_given = 1;
     } else if (!strcmp(a, "--light-intensity")) {
