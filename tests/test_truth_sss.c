@@ -585,7 +585,8 @@ TEST(truth_sss_refuses_bad_params)
 }
 
 /* An opaque square between the light and the whole plane (above the camera): every pixel is
- * estimated (count > 0) and exactly 0; without it they are lit. */
+ * estimated (count > 0) and exactly 0, and with min < max it is not stopped on zero variance;
+ * without the square they are lit. */
 TEST(truth_sss_shadowed_points_get_no_light)
 {
     run R;
@@ -604,6 +605,17 @@ TEST(truth_sss_shadowed_points_get_no_light)
         }
     CHECK(res.stats.accepted > 0);
     truth_sss_result_free(&res);
+    /* Never stopped on zero variance: with min < max, a pixel whose replicates all read 0 goes on
+     * to max_samples and is counted at max (docs/sss/truth.md, "Statistics"). */
+    p.min_samples = 4096;
+    p.max_samples = 12288;
+    CHECK_OK(run_sss(&R, NULL, &p, &res), R.ctx);
+    for (int y = 0; y < 4; y++)
+        for (int x = 0; x < 4; x++)
+            CHECK(px(&res.count, x, y) == 12288.0f);
+    CHECK(res.stats.pixels_at_max == 16 && res.stats.pixels_converged == 0);
+    truth_sss_result_free(&res);
+    p.min_samples = p.max_samples = 8192;
     run_free(&R);
     CHECK_MSG(plane_setup(&R, 4, 0), "setup: %s", obs_context_last_error(R.ctx));
     CHECK_OK(run_sss(&R, NULL, &p, &res), R.ctx);

@@ -688,7 +688,10 @@ static void do_pixel(sss_job *J, int x, int y, task_stats *S)
             vy += q * q;
         }
         double sey = sqrt(vy / ((double)Rn * (Rn - 1)));
-        if (sey <= J->p.target_rel_error * my) {
+        /* Never stop on zero variance: replicates that all agree (a pixel that has seen no light,
+         * or a light path rarer than 1/n) say nothing about the error, so such a pixel goes on to
+         * max_samples (docs/sss/truth.md, "Statistics"). */
+        if (sey > 0.0 && sey <= J->p.target_rel_error * my) {
             converged = 1;
             break;
         }
