@@ -756,8 +756,13 @@ static void build_task(void *user, int64_t task, int thread)
     uint64_t evaluated = 0, cand = 0;
     /* the streams' seeds of a row, 8 texels per vector (one frame, AVX2): the same values as
      * sss_i_stream_seed per texel */
+#if defined(OBS_HAVE_AVX2)
     const int row_seeds = p->frames == 1 && j->use_avx2;
+#else
+    const int row_seeds = 0; /* built without the AVX2 files: per-texel seeds (the same values) */
+#endif
     for (int y = y0; y < y1; y++) {
+#if defined(OBS_HAVE_AVX2)
         if (row_seeds) {
             /* only the blocks of 8 that hold a covered texel */
             const float *dr = obs_image_f32_row(&gb->depth, y);
@@ -769,6 +774,7 @@ static void build_task(void *user, int64_t task, int thread)
                     sss_i_stream_seeds_avx2((uint32_t)(y * m->size + b), 8, (uint32_t)k, p->seed, s->seeds + (b - x0));
             }
         }
+#endif
         for (int x = x0; x < x1; x++) {
             float *out[3];
             for (int c = 0; c < 3; c++)
