@@ -45,6 +45,11 @@ int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i);
 obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene);
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *scene, const char *which, obs_camera *out);
 
+/* The default image size for a camera when --size was not given: 1920 wide at a perspective
+ * camera's aspect (when it has one). Returns CLI_EXIT_OK, or CLI_EXIT_USAGE after printing when the
+ * aspect gives an unusable height. */
+int cli_size_from_camera(const obs_camera *cam, int size_given, int *W, int *H);
+
 /* NOT_FOUND (exit 3) naming the file when no instance draws a triangle: gbuffer, ao --scene and
  * truth refuse an empty scene rather than write an empty image with exit 0 (docs/cli.md). */
 obs_status cli_require_triangles(obs_context *ctx, const obs_scene *scene);

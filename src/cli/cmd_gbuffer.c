@@ -147,14 +147,8 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     }
     if (infinite_far && cam.projection == OBS_PROJECTION_PERSPECTIVE)
         cam.zfar = INFINITY;
-    if (!size_given && cam.projection == OBS_PROJECTION_PERSPECTIVE && cam.aspect > 0.0f) {
-        p.width = 1920;
-        p.height = (int)lround(1920.0 / cam.aspect);
-        if (p.height < 1 || p.height > RAST_MAX_DIM) {
-            code = cli_usage_error("camera aspect %g gives an unusable height; pass --size", (double)cam.aspect);
-            goto done;
-        }
-    }
+    if ((code = cli_size_from_camera(&cam, size_given, &p.width, &p.height)) != CLI_EXIT_OK)
+        goto done;
     pool = obs_pool_create(g->threads);
     if (!pool) {
         fprintf(stderr, "obscura: error: cannot start %d threads\n", g->threads);

@@ -201,14 +201,8 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
         code = cli_sss_exit_for(ctx, st);
         goto done;
     }
-    if (!size_given && cam.projection == OBS_PROJECTION_PERSPECTIVE && cam.aspect > 0.0f) {
-        W = 1920;
-        H = (int)lround(1920.0 / cam.aspect);
-        if (H < 1 || H > RAST_MAX_DIM) {
-            code = cli_usage_error("camera aspect %g gives an unusable height; pass --size", (double)cam.aspect);
-            goto done;
-        }
-    }
+    if ((code = cli_size_from_camera(&cam, size_given, &W, &H)) != CLI_EXIT_OK)
+        goto done;
     const obs_light *lights = scene.lights;
     light_count = (int)scene.light_count;
 

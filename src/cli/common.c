@@ -153,3 +153,15 @@ int cli_parse_triple(const char *v, double out[3])
     }
     return *s == '\0';
 }
+
+int cli_size_from_camera(const obs_camera *cam, int size_given, int *W, int *H)
+{
+    if (!size_given && cam->projection == OBS_PROJECTION_PERSPECTIVE && cam->aspect > 0.0f) {
+        const int h = (int)lround(1920.0 / cam->aspect);
+        if (h < 1 || h > RAST_MAX_DIM)
+            return cli_usage_error("camera aspect %g gives an unusable height; pass --size", (double)cam->aspect);
+        *W = 1920;
+        *H = h;
+    }
+    return CLI_EXIT_OK;
+}

@@ -674,7 +674,7 @@ int glsl_sss_gather_build(glh *g, obs_context *ctx, const obs_scene *scene, cons
         if (!tl[2 * l] || !tl[2 * l + 1])
             return 0;
     }
-    /* the N-of-M candidate disk (a 1 x 1 placeholder for Russian roulette) */
+    /* the N-of-M candidate disk (1 x 1, unused, for Russian roulette) */
     const int M = p->sampler == SSS_SAMPLER_NEAREST_N_OF_M ? p->M : 1;
     GLuint thd = 0;
     {
