@@ -317,6 +317,7 @@ static void rt_make(rt_scene *r)
     r->s.cameras = r->cams; r->s.camera_count = 2;
     r->s.lights = r->lights; r->s.light_count = 3;
     r->s.materials = r->mats; r->s.material_count = 2;
+    r->s.extras_json = (char *)"{\"obscura_render\":{\"ao\":{\"method\":\"sao\"}},\"other\":[1,2]}";
 }
 
 TEST(glb_writer_round_trips_through_the_loader)
@@ -405,6 +406,8 @@ TEST(glb_writer_round_trips_through_the_loader)
     CHECK(r.materials[0].extras_json == NULL);
     CHECK(r.materials[1].extras_json && strstr(r.materials[1].extras_json, "sigma_a") &&
           strstr(r.materials[1].extras_json, "1.3"));
+    /* the scene's extras (render settings) survive the round trip */
+    CHECK(r.extras_json && strstr(r.extras_json, "obscura_render") && strstr(r.extras_json, "\"other\""));
     obs_scene_free(&r);
 
     /* the same scene written twice gives the same bytes */
@@ -425,7 +428,7 @@ TEST(glb_writer_refuses_invalid_scenes_before_writing)
     rt_scene *w = (rt_scene *)malloc(sizeof *w);
     CHECK(w != NULL);
     const char *bad = test_path(test_tmpdir(), "bad.glb");
-    for (int k = 0; k < 16; k++) {
+    for (int k = 0; k < 17; k++) {
         rt_make(w);
         const char *what = "";
         switch (k) {
@@ -444,6 +447,7 @@ TEST(glb_writer_refuses_invalid_scenes_before_writing)
         case 12: w->mats[1].roughness = 1.5f; what = "roughness > 1"; break;
         case 13: w->mats[1].extras_json = (char *)"{\"a\":1,}"; what = "extras not JSON"; break;
         case 14: w->meshes[1].triangle_count = 0; what = "empty mesh"; break;
+        case 16: w->s.extras_json = (char *)"{\"obscura_render\":"; what = "scene extras not JSON"; break;
         case 15: w->s.cameras = NULL; what = "NULL array with a count"; break;
         }
         obs_context_clear_error(ctx);

@@ -711,8 +711,8 @@ TEST(volume_light_bad_params_refused)
     p.kappa = -1.0;
     CHECK_EQ_INT(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), OBS_STATUS_INVALID_ARGUMENT);
     p = vol_lv_params_default();
-    p.eye_pass = 1;
-    CHECK_EQ_INT(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), OBS_STATUS_UNSUPPORTED);
+    p.eye_pass = 2;
+    CHECK_EQ_INT(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), OBS_STATUS_INVALID_ARGUMENT);
     p = vol_lv_params_default();
     vol_light S = L;
     S.type = OBS_LIGHT_SPOT;

@@ -399,6 +399,9 @@ typedef struct obs_scene {
     obs_material *materials;  uint32_t material_count;
     obs_aabb bounds;          /* world-space bounds of all instances (lo > hi when empty) */
     char source[512];         /* the file it came from, for messages */
+    char *extras_json;        /* the glTF scene's "extras" (of the scene loaded) as compact JSON
+                                 text, or NULL; `obscura render` reads its settings from the key
+                                 "obscura_render" there (docs/render.md) */
 } obs_scene;
 
 void obs_scene_init(obs_scene *s);         /* zero it, bounds empty */

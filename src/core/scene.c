@@ -28,6 +28,7 @@ void obs_scene_free(obs_scene *s)
     free(s->cameras);
     free(s->lights);
     free(s->materials);
+    free(s->extras_json);
     obs_scene_init(s);
 }
 

@@ -287,6 +287,8 @@ static obs_status validate(obs_context *ctx, const char *path, const obs_scene *
         if (mat->extras_json && mat->extras_json[0] && !json_valid(mat->extras_json))
             return BAD("%s: material %u (%s): extras_json is not one valid JSON value", path, m, nm);
     }
+    if (sc->extras_json && sc->extras_json[0] && !json_valid(sc->extras_json))
+        return BAD("%s: the scene's extras_json is not one valid JSON value", path);
 #undef BAD
     return OBS_STATUS_OK;
 }
@@ -397,6 +399,8 @@ static void build_json(io_json *j, const obs_scene *sc, const mesh_layout *layou
     io_json_int(j, "scene", 0);
     io_json_begin_array(j, "scenes");
     io_json_begin_object(j, NULL);
+    if (sc->extras_json && sc->extras_json[0])
+        io_json_raw(j, "extras", sc->extras_json); /* checked by json_valid() */
     if (nnodes) {
         io_json_begin_array(j, "nodes");
         for (uint32_t n = 0; n < nnodes; n++)

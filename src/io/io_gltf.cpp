@@ -1913,6 +1913,16 @@ obs_status Loader::walk()
             return fail(OBS_STATUS_NOT_FOUND, "scene %d requested, the file has %zu scenes", si, model_.scenes.size());
         }
         roots = model_.scenes[static_cast<size_t>(si)].nodes;
+        const tinygltf::Value &sx = model_.scenes[static_cast<size_t>(si)].extras;
+        if (sx.Type() != tinygltf::NULL_TYPE) {
+            std::string json;
+            if (!value_to_json(json, sx, 0))
+                return fail(OBS_STATUS_PARSE_ERROR, "scene %d: extras nested deeper than %d levels", si, kMaxJsonDepth);
+            out_->extras_json = static_cast<char *>(malloc(json.size() + 1));
+            if (!out_->extras_json)
+                return fail(OBS_STATUS_OUT_OF_MEMORY, "scene %d: cannot allocate the extras text", si);
+            memcpy(out_->extras_json, json.c_str(), json.size() + 1);
+        }
         std::vector<char> is_child(n, 0);
         for (size_t i = 0; i < n; i++)
             for (int c : model_.nodes[i].children)

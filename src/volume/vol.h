@@ -142,7 +142,10 @@ typedef struct vol_lv_params {
                                   1-texel stencil, volume.md 1.6) */
     int blend_second;          /* blend the second-closest face's propagation (dir_blend) with
                                   Inviwo's continuous weight (volume.md 1.7); default 1 */
-    int eye_pass;              /* add the eye-direction pass (a reconstruction: volume.md 1.8); default 0 */
+    int eye_pass;              /* add the eye-direction pass (a reconstruction: volume.md 1.8); default 0.
+                                  It depends on the camera, so vol_light_volume_build ignores it:
+                                  callers with a camera run vol_eye_volume_build and
+                                  vol_light_volume_modulate when it is 1 */
     double kappa;              /* extinction scale (the convention above); default 1 */
 } vol_lv_params;
 vol_lv_params vol_lv_params_default(void);
@@ -168,6 +171,19 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
 void vol_light_volume_free(vol_light_volume *lv);   /* NULL-safe */
 /* Trilinear l and c at a world position (clamped to the light volume's edge). */
 void vol_light_volume_sample(const vol_light_volume *lv, const double x[3], float *l, float c[3]);
+
+/* The eye-direction pass (vol_eye.c), a RECONSTRUCTION (volume.md 1.8: how [Ropinski10] combines
+ * its second pass is unverified; docs/volume/light.md "Eye pass" says what we do): the same
+ * slice-by-slice propagation run a second time, seeded from the volume face that most faces the
+ * camera, with light travelling from the camera into the volume (the camera's view direction for
+ * an orthographic camera, from the camera position for a perspective one); only the cone-blurred
+ * chromaticity c is kept (outgoing scattering blurs toward the eye). Depends on the grid, the
+ * transfer function, the camera's position (or direction) and p; out has the light volume's layout.
+ * Returns OK, INVALID_ARGUMENT, LIMIT_EXCEEDED, OUT_OF_MEMORY. */
+obs_status vol_eye_volume_build(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                const obs_camera *camera, const vol_lv_params *p, vol_light_volume *out);
+/* lv.c *= eye.c voxel by voxel (the two must have the same layout: INVALID_ARGUMENT otherwise). */
+obs_status vol_light_volume_modulate(obs_context *ctx, const vol_light_volume *eye, vol_light_volume *lv);
 
 /* ------------------------------------------------------------------------------------------------
  * 4. The ray caster

@@ -70,10 +70,9 @@ obs_status vol_lv_params_validate(obs_context *ctx, const vol_lv_params *p)
                          p->blend_second);
     if (p->eye_pass != 0 && p->eye_pass != 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "light volume: eye_pass %d must be 0 or 1", p->eye_pass);
-    if (p->eye_pass)
-        return obs_error(ctx, OBS_STATUS_UNSUPPORTED,
-                         "light volume: the eye-direction pass is not implemented (volume.md 1.8: how the paper "
-                         "combines it is unverified)");
+    /* eye_pass = 1 is accepted: the eye pass depends on the camera, so vol_light_volume_build
+     * ignores the flag and callers with a camera run vol_eye_volume_build and
+     * vol_light_volume_modulate (vol.h). */
     if (!isfinite(p->kappa) || p->kappa < 0.0)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "light volume: kappa %g must be finite and >= 0", p->kappa);
     return OBS_STATUS_OK;
