@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # test.sh: install what is missing, build, and run the whole test suite with ctest:
 #   1. the default build (AVX2 paths compiled, chosen at run time), all tests;
-#   2. the scalar-only build (-DOBS_ENABLE_SIMD=OFF), all tests;
+#   2. the scalar-only build (-DOBS_ENABLE_SIMD=OFF), all tests but the process-level ones
+#      (label "process": flags, files, exit codes; they do not depend on the instruction set);
 #   3. the sanitizer build (CMakePresets.json "asan": clang-14, ASan + UBSan, -O1 -g), all tests;
 #      any sanitizer report fails its test (suppressions: tests/sanitizers/, docs/reliability.md);
 #   4. the fuzz build ("fuzz" preset: libFuzzer + ASan + UBSan): each fuzz target runs for
@@ -23,7 +24,10 @@ fi
 if stage 2; then
   echo "== scalar-only build (OBS_ENABLE_SIMD=OFF) =="
   "$here/scripts/build.sh" "$here/build-scalar" -DOBS_ENABLE_SIMD=OFF
-  ctest --test-dir "$here/build-scalar" --output-on-failure -j"$jobs"
+  # Every test but the process-level ones (label "process", tests/CMakeLists.txt): those check the
+  # command's flags, files and exit codes, which do not depend on the instruction set, and run in
+  # stages 1 and 3.
+  ctest --test-dir "$here/build-scalar" --output-on-failure -j"$jobs" -LE process
 fi
 if stage 3; then
   echo "== sanitizer build (clang-14, ASan + UBSan) =="
