@@ -361,7 +361,6 @@ static GLuint layer_fbo(glh *g, GLuint t0, GLuint t1, int layer)
     }
     return f;
 }
-#endif
 
 /* The host side: face choice (volume.md 1.3, Inviwo: c_k = n_k . l_hat, F0 = argmax, F1 = argmax
  * over the two other axes, ties to the lower face), Inviwo's weight (1.7), the light volume's grid. */
@@ -435,6 +434,7 @@ static int gv_setup_make(const vol_grid *grid, const vol_light *light, const vol
         S->f1 = -1;
     return 1;
 }
+#endif /* GLH_AVAILABLE */
 
 int glsl_volume_build(glh *g, obs_context *ctx, const vol_grid *grid, const vol_tf *tf, const vol_light *light,
                       const vol_lv_params *p, glsl_volume *r)
