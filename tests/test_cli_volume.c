@@ -90,3 +90,56 @@ TEST(cli_volume_bad_inputs_are_refused_naming_the_problem_and_write_nothing)
     CHECK_EQ_INT(test_cli_run(a6, "a6"), 2);
     CHECK(!vol_exists("never.exr") && !vol_exists("never.png") && !vol_exists("never.json"));
 }
+
+/* --eye-pass (docs/volume/light.md, "Eye pass"): the eye volume modulates the chromaticity before
+ * ray casting, so the image changes; the sidecar says so; other modes refuse the flag. */
+TEST(cli_volume_eye_pass_modulates_the_image_and_is_recorded)
+{
+    char p0[4200], p1[4200];
+    snprintf(p0, sizeof p0, "%s/eye0", test_tmpdir());
+    snprintf(p1, sizeof p1, "%s/eye1", test_tmpdir());
+    const char *a0[] = {"volume", "synth:bucky:24", "--size", "64x48", "--light-dir", "0.3,-1,0.2", "-o", p0, NULL};
+    const char *a1[] = {"volume", "synth:bucky:24", "--size", "64x48", "--light-dir", "0.3,-1,0.2", "--eye-pass",
+                        "-o", p1, NULL};
+    CHECK_EQ_INT(test_cli_run(a0, "eye0"), 0);
+    CHECK_EQ_INT(test_cli_run(a1, "eye1"), 0);
+    char *js = test_slurp(test_path(test_tmpdir(), "eye1.json"), NULL);
+    CHECK(js && strstr(js, "\"eye_pass\": true") && strstr(js, "eye_face0"));
+    free(js);
+    js = test_slurp(test_path(test_tmpdir(), "eye0.json"), NULL);
+    CHECK(js && strstr(js, "\"eye_pass\": false") && !strstr(js, "eye_face0"));
+    free(js);
+    obs_context *ctx = obs_context_create();
+    io_image im0, im1;
+    memset(&im0, 0, sizeof im0);
+    memset(&im1, 0, sizeof im1);
+    CHECK_EQ_INT(io_image_read(ctx, test_path(test_tmpdir(), "eye0.exr"), &im0), OBS_STATUS_OK);
+    CHECK_EQ_INT(io_image_read(ctx, test_path(test_tmpdir(), "eye1.exr"), &im1), OBS_STATUS_OK);
+    int r0 = io_image_find_channel(&im0, "R"), r1 = io_image_find_channel(&im1, "R");
+    int a0c = io_image_find_channel(&im0, "A"), a1c = io_image_find_channel(&im1, "A");
+    CHECK(r0 >= 0 && r1 >= 0 && a0c >= 0 && a1c >= 0);
+    if (r0 >= 0 && r1 >= 0 && a0c >= 0 && a1c >= 0 && im0.width == im1.width && im0.height == im1.height) {
+        int changed = 0, brighter = 0, alpha_diff = 0;
+        for (int y = 0; y < im0.height; y++)
+            for (int x = 0; x < im0.width; x++) {
+                float v0 = obs_image_f32_row(&im0.f32[r0], y)[x], v1 = obs_image_f32_row(&im1.f32[r1], y)[x];
+                changed += fabsf(v0 - v1) > 1e-4f;
+                brighter += v1 > v0 + 1e-6f;  /* c_eye <= 1: modulation only darkens */
+                alpha_diff += obs_image_f32_row(&im0.f32[a0c], y)[x] != obs_image_f32_row(&im1.f32[a1c], y)[x];
+            }
+        CHECK(changed > 50);
+        CHECK_EQ_INT(brighter, 0);
+        CHECK_EQ_INT(alpha_diff, 0); /* opacity does not depend on the lighting */
+    }
+    io_image_free(&im0);
+    io_image_free(&im1);
+    obs_context_destroy(ctx);
+    char prefix[4200];
+    snprintf(prefix, sizeof prefix, "%s/never_eye", test_tmpdir());
+    const char *a2[] = {"volume", "synth:bucky:16", "--mode", "phong", "--eye-pass", "-o", prefix, NULL};
+    CHECK_EQ_INT(test_cli_run(a2, "eye2"), 2);
+    CHECK(test_cli_stderr_has("eye2", "--eye-pass"));
+    const char *a3[] = {"truth", "volume", "synth:bucky:16", "--eye-pass", "-o", prefix, NULL};
+    CHECK_EQ_INT(test_cli_run(a3, "eye3"), 2);
+    CHECK(!vol_exists("never_eye.exr") && !vol_exists("never_eye.json"));
+}

@@ -30,6 +30,8 @@ static const char *volume_help =
     "  --cone DEG            chromaticity cone half-angle (default 45)\n"
     "  --no-blend            no second propagation direction\n"
     "  --kappa K             extinction scale of the light volume (default 1)\n"
+    "  --eye-pass            lightvolume mode: also propagate from the camera and modulate the\n"
+    "                        chromaticity by it (a reconstruction; docs/volume/light.md \"Eye pass\")\n"
     "ray casting:\n"
     "  --step H              world units (default half the smallest spacing)\n"
     "  --brick B             empty-space skipping brick side (0 = off; default 8)\n"
@@ -134,6 +136,8 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             rp.brick = (int)ll; i++;
         } else if (!strcmp(a, "--no-blend")) {
             lp.blend_second = 0;
+        } else if (!strcmp(a, "--eye-pass")) {
+            lp.eye_pass = 1;
         } else if (!strcmp(a, "--write-light-volume")) {
             write_lv = 1;
         } else if (!strcmp(a, "--size")) {
@@ -153,6 +157,8 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         return cli_usage_error("volume: no volume file given");
     if (light_dir_given && light_pos_given)
         return cli_usage_error("volume: give --light-dir or --light-pos, not both");
+    if (lp.eye_pass && (truth || rp.shading != VOL_SHADING_LIGHT_VOLUME))
+        return cli_usage_error("volume: --eye-pass applies to 'obscura volume' with --mode lightvolume only");
     if (!strncmp(file, "synth:", 6) && (raw || big_endian))
         return cli_usage_error("volume: --raw and --big-endian apply to raw files, not to %s", file);
 
@@ -166,8 +172,9 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     memset(&grid, 0, sizeof grid);
     vol_tf tf;
     memset(&tf, 0, sizeof tf);
-    vol_light_volume lv;
+    vol_light_volume lv, eyev;
     memset(&lv, 0, sizeof lv);
+    memset(&eyev, 0, sizeof eyev);
     obs_image_f32 rgba[4] = {{0}};
     float *T = NULL, *err = NULL;
     char *tf_text = NULL;
@@ -175,7 +182,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     io_json_init(&j);
     int code = CLI_EXIT_OK;
     char path[4200];
-    double t_load = 0, t_lv = 0, t_rc = 0, t_truth = 0, t0;
+    double t_load = 0, t_lv = 0, t_eye = 0, t_rc = 0, t_truth = 0, t0;
     truth_volume_error_stats es;
     memset(&es, 0, sizeof es);
     int synthetic = 0;
@@ -326,6 +333,18 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
                     lv.nx, lv.ny, lv.nz, lv.face0, lv.face1, (double)lv.blend_weight, 1e3 * t_lv, 1e3 * t_truth,
                     es.max_abs, es.mean_abs, es.rmse);
     } else {
+        /* ---- The eye pass (depends on the camera): modulate the chromaticity before ray casting ---- */
+        if (lp.eye_pass && need_lv) {
+            t0 = obs_time_now();
+            st = vol_eye_volume_build(ctx, pool, &grid, &tf, &cam, &lp, &eyev);
+            if (st == OBS_STATUS_OK)
+                st = vol_light_volume_modulate(ctx, &eyev, &lv);
+            t_eye = obs_time_now() - t0;
+            if (st != OBS_STATUS_OK) {
+                code = cli_fail(ctx, st);
+                goto done;
+            }
+        }
         /* ---- Ray casting ---- */
         t0 = obs_time_now();
         st = vol_raycast(ctx, pool, &grid, &tf, &L, need_lv ? &lv : NULL, &cam, W, H, NULL, &rp, rgba);
@@ -390,6 +409,13 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     io_json_number(&j, "cone_angle_deg", lp.cone_angle_deg);
     io_json_bool(&j, "blend_second", lp.blend_second);
     io_json_number(&j, "kappa", lp.kappa);
+    io_json_bool(&j, "eye_pass", lp.eye_pass);
+    if (lp.eye_pass && eyev.l) {
+        io_json_int(&j, "eye_face0", eyev.face0);
+        io_json_int(&j, "eye_face1", eyev.face1);
+        io_json_number(&j, "eye_blend_weight", eyev.blend_weight);
+        io_json_number(&j, "eye_seconds", t_eye);
+    }
     if (need_lv) {
         io_json_int(&j, "face0", lv.face0);
         io_json_int(&j, "face1", lv.face1);
@@ -426,6 +452,7 @@ done:
     for (int c = 0; c < 4; c++)
         obs_image_f32_free(&rgba[c]);
     vol_light_volume_free(&lv);
+    vol_light_volume_free(&eyev);
     vol_tf_free(&tf);
     vol_grid_free(&grid);
     obs_pool_destroy(pool);

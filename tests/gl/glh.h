@@ -71,7 +71,10 @@ typedef int GLint;
     X(PFNGLFINISHPROC, glFinish) X(PFNGLENABLEPROC, glEnable) X(PFNGLDISABLEPROC, glDisable)         \
     X(PFNGLCLEARCOLORPROC, glClearColor) X(PFNGLCLEARPROC, glClear)                                  \
     X(PFNGLGETTEXIMAGEPROC, glGetTexImage) X(PFNGLBINDIMAGETEXTUREPROC, glBindImageTexture)          \
-    X(PFNGLDISPATCHCOMPUTEPROC, glDispatchCompute) X(PFNGLMEMORYBARRIERPROC, glMemoryBarrier)
+    X(PFNGLDISPATCHCOMPUTEPROC, glDispatchCompute) X(PFNGLMEMORYBARRIERPROC, glMemoryBarrier) \
+    /* 3D render targets (glsl_volume.c: the light volume, one layer per slice) */                 \
+    X(PFNGLTEXSTORAGE3DPROC, glTexStorage3D) X(PFNGLTEXSUBIMAGE3DPROC, glTexSubImage3D)              \
+    X(PFNGLFRAMEBUFFERTEXTURELAYERPROC, glFramebufferTextureLayer) X(PFNGLTEXTUREBARRIERPROC, glTextureBarrier)
 
 #if GLH_AVAILABLE
 #define GLH_DECL(T, n) T n;
