@@ -99,7 +99,7 @@ static render_settings small_settings(void)
 static void use_volume(render_settings *st)
 {
     st->volume.enabled = 1;
-    snprintf(st->volume.source, sizeof st->volume.source, "synth:sphere:12");
+    snprintf(st->volume.source, sizeof st->volume.source, "synth:bucky:16");
     snprintf(st->volume.transfer, sizeof st->volume.transfer, "bucky");
     st->volume.has_box = 1;
     const double lo[3] = {0.03, 0.0, -0.05}, hi[3] = {0.07, 0.04, -0.01};

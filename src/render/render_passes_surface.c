@@ -275,8 +275,10 @@ const render_pass render_pass_shadow_maps = {"shadow_maps", RES_SHADOW_MAPS, 0, 
                                              shadow_key, shadow_run};
 
 /* The fraction of a 3x3 texel neighbourhood that sees world point p (percentage-closer filtering
- * [Reeves87]) with a slope-scaled bias of (1 + 2 / max(n.l, 0.2)) texels (ours). */
-static float shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_vec3 p, float ndl)
+ * [Reeves87]). Acne is kept off by a normal offset [Holbert11]: p is moved 1.5 texels (the texel's
+ * world size at p) along its normal n before the lookup, and the comparison has a bias of one
+ * texel (our constants, tuned on the Cornell box). */
+static float shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_vec3 p, obs_vec3 n)
 {
     int f = 0;
     if (sm->faces == 6) {
@@ -288,20 +290,23 @@ static float shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_
     }
     const rast_view_constants *vc = &sm->vc[f];
     obs_vec3 q = obs_mat4_mul_point(sm->cam[f].view, p);
-    const double d = -(double)q.z;
+    double d = -(double)q.z;
     if (!(d > 0))
         return 1.0f;
-    double px, py, texel;
+    const double texel = sm->faces == 6 ? d / vc->fx : 1.0 / vc->fx;
+    q = obs_mat4_mul_point(sm->cam[f].view, obs_v3_add(p, obs_v3_scale(n, (float)(1.5 * texel))));
+    d = -(double)q.z;
+    if (!(d > 0))
+        return 1.0f;
+    double px, py;
     if (sm->faces == 6) {
         px = vc->cx + vc->fx * q.x / d;
         py = vc->cy - vc->fy * q.y / d;
-        texel = d / vc->fx;
     } else {
         px = vc->cx + vc->fx * q.x;
         py = vc->cy - vc->fy * q.y;
-        texel = 1.0 / vc->fx;
     }
-    const double bias = texel * (1.0 + 2.0 / fmax((double)ndl, 0.2));
+    const double bias = texel;
     const int ix = (int)floor(px), iy = (int)floor(py);
     const obs_image_f32 *m = &sm->depth[f];
     int lit = 0;
@@ -384,7 +389,7 @@ static void direct_row(void *user, int64_t yy, int thread)
                 const float ndl = obs_v3_dot(nw, l);
                 if (!(ndl > 0))
                     continue;
-                const float vis = j->shadow ? shadow_lookup(&j->shadow->maps[i], L, p, ndl) : 1.0f;
+                const float vis = j->shadow ? shadow_lookup(&j->shadow->maps[i], L, p, nw) : 1.0f;
                 const float s = E * ndl * vis / OBS_PI_F;
                 out[0] += s * L->color.x;
                 out[1] += s * L->color.y;
