@@ -143,7 +143,9 @@ void render_hash_lights(render_hash *h, const render_job *j)
     for (int i = 0; i < j->light_count; i++) {
         const obs_light *L = &j->lights[i];
         render_hash_i(h, L->type);
-        const float v[] = {L->color.x, L->color.y, L->color.z, L->intensity, L->range, L->position.x,
+        /* range is not read (ignored, docs/render.md); the position of a directional light is not
+           read either, but a light's node placing it is cheap to over-key */
+        const float v[] = {L->color.x, L->color.y, L->color.z, L->intensity, L->position.x,
                            L->position.y, L->position.z, L->direction.x, L->direction.y, L->direction.z};
         for (size_t k = 0; k < sizeof v / sizeof v[0]; k++)
             render_hash_d(h, v[k]);
@@ -356,10 +358,16 @@ static obs_status job_init(render_session *s, const obs_scene *scene, const rend
     return OBS_STATUS_OK;
 }
 
-/* Keys of the view-independent passes that can be known now (light_volume needs its grid). */
+/* Keys of the view-independent passes that can be known now (light_volume needs its grid: known at
+ * plan time only when the grid is already in this session's memory cache). */
 static void job_keys(render_job *j, const int live[], int count, const render_pass *const *ps)
 {
     for (int i = 0; i < count; i++) {
+        if (ps[i] == &render_pass_light_volume && live[i] && !j->vol) {
+            const int vi = res_index(RES_VOLUME_GRID);
+            if (j->key_valid[vi])
+                j->vol = (render_volume_data *)render_cache_find(j->session->cache, j->key[vi], &render_ops_volume);
+        }
         if (!live[i] || ps[i]->view_dependent || !ps[i]->key)
             continue;
         const int ri = res_index(ps[i]->writes);

@@ -11,9 +11,10 @@
  * RENDER_CACHE_VERSION.
  *
  * Disk format (one file per key, DIR/<kind>-<32 hex>.bin), little-endian:
- *   magic "OBSRCACH" (8 bytes), u32 format version (1), u32 blob count n,
+ *   magic "OBSRCACH" (8 bytes), u32 format version (2), u32 blob count n,
  *   u64 key[2], u64 payload hash (lane 0 of the hash of the blobs), n x u64 blob byte counts,
- *   then the blobs' bytes, back to back.
+ *   then the blobs' bytes, each padded with zeros to a multiple of 8 bytes (so that every blob
+ *   starts 8-byte aligned in the buffer the file is read into; the counts are the unpadded sizes).
  * Written to a temporary name beside it, then renamed (io_temp_path / io_commit_temp). A file that
  * is short, long, of another version or key, or whose payload hash differs is a miss (a warning). */
 #include "render_internal.h"
@@ -351,7 +352,7 @@ static void cache_path(const render_cache *c, render_key k, const render_product
 }
 
 #define CACHE_MAGIC "OBSRCACH"
-#define CACHE_FORMAT 1u
+#define CACHE_FORMAT 2u
 
 static uint64_t payload_hash(const render_blob *b, int n)
 {
@@ -394,8 +395,12 @@ static obs_status cache_write(render_cache *c, obs_context *ctx, render_key k, c
             put_u64(hd + 40 + 8 * (size_t)i, bl->b[i].bytes);
         ok = fwrite(hd, 1, head, f) == head;
     }
-    for (int i = 0; ok && i < bl->n; i++)
+    static const unsigned char zeros[8] = {0};
+    for (int i = 0; ok && i < bl->n; i++) {
+        const size_t pad = (size_t)((8 - bl->b[i].bytes % 8) % 8);
         ok = bl->b[i].bytes == 0 || fwrite(bl->b[i].data, 1, (size_t)bl->b[i].bytes, f) == bl->b[i].bytes;
+        ok = ok && (pad == 0 || fwrite(zeros, 1, pad, f) == pad);
+    }
     free(hd);
     ok = (fclose(f) == 0) && ok;
     if (!ok) {
@@ -484,10 +489,11 @@ void *render_cache_load(render_cache *c, obs_context *ctx, render_key k, const r
     for (uint32_t i = 0; i < n; i++) {
         uint64_t bytes;
         memcpy(&bytes, u + 40 + 8 * (size_t)i, 8);
-        if (bytes > len - off) { why = "truncated data"; goto miss; }
+        const uint64_t padded = bytes + (8 - bytes % 8) % 8;
+        if (bytes > ((uint64_t)1 << 40) || padded > len - off) { why = "truncated data"; goto miss; }
         b[i].data = (void *)(u + off);
         b[i].bytes = bytes;
-        off += (size_t)bytes;
+        off += (size_t)padded;
     }
     if (off != len) { why = "trailing bytes"; goto miss; }
     if (payload_hash(b, (int)n) != want_hash) { why = "the payload's hash differs (corrupt)"; goto miss; }
