@@ -267,6 +267,42 @@ TEST(render_ao_output_alone_culls_sss_volume_and_direct)
     obs_context_destroy(ctx);
 }
 
+TEST(render_point_light_inside_a_room_lights_a_translucent_block)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    CHECK(load(ctx, "cornell_box.glb", &s));
+    /* the tall block becomes potato: a new material slot with the SSS extras */
+    obs_material *m = (obs_material *)realloc(s.materials, (s.material_count + 1) * sizeof *m);
+    CHECK(m);
+    s.materials = m;
+    memset(&m[s.material_count], 0, sizeof *m);
+    snprintf(m[s.material_count].name, OBS_NAME_MAX, "potato");
+    m[s.material_count].base_color[0] = m[s.material_count].base_color[1] = m[s.material_count].base_color[2] = 0.9f;
+    m[s.material_count].extras_json = strdup("{\"obscura_sss\":{\"preset\":\"potato\"}}");
+    int tall = -1;
+    for (uint32_t i = 0; i < s.mesh_count; i++)
+        if (strstr(s.meshes[i].name, "tall_block"))
+            tall = (int)i;
+    CHECK(tall >= 0);
+    s.meshes[tall].material = (int32_t)s.material_count;
+    s.material_count++;
+    render_settings st = small_settings();
+    render_session *ses = session(ctx, 2, NULL);
+    render_frame f;
+    CHECK_MSG(render_frame_run(ses, &s, &st, 0, &f) == OBS_STATUS_OK, "%s", obs_context_last_error(ctx));
+    CHECK(state_of(&f, "sss_maps") == RENDER_PASS_RAN && state_of(&f, "direct") == RENDER_PASS_RAN);
+    double sum = 0;
+    for (int y = 0; y < f.height; y++)
+        for (int x = 0; x < f.width; x++)
+            sum += obs_image_f32_row(&f.sss[0], y)[x];
+    CHECK(sum > 0);
+    render_frame_free(&f);
+    render_session_destroy(ses);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
 /* ---- the cache ----------------------------------------------------------------------------- */
 
 TEST(render_cache_hit_on_second_view_is_byte_identical_to_cold)
@@ -337,6 +373,16 @@ TEST(render_keys_change_with_the_light_and_material_not_the_camera)
     CHECK(!strcmp(rec(&c, "shadow_maps")->key, rec(&d, "shadow_maps")->key));
     CHECK(state_of(&d, "light_volume") == RENDER_PASS_CACHED_MEMORY);
     CHECK(state_of(&d, "sss_maps") == RENDER_PASS_RAN);
+    /* an opaque mesh moves (the floor): its shadows' key changes, the SSS maps' does not (they see
+       the translucent instances only) */
+    render_frame e;
+    s.instances[0].world = obs_mat4_translation(obs_v3(0, -0.001f, 0));
+    obs_scene_update_bounds(&s);
+    CHECK(render_frame_run(ses, &s, &st, 0, &e) == OBS_STATUS_OK);
+    CHECK(strcmp(rec(&d, "shadow_maps")->key, rec(&e, "shadow_maps")->key) != 0);
+    CHECK(!strcmp(rec(&d, "sss_maps")->key, rec(&e, "sss_maps")->key));
+    CHECK(state_of(&e, "sss_maps") == RENDER_PASS_CACHED_MEMORY);
+    render_frame_free(&e);
     render_frame_free(&a);
     render_frame_free(&b);
     render_frame_free(&c);

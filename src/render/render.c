@@ -297,6 +297,7 @@ static void job_free(render_job *j)
     obs_image_f32_free(&j->mask_opaque);
     obs_image_f32_free(&j->mask_translucent);
     sss_scene_setup_free(&j->sss);
+    free(j->sss_scene.instances);
     free(j->lights);
     memset(j, 0, sizeof *j);
 }
@@ -353,6 +354,23 @@ static obs_status job_init(render_session *s, const obs_scene *scene, const rend
         int32_t m = scene->meshes[scene->instances[i].mesh].material;
         j->any_opaque = !(m >= 0 && (uint32_t)m < j->sss.mats.count && j->sss.mats.translucent[m]);
     }
+    /* The SSS products see the translucent instances only (docs/render.md, "SSS"): the maps frame
+       them tightly, a point light in the room (outside the objects' bounding sphere, which
+       sss_light_map_render requires) works, and a change to an opaque mesh keeps the maps. The
+       price: opaque meshes cast no shadow into the scattering maps (the reference, ref_sss, traces
+       the full scene, so --reference measures it). */
+    j->sss_scene = *scene;
+    j->sss_scene.instances = (obs_instance *)calloc(scene->instance_count ? scene->instance_count : 1,
+                                                    sizeof(obs_instance));
+    if (!j->sss_scene.instances)
+        return obs_error(s->ctx, OBS_STATUS_OUT_OF_MEMORY, "render: out of memory");
+    j->sss_scene.instance_count = 0;
+    for (uint32_t i = 0; i < scene->instance_count; i++) {
+        int32_t m = scene->meshes[scene->instances[i].mesh].material;
+        if (m >= 0 && (uint32_t)m < j->sss.mats.count && j->sss.mats.translucent[m])
+            j->sss_scene.instances[j->sss_scene.instance_count++] = scene->instances[i];
+    }
+    obs_scene_update_bounds(&j->sss_scene);
     j->sss_p = st->sss;
     j->sss_p.seed ^= st->seed; /* the session seed reaches the SSS samplers */
     return OBS_STATUS_OK;

@@ -153,6 +153,9 @@ typedef struct render_job {
     sss_scene_setup sss;           /* materials resolved (always made: it says what is translucent) */
     int any_translucent, any_opaque;
     sss_params sss_p;              /* settings.sss with the session seed folded in */
+    obs_scene sss_scene;           /* a shallow view of the scene with only its translucent instances
+                                      (own instances array; meshes, materials, lights shared): what the
+                                      SSS light G-buffers and maps are built from */
     /* view products */
     rast_gbuffer gb;               /* face_forward 0 (outward normals, as sss_combine wants) */
     rast_gbuffer gb_ff;            /* the same planes with normals faced toward the viewer */

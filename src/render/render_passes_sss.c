@@ -2,7 +2,8 @@
  * (sss.h section 3): the light G-buffers and the K maps are view-independent products (cached in
  * memory and on disk); the combination runs per view. One maps product covers every translucent
  * mesh of the scene (sss_maps_build gathers them together), so its key holds every translucent
- * material: a change to any of them rebuilds the maps (docs/render.md, "Keys"). */
+ * material: a change to any of them rebuilds the maps (docs/render.md, "Keys"). The light G-buffers
+ * and the maps are built from j->sss_scene, the translucent instances alone (render.c says why). */
 #include "render_internal.h"
 
 #include <stdio.h>
@@ -41,7 +42,7 @@ static int lm_key(render_job *j, render_key *out)
 {
     render_hash h;
     render_hash_init(&h, "sss_light_maps");
-    render_hash_geometry(&h, j->scene);
+    render_hash_geometry(&h, &j->sss_scene); /* the translucent instances only */
     render_hash_lights(&h, j);
     render_hash_i(&h, j->sss_p.light_map_size);
     *out = render_hash_final(&h);
@@ -131,7 +132,7 @@ static obs_status lm_build(render_job *j, void *p)
     s->count = j->light_count;
     obs_status st = OBS_STATUS_OK;
     for (int i = 0; i < j->light_count && st == OBS_STATUS_OK; i++)
-        st = sss_light_map_render(j->ctx, j->pool, j->scene, &j->lights[i], &j->sss_p, &s->lm[i]);
+        st = sss_light_map_render(j->ctx, j->pool, &j->sss_scene, &j->lights[i], &j->sss_p, &s->lm[i]);
     return st;
 }
 static obs_status lm_run(render_job *j, render_pass_state *state, uint64_t *bytes)
@@ -223,7 +224,7 @@ const render_product_ops render_ops_sss_maps = {"sss_maps", maps_free, maps_save
 
 static obs_status maps_build(render_job *j, void *p)
 {
-    return sss_maps_build(j->ctx, j->pool, j->scene, &j->sss.mats, j->slm->lm, j->slm->count, &j->sss_p,
+    return sss_maps_build(j->ctx, j->pool, &j->sss_scene, &j->sss.mats, j->slm->lm, j->slm->count, &j->sss_p,
                           (sss_maps *)p);
 }
 static obs_status maps_run(render_job *j, render_pass_state *state, uint64_t *bytes)
@@ -250,7 +251,7 @@ static int comb_wanted(const render_job *j, char *r, size_t n)
 }
 static obs_status comb_run(render_job *j, render_pass_state *state, uint64_t *bytes)
 {
-    obs_status st = sss_combine(j->ctx, j->pool, j->scene, &j->sss.mats, j->maps, j->slm->lm, j->slm->count, &j->gb,
+    obs_status st = sss_combine(j->ctx, j->pool, &j->sss_scene, &j->sss.mats, j->maps, j->slm->lm, j->slm->count, &j->gb,
                                 &j->cam, &j->sss_p, j->f->sss, NULL);
     *state = RENDER_PASS_RAN;
     *bytes = render_planes_bytes(3, j->f->sss);
