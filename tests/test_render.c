@@ -461,6 +461,17 @@ TEST(render_output_is_identical_for_1_2_and_8_threads)
     obs_context_destroy(ctx);
 }
 
+typedef struct progress_log { int calls; int64_t last_done, last_total; int monotonic; } progress_log;
+static void on_progress(void *user, int64_t done, int64_t total)
+{
+    progress_log *p = (progress_log *)user;
+    if (done < p->last_done || done > total)
+        p->monotonic = 0;
+    p->calls++;
+    p->last_done = done;
+    p->last_total = total;
+}
+
 TEST(render_eight_views_of_an_sss_scene_build_the_maps_once)
 {
     obs_context *ctx = obs_context_create();
@@ -471,7 +482,12 @@ TEST(render_eight_views_of_an_sss_scene_build_the_maps_once)
     for (int i = 0; i < 8; i++)
         st.cameras[i] = i % 2;
     CHECK(render_view_count(&s, &st) == 8);
-    render_session *ses = session(ctx, 2, NULL);
+    progress_log pl = {0, 0, 0, 1};
+    render_options o = render_options_default();
+    o.threads = 2;
+    o.progress = on_progress;
+    o.progress_user = &pl;
+    render_session *ses = render_session_create(ctx, &o);
     int ran_maps = 0, ran_lm = 0, ran_comb = 0;
     for (int v = 0; v < 8; v++) {
         render_frame f;
@@ -483,6 +499,8 @@ TEST(render_eight_views_of_an_sss_scene_build_the_maps_once)
         render_frame_free(&f);
     }
     CHECK(ran_maps == 1 && ran_lm == 1 && ran_comb == 8);
+    /* progress over the whole batch: monotonic, ending at done == total */
+    CHECK(pl.calls > 8 && pl.monotonic && pl.last_done == pl.last_total);
     render_session_destroy(ses);
     obs_scene_free(&s);
     obs_context_destroy(ctx);
