@@ -3,9 +3,10 @@
  *
  * The hash (ours): the input is cut into little-endian 8-byte words (the tail zero-padded) and
  * fed to two independent 64-bit lanes:
- *   lane 0: h = (h ^ w) * 0x100000001b3              (FNV-1a's prime, a word at a time)
- *   lane 1: h = rotl(h + w * P2, 31) * P1            (xxHash64's round; P1, P2 its primes)
- * and each lane is finished with SplitMix64's finaliser of (lane ^ length * golden ratio). Two
+ *   lane 0: h = (h ^ w) * 0x100000001b3              (FNV-1a's prime [FNV], a word at a time)
+ *   lane 1: h = rotl(h + w * P2, 31) * P1            (xxHash64's round; P1, P2 its primes [xxHash])
+ * and each lane is finished with SplitMix64's finaliser [Steele14] of (lane ^ length * golden
+ * ratio). Two
  * unrelated lanes make an accidental 128-bit collision as unlikely as a random one for the
  * inputs we hash (no adversary). Every key begins with a domain string (the product kind) and
  * RENDER_CACHE_VERSION.

@@ -1,6 +1,10 @@
 /* render_graph.c: the passes in their order, and the compile step: walk back from the requested
  * outputs and cull every pass whose products nobody reads (the frame graph's dead-code
- * elimination, ../shared/reference/render.md section 1), recording why each pass is in or out. */
+ * elimination [ODonnell17], ../shared/reference/render.md section 1), recording why each pass is
+ * in or out. The order is fixed (producers before readers), so the walk back is one reverse pass:
+ * a pass is live when the scene calls for it and a live reader (or a requested output) needs one
+ * of its writes; its reads then become needed. A pass the scene does not call for is culled with
+ * the scene's reason even when an output would read it (its readers treat the input as absent). */
 #include "render_internal.h"
 
 #include <stdio.h>

@@ -137,7 +137,7 @@ static obs_status gbuffer_run(render_job *j, render_pass_state *state, uint64_t 
 const render_pass render_pass_gbuffer = {"gbuffer", RES_GBUFFER, 1, 0, gbuffer_reads, gbuffer_wanted, NULL, gbuffer_run};
 
 /* ------------------------------------------------------------------------------------------------
- * shadow_maps: one depth map per light. A directional light: one orthographic map framing the
+ * shadow_maps: one depth map per light ([Williams78] shadow mapping). A directional light: one orthographic map framing the
  * scene's bounding sphere along the light. A point light: a cube of six 90-degree perspective
  * maps at the light (it may be inside the scene, as in a Cornell box).
  * ---------------------------------------------------------------------------------------------- */
