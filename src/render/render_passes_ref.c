@@ -1,0 +1,287 @@
+/* render_passes_ref.c: --reference, the same frame with the references in place of the
+ * approximations (docs/render.md, "Reference"):
+ *   ref_scene   the Embree scene (view-independent; cached in memory only)
+ *   ref_ao      truth_ao_render with the AO method's matched estimator and radius
+ *   ref_ambient ambient x albedo x ref_ao
+ *   ref_sss     truth_sss_render (settings.ref_sss: the brute force by default)
+ *   ref_volume  the ray cast with the light volume's transmittance l replaced by the exact
+ *               transmittance to the light (truth_volume_transmittance_at's march) at every voxel
+ *               centre of a full-resolution light volume, and chromaticity 1. DEVIATION from "at
+ *               every ray-cast sample": the ray caster interpolates the exact values trilinearly
+ *               between voxel centres (the data's own resolution), so the reference reuses the ray
+ *               caster unchanged; what it checks is the light volume's propagation, blur and
+ *               resolution.
+ *   ref_compose beauty composed the same way from direct (shared), ref_ambient, ref_sss, ref_volume.
+ * The direct light is shared: both sides use the shadow-mapped Lambert term. */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static int ref_has_sss(const render_job *j) { return j->any_translucent && j->light_count > 0; }
+static int ref_has_volume(const render_job *j)
+{
+    return render_job_has_volume(j) && j->st->volume.rc.shading == VOL_SHADING_LIGHT_VOLUME && j->volume_light >= 0;
+}
+
+/* ---- ref_scene --------------------------------------------------------------------------------- */
+
+static unsigned scene_reads(const render_job *j, char *t, size_t n)
+{
+    (void)j;
+    snprintf(t, n, "geometry");
+    return 0;
+}
+static int scene_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!(j->st->ao && j->any_opaque) && !ref_has_sss(j)) {
+        snprintf(r, n, "no reference traces rays (no AO and no SSS)");
+        return 0;
+    }
+    snprintf(r, n, "the Embree scene the AO and SSS references trace");
+    return 1;
+}
+static int scene_key(render_job *j, render_key *out)
+{
+    render_hash h;
+    render_hash_init(&h, "ref_scene");
+    render_hash_geometry(&h, j->scene);
+    *out = render_hash_final(&h);
+    return 1;
+}
+static void ts_free(void *p)
+{
+    render_truth_scene *t = (render_truth_scene *)p;
+    truth_scene_destroy(t->ts);
+    t->ts = NULL;
+}
+static uint64_t ts_bytes(const void *p)
+{
+    (void)p;
+    return 0;
+}
+const render_product_ops render_ops_truth_scene = {"ref_scene", ts_free, NULL, NULL, sizeof(render_truth_scene),
+                                                   ts_bytes};
+static obs_status scene_build(render_job *j, void *p)
+{
+    return truth_scene_create(j->ctx, j->scene, TRUTH_BUILD_MEDIUM, &((render_truth_scene *)p)->ts);
+}
+static obs_status scene_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    return render_cached(j, RES_REF_SCENE, &render_ops_truth_scene, scene_build, (void **)&j->truth, state, bytes);
+}
+const render_pass render_pass_ref_scene = {"ref_scene", RES_REF_SCENE, 0, 1, scene_reads, scene_wanted, scene_key,
+                                           scene_run};
+
+/* ---- ref_ao -------------------------------------------------------------------------------------- */
+
+static unsigned rao_reads(const render_job *j, char *t, size_t n)
+{
+    (void)j;
+    snprintf(t, n, "gbuffer,ref_scene,camera");
+    return RES_GBUFFER | RES_REF_SCENE;
+}
+static int rao_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!j->st->ao) {
+        snprintf(r, n, "AO off");
+        return 0;
+    }
+    if (!j->any_opaque) {
+        snprintf(r, n, "no opaque mesh in the scene");
+        return 0;
+    }
+    const ao_method *m = j->st->ao;
+    snprintf(r, n, "ray-traced AO, estimator %s, radius %g (matched to %s)", m->truth_estimator(j->st->ao_params),
+             (double)m->get_radius(j->st->ao_params), m->name);
+    return 1;
+}
+static obs_status rao_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    const ao_method *m = j->st->ao;
+    truth_ao_params p = j->st->ref_ao;
+    if (!truth_ao_estimator_from_name(m->truth_estimator(j->st->ao_params), &p.estimator))
+        return obs_error(j->ctx, OBS_STATUS_INTERNAL, "ref_ao: AO method %s names an unknown estimator", m->name);
+    p.radius = m->get_radius(j->st->ao_params);
+    p.seed ^= j->st->seed;
+    truth_ao_result res;
+    memset(&res, 0, sizeof res);
+    obs_status st = truth_ao_render(j->ctx, j->pool, j->truth->ts, j->scene, &j->cam, &j->gb_ff, &p, &res);
+    if (st == OBS_STATUS_OK) {
+        j->f->ref_ao = res.mean;
+        res.mean.data = NULL;
+    }
+    truth_ao_result_free(&res);
+    *state = RENDER_PASS_RAN;
+    *bytes = render_planes_bytes(1, &j->f->ref_ao);
+    return st;
+}
+const render_pass render_pass_ref_ao = {"ref_ao", RES_REF_AO, 1, 1, rao_reads, rao_wanted, NULL, rao_run};
+
+/* ---- ref_ambient --------------------------------------------------------------------------------- */
+
+static unsigned ramb_reads(const render_job *j, char *t, size_t n)
+{
+    if (j->st->ao) {
+        snprintf(t, n, "gbuffer,ref_ao,ambient");
+        return RES_GBUFFER | RES_REF_AO;
+    }
+    snprintf(t, n, "gbuffer,ambient");
+    return RES_GBUFFER;
+}
+static int ramb_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!j->any_opaque) {
+        snprintf(r, n, "no opaque mesh in the scene");
+        return 0;
+    }
+    snprintf(r, n, "ambient x albedo x the ray-traced AO");
+    return 1;
+}
+static obs_status ramb_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    obs_status st = render_ambient_fill(j, j->f->ref_ao.data ? &j->f->ref_ao : NULL, j->f->ref_ambient);
+    *state = RENDER_PASS_RAN;
+    *bytes = render_planes_bytes(3, j->f->ref_ambient);
+    return st;
+}
+const render_pass render_pass_ref_ambient = {"ref_ambient", RES_REF_AMBIENT, 1, 1, ramb_reads, ramb_wanted, NULL,
+                                             ramb_run};
+
+/* ---- ref_sss ------------------------------------------------------------------------------------- */
+
+static unsigned rsss_reads(const render_job *j, char *t, size_t n)
+{
+    (void)j;
+    snprintf(t, n, "gbuffer,ref_scene,materials,lights,camera");
+    return RES_GBUFFER | RES_REF_SCENE;
+}
+static int rsss_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!ref_has_sss(j)) {
+        snprintf(r, n, "%s", j->any_translucent ? "no directional or point light" : "no translucent material in the scene");
+        return 0;
+    }
+    snprintf(r, n, "SSS ground truth (%s)", truth_sss_estimator_name(j->st->ref_sss.estimator));
+    return 1;
+}
+static obs_status rsss_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    truth_sss_params p = j->st->ref_sss;
+    p.seed ^= j->st->seed;
+    p.model = j->sss_p.model;
+    truth_sss_result res;
+    memset(&res, 0, sizeof res);
+    obs_status st = truth_sss_render(j->ctx, j->pool, j->truth->ts, j->scene, &j->sss.mats, &j->cam, &j->gb, &p, &res);
+    if (st == OBS_STATUS_OK)
+        for (int c = 0; c < 3; c++) {
+            j->f->ref_sss[c] = res.radiance[c];
+            res.radiance[c].data = NULL;
+        }
+    truth_sss_result_free(&res);
+    *state = RENDER_PASS_RAN;
+    *bytes = render_planes_bytes(3, j->f->ref_sss);
+    return st;
+}
+const render_pass render_pass_ref_sss = {"ref_sss", RES_REF_SSS, 1, 1, rsss_reads, rsss_wanted, NULL, rsss_run};
+
+/* ---- ref_volume ---------------------------------------------------------------------------------- */
+
+static unsigned rvol_reads(const render_job *j, char *t, size_t n)
+{
+    (void)j;
+    snprintf(t, n, "volume_grid,gbuffer,light,camera");
+    return RES_VOLUME_GRID | RES_GBUFFER;
+}
+static int rvol_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!render_job_has_volume(j)) {
+        snprintf(r, n, "no volume in the scene");
+        return 0;
+    }
+    if (!ref_has_volume(j)) {
+        snprintf(r, n, "the volume is not lit through a light volume: nothing to check");
+        return 0;
+    }
+    snprintf(r, n, "ray cast with the exact transmittance to the light (%d steps per voxel), chromaticity 1",
+             j->st->ref_volume_shadow_steps);
+    return 1;
+}
+static obs_status rvol_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    render_volume_light(j);
+    const vol_grid *g = &j->vol->grid;
+    vol_light_volume lv;
+    memset(&lv, 0, sizeof lv);
+    const size_t nv = (size_t)g->nx * (size_t)g->ny * (size_t)g->nz;
+    float *mem = (float *)obs_aligned_alloc(16 * nv);
+    if (!mem)
+        return obs_error(j->ctx, OBS_STATUS_OUT_OF_MEMORY, "ref_volume: out of memory");
+    lv.nx = g->nx, lv.ny = g->ny, lv.nz = g->nz, lv.scale = 1;
+    for (int a = 0; a < 3; a++) {
+        lv.spacing[a] = g->spacing[a];
+        lv.origin[a] = g->origin[a];
+        lv.c[a] = mem + (size_t)(a + 1) * nv;
+    }
+    lv.l = mem;
+    lv.face0 = 0, lv.face1 = -1, lv.blend_weight = 1.0f;
+    for (size_t i = 0; i < 4 * nv; i++)
+        mem[i] = i < nv ? 0.0f : 1.0f;
+    truth_volume_params tp = truth_volume_params_default();
+    tp.kappa = j->st->volume.lv.kappa;
+    tp.step_fraction = 1.0 / (double)(j->st->ref_volume_shadow_steps > 0 ? j->st->ref_volume_shadow_steps : 1);
+    float *T = NULL;
+    obs_status st = truth_volume_light_error(j->ctx, j->pool, g, &j->vol->tf, &j->vlight, &tp, &lv, &T, NULL, NULL);
+    if (st == OBS_STATUS_OK) {
+        memcpy(lv.l, T, sizeof(float) * nv);
+        vol_rc_params rp = render_volume_rc_params(j);
+        st = vol_raycast(j->ctx, j->pool, g, &j->vol->tf, &j->vlight, &lv, &j->cam, j->W, j->H, &j->gb.depth, &rp,
+                         j->f->ref_volume);
+    }
+    obs_aligned_free(T);
+    vol_light_volume_free(&lv);
+    *state = RENDER_PASS_RAN;
+    *bytes = render_planes_bytes(4, j->f->ref_volume);
+    return st;
+}
+const render_pass render_pass_ref_volume = {"ref_volume", RES_REF_VOLUME, 1, 1, rvol_reads, rvol_wanted, NULL,
+                                            rvol_run};
+
+/* ---- ref_compose --------------------------------------------------------------------------------- */
+
+static unsigned rcomp_reads(const render_job *j, char *t, size_t n)
+{
+    unsigned m = 0;
+    char d[224];
+    t[0] = '\0';
+    if (render_pass_direct.wanted(j, d, sizeof d)) m |= RES_DIRECT;
+    if (ramb_wanted(j, d, sizeof d)) m |= RES_REF_AMBIENT;
+    if (rsss_wanted(j, d, sizeof d)) m |= RES_REF_SSS;
+    if (rvol_wanted(j, d, sizeof d)) m |= RES_REF_VOLUME;
+    else if (render_pass_raycast.wanted(j, d, sizeof d)) m |= RES_VOLUME;
+    for (int i = 0; i < RES_COUNT_BITS; i++)
+        if (m & (1u << i)) {
+            size_t l = strlen(t);
+            snprintf(t + l, n - l, "%s%s", l ? "," : "", render_resource_name(1u << i));
+        }
+    return m;
+}
+static int rcomp_wanted(const render_job *j, char *r, size_t n)
+{
+    (void)j;
+    snprintf(r, n, "the reference beauty, composed as beauty");
+    return 1;
+}
+static obs_status rcomp_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    render_frame *f = j->f;
+    obs_status st = render_compose(j, f->direct, f->ref_ambient, f->ref_sss, f->ref_volume[0].data ? f->ref_volume : f->volume,
+                                   f->ref_beauty);
+    *state = RENDER_PASS_RAN;
+    *bytes = render_planes_bytes(3, f->ref_beauty);
+    return st;
+}
+const render_pass render_pass_ref_compose = {"ref_compose", RES_REF_BEAUTY, 1, 1, rcomp_reads, rcomp_wanted, NULL,
+                                             rcomp_run};

@@ -1,0 +1,372 @@
+/* render_passes_volume.c: the scene's volume (vol.h): loading (memory cache only: a reload is
+ * cheap), the light volume of [Ropinski10] (cached in memory and on disk) and the ray cast per view,
+ * stopped at the meshes' depth. The eye pass (vol_lv_params.eye_pass) is not run by this version:
+ * it depends on the camera, so it would be a view pass of its own (docs/render.md). */
+#include "render_internal.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../io/io.h"
+
+int render_job_has_volume(const render_job *j) { return j->st->volume.enabled != 0; }
+
+static unsigned load_reads(const render_job *j, char *t, size_t n)
+{
+    (void)j;
+    snprintf(t, n, "volume.source,volume.transfer,volume.box");
+    return 0;
+}
+static int load_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!render_job_has_volume(j)) {
+        snprintf(r, n, "no volume in the scene");
+        return 0;
+    }
+    snprintf(r, n, "volume '%s' with transfer function '%s'", j->st->volume.source, j->st->volume.transfer);
+    return 1;
+}
+
+/* A path relative to the scene file's directory (absolute paths and scenes without a file: as is). */
+static void resolve_path(const render_job *j, const char *rel, char *out, size_t n)
+{
+    const char *src = j->scene->source;
+    const char *slash = strrchr(src, '/');
+    if (rel[0] == '/' || !slash)
+        snprintf(out, n, "%s", rel);
+    else
+        snprintf(out, n, "%.*s/%s", (int)(slash - src), src, rel);
+}
+
+static int is_json(const char *s)
+{
+    size_t n = strlen(s);
+    return n > 5 && !strcmp(s + n - 5, ".json");
+}
+
+static int load_key(render_job *j, render_key *out)
+{
+    const render_volume_settings *v = &j->st->volume;
+    char path[1200];
+    render_hash h;
+    render_hash_init(&h, "volume");
+    if (strncmp(v->source, "synth:", 6) != 0) {
+        resolve_path(j, v->source, path, sizeof path);
+        render_hash_str(&h, path);
+    } else {
+        render_hash_str(&h, v->source);
+    }
+    if (is_json(v->transfer)) {
+        resolve_path(j, v->transfer, path, sizeof path);
+        render_hash_str(&h, path);
+    } else {
+        render_hash_str(&h, v->transfer);
+    }
+    render_hash_i(&h, v->has_box);
+    for (int a = 0; a < 3; a++) {
+        render_hash_d(&h, v->has_box ? v->box_lo[a] : 0);
+        render_hash_d(&h, v->has_box ? v->box_hi[a] : 0);
+    }
+    *out = render_hash_final(&h);
+    return 1;
+}
+
+static void vol_free(void *p)
+{
+    render_volume_data *v = (render_volume_data *)p;
+    vol_grid_free(&v->grid);
+    vol_tf_free(&v->tf);
+}
+static uint64_t vol_bytes(const void *p)
+{
+    const render_volume_data *v = (const render_volume_data *)p;
+    return 4u * (uint64_t)v->grid.nx * (uint64_t)v->grid.ny * (uint64_t)v->grid.nz;
+}
+const render_product_ops render_ops_volume = {"volume", vol_free, NULL, NULL, sizeof(render_volume_data), vol_bytes};
+
+static obs_status load_grid(render_job *j, vol_grid *g)
+{
+    const char *src = j->st->volume.source;
+    if (!strncmp(src, "synth:", 6)) {
+        char name[64];
+        int n = 32;
+        const char *colon = strchr(src + 6, ':');
+        size_t len = colon ? (size_t)(colon - (src + 6)) : strlen(src + 6);
+        if (len >= sizeof name)
+            len = sizeof name - 1;
+        memcpy(name, src + 6, len);
+        name[len] = '\0';
+        if (colon) {
+            long long ll;
+            if (!obs_parse_int(colon + 1, 4, 4096, &ll))
+                return obs_error(j->ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                 "volume '%s': the size after the name must be an integer in [4, 4096]", src);
+            n = (int)ll;
+        }
+        return vol_synth(j->ctx, name, n, g);
+    }
+    char path[1200];
+    resolve_path(j, src, path, sizeof path);
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return obs_error(j->ctx, OBS_STATUS_NOT_FOUND, "volume file '%s' (from the scene's volume.source '%s') does not exist",
+                         path, src);
+    fclose(f);
+    io_volume_options vo = io_volume_options_default();
+    return io_volume_load(j->ctx, path, &vo, g);
+}
+
+static obs_status load_tf(render_job *j, vol_tf *tf)
+{
+    const char *t = j->st->volume.transfer;
+    if (!is_json(t))
+        return vol_tf_preset(j->ctx, t, tf);
+    char path[1200], *text = NULL;
+    size_t len;
+    resolve_path(j, t, path, sizeof path);
+    obs_status st = io_read_file(j->ctx, path, (size_t)1 << 20, &text, &len);
+    if (st == OBS_STATUS_OK)
+        st = vol_tf_parse_json(j->ctx, text, path, tf);
+    free(text);
+    return st;
+}
+
+/* has_box: the grid's bounds [lo, hi] (voxel hull + half a voxel) mapped onto [box_lo, box_hi]. */
+static void map_box(const render_volume_settings *v, vol_grid *g)
+{
+    double lo[3], hi[3];
+    vol_grid_bounds(g, lo, hi);
+    for (int a = 0; a < 3; a++) {
+        const double s = (v->box_hi[a] - v->box_lo[a]) / (hi[a] - lo[a]);
+        g->spacing[a] *= s;
+        g->origin[a] = v->box_lo[a] + 0.5 * g->spacing[a];
+    }
+}
+
+static obs_status load_build(render_job *j, void *p)
+{
+    render_volume_data *v = (render_volume_data *)p;
+    obs_status st = load_grid(j, &v->grid);
+    if (st == OBS_STATUS_OK)
+        st = load_tf(j, &v->tf);
+    if (st == OBS_STATUS_OK && j->st->volume.has_box)
+        map_box(&j->st->volume, &v->grid);
+    return st;
+}
+static obs_status load_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    return render_cached(j, RES_VOLUME_GRID, &render_ops_volume, load_build, (void **)&j->vol, state, bytes);
+}
+const render_pass render_pass_volume_load = {"volume_load", RES_VOLUME_GRID, 0, 0, load_reads, load_wanted, load_key,
+                                             load_run};
+
+/* ---- light_volume ------------------------------------------------------------------------- */
+
+static int lv_needed(const render_job *j) { return j->st->volume.rc.shading == VOL_SHADING_LIGHT_VOLUME; }
+
+static unsigned lv_reads(const render_job *j, char *t, size_t n)
+{
+    (void)j;
+    snprintf(t, n, "volume_grid,transfer_function,light,volume.lv");
+    return RES_VOLUME_GRID;
+}
+static int lv_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!render_job_has_volume(j)) {
+        snprintf(r, n, "no volume in the scene");
+        return 0;
+    }
+    if (!lv_needed(j)) {
+        snprintf(r, n, "the ray cast's shading (%s) reads no light volume", vol_shading_name(j->st->volume.rc.shading));
+        return 0;
+    }
+    if (j->volume_light < 0) {
+        snprintf(r, n, "no directional or point light for the volume (unlit: emission-absorption)");
+        return 0;
+    }
+    snprintf(r, n, "light '%s' through the volume (scale %d, cone %g deg)", j->scene->lights[j->volume_light].name,
+             j->st->volume.lv.scale, j->st->volume.lv.cone_angle_deg);
+    return 1;
+}
+
+/* The scene light as the volume module sees it (vol.h: colour x intensity; the ray caster has no
+ * distance falloff, so a point light's colour is divided by its squared distance to the volume's
+ * centre: ours, docs/render.md). */
+void render_volume_light(render_job *j)
+{
+    memset(&j->vlight, 0, sizeof j->vlight);
+    if (j->volume_light < 0 || !j->vol)
+        return;
+    const obs_light *L = &j->scene->lights[j->volume_light];
+    float s = L->intensity;
+    j->vlight.type = L->type;
+    if (L->type == OBS_LIGHT_DIRECTIONAL) {
+        obs_vec3 d = obs_v3_normalize(L->direction);
+        j->vlight.direction[0] = d.x, j->vlight.direction[1] = d.y, j->vlight.direction[2] = d.z;
+    } else {
+        double lo[3], hi[3], d2 = 0;
+        vol_grid_bounds(&j->vol->grid, lo, hi);
+        const double p[3] = {L->position.x, L->position.y, L->position.z};
+        for (int a = 0; a < 3; a++) {
+            j->vlight.position[a] = p[a];
+            d2 += (0.5 * (lo[a] + hi[a]) - p[a]) * (0.5 * (lo[a] + hi[a]) - p[a]);
+        }
+        if (d2 > 0)
+            s = (float)(s / d2);
+    }
+    j->vlight.color[0] = L->color.x * s, j->vlight.color[1] = L->color.y * s, j->vlight.color[2] = L->color.z * s;
+}
+
+/* The grid's content, the transfer function, the light and the params. Needs the grid loaded:
+ * 0 (key unknown) before volume_load ran. */
+static int lv_key(render_job *j, render_key *out)
+{
+    if (!j->vol)
+        return 0;
+    render_volume_light(j);
+    const vol_grid *g = &j->vol->grid;
+    const vol_tf *tf = &j->vol->tf;
+    const vol_lv_params *p = &j->st->volume.lv;
+    render_hash h;
+    render_hash_init(&h, "light_volume");
+    render_hash_i(&h, g->nx), render_hash_i(&h, g->ny), render_hash_i(&h, g->nz);
+    for (int a = 0; a < 3; a++)
+        render_hash_d(&h, g->spacing[a]), render_hash_d(&h, g->origin[a]);
+    render_hash_bytes(&h, g->data, sizeof(float) * (size_t)g->nx * (size_t)g->ny * (size_t)g->nz);
+    render_hash_i(&h, tf->count);
+    render_hash_d(&h, tf->ref_step);
+    for (int i = 0; i < tf->count; i++) {
+        render_hash_d(&h, tf->points[i].value);
+        for (int c = 0; c < 4; c++)
+            render_hash_d(&h, tf->points[i].rgba[c]);
+    }
+    const vol_light *L = &j->vlight;
+    render_hash_i(&h, L->type);
+    for (int a = 0; a < 3; a++) {
+        render_hash_d(&h, L->direction[a]);
+        render_hash_d(&h, L->position[a]);
+        render_hash_d(&h, L->color[a]);
+    }
+    render_hash_i(&h, p->scale);
+    render_hash_d(&h, p->cone_angle_deg);
+    render_hash_i(&h, p->blend_second);
+    render_hash_d(&h, p->kappa);
+    *out = render_hash_final(&h);
+    return 1;
+}
+
+static void lv_free(void *p) { vol_light_volume_free((vol_light_volume *)p); }
+static uint64_t lv_bytes(const void *p)
+{
+    const vol_light_volume *lv = (const vol_light_volume *)p;
+    return 16u * (uint64_t)lv->nx * (uint64_t)lv->ny * (uint64_t)lv->nz;
+}
+typedef struct lv_head {
+    int32_t nx, ny, nz, scale, face0, face1;
+    float blend_weight, pad;
+    double spacing[3], origin[3];
+} lv_head;
+static obs_status lv_save(obs_context *ctx, const void *p, render_blobs *out)
+{
+    const vol_light_volume *lv = (const vol_light_volume *)p;
+    lv_head hd;
+    memset(&hd, 0, sizeof hd);
+    hd.nx = lv->nx, hd.ny = lv->ny, hd.nz = lv->nz, hd.scale = lv->scale, hd.face0 = lv->face0, hd.face1 = lv->face1;
+    hd.blend_weight = lv->blend_weight;
+    memcpy(hd.spacing, lv->spacing, sizeof hd.spacing);
+    memcpy(hd.origin, lv->origin, sizeof hd.origin);
+    const uint64_t nv = (uint64_t)lv->nx * (uint64_t)lv->ny * (uint64_t)lv->nz;
+    int ok = render_blobs_add_copy(out, &hd, sizeof hd) && render_blobs_add_copy(out, lv->l, 4 * nv);
+    for (int c = 0; ok && c < 3; c++)
+        ok = render_blobs_add_copy(out, lv->c[c], 4 * nv);
+    return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "render cache: out of memory");
+}
+static obs_status lv_load(obs_context *ctx, render_reader *r, void *p)
+{
+    (void)ctx;
+    vol_light_volume *lv = (vol_light_volume *)p;
+    const lv_head *hd = (const lv_head *)render_reader_take(r, sizeof(lv_head));
+    if (!hd || hd->nx < 1 || hd->ny < 1 || hd->nz < 1)
+        return OBS_STATUS_PARSE_ERROR;
+    const uint64_t nv = (uint64_t)hd->nx * (uint64_t)hd->ny * (uint64_t)hd->nz;
+    float *mem = (float *)obs_aligned_alloc((size_t)(16 * nv)); /* one block, as vol_light_volume_build */
+    if (!mem)
+        return OBS_STATUS_OUT_OF_MEMORY;
+    lv->l = mem;
+    for (int c = 0; c < 3; c++)
+        lv->c[c] = mem + (size_t)(c + 1) * (size_t)nv;
+    lv->nx = hd->nx, lv->ny = hd->ny, lv->nz = hd->nz, lv->scale = hd->scale;
+    lv->face0 = hd->face0, lv->face1 = hd->face1, lv->blend_weight = hd->blend_weight;
+    memcpy(lv->spacing, hd->spacing, sizeof lv->spacing);
+    memcpy(lv->origin, hd->origin, sizeof lv->origin);
+    for (int c = 0; c < 4; c++) {
+        const void *src = render_reader_take(r, 4 * nv);
+        if (!src)
+            return OBS_STATUS_PARSE_ERROR;
+        memcpy(c == 0 ? lv->l : lv->c[c - 1], src, (size_t)(4 * nv));
+    }
+    return OBS_STATUS_OK;
+}
+const render_product_ops render_ops_light_volume = {"light_volume", lv_free, lv_save, lv_load,
+                                                    sizeof(vol_light_volume), lv_bytes};
+
+static obs_status lv_build(render_job *j, void *p)
+{
+    render_volume_light(j);
+    vol_lv_params lp = j->st->volume.lv;
+    lp.eye_pass = 0; /* not run in this version (see the top of this file) */
+    return vol_light_volume_build(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp,
+                                  (vol_light_volume *)p);
+}
+static obs_status lv_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    return render_cached(j, RES_LIGHT_VOLUME, &render_ops_light_volume, lv_build, (void **)&j->lv, state, bytes);
+}
+const render_pass render_pass_light_volume = {"light_volume", RES_LIGHT_VOLUME, 0, 0, lv_reads, lv_wanted, lv_key,
+                                              lv_run};
+
+/* ---- raycast ------------------------------------------------------------------------------- */
+
+static unsigned rc_reads(const render_job *j, char *t, size_t n)
+{
+    if (lv_needed(j) && j->volume_light >= 0) {
+        snprintf(t, n, "volume_grid,light_volume,gbuffer,camera");
+        return RES_VOLUME_GRID | RES_LIGHT_VOLUME | RES_GBUFFER;
+    }
+    snprintf(t, n, "volume_grid,gbuffer,camera");
+    return RES_VOLUME_GRID | RES_GBUFFER;
+}
+static int rc_wanted(const render_job *j, char *r, size_t n)
+{
+    if (!render_job_has_volume(j)) {
+        snprintf(r, n, "no volume in the scene");
+        return 0;
+    }
+    snprintf(r, n, "ray cast (%s), stopped at the meshes' depth",
+             lv_needed(j) && j->volume_light < 0 ? "ea: no light" : vol_shading_name(j->st->volume.rc.shading));
+    return 1;
+}
+
+/* The ray caster's parameters for this job: light-volume shading falls back to emission-absorption
+ * when no light lights the volume. */
+vol_rc_params render_volume_rc_params(const render_job *j)
+{
+    vol_rc_params rp = j->st->volume.rc;
+    if (rp.shading == VOL_SHADING_LIGHT_VOLUME && j->volume_light < 0)
+        rp.shading = VOL_SHADING_EMISSION_ABSORPTION;
+    return rp;
+}
+
+static obs_status rc_run(render_job *j, render_pass_state *state, uint64_t *bytes)
+{
+    render_volume_light(j);
+    vol_rc_params rp = render_volume_rc_params(j);
+    obs_status st = vol_raycast(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, j->lv, &j->cam, j->W, j->H,
+                                &j->gb.depth, &rp, j->f->volume);
+    *state = RENDER_PASS_RAN;
+    *bytes = render_planes_bytes(4, j->f->volume);
+    return st;
+}
+const render_pass render_pass_raycast = {"raycast", RES_VOLUME, 1, 0, rc_reads, rc_wanted, NULL, rc_run};
