@@ -655,7 +655,7 @@ static int scene_cornell_hybrid(obs_context *ctx, const char *out, const char *m
     raw_bounds(&r, &lo, &hi);
     sb_instance(sb_raw_mesh("bunny", &r, sb_sss_material("marble", "marble")),
                 obs_mat4_translation(obs_v3(3.75f, -lo.y, -1.9f)));
-    sb_point_light("key", obs_v3(2.75f, 5.0f, 3.0f), 150.0f);
+    sb_point_light("key", obs_v3(2.75f, 5.0f, 3.0f), 100.0f);
     sb_camera("default", obs_v3(2.75f, 2.75f, 8.0f), obs_v3(2.75f, 2.75f, -2.75f), 39.3f, 0.5f, 30);
     static const char extras[] =
         "{\"obscura_render\":{"
