@@ -41,7 +41,7 @@ TEST(cli_render_dry_run_of_an_opaque_scene_plans_no_sss_or_volume_pass_and_write
 {
     char dir[4096];
     snprintf(dir, sizeof dir, "%s/plan", test_tmpdir());
-    const char *a[] = {"render", rc_scene("bunny.glb"), "--camera", "default", RC_SMALL, "--dry-run", "-o", dir, NULL};
+    const char *a[] = {"render", rc_scene("sphere_on_plane.glb"), "--camera", "default", RC_SMALL, "--dry-run", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a, "dry"), 0);
     /* The plan lists the G-buffer as planned; no SSS or volume pass is planned (at most culled). */
     CHECK(rc_stdout_lines_with("dry", "gbuffer", "planned") >= 1);
@@ -56,7 +56,7 @@ TEST(cli_render_dry_run_of_an_opaque_scene_plans_no_sss_or_volume_pass_and_write
     CHECK(rc_stdout_lines_with("dry2", "ao", "planned") >= 1);
     CHECK(rc_stdout_lines_with("dry2", "light_volume", "planned") >= 1);
     /* AO off: no AO pass planned. */
-    const char *c[] = {"render", rc_scene("bunny.glb"), "--camera", "0", RC_SMALL, "--ao", "none", "--dry-run", NULL};
+    const char *c[] = {"render", rc_scene("sphere_on_plane.glb"), "--camera", "0", RC_SMALL, "--ao", "none", "--dry-run", NULL};
     CHECK_EQ_INT(test_cli_run(c, "dry3"), 0);
     CHECK_EQ_INT(rc_stdout_lines_with("dry3", " ao ", "planned"), 0);
     CHECK(!rc_exists(test_tmpdir(), "plan"));
@@ -66,25 +66,25 @@ TEST(cli_render_writes_the_layered_exr_the_png_and_the_sidecar)
 {
     char dir[4096];
     snprintf(dir, sizeof dir, "%s/out", test_tmpdir());
-    const char *a[] = {"render", rc_scene("bunny.glb"), "--camera", "default", RC_SMALL, "-o", dir, NULL};
+    const char *a[] = {"render", rc_scene("sphere_on_plane.glb"), "--camera", "default", RC_SMALL, "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a, "run"), 0);
-    CHECK(rc_exists(dir, "bunny.exr"));
-    CHECK(rc_exists(dir, "bunny.png"));
-    CHECK(rc_exists(dir, "bunny.json"));
+    CHECK(rc_exists(dir, "sphere_on_plane.exr"));
+    CHECK(rc_exists(dir, "sphere_on_plane.png"));
+    CHECK(rc_exists(dir, "sphere_on_plane.json"));
     /* It says where they are, with the pass log. */
-    CHECK(rc_stdout_lines_with("run", "bunny.png", NULL) >= 1);
-    CHECK(rc_stdout_lines_with("run", "bunny.exr", NULL) >= 1);
+    CHECK(rc_stdout_lines_with("run", "sphere_on_plane.png", NULL) >= 1);
+    CHECK(rc_stdout_lines_with("run", "sphere_on_plane.exr", NULL) >= 1);
     CHECK(rc_stdout_lines_with("run", "gbuffer", "ran") >= 1);
     obs_context *ctx = obs_context_create();
     io_image im;
     memset(&im, 0, sizeof im);
-    CHECK_OK(io_image_read(ctx, test_path(dir, "bunny.exr"), &im), ctx);
+    CHECK_OK(io_image_read(ctx, test_path(dir, "sphere_on_plane.exr"), &im), ctx);
     CHECK_EQ_INT(im.width, 64);
     CHECK_EQ_INT(im.height, 48);
     int r = io_image_find_channel(&im, "beauty.R");
     CHECK(r >= 0);
     if (r >= 0) {
-        /* The beauty image: finite, >= 0, and lit somewhere (the bunny in front of the camera). */
+        /* The beauty image: finite, >= 0, and lit somewhere (the sphere and the ground). */
         int64_t bad = 0, lit = 0;
         for (int y = 0; y < im.height; y++)
             for (int x = 0; x < im.width; x++) {
@@ -98,7 +98,7 @@ TEST(cli_render_writes_the_layered_exr_the_png_and_the_sidecar)
     /* An opaque scene has no SSS layer. */
     CHECK(io_image_find_channel(&im, "sss.R") < 0);
     io_image_free(&im);
-    char *js = test_slurp(test_path(dir, "bunny.json"), NULL);
+    char *js = test_slurp(test_path(dir, "sphere_on_plane.json"), NULL);
     CHECK(js && strstr(js, "\"settings\"") && strstr(js, "gbuffer"));
     free(js);
     obs_context_destroy(ctx);
@@ -108,52 +108,53 @@ TEST(cli_render_several_scenes_and_cameras_in_one_call_name_their_files)
 {
     char dir[4096];
     snprintf(dir, sizeof dir, "%s/batch", test_tmpdir());
-    /* bunny.glb has two cameras (default, view2): both render, with the camera in the name;
+    /* sphere_on_plane.glb has two cameras (default, view2): both render, with the camera in the name;
      * plane.glb has one: no suffix. */
-    const char *a[] = {"render", rc_scene("bunny.glb"), rc_scene("plane.glb"), RC_SMALL, "--ao", "none",
+    const char *a[] = {"render", rc_scene("sphere_on_plane.glb"), rc_scene("plane.glb"), RC_SMALL, "--ao", "none",
                        "--outputs", "beauty,depth", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a, "batch"), 0);
-    static const char *const files[] = {"bunny_default.exr", "bunny_default.png", "bunny_default.json",
-                                        "bunny_view2.exr",   "bunny_view2.png",   "bunny_view2.json",
-                                        "plane.exr",         "plane.png",         "plane.json"};
+    static const char *const files[] = {
+        "sphere_on_plane_default.exr", "sphere_on_plane_default.png", "sphere_on_plane_default.json",
+        "sphere_on_plane_view2.exr",   "sphere_on_plane_view2.png",   "sphere_on_plane_view2.json",
+        "plane.exr",                   "plane.png",                   "plane.json"};
     for (size_t k = 0; k < sizeof files / sizeof files[0]; k++)
         CHECK_MSG(rc_exists(dir, files[k]), "missing %s", files[k]);
     /* --camera picks one by name in each scene that has it. */
-    const char *b[] = {"render", rc_scene("bunny.glb"), RC_SMALL, "--camera", "view2", "--camera", "default",
+    const char *b[] = {"render", rc_scene("sphere_on_plane.glb"), RC_SMALL, "--camera", "view2", "--camera", "default",
                        "--outputs", "depth", "-o", test_path(test_tmpdir(), "two"), NULL};
     CHECK_EQ_INT(test_cli_run(b, "two"), 0);
-    CHECK(rc_exists(test_path(test_tmpdir(), "two"), "bunny_view2.exr"));
-    CHECK(rc_exists(test_path(test_tmpdir(), "two"), "bunny_default.exr"));
+    CHECK(rc_exists(test_path(test_tmpdir(), "two"), "sphere_on_plane_view2.exr"));
+    CHECK(rc_exists(test_path(test_tmpdir(), "two"), "sphere_on_plane_default.exr"));
 }
 
 TEST(cli_render_bad_flags_are_usage_errors_that_name_the_problem)
 {
     char dir[4096];
     snprintf(dir, sizeof dir, "%s/never", test_tmpdir());
-    const char *a1[] = {"render", rc_scene("bunny.glb"), "--size", "0x10", "-o", dir, NULL};
+    const char *a1[] = {"render", rc_scene("sphere_on_plane.glb"), "--size", "0x10", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a1, "a1"), 2);
     CHECK(test_cli_stderr_has("a1", "--size"));
-    const char *a2[] = {"render", rc_scene("bunny.glb"), "--outputs", "beauty,bloom", "-o", dir, NULL};
+    const char *a2[] = {"render", rc_scene("sphere_on_plane.glb"), "--outputs", "beauty,bloom", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a2, "a2"), 2);
     CHECK(test_cli_stderr_has("a2", "bloom"));
-    const char *a3[] = {"render", rc_scene("bunny.glb"), "--ao", "ssdo", "-o", dir, NULL};
+    const char *a3[] = {"render", rc_scene("sphere_on_plane.glb"), "--ao", "ssdo", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a3, "a3"), 2);
     CHECK(test_cli_stderr_has("a3", "ssdo"));
-    const char *a4[] = {"render", rc_scene("bunny.glb"), "--set", "sss.KK=3", "-o", dir, NULL};
+    const char *a4[] = {"render", rc_scene("sphere_on_plane.glb"), "--set", "sss.KK=3", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a4, "a4"), 2);
     CHECK(test_cli_stderr_has("a4", "obscura_render.sss.KK: unknown key"));
-    const char *a5[] = {"render", rc_scene("bunny.glb"), "--ao-param", "radius=-1", "-o", dir, NULL};
+    const char *a5[] = {"render", rc_scene("sphere_on_plane.glb"), "--ao-param", "radius=-1", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a5, "a5"), 2);
     CHECK(test_cli_stderr_has("a5", "obscura_render.ao.radius"));
-    const char *a6[] = {"render", rc_scene("bunny.glb"), "--frobnicate", "-o", dir, NULL};
+    const char *a6[] = {"render", rc_scene("sphere_on_plane.glb"), "--frobnicate", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a6, "a6"), 2);
     CHECK(test_cli_stderr_has("a6", "--frobnicate"));
     const char *a7[] = {"render", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a7, "a7"), 2);
-    const char *a8[] = {"render", rc_scene("bunny.glb"), "--ao", "none", "--ao-param", "radius=1", "-o", dir, NULL};
+    const char *a8[] = {"render", rc_scene("sphere_on_plane.glb"), "--ao", "none", "--ao-param", "radius=1", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a8, "a8"), 2);
     /* A camera the scene does not have: an input error, naming it and the scene's cameras. */
-    const char *a9[] = {"render", rc_scene("bunny.glb"), "--camera", "nope", "-o", dir, NULL};
+    const char *a9[] = {"render", rc_scene("sphere_on_plane.glb"), "--camera", "nope", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a9, "a9"), 3);
     CHECK(test_cli_stderr_has("a9", "nope") && test_cli_stderr_has("a9", "view2"));
     /* A missing scene. */
@@ -164,12 +165,12 @@ TEST(cli_render_bad_flags_are_usage_errors_that_name_the_problem)
 
 TEST(cli_render_scene_with_a_bad_obscura_render_key_is_refused_naming_the_key)
 {
-    /* bunny.glb with extras that misspell a key. */
+    /* sphere_on_plane.glb with extras that misspell a key. */
     obs_context *ctx = obs_context_create();
     obs_scene sc;
     obs_scene_init(&sc);
     io_gltf_options opt = io_gltf_options_default();
-    CHECK_OK(io_gltf_load(ctx, rc_scene("bunny.glb"), &opt, &sc), ctx);
+    CHECK_OK(io_gltf_load(ctx, rc_scene("sphere_on_plane.glb"), &opt, &sc), ctx);
     sc.extras_json = strdup("{\"obscura_render\":{\"sss\":{\"KK\":4}}}");
     const char *path = test_path(test_tmpdir(), "bad_settings.glb");
     char scene_path[4200];

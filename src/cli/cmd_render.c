@@ -156,20 +156,21 @@ static void render_safe_name(const char *name, int index, char *out, size_t size
 
 typedef struct render_batch_progress {
     int64_t views_done, views_total;
+    int64_t scene_base, scene_views;   /* the views before the current scene, and its own */
     double t0, last;
     int drawn;
 } render_batch_progress;
 
-/* TODO(engine): render.h says the callback counts "work units over the whole batch"; a session
- * sees one frame at a time, so this reads (done, total) as the current frame's share and places it
- * in the batch. */
+/* The session reports (done, total) over the current scene's views (render.c: pass k of view v of
+ * V views with P live passes is v P + k + 1 of V P); this places that share in the batch. */
 static void render_progress_draw(void *user, int64_t done, int64_t total)
 {
     render_batch_progress *b = (render_batch_progress *)user;
     const double now = obs_time_now();
     double f = total > 0 ? (double)done / (double)total : 0.0;
     f = f < 0.0 ? 0.0 : f > 1.0 ? 1.0 : f;
-    const double all = b->views_total > 0 ? ((double)b->views_done + f) / (double)b->views_total : 1.0;
+    double all = b->views_total > 0 ? ((double)b->scene_base + f * (double)b->scene_views) / (double)b->views_total : 1.0;
+    all = all > 1.0 ? 1.0 : all;
     if (all < 1.0 && now - b->last < 0.2)
         return;
     b->last = now;
@@ -443,6 +444,8 @@ int cmd_render(cli_globals *g, int argc, char **argv)
     /* ---- The views ---- */
     for (int k = 0; k < nscenes; k++) {
         render_job *J = &jobs[k];
+        bp.scene_base = bp.views_done;
+        bp.scene_views = J->views;
         for (int v = 0; v < J->views; v++) {
             const int cam = J->st.camera_count > 0 ? J->st.cameras[v] : (J->scene.camera_count > 0 ? v : -1);
             const char *cam_name = cam >= 0 ? J->scene.cameras[cam].name : "(framing camera)";
@@ -465,8 +468,6 @@ int cmd_render(cli_globals *g, int argc, char **argv)
             if (!dry_run) {
                 st = render_frame_write(ctx, &frame, &J->scene, &J->st, prefix, argc, argv);
                 bp.views_done++;
-                if (opt.progress)
-                    render_progress_draw(&bp, 1, 1);
                 render_progress_end(&bp);
                 if (st != OBS_STATUS_OK) {
                     fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));

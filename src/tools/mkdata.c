@@ -614,7 +614,7 @@ static void scene_slab(obs_context *ctx, const char *out)
 /* The default scene of `obscura render` (docs/render.md, the README's main command): the Cornell
  * box of scene_cornell (5.5 m, open at z = 0) holding one of each effect the render composes:
  *   - the tall block, opaque: ambient occlusion where it meets the floor and the back wall;
- *   - the bunny (radius 1 unit, on the floor, front right), translucent: its material's extras
+ *   - the bunny (radius 1.3 units, on the floor, front right), translucent: its material's extras
  *     carry "obscura_sss" (Jensen 2001's marble);
  *   - a small volume, the synthetic buckyball (vol_synth "bucky", 32^3) placed by "box" in the free
  *     space in front of the tall block, so that it is composited against the block's depth;
@@ -624,14 +624,14 @@ static void scene_slab(obs_context *ctx, const char *out)
  *   - the camera "default" of scene_cornell.
  * The scene's extras "obscura_render" give the settings that suit its size: SAO's radius 0.5 m
  * (about a tenth of the box; the default 1 m is for a metre-scale scene) and SSS at 25 mm per
- * unit, which makes the 2-unit bunny 50 mm across: several of marble's diffusion lengths
+ * unit, which makes the 2.6-unit bunny 65 mm across: several of marble's diffusion lengths
  * (1/sigma_tr = 8.5 mm red, 4 mm blue), so light bleeds visibly without washing the shape out
  * (at the default 1000 mm per unit it is 2 m of marble: it looks like an opaque white object). */
 static int scene_cornell_hybrid(obs_context *ctx, const char *out, const char *meshes)
 {
     const float S = 5.5f;
     raw_mesh r = {0};
-    if (!load_mesh(ctx, meshes, "bunny00.off", 1.0f, -30.0f, &r))
+    if (!load_mesh(ctx, meshes, "bunny00.off", 1.3f, -30.0f, &r))
         return 0;
     int32_t white = sb_material("white", 0.73f, 0.73f, 0.73f), red = sb_material("red", 0.65f, 0.05f, 0.05f),
             green = sb_material("green", 0.12f, 0.45f, 0.15f);
@@ -654,7 +654,7 @@ static int scene_cornell_hybrid(obs_context *ctx, const char *out, const char *m
     obs_vec3 lo, hi;
     raw_bounds(&r, &lo, &hi);
     sb_instance(sb_raw_mesh("bunny", &r, sb_sss_material("marble", "marble")),
-                obs_mat4_translation(obs_v3(3.75f, -lo.y, -1.9f)));
+                obs_mat4_translation(obs_v3(3.7f, -lo.y, -2.0f)));
     sb_point_light("key", obs_v3(2.75f, 5.0f, 3.0f), 100.0f);
     sb_camera("default", obs_v3(2.75f, 2.75f, 8.0f), obs_v3(2.75f, 2.75f, -2.75f), 39.3f, 0.5f, 30);
     static const char extras[] =
@@ -662,7 +662,7 @@ static int scene_cornell_hybrid(obs_context *ctx, const char *out, const char *m
         "\"ao\":{\"method\":\"sao\",\"radius\":0.5},"
         "\"sss\":{\"mm_per_unit\":25},"
         "\"volume\":{\"source\":\"synth:bucky:32\",\"transfer\":\"bucky\","
-        "\"box\":[[0.8,2.9,-2.2],[2.2,4.3,-0.8]],\"light\":0}}}";
+        "\"box\":[[0.5,3.6,-2.1],[1.7,4.8,-0.9]],\"light\":0}}}";
     g_scene.extras_json = (char *)malloc(sizeof extras);
     if (!g_scene.extras_json)
         die("out of memory");
