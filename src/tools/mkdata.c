@@ -617,7 +617,7 @@ static void scene_slab(obs_context *ctx, const char *out)
  *   - the bunny (radius 1.3 units, on the floor, front right), translucent: its material's extras
  *     carry "obscura_sss" (Jensen 2001's marble);
  *   - a small volume, the synthetic buckyball (vol_synth "bucky", 32^3) placed by "box" in the free
- *     space in front of the tall block, so that it is composited against the block's depth;
+ *     space above the left of the tall block (a 1.2-unit cube), composited against the walls' depth;
  *   - one point light above and in front of the opening (below the ceiling's plane, so it lights
  *     the whole inside; outside the box's bounding sphere, which the SSS light map of a point
  *     light needs when it frames the whole scene: sss_light_map_render);
