@@ -165,7 +165,7 @@ TEST(render_settings_apply_a_full_object_sets_every_key)
         "\"kappa\":2},"
         "\"reference\":{\"ao_target_error\":0.01,\"ao_min_samples\":32,\"ao_max_samples\":1024,"
         "\"sss_estimator\":\"random-walk\",\"sss_target_rel_error\":0.05,\"sss_min_samples\":4096,"
-        "\"sss_max_samples\":65536,\"sss_patch_radius\":0.01,\"volume_shadow_steps\":4}}";
+        "\"sss_max_samples\":65536,\"sss_batch\":1024,\"sss_patch_radius\":0.01,\"volume_shadow_steps\":4}}";
     obs_context *ctx = obs_context_create();
     render_settings s = render_settings_default();
     CHECK_OK(render_settings_apply_json(ctx, json, "test.glb", &sc, &s), ctx);
@@ -218,6 +218,7 @@ TEST(render_settings_apply_a_full_object_sets_every_key)
     CHECK(s.ref_sss.target_rel_error == 0.05 && s.ref_sss.patch_radius == 0.01);
     CHECK_EQ_INT(s.ref_sss.min_samples, 4096);
     CHECK_EQ_INT(s.ref_sss.max_samples, 65536);
+    CHECK_EQ_INT(s.ref_sss.batch, 1024);
     CHECK_EQ_INT(s.ref_volume_shadow_steps, 4);
     CHECK_OK(render_settings_validate(ctx, &sc, &s), ctx);
 

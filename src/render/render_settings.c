@@ -822,7 +822,7 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
 }
 
 /* "reference": false | true | {"enabled", "ao_target_error", "ao_min_samples", "ao_max_samples",
- *   "sss_estimator", "sss_target_rel_error", "sss_min_samples", "sss_max_samples",
+ *   "sss_estimator", "sss_target_rel_error", "sss_min_samples", "sss_max_samples", "sss_batch",
  *   "sss_patch_radius", "volume_shadow_steps"} */
 static obs_status rs_reference(const rs_parse *P, const cJSON *v, render_settings *s)
 {
@@ -836,8 +836,8 @@ static obs_status rs_reference(const rs_parse *P, const cJSON *v, render_setting
                       "must be false, true or an object (got %s)", rs_type_name(v));
     static const char *const known[] = {"enabled",         "ao_target_error",      "ao_min_samples",
                                         "ao_max_samples",  "sss_estimator",        "sss_target_rel_error",
-                                        "sss_min_samples", "sss_max_samples",      "sss_patch_radius",
-                                        "volume_shadow_steps", NULL};
+                                        "sss_min_samples", "sss_max_samples",      "sss_batch",
+                                        "sss_patch_radius", "volume_shadow_steps", NULL};
     obs_status st = rs_check_keys(P, path, v, known);
     if (st != OBS_STATUS_OK)
         return st;
@@ -866,6 +866,8 @@ static obs_status rs_reference(const rs_parse *P, const cJSON *v, render_setting
             st = rs_integer(P, path, k, it, 1, RS_MAX_EXACT_INT, &rss.min_samples);
         } else if (!strcmp(k, "sss_max_samples")) {
             st = rs_integer(P, path, k, it, 1, RS_MAX_EXACT_INT, &rss.max_samples);
+        } else if (!strcmp(k, "sss_batch")) {
+            st = rs_int(P, path, k, it, 1, 0x7fffffff, &rss.batch);
         } else if (!strcmp(k, "sss_patch_radius")) {
             st = rs_number(P, path, k, it, 0.0, INFINITY, 1, &rss.patch_radius);
         } else if (!strcmp(k, "volume_shadow_steps")) {
@@ -1224,6 +1226,7 @@ void render_settings_to_json(const render_settings *s, struct io_json *j)
     rs_json_double(j, "sss_target_rel_error", s->ref_sss.target_rel_error);
     io_json_int(j, "sss_min_samples", s->ref_sss.min_samples);
     io_json_int(j, "sss_max_samples", s->ref_sss.max_samples);
+    io_json_int(j, "sss_batch", s->ref_sss.batch);
     rs_json_double(j, "sss_patch_radius", s->ref_sss.patch_radius);
     io_json_int(j, "volume_shadow_steps", s->ref_volume_shadow_steps);
     io_json_end_object(j);
