@@ -125,6 +125,12 @@ TEST(cli_render_several_scenes_and_cameras_in_one_call_name_their_files)
     CHECK_EQ_INT(test_cli_run(b, "two"), 0);
     CHECK(rc_exists(test_path(test_tmpdir(), "two"), "sphere_on_plane_view2.exr"));
     CHECK(rc_exists(test_path(test_tmpdir(), "two"), "sphere_on_plane_default.exr"));
+    /* The same camera twice: the second view does not overwrite the first. */
+    const char *c[] = {"render", rc_scene("sphere_on_plane.glb"), RC_SMALL, "--camera", "view2", "--camera", "1",
+                       "--outputs", "depth", "-o", test_path(test_tmpdir(), "same"), NULL};
+    CHECK_EQ_INT(test_cli_run(c, "same"), 0);
+    CHECK(rc_exists(test_path(test_tmpdir(), "same"), "sphere_on_plane_view2_0.exr"));
+    CHECK(rc_exists(test_path(test_tmpdir(), "same"), "sphere_on_plane_view2_1.exr"));
 }
 
 TEST(cli_render_bad_flags_are_usage_errors_that_name_the_problem)

@@ -452,7 +452,19 @@ int cmd_render(cli_globals *g, int argc, char **argv)
             char prefix[4400], safe[128];
             if (J->views > 1) {
                 render_safe_name(cam >= 0 ? J->scene.cameras[cam].name : "", cam, safe, sizeof safe);
-                snprintf(prefix, sizeof prefix, "%s/%s_%s", out_dir, J->stem, safe);
+                /* a name two views share (the same camera twice, or two cameras of one name) gets
+                 * the view's slot too, so that no view overwrites another */
+                int shared = 0;
+                for (int u = 0; u < J->views && !shared; u++) {
+                    const int cu = J->st.camera_count > 0 ? J->st.cameras[u] : u;
+                    char other[128];
+                    render_safe_name(J->scene.cameras[cu].name, cu, other, sizeof other);
+                    shared = u != v && !strcmp(other, safe);
+                }
+                if (shared)
+                    snprintf(prefix, sizeof prefix, "%s/%s_%s_%d", out_dir, J->stem, safe, v);
+                else
+                    snprintf(prefix, sizeof prefix, "%s/%s_%s", out_dir, J->stem, safe);
             } else {
                 snprintf(prefix, sizeof prefix, "%s/%s", out_dir, J->stem);
             }
