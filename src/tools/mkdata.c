@@ -619,8 +619,9 @@ static void scene_slab(obs_context *ctx, const char *out)
  *   - a small volume, the synthetic buckyball (vol_synth "bucky", 32^3) placed by "box" in the free
  *     space above the left of the tall block (a 1.2-unit cube), composited against the walls' depth;
  *   - one point light above and in front of the opening (below the ceiling's plane, so it lights
- *     the whole inside; outside the box's bounding sphere, which the SSS light map of a point
- *     light needs when it frames the whole scene: sss_light_map_render);
+ *     the whole inside; outside the box's bounding sphere: sss_light_map_render refuses a point
+ *     light inside the bounds of the scene it is given, and this way the scene renders whether the
+ *     SSS passes give it the whole scene or only the translucent meshes);
  *   - the camera "default" of scene_cornell.
  * The scene's extras "obscura_render" give the settings that suit its size: SAO's radius 0.5 m
  * (about a tenth of the box; the default 1 m is for a metre-scale scene) and SSS at 25 mm per
