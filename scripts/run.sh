@@ -1,16 +1,14 @@
 #!/usr/bin/env bash
-# run.sh: install what is missing, build, and run the main job on the bundled default scene:
-# the G-buffer of data/dragon_plane.glb at 1920x1080 (out/dragon_plane.{exr,json},
-# out/dragon_plane_{normal,depth}.png), then every AO technique on it with its paper defaults and
-# a 64-pixel guard band (out/ao/<method>.{exr,png,json} and out/ao/<method>_blend.png).
-# Extra arguments go to the G-buffer command.
+# run.sh: install what is missing, build, and run the main job: `obscura render` on the bundled
+# default scene, build/data/cornell_hybrid.glb (a Cornell box with an opaque block that shows
+# ambient occlusion, a translucent marble bunny, a small volume and a point light; its render
+# settings are in the scene's glTF extras, docs/render.md). It writes out/cornell_hybrid.png (the
+# beauty image), out/cornell_hybrid.exr (every layer: beauty, direct, ambient, ao, sss, volume,
+# depth, normal, albedo) and out/cornell_hybrid.json (settings, camera, pass log), and prints
+# where they are with the pass log: which passes ran, how long each took, and why each is there.
+# Extra arguments go to `obscura render` (e.g. --size 960x540, --reference, --dry-run).
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 "$here/scripts/setup.sh"
 "$here/scripts/build.sh" "$here/build"
-obscura="$here/build/obscura"
-scene="$here/build/data/dragon_plane.glb"
-"$obscura" gbuffer "$scene" -o "$here/out/dragon_plane" "$@"
-for m in $("$obscura" ao --list | awk '/^[a-z]/ {print $1}'); do
-  "$obscura" ao --method "$m" --scene "$scene" --guard 64 -o "$here/out/ao/$m"
-done
+"$here/build/obscura" render "$here/build/data/cornell_hybrid.glb" -o "$here/out" "$@"

@@ -7,6 +7,9 @@
 #include <stdlib.h>
 #include <string.h>
 
+/* `obscura render` (cmd_render.c; declared here, cli.h belongs to the shared CLI). */
+int cmd_render(cli_globals *g, int argc, char **argv);
+
 #ifndef OBS_GIT_REVISION
 #define OBS_GIT_REVISION "unknown"
 #endif
@@ -26,6 +29,8 @@ static const char *usage_text =
     "  volume FILE     ray cast a volume (NIfTI, NRRD, raw, synthetic), lit by Ropinski's light volume\n"
     "  truth volume F  the exact transmittance against the light volume: NRRD volumes and error statistics\n"
     "  study ao        what accuracy costs in time: sweep the AO techniques against ground truth, report\n"
+    "  render SCENE... the scene-driven render: only the passes the scene calls for (AO, SSS, volume),\n"
+    "                  view-independent products cached; layered EXR, beauty PNG, JSON with the pass log\n"
     "\n"
     "global options:\n"
     "  --threads N         worker threads (default: all CPUs); output is identical for any N\n"
@@ -178,6 +183,8 @@ int cli_main(int argc, char **argv)
         return cmd_sss(&g, argc - i, argv + i);
     if (!strcmp(cmd, "volume"))
         return cmd_volume(&g, argc - i, argv + i, 0);
+    if (!strcmp(cmd, "render"))
+        return cmd_render(&g, argc - i, argv + i);
     if (!strcmp(cmd, "help")) {
         fputs(usage_text, stdout);
         return CLI_EXIT_OK;

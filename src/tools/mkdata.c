@@ -611,6 +611,67 @@ static void scene_slab(obs_context *ctx, const char *out)
     sb_write(ctx, out, "slab_skimmilk.glb");
 }
 
+/* The default scene of `obscura render` (docs/render.md, the README's main command): the Cornell
+ * box of scene_cornell (5.5 m, open at z = 0) holding one of each effect the render composes:
+ *   - the tall block, opaque: ambient occlusion where it meets the floor and the back wall;
+ *   - the bunny (radius 1.3 units, on the floor, front right), translucent: its material's extras
+ *     carry "obscura_sss" (Jensen 2001's marble);
+ *   - a small volume, the synthetic buckyball (vol_synth "bucky", 32^3) placed by "box" in the free
+ *     space above the left of the tall block (a 1.2-unit cube), composited against the walls' depth;
+ *   - one point light above and in front of the opening (below the ceiling's plane, so it lights
+ *     the whole inside; outside the box's bounding sphere: sss_light_map_render refuses a point
+ *     light inside the bounds of the scene it is given, and this way the scene renders whether the
+ *     SSS passes give it the whole scene or only the translucent meshes);
+ *   - the camera "default" of scene_cornell.
+ * The scene's extras "obscura_render" give the settings that suit its size: SAO's radius 0.5 m
+ * (about a tenth of the box; the default 1 m is for a metre-scale scene) and SSS at 25 mm per
+ * unit, which makes the 2.6-unit bunny 65 mm across: several of marble's diffusion lengths
+ * (1/sigma_tr = 8.5 mm red, 4 mm blue), so light bleeds visibly without washing the shape out
+ * (at the default 1000 mm per unit it is 2 m of marble: it looks like an opaque white object). */
+static int scene_cornell_hybrid(obs_context *ctx, const char *out, const char *meshes)
+{
+    const float S = 5.5f;
+    raw_mesh r = {0};
+    if (!load_mesh(ctx, meshes, "bunny00.off", 1.3f, -30.0f, &r))
+        return 0;
+    int32_t white = sb_material("white", 0.73f, 0.73f, 0.73f), red = sb_material("red", 0.65f, 0.05f, 0.05f),
+            green = sb_material("green", 0.12f, 0.45f, 0.15f);
+    mb fl = {0}, ce = {0}, bk = {0}, lf = {0}, rt = {0};
+    mb_grid(&fl, obs_v3(0, 0, -S), obs_v3(0, 0, S), obs_v3(S, 0, 0), 8, 8);       /* floor, up */
+    mb_grid(&ce, obs_v3(0, S, -S), obs_v3(S, 0, 0), obs_v3(0, 0, S), 8, 8);       /* ceiling, down */
+    mb_grid(&bk, obs_v3(0, 0, -S), obs_v3(S, 0, 0), obs_v3(0, S, 0), 8, 8);       /* back, +z */
+    mb_grid(&lf, obs_v3(0, 0, -S), obs_v3(0, S, 0), obs_v3(0, 0, S), 8, 8);       /* left x = 0, +x */
+    mb_grid(&rt, obs_v3(S, 0, -S), obs_v3(0, 0, S), obs_v3(0, S, 0), 8, 8);       /* right x = S, -x */
+    sb_instance(sb_mesh("floor", &fl, white), obs_mat4_identity());
+    sb_instance(sb_mesh("ceiling", &ce, white), obs_mat4_identity());
+    sb_instance(sb_mesh("back", &bk, white), obs_mat4_identity());
+    sb_instance(sb_mesh("left", &lf, red), obs_mat4_identity());
+    sb_instance(sb_mesh("right", &rt, green), obs_mat4_identity());
+    mb tb = {0};
+    mb_box(&tb, obs_v3(-0.825f, 0, -0.825f), obs_v3(0.825f, 3.3f, 0.825f), 0);
+    obs_vec4 q = {0, (float)sin(0.5 * 17 * OBS_PI / 180), 0, (float)cos(0.5 * 17 * OBS_PI / 180)};
+    sb_instance(sb_mesh("tall_block", &tb, white), obs_mat4_from_trs(obs_v3(1.8f, 0, -3.7f), q, obs_v3(1, 1, 1)));
+    /* The bunny stands on the floor (its lowest vertex at y = 0), front right. */
+    obs_vec3 lo, hi;
+    raw_bounds(&r, &lo, &hi);
+    sb_instance(sb_raw_mesh("bunny", &r, sb_sss_material("marble", "marble")),
+                obs_mat4_translation(obs_v3(3.7f, -lo.y, -2.0f)));
+    sb_point_light("key", obs_v3(2.75f, 5.0f, 3.0f), 100.0f);
+    sb_camera("default", obs_v3(2.75f, 2.75f, 8.0f), obs_v3(2.75f, 2.75f, -2.75f), 39.3f, 0.5f, 30);
+    static const char extras[] =
+        "{\"obscura_render\":{"
+        "\"ao\":{\"method\":\"sao\",\"radius\":0.5},"
+        "\"sss\":{\"mm_per_unit\":25},"
+        "\"volume\":{\"source\":\"synth:bucky:32\",\"transfer\":\"bucky\","
+        "\"box\":[[0.5,3.6,-2.1],[1.7,4.8,-0.9]],\"light\":0}}}";
+    g_scene.extras_json = (char *)malloc(sizeof extras);
+    if (!g_scene.extras_json)
+        die("out of memory");
+    memcpy(g_scene.extras_json, extras, sizeof extras);
+    sb_write(ctx, out, "cornell_hybrid.glb");
+    return 1;
+}
+
 static void scene_village(obs_context *ctx, const char *out)
 {
     int32_t grass = sb_material("ground", 0.45f, 0.55f, 0.35f), wall = sb_material("wall", 0.85f, 0.8f, 0.7f),
@@ -775,6 +836,7 @@ int main(int argc, char **argv)
     ok &= scene_translucent_object(ctx, out, meshes, "armadillo.off", "armadillo_marble.glb", 180.0f, "marble");
     scene_sphere_potato(ctx, out);
     scene_slab(ctx, out);
+    ok &= scene_cornell_hybrid(ctx, out, meshes);
     obs_scene_free(&g_scene);
     obs_context_destroy(ctx);
     return ok && !g_failed ? 0 : 1;
