@@ -88,6 +88,7 @@ int cmd_compare(cli_globals *g, int argc, char **argv);
 int cmd_ao(cli_globals *g, int argc, char **argv);
 int cmd_study(cli_globals *g, int argc, char **argv);
 int cmd_sss(cli_globals *g, int argc, char **argv);
+int cmd_render(cli_globals *g, int argc, char **argv);   /* `obscura render` (cmd_render.c) */
 int cmd_truth_sss(cli_globals *g, int argc, char **argv);   /* argv[1] == "sss" */
 /* `obscura volume` (truth 0: argv[0] is "volume") and `obscura truth volume` (truth 1: argv[1] is "volume"). */
 int cmd_volume(cli_globals *g, int argc, char **argv, int truth);

@@ -7,8 +7,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* `obscura render` (cmd_render.c; declared here, cli.h belongs to the shared CLI). */
-int cmd_render(cli_globals *g, int argc, char **argv);
 
 #ifndef OBS_GIT_REVISION
 #define OBS_GIT_REVISION "unknown"

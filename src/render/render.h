@@ -183,8 +183,9 @@ typedef struct render_frame {
 } render_frame;
 void render_frame_free(render_frame *f);   /* NULL-safe; zeroes it */
 
-/* Called after each frame of a batch (and after each pass, with the frame's share of the work):
- * done and total count work units over the whole batch. */
+/* Called after each pass of a frame: done and total count the live passes over the views of the
+ * current scene (render_view_count views x live passes); a batch over several scenes is totalled by
+ * the caller (cmd_render.c does). */
 typedef void (*render_progress_fn)(void *user, int64_t done, int64_t total);
 
 typedef struct render_options {

@@ -21,6 +21,7 @@ int obs_fuzz_exr(const uint8_t *data, size_t size);
 int obs_fuzz_off(const uint8_t *data, size_t size);
 int obs_fuzz_cli_args(const uint8_t *data, size_t size);
 int obs_fuzz_json(const uint8_t *data, size_t size);
+int obs_fuzz_render_settings(const uint8_t *data, size_t size);
 int obs_fuzz_gbuffer(const uint8_t *data, size_t size);
 
 /* A context that logs nothing (warnings about hostile files would flood the fuzzer's output),

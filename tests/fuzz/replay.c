@@ -18,6 +18,7 @@ typedef int (*entry_fn)(const uint8_t *, size_t);
 static const struct { const char *name; entry_fn fn; } targets[] = {
     {"gltf", obs_fuzz_gltf}, {"exr", obs_fuzz_exr}, {"off", obs_fuzz_off},
     {"cli_args", obs_fuzz_cli_args}, {"json", obs_fuzz_json}, {"gbuffer", obs_fuzz_gbuffer},
+    {"render_settings", obs_fuzz_render_settings},
 };
 
 static int cmp_str(const void *a, const void *b) { return strcmp(*(char *const *)a, *(char *const *)b); }
