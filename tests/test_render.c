@@ -598,3 +598,54 @@ TEST(render_bad_settings_give_errors_naming_the_problem)
     obs_scene_free(&s);
     obs_context_destroy(ctx);
 }
+
+/* The volume's eye pass (vol_eye_volume_build, a reconstruction) runs in the view's raycast pass on a
+ * copy of the cached light volume: the light volume's product and key stay the light's, a second
+ * view still reuses it, and the volume layer changes (never brighter: chromaticity is multiplied by
+ * the eye volume's, which is in [0, 1]). */
+TEST(render_volume_eye_pass_runs_per_view_and_keeps_the_light_volume_cached)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    make_scene(&s, 0, NULL);
+    render_settings st = small_settings();
+    use_volume(&st);
+    render_frame plain, eye, again;
+    render_session *ses = session(ctx, 2, NULL);
+    CHECK_MSG(render_frame_run(ses, &s, &st, 0, &plain) == OBS_STATUS_OK, "%s", obs_context_last_error(ctx));
+    st.volume.lv.eye_pass = 1;
+    CHECK_MSG(render_frame_run(ses, &s, &st, 0, &eye) == OBS_STATUS_OK, "%s", obs_context_last_error(ctx));
+    CHECK_MSG(render_frame_run(ses, &s, &st, 0, &again) == OBS_STATUS_OK, "%s", obs_context_last_error(ctx));
+    render_session_destroy(ses);
+    const render_pass_record *lp = rec(&plain, "light_volume"), *le = rec(&eye, "light_volume");
+    const render_pass_record *re = rec(&eye, "raycast");
+    CHECK(lp && le && re);
+    if (lp && le && re) {
+        CHECK_MSG(!strcmp(lp->key, le->key), "eye_pass must not change the light volume's key");
+        CHECK_EQ_INT(le->state, RENDER_PASS_CACHED_MEMORY);
+        CHECK_MSG(strstr(re->reason, "eye pass") != NULL, "raycast reason: %s", re->reason);
+    }
+    CHECK(frames_equal(&eye, &again));
+    int differ = 0, brighter = 0, alpha_changed = 0;
+    CHECK(plain.volume[3].data && eye.volume[3].data);
+    for (int c = 0; c < 4 && plain.volume[c].data && eye.volume[c].data; c++)
+        for (int y = 0; y < plain.height; y++) {
+            const float *a = obs_image_f32_row(&plain.volume[c], y), *b = obs_image_f32_row(&eye.volume[c], y);
+            for (int x = 0; x < plain.width; x++) {
+                if (c == 3) {
+                    alpha_changed += a[x] != b[x];
+                    continue;
+                }
+                differ += a[x] != b[x];
+                brighter += b[x] > a[x] + 1e-6f;
+            }
+        }
+    CHECK_MSG(differ > 0, "the eye pass changed no pixel of the volume layer");
+    CHECK_EQ_INT(brighter, 0);
+    CHECK_EQ_INT(alpha_changed, 0);
+    render_frame_free(&plain);
+    render_frame_free(&eye);
+    render_frame_free(&again);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}

@@ -1,7 +1,7 @@
 /* render_passes_volume.c: the scene's volume (vol.h): loading (memory cache only: a reload is
  * cheap), the light volume of [Ropinski10] (cached in memory and on disk) and the ray cast per view,
- * stopped at the meshes' depth. The eye pass (vol_lv_params.eye_pass) is not run by this version:
- * it depends on the camera, so it would be a view pass of its own (docs/render.md). */
+ * stopped at the meshes' depth. The eye pass (vol_lv_params.eye_pass) depends on the camera: the
+ * raycast pass runs it on a copy of the cached light volume (docs/render.md). */
 #include "render_internal.h"
 
 #include <math.h>
@@ -316,7 +316,7 @@ static obs_status lv_build(render_job *j, void *p)
 {
     render_volume_light(j);
     vol_lv_params lp = j->st->volume.lv;
-    lp.eye_pass = 0; /* not run in this version (see the top of this file) */
+    lp.eye_pass = 0; /* the light's product: the eye pass runs per view, in the raycast pass */
     return vol_light_volume_build(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp,
                                   (vol_light_volume *)p);
 }
@@ -344,8 +344,11 @@ static int rc_wanted(const render_job *j, char *r, size_t n)
         snprintf(r, n, "no volume in the scene");
         return 0;
     }
-    snprintf(r, n, "ray cast (%s), stopped at the meshes' depth",
-             lv_needed(j) && j->volume_light < 0 ? "ea: no light" : vol_shading_name(j->st->volume.rc.shading));
+    const int eye = j->st->volume.lv.eye_pass && j->st->volume.rc.shading == VOL_SHADING_LIGHT_VOLUME &&
+                    j->volume_light >= 0;
+    snprintf(r, n, "ray cast (%s%s), stopped at the meshes' depth",
+             lv_needed(j) && j->volume_light < 0 ? "ea: no light" : vol_shading_name(j->st->volume.rc.shading),
+             eye ? ", with the eye pass" : "");
     return 1;
 }
 
@@ -359,12 +362,55 @@ vol_rc_params render_volume_rc_params(const render_job *j)
     return rp;
 }
 
+/* The eye pass (vol.h vol_eye_volume_build, a reconstruction: docs/volume/light.md "Eye pass"):
+ * it depends on the camera, so it runs here, in the view pass, on a copy of the cached light volume
+ * (the cached product stays the light's alone). */
+static obs_status rc_eye_modulated(render_job *j, vol_light_volume *out)
+{
+    const vol_light_volume *lv = j->lv;
+    const size_t nv = (size_t)lv->nx * (size_t)lv->ny * (size_t)lv->nz;
+    vol_light_volume eye;
+    memset(&eye, 0, sizeof eye);
+    memset(out, 0, sizeof *out);
+    obs_status st = vol_eye_volume_build(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->cam, &j->st->volume.lv, &eye);
+    if (st != OBS_STATUS_OK)
+        return st;
+    *out = *lv;
+    float *mem = (float *)obs_aligned_alloc(16 * nv); /* one block: l, then c[0..2], as vol_light_volume_build */
+    if (!mem) {
+        vol_light_volume_free(&eye);
+        memset(out, 0, sizeof *out);
+        return obs_error(j->ctx, OBS_STATUS_OUT_OF_MEMORY, "raycast: cannot copy the light volume for the eye pass");
+    }
+    out->l = mem;
+    memcpy(out->l, lv->l, 4 * nv);
+    for (int c = 0; c < 3; c++) {
+        out->c[c] = mem + (size_t)(c + 1) * nv;
+        memcpy(out->c[c], lv->c[c], 4 * nv);
+    }
+    st = vol_light_volume_modulate(j->ctx, &eye, out);
+    vol_light_volume_free(&eye);
+    return st;
+}
+
 static obs_status rc_run(render_job *j, render_pass_state *state, uint64_t *bytes)
 {
     render_volume_light(j);
     vol_rc_params rp = render_volume_rc_params(j);
-    obs_status st = vol_raycast(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, j->lv, &j->cam, j->W, j->H,
-                                &j->gb.depth, &rp, j->f->volume);
+    const vol_light_volume *lv = j->lv;
+    vol_light_volume modulated;
+    memset(&modulated, 0, sizeof modulated);
+    const int eye = rp.shading == VOL_SHADING_LIGHT_VOLUME && j->lv && j->st->volume.lv.eye_pass;
+    obs_status st = OBS_STATUS_OK;
+    if (eye) {
+        st = rc_eye_modulated(j, &modulated);
+        lv = &modulated;
+    }
+    if (st == OBS_STATUS_OK)
+        st = vol_raycast(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, lv, &j->cam, j->W, j->H,
+                         &j->gb.depth, &rp, j->f->volume);
+    if (eye)
+        vol_light_volume_free(&modulated);
     *state = RENDER_PASS_RAN;
     *bytes = render_planes_bytes(4, j->f->volume);
     return st;
