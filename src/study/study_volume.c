@@ -411,10 +411,73 @@ static void set_str(obs_context *ctx, study_table *t, int64_t row, const char *c
     study_table_set(ctx, t, row, study_table_column(t, col), v);
 }
 
-/* Measure one point into a new row. method: "lightvolume", "ea" or "phong"; si = scale index (-1
- * for ea/phong). */
+/* One light-volume configuration (scale, cone, blend), built once for every step of the ray caster
+ * (the light volume depends on neither the view nor the step): its build times and l's error. */
+typedef struct sv_built {
+    vol_light_volume lv;
+    study_stats sl;
+    double l_rmse, l_mean_abs, l_max_abs, l_mean_signed, l_voxels;
+    obs_status st;
+    char msg[300];
+} sv_built;
+
+static void sv_build(obs_context *ctx, obs_pool *pool, const study_volume *s, sv_frame *f, const char *const *key,
+                     int si, sv_built *b)
+{
+    memset(b, 0, sizeof *b);
+    vol_lv_params lp = vol_lv_params_default();
+    lp.scale = atoi(key[2]);
+    lp.cone_angle_deg = atof(key[3]);
+    lp.blend_second = atoi(key[4]);
+    double *t_lv = (double *)calloc((size_t)s->o.runs, sizeof(double));
+    obs_status st = t_lv ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study volume: out of memory");
+    /* run: the light-volume build, `runs` times */
+    for (int r = 0; r < s->o.runs && st == OBS_STATUS_OK; r++) {
+        vol_light_volume_free(&b->lv);
+        double t0 = obs_time_now();
+        st = vol_light_volume_build(ctx, pool, &f->grid, &f->tf, &f->light, &lp, &b->lv);
+        t_lv[r] = 1e3 * (obs_time_now() - t0);
+    }
+    if (st == OBS_STATUS_OK)
+        b->sl = study_stats_of(t_lv, s->o.runs);
+    free(t_lv);
+    /* error: l against the exact transmittance on the lattice */
+    if (st == OBS_STATUS_OK)
+        st = sv_exact_T(ctx, pool, s, f, si, &b->lv);
+    if (st == OBS_STATUS_OK) {
+        const vol_light_volume *lv = &b->lv;
+        const int S = f->stride[si];
+        const int lx = (lv->nx + S - 1) / S, ly = (lv->ny + S - 1) / S, lz = (lv->nz + S - 1) / S;
+        double sum = 0.0, sum2 = 0.0, sums = 0.0, mx = 0.0;
+        for (int kk = 0; kk < lz; kk++)
+            for (int jj = 0; jj < ly; jj++)
+                for (int ii = 0; ii < lx; ii++) {
+                    size_t v = ((size_t)kk * S * lv->ny + (size_t)jj * S) * lv->nx + (size_t)ii * S;
+                    double e = (double)lv->l[v] - (double)f->T[si][((size_t)kk * ly + jj) * lx + ii];
+                    sum += fabs(e);
+                    sum2 += e * e;
+                    sums += e;
+                    if (fabs(e) > mx)
+                        mx = fabs(e);
+                }
+        double n = (double)f->lattice[si];
+        b->l_rmse = sqrt(sum2 / n);
+        b->l_mean_abs = sum / n;
+        b->l_max_abs = mx;
+        b->l_mean_signed = sums / n;
+        b->l_voxels = n;
+    }
+    b->st = st;
+    if (st != OBS_STATUS_OK) {
+        snprintf(b->msg, sizeof b->msg, "%s", obs_context_last_error(ctx));
+        obs_context_clear_error(ctx);
+    }
+}
+
+/* Measure one point into a new row. method: "lightvolume" (b: its built light volume), "ea" or
+ * "phong" (b NULL). */
 static obs_status sv_point(obs_context *ctx, obs_pool *pool, study_volume *s, sv_frame *f, const char *const *key,
-                           int si, int threads)
+                           const sv_built *b, int threads)
 {
     const char *method = key[1];
     const char *vals[STUDY_MAX_COLUMNS] = {0};
@@ -436,57 +499,26 @@ static obs_status sv_point(obs_context *ctx, obs_pool *pool, study_volume *s, sv
     vol_rc_params rp = vol_rc_params_default();
     double smin = fmin(f->grid.spacing[0], fmin(f->grid.spacing[1], f->grid.spacing[2]));
     rp.step = atof(key[5]) * smin;
-    vol_lv_params lp = vol_lv_params_default();
-    vol_light_volume lv;
-    memset(&lv, 0, sizeof lv);
     obs_image_f32 img[4] = {{0}}, img1[4] = {{0}};
     float *ones = NULL;
-    double *t_lv = (double *)calloc((size_t)s->o.runs, sizeof(double));
     double *t_rc = (double *)calloc((size_t)s->o.runs, sizeof(double));
-    if (!t_lv || !t_rc) {
-        free(t_lv);
-        free(t_rc);
+    if (!t_rc)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study volume: out of memory");
-    }
     study_stats sl = {NAN, NAN, NAN, 0};
+    const vol_light_volume *lvp = NULL;
     if (!strcmp(method, "lightvolume")) {
         rp.shading = VOL_SHADING_LIGHT_VOLUME;
-        lp.scale = atoi(key[2]);
-        lp.cone_angle_deg = atof(key[3]);
-        lp.blend_second = atoi(key[4]);
-        /* run: the light-volume build, `runs` times */
-        for (int r = 0; r < s->o.runs && st == OBS_STATUS_OK; r++) {
-            vol_light_volume_free(&lv);
-            double t0 = obs_time_now();
-            st = vol_light_volume_build(ctx, pool, &f->grid, &f->tf, &f->light, &lp, &lv);
-            t_lv[r] = 1e3 * (obs_time_now() - t0);
-        }
-        if (st == OBS_STATUS_OK)
-            sl = study_stats_of(t_lv, s->o.runs);
-        /* error: l against the exact transmittance on the lattice */
-        if (st == OBS_STATUS_OK)
-            st = sv_exact_T(ctx, pool, s, f, si, &lv);
-        if (st == OBS_STATUS_OK) {
-            const int S = f->stride[si];
-            const int lx = (lv.nx + S - 1) / S, ly = (lv.ny + S - 1) / S, lz = (lv.nz + S - 1) / S;
-            double sum = 0.0, sum2 = 0.0, sums = 0.0, mx = 0.0;
-            for (int kk = 0; kk < lz; kk++)
-                for (int jj = 0; jj < ly; jj++)
-                    for (int ii = 0; ii < lx; ii++) {
-                        size_t v = ((size_t)kk * S * lv.ny + (size_t)jj * S) * lv.nx + (size_t)ii * S;
-                        double e = (double)lv.l[v] - (double)f->T[si][((size_t)kk * ly + jj) * lx + ii];
-                        sum += fabs(e);
-                        sum2 += e * e;
-                        sums += e;
-                        if (fabs(e) > mx)
-                            mx = fabs(e);
-                    }
-            double n = (double)f->lattice[si];
-            set_num(ctx, &s->table, row, "l_rmse", sqrt(sum2 / n));
-            set_num(ctx, &s->table, row, "l_mean_abs", sum / n);
-            set_num(ctx, &s->table, row, "l_max_abs", mx);
-            set_num(ctx, &s->table, row, "l_mean_signed", sums / n);
-            set_num(ctx, &s->table, row, "l_voxels", n);
+        if (b->st != OBS_STATUS_OK) {
+            st = b->st;
+            obs_error(ctx, b->st, "%s", b->msg);
+        } else {
+            lvp = &b->lv;
+            sl = b->sl;
+            set_num(ctx, &s->table, row, "l_rmse", b->l_rmse);
+            set_num(ctx, &s->table, row, "l_mean_abs", b->l_mean_abs);
+            set_num(ctx, &s->table, row, "l_max_abs", b->l_max_abs);
+            set_num(ctx, &s->table, row, "l_mean_signed", b->l_mean_signed);
+            set_num(ctx, &s->table, row, "l_voxels", b->l_voxels);
         }
     } else {
         rp.shading = !strcmp(method, "ea") ? VOL_SHADING_EMISSION_ABSORPTION : VOL_SHADING_PHONG;
@@ -496,8 +528,7 @@ static obs_status sv_point(obs_context *ctx, obs_pool *pool, study_volume *s, sv
         for (int q = 0; q < 4; q++)
             obs_image_f32_free(&img[q]);
         double t0 = obs_time_now();
-        st = vol_raycast(ctx, pool, &f->grid, &f->tf, &f->light, rp.shading == VOL_SHADING_LIGHT_VOLUME ? &lv : NULL,
-                         &f->cam, s->W, s->H, NULL, &rp, img);
+        st = vol_raycast(ctx, pool, &f->grid, &f->tf, &f->light, lvp, &f->cam, s->W, s->H, NULL, &rp, img);
         t_rc[r] = 1e3 * (obs_time_now() - t0);
     }
     if (st == OBS_STATUS_OK) {
@@ -523,14 +554,14 @@ static obs_status sv_point(obs_context *ctx, obs_pool *pool, study_volume *s, sv
         set_num(ctx, &s->table, row, "img_rel_rmse", e.rel);
         set_num(ctx, &s->table, row, "ref_noise_rms", e.noise);
         set_num(ctx, &s->table, row, "pixels", (double)e.pixels);
-        size_t nv = (size_t)lv.nx * lv.ny * lv.nz;
+        size_t nv = (size_t)lvp->nx * lvp->ny * lvp->nz;
         ones = (float *)malloc(nv * sizeof(float));
         if (!ones)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study volume: out of memory");
         if (st == OBS_STATUS_OK) {
             for (size_t v = 0; v < nv; v++)
                 ones[v] = 1.0f;
-            vol_light_volume l1 = lv;
+            vol_light_volume l1 = *lvp;
             l1.c[0] = l1.c[1] = l1.c[2] = ones;
             st = vol_raycast(ctx, pool, &f->grid, &f->tf, &f->light, &l1, &f->cam, s->W, s->H, NULL, &rp, img1);
         }
@@ -559,9 +590,7 @@ static obs_status sv_point(obs_context *ctx, obs_pool *pool, study_volume *s, sv
         obs_image_f32_free(&img1[q]);
     }
     free(ones);
-    free(t_lv);
     free(t_rc);
-    vol_light_volume_free(&lv);
     return st;
 }
 
@@ -629,8 +658,11 @@ obs_status study_volume_sweep(obs_context *ctx, obs_pool *pool, study_volume *s)
                         s->datasets.v[di], f.grid.nx, f.grid.ny, f.grid.nz, s->W, s->H, s->o.ref_samples,
                         f.ref_seconds);
         }
-        for (int k = 0; k < s->steps.n && st == OBS_STATUS_OK; k++) {
-            for (int m = 0; m < nlv + 2 && st == OBS_STATUS_OK; m++) {
+        /* configuration outer, step inner: a light volume is built once for all steps */
+        for (int m = 0; m < nlv + 2 && st == OBS_STATUS_OK; m++) {
+            sv_built built;
+            int have_built = 0;
+            for (int k = 0; k < s->steps.n && st == OBS_STATUS_OK; k++) {
                 const char *key[6] = {s->datasets.v[di], "ea", "-", "-", "-", s->steps.v[k]};
                 int si = -1;
                 if (m == nlv + 1)
@@ -648,9 +680,15 @@ obs_status study_volume_sweep(obs_context *ctx, obs_pool *pool, study_volume *s)
                     study_progress_step(&pr, 0, "resumed");
                     continue;
                 }
-                st = sv_point(ctx, pool, s, &f, key, si, threads);
+                if (si >= 0 && !have_built) {
+                    sv_build(ctx, pool, s, &f, key, si, &built);
+                    have_built = 1;
+                }
+                st = sv_point(ctx, pool, s, &f, key, si >= 0 ? &built : NULL, threads);
                 study_progress_step(&pr, 1, label);
             }
+            if (have_built)
+                vol_light_volume_free(&built.lv);
         }
         sv_frame_free(&f);
         obs_status sst = sv_save(ctx, s);
