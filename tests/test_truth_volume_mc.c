@@ -5,6 +5,7 @@
 #include "test.h"
 
 #include "core/obs.h"
+#include "io/io.h"
 #include "truth/truth.h"
 #include "volume/vol.h"
 
@@ -446,4 +447,43 @@ TEST(volume_mc_refuses_bad_inputs)
     vol_tf_free(&tf);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
+}
+
+TEST(volume_mc_cli_writes_exr_with_error_bars_and_refuses_bad_flags)
+{
+    char prefix[4200];
+    snprintf(prefix, sizeof prefix, "%s/mc", test_tmpdir());
+    const char *a[] = {"truth", "volume", "synth:bucky:16", "--image", "--size", "12x10", "--samples", "32", "--seed",
+                       "3", "--phase-g", "0.2", "-o", prefix, NULL};
+    CHECK_EQ_INT(test_cli_run(a, "mc"), 0);
+    obs_context *ctx = obs_context_create();
+    io_image im;
+    memset(&im, 0, sizeof im);
+    CHECK_OK(io_image_read(ctx, test_path(test_tmpdir(), "mc_mc.exr"), &im), ctx);
+    CHECK(im.width == 12 && im.height == 10);
+    const char *names[8] = {"R", "G", "B", "A", "SE.R", "SE.G", "SE.B", "SE.A"};
+    int covered = 0;
+    for (int c = 0; c < 8; c++) {
+        int k = io_image_find_channel(&im, names[c]);
+        CHECK_MSG(k >= 0, "channel %s missing", names[c]);
+        for (int y = 0; y < im.height; y++)
+            for (int x = 0; x < im.width; x++) {
+                float v = obs_image_f32_row(&im.f32[k], y)[x];
+                CHECK(v >= 0.0f && isfinite(v));
+                covered += c == 3 && v > 0.0f;
+            }
+    }
+    CHECK(covered > 10);
+    io_image_free(&im);
+    obs_context_destroy(ctx);
+    char *js = test_slurp(test_path(test_tmpdir(), "mc.json"), NULL);
+    CHECK(js && strstr(js, "\"mc_image\"") && strstr(js, "\"samples\": 32") && strstr(js, "max_std_error"));
+    free(js);
+    const char *b1[] = {"truth", "volume", "synth:bucky:8", "--image", "--samples", "12", "-o", prefix, NULL};
+    CHECK_EQ_INT(test_cli_run(b1, "b1"), 2); /* not a multiple of the 8 replicates */
+    CHECK(test_cli_stderr_has("b1", "multiple"));
+    const char *b2[] = {"truth", "volume", "synth:bucky:16", "--image", "--phase-g", "1", "-o", prefix, NULL};
+    CHECK_EQ_INT(test_cli_run(b2, "b2"), 2);
+    const char *b3[] = {"volume", "synth:bucky:16", "--image", "-o", prefix, NULL}; /* truth volume only */
+    CHECK_EQ_INT(test_cli_run(b3, "b3"), 2);
 }

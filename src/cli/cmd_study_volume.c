@@ -95,6 +95,13 @@ int cmd_study_volume(cli_globals *g, int argc, char **argv)
     if (report_only && dry_run)
         return cli_usage_error("study volume: --report-only and --dry-run exclude each other");
     o.log = g->quiet ? NULL : stderr;
+    char cmdline[2048];
+    {
+        size_t n = (size_t)snprintf(cmdline, sizeof cmdline, "obscura study volume");
+        for (int i = 2; i < argc && n < sizeof cmdline; i++)
+            n += (size_t)snprintf(cmdline + n, sizeof cmdline - n, " %s", argv[i]);
+        o.command_line = cmdline;
+    }
 
     obs_context *ctx = obs_context_create();
     if (!ctx)

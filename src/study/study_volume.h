@@ -67,6 +67,7 @@ typedef struct study_volume_options {
                                        transmittance (a regular lattice beyond), >= 1 */
     double t_step;                  /* exact transmittance march step / smallest spacing, (0, 1] */
     int quick;                      /* the options came from _quick (the report says so) */
+    const char *command_line;       /* the command that ran, quoted in the report; NULL = omitted */
     FILE *log;                      /* progress; NULL = silent */
 } study_volume_options;
 

@@ -475,9 +475,10 @@ obs_status truth_volume_light_error(obs_context *ctx, obs_pool *pool, const stru
  * truth.md derives the match). It is single scattering with hard shadows: the light volume's l part.
  * Its cone-blurred chromaticity c has no ground truth here (it is not the solution of a transport
  * equation: docs/volume/truth.md says why).
- * Estimator: free-flight distances by delta (Woodcock) tracking against one majorant, the largest
- * sigma_t the TF gives over the data's value range (trilinear values stay inside it); at the real
- * collision, T(x) by ratio tracking against the same majorant (with Russian roulette below 1e-2);
+ * Estimator: free-flight distances by delta (Woodcock) tracking against piecewise-constant
+ * majorants, one per min-max brick of 8^3 voxels (the largest sigma_t the TF gives over the brick's
+ * value range, with a one-voxel apron); at the real collision, T(x) by ratio tracking against the
+ * same majorants (with Russian roulette below 1e-2);
  * both unbiased ([Woodcock65], [Novak14]). Sample k of a pixel draws its numbers from
  * obs_rng_u32x4(pixel, k, dimension 0, 1, 2 ..., seed) and belongs to replicate k mod R; the error
  * bar is the spread of the R replicates' means (docs/truth.md section 5, as truth_ao / truth_sss).
@@ -499,7 +500,7 @@ typedef struct truth_volume_mc_stats {
     uint64_t collisions;            /* real collisions (shadow rays traced) */
     uint64_t over_majorant;         /* sigma_t found above the majorant (should be 0) */
     int64_t pixels_hit;             /* pixels whose ray meets the bounds */
-    double majorant;                /* per world unit */
+    double majorant;                /* the largest brick majorant, per world unit */
     double max_std_error;           /* over the RGB planes */
     double seconds;
 } truth_volume_mc_stats;

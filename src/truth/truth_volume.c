@@ -300,7 +300,10 @@ typedef struct tvi_job {
     rast_view_constants vc;
     obs_tiling tiling;
     int width;
-    double majorant;               /* sigma_t bound per world unit (MC) */
+    double majorant;               /* the largest brick majorant, per world unit (MC) */
+    int nb[3];                     /* bricks per axis (MC) */
+    float *maj;                    /* per brick (x fastest): its majorant (MC) */
+    double nudge;                  /* 1e-4 x the smallest spacing: how far past a boundary a brick is looked up */
     double g_hg;
     float light_color[3];
     int64_t samples;
@@ -401,9 +404,103 @@ static int tvi_clip(const tv_ctx *c, const double o[3], const double w[3], doubl
     return *t1 > *t0;
 }
 
-/* Ratio tracking [Novak14] of T from x towards the light: T = prod (1 - sigma_t / majorant) over
- * tentative collisions of the majorant's free flights, with Russian roulette below
- * TRUTH_VOLUME_RR_THRESHOLD. Unbiased for T whenever sigma_t <= majorant. */
+/* ---- Tracking against the min-max brick majorants -------------------------------------------
+ * The majorant is piecewise constant over bricks of TRUTH_VOLUME_BRICK voxels (the ray caster's
+ * min-max bricks [Kruger03]): brick b of an axis holds the samples whose continuous voxel coordinate
+ * c is in [b B, (b+1) B) (the first brick open towards -inf, the last towards +inf, as the ray
+ * caster's), and its majorant is kappa sigma(max alpha_TF over the min-max of the voxels
+ * [b B - 1, (b+1) B + 1]): the trilinear footprint [b B, (b+1) B] plus one voxel of apron each way,
+ * so a point that float rounding puts on the wrong side of a brick boundary is still bounded.
+ * Free flights restart at each brick boundary (the exponential is memoryless: exact). */
+
+#define TRUTH_VOLUME_BRICK 8 /* voxels; as the ray caster's default (vol_rc_params_default) */
+
+/* The brick of world point y (x fastest) and the parameter where the ray o + t w leaves it (at
+ * most t1). */
+static int64_t tvi_brick_at(const tvi_job *J, const double o[3], const double w[3], double t, double t1,
+                            double *texit)
+{
+    const vol_grid *g = J->tc.g;
+    const int nv[3] = {g->nx, g->ny, g->nz};
+    int bi[3];
+    double te = t1;
+    for (int a = 0; a < 3; a++) {
+        double c = (o[a] + t * w[a] - g->origin[a]) / g->spacing[a];
+        int v = !(c > 0.0) ? 0 : (c >= (double)(nv[a] - 1) ? nv[a] - 1 : (int)c);
+        bi[a] = v / TRUTH_VOLUME_BRICK;
+        if (w[a] > 0.0 && bi[a] < J->nb[a] - 1) {
+            double tb = (g->origin[a] + (double)((bi[a] + 1) * TRUTH_VOLUME_BRICK) * g->spacing[a] - o[a]) / w[a];
+            if (tb < te)
+                te = tb;
+        } else if (w[a] < 0.0 && bi[a] > 0) {
+            double tb = (g->origin[a] + (double)(bi[a] * TRUTH_VOLUME_BRICK) * g->spacing[a] - o[a]) / w[a];
+            if (tb < te)
+                te = tb;
+        }
+    }
+    *texit = te;
+    return ((int64_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0];
+}
+
+/* Track the unit ray o + t w over [t0, t1] against the brick majorants.
+ *   ratio = 0: delta tracking [Woodcock65]: returns 1 at the first real collision (a tentative one
+ *              is real with probability sigma_t / majorant), with *t_hit and its rho; 0 on escape.
+ *              The real collision's density is T_v(t) sigma_t(t).
+ *   ratio = 1: ratio tracking [Novak14]: returns T = prod (1 - sigma_t / majorant) over the
+ *              tentative collisions (Russian roulette below TRUTH_VOLUME_RR_THRESHOLD: survive with
+ *              1/2, weight x2), an unbiased estimate of the transmittance over [t0, t1]. */
+static double tvi_track(const tvi_job *J, const double o[3], const double w[3], double t0, double t1, int ratio,
+                        tvi_rng *rng, truth_volume_mc_stats *st, double *t_hit, float rho[3])
+{
+    double t = t0, T = 1.0;
+    while (t < t1) {
+        double texit;
+        /* the brick just ahead of t (nudge: the apron keeps its majorant valid around it) */
+        int64_t b = tvi_brick_at(J, o, w, t + J->nudge, t1, &texit);
+        if (!(texit > t))
+            texit = t + J->nudge < t1 ? t + J->nudge : t1;
+        const double mu = J->maj[b];
+        if (!(mu > 0.0)) {
+            t = texit;
+            continue;
+        }
+        for (;;) {
+            double tc = t - log(tvi_uniform(rng)) / mu;
+            if (tc >= texit) {
+                t = texit;
+                break;
+            }
+            t = tc;
+            double y[3] = {o[0] + t * w[0], o[1] + t * w[1], o[2] + t * w[2]};
+            float r3[3];
+            double sig = tvi_sample(&J->tc, y, r3);
+            st->tentative++;
+            if (sig > mu) {
+                st->over_majorant++;
+                sig = mu;
+            }
+            if (ratio) {
+                T *= 1.0 - sig / mu;
+                if (T <= 0.0)
+                    return 0.0;
+                if (T < TRUTH_VOLUME_RR_THRESHOLD) {
+                    if (tvi_uniform(rng) < 0.5)
+                        return 0.0;
+                    T *= 2.0;
+                }
+            } else if (tvi_uniform(rng) * mu < sig) {
+                *t_hit = t;
+                rho[0] = r3[0];
+                rho[1] = r3[1];
+                rho[2] = r3[2];
+                return 1.0;
+            }
+        }
+    }
+    return ratio ? T : 0.0;
+}
+
+/* Ratio tracking of T from x towards the light (to the point light, or out of the bounds). */
 static double tvi_ratio_track(const tvi_job *J, const double x[3], const double w_in[3], double dist, tvi_rng *rng,
                               truth_volume_mc_stats *st)
 {
@@ -411,30 +508,7 @@ static double tvi_ratio_track(const tvi_job *J, const double x[3], const double 
     double t0 = 0.0, t1 = dist;
     if (!tvi_clip(&J->tc, x, w, &t0, &t1))
         return 1.0;
-    double T = 1.0, t = t0;
-    const double inv = 1.0 / J->majorant;
-    for (;;) {
-        t -= log(tvi_uniform(rng)) * inv;
-        if (t >= t1)
-            break;
-        double y[3] = {x[0] + t * w[0], x[1] + t * w[1], x[2] + t * w[2]};
-        float rho[3];
-        double s = tvi_sample(&J->tc, y, rho);
-        st->tentative++;
-        if (s > J->majorant) {
-            st->over_majorant++;
-            s = J->majorant;
-        }
-        T *= 1.0 - s * inv;
-        if (T <= 0.0)
-            return 0.0;
-        if (T < TRUTH_VOLUME_RR_THRESHOLD) {
-            if (tvi_uniform(rng) < 0.5)
-                return 0.0;
-            T *= 2.0;
-        }
-    }
-    return T;
+    return tvi_track(J, x, w, t0, t1, 1, rng, st, NULL, NULL);
 }
 
 /* One pixel of the MC reference: sums per replicate of (R, G, B, escape). */
@@ -464,41 +538,22 @@ static void tvi_mc_pixel(const tvi_job *J, int x, int y, double (*acc)[4], truth
             continue;
         }
         tvi_rng rng = {pixel, J->seed, (uint32_t)k, 0, {0, 0, 0, 0}, 0};
-        /* Delta tracking [Woodcock65]: free flights against the majorant; a tentative collision is
-         * real with probability sigma_t / majorant. The real collision's density is
-         * T_v(s) sigma_t(s): scoring rho E f T there estimates L. */
-        double s = s0;
-        const double inv = 1.0 / J->majorant;
-        for (;;) {
-            s -= log(tvi_uniform(&rng)) * inv;
-            if (s >= s1) {
-                a[3] += 1.0; /* escaped: estimates T_v(D) */
-                break;
-            }
-            double xs[3] = {o[0] + s * w[0], o[1] + s * w[1], o[2] + s * w[2]};
-            float rho[3];
-            double sig = tvi_sample(&J->tc, xs, rho);
-            st->tentative++;
-            if (sig > J->majorant) {
-                st->over_majorant++;
-                sig = J->majorant;
-            }
-            if (tvi_uniform(&rng) * J->majorant >= sig)
-                continue; /* null collision */
-            st->collisions++;
-            double w_in[3], dist;
-            double f = 0.0, T = 0.0;
-            if (tvi_light_dir(&J->tc, xs, w_in, &dist)) {
-                f = tvi_phase(J->g_hg, w_in, w_out);
-                T = tvi_ratio_track(J, xs, w_in, dist, &rng, st);
-            } else {
-                f = 1.0; /* at the point light: no direction, unshadowed (as truth_volume_transmittance_at) */
-                T = 1.0;
-            }
-            for (int q = 0; q < 3; q++)
-                a[q] += (double)rho[q] * (double)J->light_color[q] * f * T;
-            break;
+        /* Delta tracking of the view ray; at the real collision, scoring rho E f T estimates L. */
+        double s;
+        float rho[3];
+        if (!tvi_track(J, o, w, s0, s1, 0, &rng, st, &s, rho)) {
+            a[3] += 1.0; /* escaped: estimates T_v(D) */
+            continue;
         }
+        st->collisions++;
+        double xs[3] = {o[0] + s * w[0], o[1] + s * w[1], o[2] + s * w[2]};
+        double w_in[3], dist, f = 1.0, T = 1.0;
+        if (tvi_light_dir(&J->tc, xs, w_in, &dist)) {
+            f = tvi_phase(J->g_hg, w_in, w_out);
+            T = tvi_ratio_track(J, xs, w_in, dist, &rng, st);
+        } /* else at the point light: no direction, unshadowed (as truth_volume_transmittance_at) */
+        for (int q = 0; q < 3; q++)
+            a[q] += (double)rho[q] * (double)J->light_color[q] * f * T;
     }
 }
 
@@ -728,25 +783,63 @@ obs_status truth_volume_mc_render(obs_context *ctx, obs_pool *pool, const vol_gr
     obs_status st = tvi_setup(ctx, g, tf, light, camera, width, height, p->kappa, p->g, "truth volume image", &J);
     if (st != OBS_STATUS_OK)
         return st;
-    /* The majorant: the largest alpha the TF gives over the data's value range (trilinear values stay
-     * inside [min, max]; widened by a relative 1e-5 against the float lerps' rounding, as the ray
-     * caster's bricks), as an extinction. A non-finite value range is refused. */
+    /* The brick majorants (above). A brick with a non-finite voxel gets the TF's largest alpha. */
     {
         double lo = g->value_min, hi = g->value_max;
         if (!isfinite(lo) || !isfinite(hi) || lo > hi)
             return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
                              "truth volume image: the grid's value range [%g, %g] is not finite (vol_grid_update_range?)",
                              lo, hi);
-        double mag = fabs(lo) > fabs(hi) ? fabs(lo) : fabs(hi);
-        double widen = 1e-5 * (mag > 1.0 ? mag : 1.0);
-        float amax = vol_i_rc_tf_max_alpha(tf, lo - widen, hi + widen);
-        J.majorant = p->kappa * vol_sigma_from_alpha(amax, J.tc.ref_step);
+        const int B = TRUTH_VOLUME_BRICK, nv[3] = {g->nx, g->ny, g->nz};
+        for (int a = 0; a < 3; a++)
+            J.nb[a] = (nv[a] + B - 1) / B;
+        size_t nbr = (size_t)J.nb[0] * J.nb[1] * J.nb[2];
+        J.maj = (float *)malloc(nbr * sizeof(float));
+        if (!J.maj)
+            return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth volume image: out of memory (majorants)");
+        float amax_all = vol_i_rc_tf_max_alpha(tf, -INFINITY, INFINITY);
+        J.majorant = 0.0;
+        for (int bz = 0; bz < J.nb[2]; bz++)
+            for (int by = 0; by < J.nb[1]; by++)
+                for (int bx = 0; bx < J.nb[0]; bx++) {
+                    int b0[3] = {bx, by, bz}, v0[3], v1[3];
+                    for (int a = 0; a < 3; a++) {
+                        v0[a] = b0[a] * B - 1 < 0 ? 0 : b0[a] * B - 1;
+                        v1[a] = (b0[a] + 1) * B + 1 > nv[a] - 1 ? nv[a] - 1 : (b0[a] + 1) * B + 1;
+                    }
+                    float vmin = INFINITY, vmax = -INFINITY;
+                    int bad = 0;
+                    for (int z = v0[2]; z <= v1[2]; z++)
+                        for (int y = v0[1]; y <= v1[1]; y++) {
+                            const float *row = g->data + ((size_t)z * g->ny + y) * g->nx;
+                            for (int x = v0[0]; x <= v1[0]; x++) {
+                                float v = row[x];
+                                bad |= !isfinite(v);
+                                vmin = v < vmin ? v : vmin;
+                                vmax = v > vmax ? v : vmax;
+                            }
+                        }
+                    float amax = amax_all;
+                    if (!bad) {
+                        /* widened by a relative 1e-5 for the float lerps' rounding, as the ray caster's bricks */
+                        double mag = fabs((double)vmin) > fabs((double)vmax) ? fabs((double)vmin) : fabs((double)vmax);
+                        double widen = 1e-5 * (mag > 1.0 ? mag : 1.0);
+                        amax = vol_i_rc_tf_max_alpha(tf, (double)vmin - widen, (double)vmax + widen);
+                    }
+                    double mu = p->kappa * vol_sigma_from_alpha(amax, J.tc.ref_step);
+                    J.maj[((size_t)bz * J.nb[1] + by) * J.nb[0] + bx] = (float)(mu > 0.0 ? mu * (1.0 + 1e-6) : 0.0);
+                    if (mu > J.majorant)
+                        J.majorant = mu;
+                }
+        J.nudge = 1e-4 * fmin(g->spacing[0], fmin(g->spacing[1], g->spacing[2]));
     }
     J.samples = p->samples;
     J.R = p->replicates;
     J.seed = p->seed;
     J.step = 0.0;
-    return tvi_run(ctx, pool, &J, width, height, p->tile, out);
+    obs_status rs = tvi_run(ctx, pool, &J, width, height, p->tile, out);
+    free(J.maj);
+    return rs;
 }
 
 obs_status truth_volume_march_image(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
