@@ -855,9 +855,9 @@ obs_status study_volume_report(obs_context *ctx, study_volume *s)
             "seed: GTX 660, 8 samples per fragment, light volume at the data's size; its bonsai and engine are not "
             "available offline, the head CT and the MRI stand in (issue 15).\n\n",
             s->W, s->H);
-    fprintf(fp, "| dataset | voxels | scene change (ms) | fixed scene (ms) | emission-absorption (ms) | gradient Phong (ms) "
-                "| seed: dataset | seed: scene change | seed: fixed |\n");
-    fprintf(fp, "|---|---|---|---|---|---|---|---|---|\n");
+    fprintf(fp, "| dataset | voxels | light volume | scene change (ms) | fixed scene (ms) | emission-absorption (ms) | "
+                "gradient Phong (ms) | seed: dataset | seed: scene change | seed: fixed |\n");
+    fprintf(fp, "|---|---|---|---|---|---|---|---|---|---|\n");
     for (int di = 0; di < s->datasets.n; di++) {
         const char *d = s->datasets.v[di];
         int64_t rl = ref_row(t, d, "lightvolume"), re = ref_row(t, d, "ea"), rph = ref_row(t, d, "phong");
@@ -872,9 +872,10 @@ obs_status study_volume_report(obs_context *ctx, study_volume *s)
         fmt(b, sizeof b, cell(t, rl, "fixed_ms"), "%.2f");
         fmt(c, sizeof c, re >= 0 ? cell(t, re, "rc_ms") : NAN, "%.2f");
         fmt(e, sizeof e, rph >= 0 ? cell(t, rph, "rc_ms") : NAN, "%.2f");
-        fprintf(fp, "| %s | %.0fx%.0fx%.0f | %s | %s | %s | %s | %s | %.2f | %.2f |\n", d, cell(t, rl, "nx"),
-                cell(t, rl, "ny"), cell(t, rl, "nz"), a, b, c, e, sd ? sd->seed_name : "–", sd ? sd->change_ms : NAN,
-                sd ? sd->fixed_ms : NAN);
+        fprintf(fp, "| %s | %.0fx%.0fx%.0f | 1/%s, cone %s, blend %s, step %s | %s | %s | %s | %s | %s | %.2f | %.2f |\n",
+                d, cell(t, rl, "nx"), cell(t, rl, "ny"), cell(t, rl, "nz"), scell(t, rl, "scale"), scell(t, rl, "cone"),
+                scell(t, rl, "blend"), scell(t, rl, "step"), a, b, c, e, sd ? sd->seed_name : "–",
+                sd ? sd->change_ms : NAN, sd ? sd->fixed_ms : NAN);
     }
 
     /* Table 2: every light-volume point */
