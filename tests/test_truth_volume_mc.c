@@ -479,6 +479,19 @@ TEST(volume_mc_cli_writes_exr_with_error_bars_and_refuses_bad_flags)
     char *js = test_slurp(test_path(test_tmpdir(), "mc.json"), NULL);
     CHECK(js && strstr(js, "\"mc_image\"") && strstr(js, "\"samples\": 32") && strstr(js, "max_std_error"));
     free(js);
+    /* --image-only: the MC image and its sidecar, no light volume and no exact transmittance volume */
+    char prefix2[4200];
+    snprintf(prefix2, sizeof prefix2, "%s/only", test_tmpdir());
+    const char *a2[] = {"truth", "volume", "synth:bucky:16", "--image-only", "--size", "6x5", "--samples", "16",
+                        "-o", prefix2, NULL};
+    CHECK_EQ_INT(test_cli_run(a2, "only"), 0);
+    char *js2 = test_slurp(test_path(test_tmpdir(), "only.json"), NULL);
+    CHECK(js2 && strstr(js2, "\"mc_image\"") && !strstr(js2, "light_volume_error"));
+    free(js2);
+    char *exr2 = test_slurp(test_path(test_tmpdir(), "only_mc.exr"), NULL), *T2 = test_slurp(test_path(test_tmpdir(), "only_T.nrrd"), NULL);
+    CHECK(exr2 && !T2);
+    free(exr2);
+    free(T2);
     const char *b1[] = {"truth", "volume", "synth:bucky:8", "--image", "--samples", "12", "-o", prefix, NULL};
     CHECK_EQ_INT(test_cli_run(b1, "b1"), 2); /* not a multiple of the 8 replicates */
     CHECK(test_cli_stderr_has("b1", "multiple"));

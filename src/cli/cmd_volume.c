@@ -44,6 +44,8 @@ static const char *volume_help =
     "  --image               also write PREFIX_mc.exr: R, G, B, A (premultiplied, over black) and\n"
     "                        SE.R, SE.G, SE.B, SE.A (replicate standard errors); the sidecar gets\n"
     "                        \"mc_image\" (default size 320x180: give --size for another)\n"
+    "  --image-only          the MC image alone: no light volume, no exact transmittance volume\n"
+    "                        (which costs minutes on the real datasets)\n"
     "  --samples N           samples per pixel, a multiple of --replicates (default 256)\n"
     "  --replicates R        independent replicates for the error bar, 2..32 (default 8)\n"
     "  --phase-g G           Henyey-Greenstein asymmetry in (-1, 1) (default 0: the ray caster's model)\n"
@@ -88,7 +90,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     vol_rc_params rp = vol_rc_params_default();
     const int first = truth ? 2 : 1;
     /* truth volume --image (the MC image reference) */
-    int mc_image = 0, size_given = 0;
+    int mc_image = 0, size_given = 0, image_only = 0;
     truth_volume_mc_params mcp = truth_volume_mc_params_default();
     if (argc <= first) {
         fputs(volume_help, stderr);
@@ -152,6 +154,8 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             size_given = 1; i++;
         } else if (truth && !strcmp(a, "--image")) {
             mc_image = 1;
+        } else if (truth && !strcmp(a, "--image-only")) {
+            mc_image = image_only = 1;
         } else if (truth && (!strcmp(a, "--samples") || !strcmp(a, "--replicates") || !strcmp(a, "--seed"))) {
             if (!cli_parse_int(v, 0, (long long)1 << 40, &ll)) return cli_usage_error("%s needs a non-negative integer", a);
             if (!strcmp(a, "--samples")) mcp.samples = (int64_t)ll;
@@ -318,7 +322,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     }
 
     /* ---- Light volume (independent of the camera) ---- */
-    const int need_lv = truth || rp.shading == VOL_SHADING_LIGHT_VOLUME || write_lv;
+    const int need_lv = (truth && !image_only) || (!truth && (rp.shading == VOL_SHADING_LIGHT_VOLUME || write_lv));
     t0 = obs_time_now();
     if (need_lv)
         st = vol_light_volume_build(ctx, pool, &grid, &tf, &L, &lp, &lv);
@@ -337,13 +341,14 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         truth_volume_params tp = truth_volume_params_default();
         tp.kappa = lp.kappa;
         t0 = obs_time_now();
-        st = truth_volume_light_error(ctx, pool, &grid, &tf, &L, &tp, &lv, &T, &err, &es);
+        if (!image_only)
+            st = truth_volume_light_error(ctx, pool, &grid, &tf, &L, &tp, &lv, &T, &err, &es);
         t_truth = obs_time_now() - t0;
-        if (st == OBS_STATUS_OK) {
+        if (st == OBS_STATUS_OK && !image_only) {
             snprintf(path, sizeof path, "%s_T.nrrd", prefix);
             st = write_lv_nrrd(ctx, path, &lv, T);
         }
-        if (st == OBS_STATUS_OK) {
+        if (st == OBS_STATUS_OK && !image_only) {
             snprintf(path, sizeof path, "%s_err.nrrd", prefix);
             st = write_lv_nrrd(ctx, path, &lv, err);
         }
@@ -373,7 +378,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
                 fprintf(stderr, "obscura: truth volume: MC image %dx%d, %lld samples per pixel in %.1f s; max error bar %.4g\n",
                         W, H, (long long)mcp.samples, mci.stats.seconds, mci.stats.max_std_error);
         }
-        if (st == OBS_STATUS_OK && !g->quiet)
+        if (st == OBS_STATUS_OK && !g->quiet && !image_only)
             fprintf(stderr,
                     "obscura: truth volume: light volume %dx%dx%d (faces %d, %d; blend %.3f) in %.1f ms; exact "
                     "transmittance in %.1f ms; |l - T| max %.4g, mean %.4g, rmse %.4g\n",
@@ -452,8 +457,10 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     io_json_number(&j, "seconds", t_lv);
     io_json_end_object(&j);
     if (truth) {
-        json_stats(&j, "light_volume_error", &es);
-        io_json_number(&j, "seconds_exact_transmittance", t_truth);
+        if (!image_only) {
+            json_stats(&j, "light_volume_error", &es);
+            io_json_number(&j, "seconds_exact_transmittance", t_truth);
+        }
         if (mc_image) {
             io_json_begin_object(&j, "mc_image");
             cli_json_camera(&j, &cam);
