@@ -267,6 +267,7 @@ TEST(volume_mc_agrees_with_fine_step_march_on_bucky)
     p.samples = 1024;
     truth_volume_image mc, mr, mr2;
     CHECK_OK(truth_volume_mc_render(ctx, pool, &g, &tf, &L, &cam, W, H, &p, &mc), ctx);
+    CHECK_EQ_INT(mc.stats.over_majorant, 0); /* the brick majorants bound sigma_t everywhere */
     truth_volume_params tp = truth_volume_params_default();
     tp.step_fraction = 1.0 / 16.0;
     const double h = tp.step_fraction * g.spacing[0];
