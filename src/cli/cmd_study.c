@@ -41,11 +41,14 @@ static const char *study_help =
 #endif
 
 static int cmd_study_sss(cli_globals *g, int argc, char **argv);
+int cmd_study_volume(cli_globals *g, int argc, char **argv); /* cmd_study_volume.c */
 
 int cmd_study(cli_globals *g, int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "sss"))
         return cmd_study_sss(g, argc, argv);
+    if (argc >= 2 && !strcmp(argv[1], "volume"))
+        return cmd_study_volume(g, argc, argv);
     if (argc < 2 || strcmp(argv[1], "ao") != 0) {
         if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
             fputs(study_help, stdout);

@@ -41,7 +41,17 @@ static const char *volume_help =
     "  -o, --output PREFIX   volume: PREFIX.exr (R, G, B, A premultiplied), PREFIX.png (over black,\n"
     "                        sRGB), PREFIX.json; --write-light-volume adds PREFIX_l.nrrd (the light\n"
     "                        volume's transmittance). truth volume: PREFIX_T.nrrd (exact\n"
-    "                        transmittance), PREFIX_err.nrrd (light volume - exact), PREFIX.json\n";
+    "                        transmittance), PREFIX_err.nrrd (light volume - exact), PREFIX.json\n"
+    "truth volume --image (the Monte Carlo single-scattering image reference; docs/volume/truth.md):\n"
+    "  --image               also write PREFIX_mc.exr: R, G, B, A (premultiplied, over black) and\n"
+    "                        SE.R, SE.G, SE.B, SE.A (replicate standard errors); the sidecar gets\n"
+    "                        \"mc_image\" (default size 320x180: give --size for another)\n"
+    "  --image-only          the MC image alone: no light volume, no exact transmittance volume\n"
+    "                        (which costs minutes on the real datasets)\n"
+    "  --samples N           samples per pixel, a multiple of --replicates (default 256)\n"
+    "  --replicates R        independent replicates for the error bar, 2..32 (default 8)\n"
+    "  --phase-g G           Henyey-Greenstein asymmetry in (-1, 1) (default 0: the ray caster's model)\n"
+    "  --seed S              random seed (default 0)\n";
 
 static void json_stats(io_json *j, const char *key, const truth_volume_error_stats *s)
 {
@@ -81,6 +91,9 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     vol_lv_params lp = vol_lv_params_default();
     vol_rc_params rp = vol_rc_params_default();
     const int first = truth ? 2 : 1;
+    /* truth volume --image (the MC image reference) */
+    int mc_image = 0, size_given = 0, image_only = 0;
+    truth_volume_mc_params mcp = truth_volume_mc_params_default();
     if (argc <= first) {
         fputs(volume_help, stderr);
         return CLI_EXIT_USAGE;
@@ -142,7 +155,20 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             write_lv = 1;
         } else if (!strcmp(a, "--size")) {
             if (!cli_parse_size(v, &W, &H)) return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
+            size_given = 1; i++;
+        } else if (truth && !strcmp(a, "--image")) {
+            mc_image = 1;
+        } else if (truth && !strcmp(a, "--image-only")) {
+            mc_image = image_only = 1;
+        } else if (truth && (!strcmp(a, "--samples") || !strcmp(a, "--replicates") || !strcmp(a, "--seed"))) {
+            if (!cli_parse_int(v, 0, (long long)1 << 40, &ll)) return cli_usage_error("%s needs a non-negative integer", a);
+            if (!strcmp(a, "--samples")) mcp.samples = (int64_t)ll;
+            else if (!strcmp(a, "--replicates")) mcp.replicates = ll > 1000 ? 1000 : (int)ll;
+            else mcp.seed = (uint64_t)ll;
             i++;
+        } else if (truth && !strcmp(a, "--phase-g")) {
+            if (!cli_parse_float(v, &d) || !(d > -1.0 && d < 1.0)) return cli_usage_error("--phase-g needs a number in (-1, 1)");
+            mcp.g = d; i++;
         } else if (a[0] == '-' && a[1]) {
             int r = cli_limit_flag(g, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
@@ -159,6 +185,10 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         return cli_usage_error("volume: give --light-dir or --light-pos, not both");
     if (lp.eye_pass && (truth || rp.shading != VOL_SHADING_LIGHT_VOLUME))
         return cli_usage_error("volume: --eye-pass applies to 'obscura volume' with --mode lightvolume only");
+    if (truth && mc_image && !size_given) {
+        W = 320; /* the MC reference costs samples x pixels: a smaller default image (ours) */
+        H = 180;
+    }
     if (!strncmp(file, "synth:", 6) && (raw || big_endian))
         return cli_usage_error("volume: --raw and --big-endian apply to raw files, not to %s", file);
 
@@ -177,6 +207,8 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     memset(&eyev, 0, sizeof eyev);
     obs_image_f32 rgba[4] = {{0}};
     float *T = NULL, *err = NULL;
+    truth_volume_image mci;
+    memset(&mci, 0, sizeof mci);
     char *tf_text = NULL;
     io_json j;
     io_json_init(&j);
@@ -297,7 +329,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     }
 
     /* ---- Light volume (independent of the camera) ---- */
-    const int need_lv = truth || rp.shading == VOL_SHADING_LIGHT_VOLUME || write_lv;
+    const int need_lv = (truth && !image_only) || (!truth && (rp.shading == VOL_SHADING_LIGHT_VOLUME || write_lv));
     t0 = obs_time_now();
     if (need_lv)
         st = vol_light_volume_build(ctx, pool, &grid, &tf, &L, &lp, &lv);
@@ -316,17 +348,44 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         truth_volume_params tp = truth_volume_params_default();
         tp.kappa = lp.kappa;
         t0 = obs_time_now();
-        st = truth_volume_light_error(ctx, pool, &grid, &tf, &L, &tp, &lv, &T, &err, &es);
+        if (!image_only)
+            st = truth_volume_light_error(ctx, pool, &grid, &tf, &L, &tp, &lv, &T, &err, &es);
         t_truth = obs_time_now() - t0;
-        if (st == OBS_STATUS_OK) {
+        if (st == OBS_STATUS_OK && !image_only) {
             snprintf(path, sizeof path, "%s_T.nrrd", prefix);
             st = write_lv_nrrd(ctx, path, &lv, T);
         }
-        if (st == OBS_STATUS_OK) {
+        if (st == OBS_STATUS_OK && !image_only) {
             snprintf(path, sizeof path, "%s_err.nrrd", prefix);
             st = write_lv_nrrd(ctx, path, &lv, err);
         }
-        if (st == OBS_STATUS_OK && !g->quiet)
+        if (st == OBS_STATUS_OK && mc_image) {
+            /* ---- The Monte Carlo single-scattering image reference ---- */
+            mcp.kappa = lp.kappa;
+            st = truth_volume_mc_render(ctx, pool, &grid, &tf, &L, &cam, W, H, &mcp, &mci);
+            if (st == OBS_STATUS_OK) {
+                io_channel ch[8] = {{"R", IO_PIXEL_FLOAT, &mci.rgba[0], NULL},
+                                    {"G", IO_PIXEL_FLOAT, &mci.rgba[1], NULL},
+                                    {"B", IO_PIXEL_FLOAT, &mci.rgba[2], NULL},
+                                    {"A", IO_PIXEL_FLOAT, &mci.rgba[3], NULL},
+                                    {"SE.R", IO_PIXEL_FLOAT, &mci.std_error[0], NULL},
+                                    {"SE.G", IO_PIXEL_FLOAT, &mci.std_error[1], NULL},
+                                    {"SE.B", IO_PIXEL_FLOAT, &mci.std_error[2], NULL},
+                                    {"SE.A", IO_PIXEL_FLOAT, &mci.std_error[3], NULL}};
+                io_attr at[2];
+                memset(at, 0, sizeof at);
+                strcpy(at[0].name, "obscura:version"); at[0].type = IO_ATTR_STRING; at[0].s = (char *)OBS_VERSION_STRING;
+                strcpy(at[1].name, "obscura:conventions"); at[1].type = IO_ATTR_STRING;
+                at[1].s = (char *)"R, G, B, A premultiplied over black: Monte Carlo single scattering (docs/volume/truth.md); "
+                                  "SE.* the replicate standard errors; row 0 at top";
+                snprintf(path, sizeof path, "%s_mc.exr", prefix);
+                st = io_exr_write(ctx, path, ch, 8, at, 2);
+            }
+            if (st == OBS_STATUS_OK && !g->quiet)
+                fprintf(stderr, "obscura: truth volume: MC image %dx%d, %lld samples per pixel in %.1f s; max error bar %.4g\n",
+                        W, H, (long long)mcp.samples, mci.stats.seconds, mci.stats.max_std_error);
+        }
+        if (st == OBS_STATUS_OK && !g->quiet && !image_only)
             fprintf(stderr,
                     "obscura: truth volume: light volume %dx%dx%d (faces %d, %d; blend %.3f) in %.1f ms; exact "
                     "transmittance in %.1f ms; |l - T| max %.4g, mean %.4g, rmse %.4g\n",
@@ -424,8 +483,30 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     io_json_number(&j, "seconds", t_lv);
     io_json_end_object(&j);
     if (truth) {
-        json_stats(&j, "light_volume_error", &es);
-        io_json_number(&j, "seconds_exact_transmittance", t_truth);
+        if (!image_only) {
+            json_stats(&j, "light_volume_error", &es);
+            io_json_number(&j, "seconds_exact_transmittance", t_truth);
+        }
+        if (mc_image) {
+            io_json_begin_object(&j, "mc_image");
+            cli_json_camera(&j, &cam);
+            io_json_int(&j, "width", W);
+            io_json_int(&j, "height", H);
+            io_json_int(&j, "samples", mcp.samples);
+            io_json_int(&j, "replicates", mcp.replicates);
+            io_json_number(&j, "phase_g", mcp.g);
+            io_json_number(&j, "kappa", mcp.kappa);
+            io_json_int(&j, "seed", (int64_t)mcp.seed);
+            io_json_number(&j, "majorant", mci.stats.majorant);
+            io_json_number(&j, "max_std_error", mci.stats.max_std_error);
+            io_json_int(&j, "tentative_collisions", (int64_t)mci.stats.tentative);
+            io_json_int(&j, "real_collisions", (int64_t)mci.stats.collisions);
+            io_json_int(&j, "over_majorant", (int64_t)mci.stats.over_majorant);
+            io_json_int(&j, "pixels_hit", mci.stats.pixels_hit);
+            io_json_number(&j, "seconds", mci.stats.seconds);
+            io_json_string(&j, "file_suffix", "_mc.exr");
+            io_json_end_object(&j);
+        }
     } else {
         cli_json_camera(&j, &cam);
         io_json_int(&j, "width", W);
@@ -449,6 +530,7 @@ done:
     free(tf_text);
     free(T);
     free(err);
+    truth_volume_image_free(&mci);
     for (int c = 0; c < 4; c++)
         obs_image_f32_free(&rgba[c]);
     vol_light_volume_free(&lv);

@@ -460,6 +460,79 @@ obs_status truth_volume_light_error(obs_context *ctx, obs_pool *pool, const stru
                                     const truth_volume_params *p, const struct vol_light_volume *lv,
                                     float **T_out, float **err_out, truth_volume_error_stats *stats);
 
+/* ---- The Monte Carlo single-scattering image reference (truth_volume.c; docs/volume/truth.md) ----
+ * What it computes, per pixel (the ray caster's camera ray, rast_pixel_ray, t in [znear, zfar]
+ * clipped to the data's bounds; d_hat its unit direction, s the distance along it):
+ *
+ *   L = Int_0^D T_v(s) sigma_t(x) rho(x) E f(x) T(x) ds      (premultiplied RGB over black)
+ *   A = 1 - T_v(D)                                           (its alpha)
+ *
+ * T_v the view transmittance, sigma_t vol.h's extinction (kappa as given), rho = the TF's RGB (the
+ * scattering albedo/colour), E the light's colour (no distance fall-off for a point light, as the
+ * light volume and the ray caster), T(x) the exact transmittance to the light (as above), and the
+ * phase factor f = 4 pi p_HG(w_in . w_out) [Henyey41] (w_in the light's travel direction at x, w_out =
+ * -d_hat): f = 1 for g = 0, which is the ray caster's light-volume mode with c = 1 (docs/volume/
+ * truth.md derives the match). It is single scattering with hard shadows: the light volume's l part.
+ * Its cone-blurred chromaticity c has no ground truth here (it is not the solution of a transport
+ * equation: docs/volume/truth.md says why).
+ * Estimator: free-flight distances by delta (Woodcock) tracking against piecewise-constant
+ * majorants, one per min-max brick of 8^3 voxels (the largest sigma_t the TF gives over the brick's
+ * value range, with a one-voxel apron); at the real collision, T(x) by ratio tracking against the
+ * same majorants (with Russian roulette below 1e-2);
+ * both unbiased ([Woodcock65], [Novak14]). Sample k of a pixel draws its numbers from
+ * obs_rng_u32x4(pixel, k, dimension 0, 1, 2 ..., seed) and belongs to replicate k mod R; the error
+ * bar is the spread of the R replicates' means (docs/truth.md section 5, as truth_ao / truth_sss).
+ * Output identical for any pool and thread count. */
+typedef struct truth_volume_mc_params {
+    int64_t samples;                /* per pixel, a multiple of replicates, [replicates, obs_limits.max_samples];
+                                       default 256 */
+    int replicates;                 /* R in [2, TRUTH_VOLUME_MC_MAX_REPLICATES]; default 8 (as truth_ao) */
+    double g;                       /* Henyey-Greenstein asymmetry, (-1, 1); default 0 (f = 1: the ray caster's model) */
+    double kappa;                   /* extinction scale, >= 0; default 1 (as vol_lv_params) */
+    uint64_t seed;                  /* default 0 */
+    int tile;                       /* tile side in pixels, [1, 64]; default 8 */
+} truth_volume_mc_params;
+#define TRUTH_VOLUME_MC_MAX_REPLICATES 32
+truth_volume_mc_params truth_volume_mc_params_default(void);
+
+typedef struct truth_volume_mc_stats {
+    uint64_t tentative;             /* delta/ratio tracking steps (sigma_t evaluations) */
+    uint64_t collisions;            /* real collisions (shadow rays traced) */
+    uint64_t over_majorant;         /* sigma_t found above the majorant (should be 0) */
+    int64_t pixels_hit;             /* pixels whose ray meets the bounds */
+    double majorant;                /* the largest brick majorant, per world unit */
+    double max_std_error;           /* over the RGB planes */
+    double seconds;
+} truth_volume_mc_stats;
+
+/* Planes, row 0 at the top. The deterministic march (truth_volume_march_image) leaves std_error 0. */
+typedef struct truth_volume_image {
+    int width, height;
+    obs_image_f32 rgba[4];          /* L (RGB) and A */
+    obs_image_f32 std_error[4];     /* replicate standard error of each */
+    truth_volume_mc_stats stats;
+} truth_volume_image;
+void truth_volume_image_free(truth_volume_image *im);   /* NULL-safe; zeroes it */
+
+/* The Monte Carlo reference for camera at width x height. *out allocated here, zeroed on failure.
+ * Returns OK, INVALID_ARGUMENT (NULLs, a parameter out of range, an empty grid, a bad camera),
+ * UNSUPPORTED (spot light), LIMIT_EXCEEDED (samples over obs_limits.max_samples, image too large),
+ * OUT_OF_MEMORY. */
+obs_status truth_volume_mc_render(obs_context *ctx, obs_pool *pool, const struct vol_grid *g,
+                                  const struct vol_tf *tf, const struct vol_light *light, const obs_camera *camera,
+                                  int width, int height, const truth_volume_mc_params *p, truth_volume_image *out);
+
+/* The same integral by a deterministic fine-step march (the ray caster with the exact
+ * transmittance): steps of `step` world units along the view ray (the last shorter), each sampled
+ * at its midpoint, a = 1 - exp(-sigma_t len), C += T_v a rho E f T(x), T_v *= 1 - a, no early
+ * termination; T(x) by truth_volume_transmittance_at with tp (tp->kappa is used for both). Second
+ * order in step. For the MC's agreement test and small studies (it costs a shadow march per
+ * non-empty sample). Same returns as truth_volume_mc_render (mc->samples, replicates, seed unused). */
+obs_status truth_volume_march_image(obs_context *ctx, obs_pool *pool, const struct vol_grid *g,
+                                    const struct vol_tf *tf, const struct vol_light *light, const obs_camera *camera,
+                                    int width, int height, double step, const truth_volume_params *tp,
+                                    double g_hg, truth_volume_image *out);
+
 /* ============================================ end of volume light ground truth ================== */
 
 #ifdef __cplusplus
