@@ -266,11 +266,16 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     if (st == OBS_STATUS_OK)
         st = comm ? truth_ao_render_tasks(ctx, pool, ts, &scene, &cam, &gb, &p, task_mask, &res)
                   : truth_ao_render(ctx, pool, ts, &scene, &cam, &gb, &p, &res);
+    double t_wait = 0.0, t_gather = 0.0; /* rank 0: waiting for the slowest rank, then the gather */
     if (comm) { /* one failed rank fails the job, before anything is written */
         st = scale_fault_point(ctx, comm, st);
+        const double t0 = obs_time_now();
         st = scale_mpi_agree(ctx, comm, st);
+        const double t1 = obs_time_now();
         if (st == OBS_STATUS_OK)
             st = scale_mpi_gather_ao(ctx, comm, owner, task_cost, ntasks, p.tile, &res, per_rank);
+        t_wait = t1 - t0;
+        t_gather = obs_time_now() - t1;
         if (st == OBS_STATUS_OK && rank != 0)
             goto done; /* rank 0 writes */
     }
@@ -331,6 +336,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     na++;
 
     char path[4200];
+    const double t_write = obs_time_now();
     st = cli_make_parent_dirs(ctx, prefix);
     if (st == OBS_STATUS_OK) {
         snprintf(path, sizeof path, "%s%s", prefix, exr_ext);
@@ -352,6 +358,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         goto done;
     }
 
+    const double seconds_write = obs_time_now() - t_write;
     /* JSON sidecar: every parameter, timing and counters. */
     double se_sum = 0.0, n_sum = 0.0;
     for (int y = 0; y < res.height; y++)
@@ -426,6 +433,9 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         io_json_string(&j, "dealing", "greedy by estimated cost (surface pixels) in task order");
         io_json_number(&j, "imbalance_rays", scale_imbalance(rr, nr));
         io_json_number(&j, "imbalance_seconds", scale_imbalance(rs, nr));
+        io_json_number(&j, "seconds_wait_rank0", t_wait);   /* rank 0 waiting for the slowest rank */
+        io_json_number(&j, "seconds_gather", t_gather);     /* the pixels and counters to rank 0 */
+        io_json_number(&j, "seconds_write", seconds_write); /* EXR and PNG, rank 0 */
         io_json_begin_array(&j, "per_rank");
         for (int r = 0; r < nr; r++) {
             io_json_begin_object(&j, NULL);
