@@ -213,7 +213,7 @@ static int run_mpi(int np, const char *out_prefix, const char *tag)
     snprintf(npb, sizeof npb, "%d", np);
     const char *args[] = {"--allow-run-as-root", "--oversubscribe", "--bind-to", "none", "-np", npb, OBS_CLI_PATH,
                           "--quiet", "--threads", "1", "truth", "ao", test_path(test_data_dir(), "bunny.glb"),
-                          "--size", "64x48", "--max-samples", "256", "-o", out_prefix, NULL};
+                          "--size", "48x32", "--max-samples", "128", "-o", out_prefix, NULL};
     /* OpenMPI's libraries (not instrumented) keep allocations at exit that LeakSanitizer would
      * report in every rank of a sanitizer build: leak checks off for the ranks (obscura's own
      * leaks are checked by the plain runs of every other test). */
@@ -243,7 +243,7 @@ TEST(scale_mpi_truth_ao_any_rank_count_gives_the_plain_bytes)
     snprintf(plain, sizeof plain, "%s/plain", dir);
     snprintf(from, sizeof from, "%s/x", dir);
     const char *args[] = {"--quiet", "--threads", "1", "truth", "ao", test_path(test_data_dir(), "bunny.glb"), "--size",
-                          "64x48", "--max-samples", "256", "-o", prefix, NULL};
+                          "48x32", "--max-samples", "128", "-o", prefix, NULL};
     CHECK_EQ_INT(test_cli_run(args, "plain"), 0);
     CHECK(rename(from, plain) == 0);
     for (int np = 1; np <= 3; np++) {

@@ -121,7 +121,7 @@ static char *table_without_timings(const char *path)
     return out;
 }
 
-static int run_study(const char *out, const char *shard, const char *tag, const char *extra)
+static int run_study(const char *out, const char *shard, const char *tag)
 {
     const char *args[32] = {STUDY_ARGS};
     int n = 0;
@@ -132,10 +132,6 @@ static int run_study(const char *out, const char *shard, const char *tag, const 
     if (shard) {
         args[n++] = "--shard";
         args[n++] = shard;
-    }
-    if (extra) {
-        args[n++] = "--runs";
-        args[n++] = extra;
     }
     args[n] = NULL;
     return test_cli_run(args, tag);
@@ -149,10 +145,10 @@ TEST(scale_study_shards_merged_equal_one_run_and_mismatches_are_refused)
     snprintf(sh, sizeof sh, "%s/sh", dir);
     snprintf(merged, sizeof merged, "%s/merged", dir);
     snprintf(other, sizeof other, "%s/other", dir);
-    CHECK_EQ_INT(run_study(one, NULL, "one", NULL), 0);
+    CHECK_EQ_INT(run_study(one, NULL, "one"), 0);
     const char *shards[] = {"1/3", "2/3", "3/3"};
     for (int k = 0; k < 3; k++)
-        CHECK_EQ_INT(run_study(sh, shards[k], "shard", NULL), 0);
+        CHECK_EQ_INT(run_study(sh, shards[k], "shard"), 0);
     char d1[8600], d2[8600], d3[8600];
     snprintf(d1, sizeof d1, "%s/shard-1-of-3", sh);
     snprintf(d2, sizeof d2, "%s/shard-2-of-3", sh);
@@ -176,11 +172,25 @@ TEST(scale_study_shards_merged_equal_one_run_and_mismatches_are_refused)
     free(t3);
     CHECK_EQ_INT(lines, 1 + 2); /* header + points 2 and 5 of 0..7 */
 
-    /* another configuration (--runs 2): refused, naming it */
-    CHECK_EQ_INT(run_study(other, "2/3", "other", "2"), 0);
-    char o2[8600], m2[8600];
-    snprintf(o2, sizeof o2, "%s/shard-2-of-3", other);
+    /* another configuration: a copy of shard 2 whose manifest has another configuration (what a
+     * run with other axes writes: its config text and hash differ) is refused, naming it */
+    char o2[8600], m2[8600], cmd[17300];
+    snprintf(o2, sizeof o2, "%s/other-2-of-3", dir);
     snprintf(m2, sizeof m2, "%s/m2", dir);
+    snprintf(cmd, sizeof cmd, "cp -r '%s' '%s'", d2, o2);
+    CHECK_EQ_INT(system(cmd), 0);
+    snprintf(a, sizeof a, "%s/manifest.json", o2);
+    char *mo = test_slurp(a, NULL);
+    CHECK(mo);
+    char *h = strstr(mo, "\"config_hash\": \"");
+    char *r = strstr(mo, "runs=1");
+    CHECK(h && r);
+    h[16] = h[16] == '0' ? '1' : '0'; /* the hash of "runs=2" differs from that of "runs=1" */
+    r[5] = '2';
+    FILE *fo = fopen(a, "wb");
+    fputs(mo, fo);
+    fclose(fo);
+    free(mo);
     const char *bad[] = {"study", "merge", d1, o2, d3, "-o", m2, NULL};
     CHECK_EQ_INT(test_cli_run(bad, "badcfg"), 3);
     CHECK(test_cli_stderr_has("badcfg", "another configuration"));
