@@ -421,9 +421,9 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     io_json_number(&j, "mrays_per_second", mrays);
     io_json_end_object(&j);
     if (comm) { /* the MPI run: ranks, dealing and balance (docs/scale.md) */
-        double rr[4096], rs[4096];
-        const int nr = ranks < 4096 ? ranks : 4096;
-        for (int r = 0; r < nr; r++) {
+        const int nr = ranks;
+        double *rr = (double *)malloc(sizeof(double) * 2 * (size_t)nr), *rs = rr ? rr + nr : NULL;
+        for (int r = 0; rr && r < nr; r++) {
             rr[r] = (double)per_rank[r].rays;
             rs[r] = per_rank[r].seconds_work;
         }
@@ -431,8 +431,9 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         io_json_int(&j, "ranks", ranks);
         io_json_int(&j, "tasks", ntasks);
         io_json_string(&j, "dealing", "greedy by estimated cost (surface pixels) in task order");
-        io_json_number(&j, "imbalance_rays", scale_imbalance(rr, nr));
-        io_json_number(&j, "imbalance_seconds", scale_imbalance(rs, nr));
+        io_json_number(&j, "imbalance_rays", rr ? scale_imbalance(rr, nr) : NAN);
+        io_json_number(&j, "imbalance_seconds", rr ? scale_imbalance(rs, nr) : NAN);
+        free(rr);
         io_json_number(&j, "seconds_wait_rank0", t_wait);   /* rank 0 waiting for the slowest rank */
         io_json_number(&j, "seconds_gather", t_gather);     /* the pixels and counters to rank 0 */
         io_json_number(&j, "seconds_write", seconds_write); /* EXR and PNG, rank 0 */
