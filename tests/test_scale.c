@@ -345,3 +345,18 @@ TEST(scale_mpi_not_built_is_reported_under_a_launcher)
     CHECK(test_cli_stderr_has("nompi", "MPI support is not built"));
 #endif
 }
+
+/* truth sss and truth volume do not split over ranks: under a launcher they refuse to start. */
+TEST(scale_mpi_truth_sss_and_volume_refuse_a_launcher)
+{
+    setenv("OMPI_COMM_WORLD_SIZE", "2", 1);
+    const char *a[] = {"truth", "sss", test_path(test_data_dir(), "bunny_cream.glb"), NULL};
+    int rc = test_cli_run(a, "sss");
+    const char *b[] = {"truth", "volume", "x.nrrd", NULL};
+    int rc2 = test_cli_run(b, "vol");
+    unsetenv("OMPI_COMM_WORLD_SIZE");
+    CHECK_EQ_INT(rc, 2);
+    CHECK(test_cli_stderr_has("sss", "does not run over MPI yet"));
+    CHECK_EQ_INT(rc2, 2);
+    CHECK(test_cli_stderr_has("vol", "does not run over MPI yet"));
+}
