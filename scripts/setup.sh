@@ -13,6 +13,7 @@ PKGS=(
   nlohmann-json3-dev       # JSON parser for the glTF check before tinygltf (the one tinygltf is built with)
   libcjson-dev             # cJSON: the C library's JSON reader (SSS material schema, scene settings, presets)
   libnifti2-dev libteem-dev  # volumes: NIfTI-1/2 (nifticlib) and NRRD (teem)
+  libopenmpi-dev openmpi-bin  # MPI (optional at build time, OBS_WITH_MPI): mpirun -np N obscura truth ao (docs/scale.md)
   clang-14 libclang-rt-14-dev  # ASan/UBSan/libFuzzer (tests)
   # Headless GL on Mesa's llvmpipe: the GLSL ports' match tests (tests/gl, must run in CI), the
   # benchmark's GLSL side (bench/gl_bench.c) and the llvmpipe peer (../shared/tools/llvmpipe-peer)

@@ -34,7 +34,15 @@ static const char *study_help =
     "  --dry-run              print the points and the expected duration, measure nothing\n"
     "  --truth-only           compute (and cache) the ground truths the points need, measure nothing\n"
     "  --report-only          write the --report from DIR/results.csv as it is, measure nothing (the\n"
-    "                         axes given still choose the tables' rows and columns)\n";
+    "                         axes given still choose the tables' rows and columns)\n"
+    "  --shard K/N            run only the K-th of N interleaved slices of the points, into\n"
+    "                         DIR/shard-K-of-N/ (default: from SLURM_ARRAY_TASK_ID, _MIN and _COUNT when\n"
+    "                         set); the ground truths go to the cache shared by the shards, DIR/gt/\n"
+    "  --gt-dir DIR           the ground-truth cache (default OUT/gt; content-hashed names, a lock per\n"
+    "                         frame: shards on a shared file system compute each ground truth once)\n"
+    "       obscura study merge SHARD_DIR... -o DIR [--report DIR]\n"
+    "                         merge shard tables (same configuration and version) into DIR/results.csv,\n"
+    "                         in a single run's order; docs/scale.md\n";
 
 #ifndef OBS_STUDY_DATA_DIR
 #define OBS_STUDY_DATA_DIR "build/data"
@@ -43,12 +51,59 @@ static const char *study_help =
 static int cmd_study_sss(cli_globals *g, int argc, char **argv);
 int cmd_study_volume(cli_globals *g, int argc, char **argv); /* cmd_study_volume.c */
 
+/* `obscura study merge SHARD_DIR... -o DIR [--report DIR] [--data DIR]` (docs/scale.md). */
+static int cmd_study_merge(cli_globals *g, int argc, char **argv)
+{
+    const char *out = NULL, *report = NULL, *data = OBS_STUDY_DATA_DIR;
+    const char **dirs = (const char **)calloc((size_t)argc + 1, sizeof *dirs);
+    int n = 0;
+    if (!dirs)
+        return CLI_EXIT_INTERNAL;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if ((!strcmp(a, "-o") || !strcmp(a, "--out")) && v)
+            out = v, i++;
+        else if (!strcmp(a, "--report") && v)
+            report = v, i++;
+        else if (!strcmp(a, "--data") && v)
+            data = v, i++;
+        else if (a[0] == '-') {
+            free(dirs);
+            return cli_usage_error("study merge: unknown option '%s' (or a missing value)", a);
+        } else
+            dirs[n++] = a;
+    }
+    if (!out || n < 1) {
+        free(dirs);
+        return cli_usage_error("study merge: give the shard directories and -o DIR");
+    }
+    obs_context *ctx = obs_context_create();
+    if (!ctx) {
+        free(dirs);
+        return CLI_EXIT_INTERNAL;
+    }
+    obs_context_set_limits(ctx, &g->limits);
+    obs_pool *pool = report ? obs_pool_create(g->threads) : NULL;
+    obs_status st = study_ao_merge(ctx, pool, dirs, n, out, report, data, g->quiet ? NULL : stderr);
+    int code = CLI_EXIT_OK;
+    if (st == OBS_STATUS_INVALID_ARGUMENT)
+        code = (fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx)), CLI_EXIT_INPUT);
+    else if (st != OBS_STATUS_OK)
+        code = cli_fail(ctx, st);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+    free(dirs);
+    return code;
+}
+
 int cmd_study(cli_globals *g, int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "sss"))
         return cmd_study_sss(g, argc, argv);
     if (argc >= 2 && !strcmp(argv[1], "volume"))
         return cmd_study_volume(g, argc, argv);
+    if (argc >= 2 && !strcmp(argv[1], "merge"))
+        return cmd_study_merge(g, argc, argv);
     if (argc < 2 || strcmp(argv[1], "ao") != 0) {
         if (argc >= 2 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
             fputs(study_help, stdout);
@@ -63,11 +118,17 @@ int cmd_study(cli_globals *g, int argc, char **argv)
         quick |= !strcmp(argv[i], "--quick");
     study_ao_options o = quick ? study_ao_options_quick() : study_ao_options_default();
     o.data_dir = OBS_STUDY_DATA_DIR;
-    int dry_run = 0, truth_only = 0, report_only = 0;
+    int dry_run = 0, truth_only = 0, report_only = 0, shard_given = 0;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+        if (!strcmp(a, "--shard")) {
+            if (!study_shard_parse(v, &o.shard, &o.shards))
+                return cli_usage_error("--shard needs K/N with 1 <= K <= N");
+            shard_given = 1, i++;
+        } else if (!strcmp(a, "--gt-dir") && v) {
+            o.gt_dir = v, i++;
+        } else if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_help, stdout);
             return CLI_EXIT_OK;
         } else if (!strcmp(a, "--quick")) {
@@ -122,6 +183,21 @@ int cmd_study(cli_globals *g, int argc, char **argv)
     if (report_only + truth_only + dry_run > 1)
         return cli_usage_error("study ao: --report-only, --truth-only and --dry-run exclude each other");
     o.log = g->quiet ? NULL : stderr;
+    /* A shard (--shard, or a Slurm array task) writes its own table in OUT/shard-K-of-N and shares
+     * the ground-truth cache OUT/gt with the other shards (docs/scale.md). */
+    char shard_out[4200], shard_gt[4200];
+    if (!shard_given)
+        study_shard_from_env(&o.shard, &o.shards);
+    if (o.shards > 1) {
+        snprintf(shard_gt, sizeof shard_gt, "%s/gt", o.out_dir);
+        if (!o.gt_dir)
+            o.gt_dir = shard_gt;
+        snprintf(shard_out, sizeof shard_out, "%s/shard-%d-of-%d", o.out_dir, o.shard, o.shards);
+        o.out_dir = shard_out;
+        if (o.log)
+            fprintf(o.log, "obscura: study ao: shard %d of %d into %s (ground truths in %s)\n", o.shard, o.shards,
+                    o.out_dir, o.gt_dir);
+    }
 
     obs_context *ctx = obs_context_create();
     if (!ctx)

@@ -2,6 +2,7 @@
  * scene seen through one of its cameras: EXR (mean, standard error, sample count, depth), a PNG
  * preview and a JSON sidecar. */
 #include "cli.h"
+#include "scale/scale.h"
 #include "truth/truth.h"
 
 #include <errno.h>
@@ -48,7 +49,10 @@ static const char *truth_help =
     "(samples; 0 = no surface there, mean 1), Z (the G-buffer's linear depth, inf = background).\n"
     "The PNG is AO.mean quantised linearly (255 = visibility 1), tagged linear (gamma 1.0), with\n"
     "the background (AO.count 0) drawn black.\n"
-    "A progress bar with an ETA is drawn on stderr when it is a terminal.\n";
+    "A progress bar with an ETA is drawn on stderr when it is a terminal.\n"
+    "Under MPI (mpirun -np N obscura truth ao ...), the tiles are dealt over the ranks and rank 0\n"
+    "gathers and writes the same files as one process, byte for byte, with a 'scale' object in the\n"
+    "sidecar (docs/scale.md); OBS_NO_MPI=1 runs each rank as a plain process.\n";
 
 
 /* ---- the command ------------------------------------------------------------------------------ */
@@ -63,6 +67,11 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         fputs(truth_help, stdout);
         return CLI_EXIT_OK;
     }
+    /* Only `truth ao` splits its image over MPI ranks so far: under a launcher, the others would
+     * have every rank compute and write the whole image (docs/scale.md). */
+    if ((!strcmp(argv[1], "sss") || !strcmp(argv[1], "volume")) && scale_mpi_launched())
+        return cli_usage_error("truth %s does not run over MPI yet: run it without mpirun (or set OBS_NO_MPI=1)",
+                               argv[1]);
     if (!strcmp(argv[1], "sss"))
         return cmd_truth_sss(g, argc, argv);
     if (!strcmp(argv[1], "volume"))
@@ -163,6 +172,23 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     obs_context *ctx = obs_context_create();
     if (!ctx)
         return CLI_EXIT_INTERNAL;
+    /* Under an MPI launcher: every rank loads the scene and draws the G-buffer, renders the tasks
+     * dealt to it, and rank 0 gathers and writes (docs/scale.md). */
+    scale_comm *comm = NULL;
+    if (scale_mpi_launched()) {
+        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
+        if (sm != OBS_STATUS_OK) {
+            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
+            obs_context_destroy(ctx);
+            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
+        }
+    }
+    const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
+    int *owner = NULL;
+    double *task_cost = NULL;
+    unsigned char *task_mask = NULL;
+    scale_rank_stats *per_rank = NULL;
+    int64_t ntasks = 0;
     obs_context_set_limits(ctx, &g->limits);
     obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
@@ -184,8 +210,10 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         st = cli_require_triangles(ctx, &scene);
     if (st == OBS_STATUS_OK)
         st = cli_pick_camera(ctx, &scene, camera, &cam);
-    if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
+    if (comm) /* every rank reads the same files: one that cannot ends the job (docs/scale.md) */
+        st = scale_mpi_agree(ctx, comm, st);
+    if (st != OBS_STATUS_OK) { /* rank 0 reports an agreed failure; mpirun returns its code */
+        code = rank == 0 ? cli_fail(ctx, st) : CLI_EXIT_OK;
         goto done;
     }
     if ((code = cli_size_from_camera(&cam, size_given, &W, &H)) != CLI_EXIT_OK)
@@ -193,6 +221,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     pool = obs_pool_create(g->threads);
     if (!pool) {
         fprintf(stderr, "obscura: error: cannot start %d threads\n", g->threads);
+        scale_mpi_abort(comm, CLI_EXIT_INTERNAL); /* the other ranks would wait for this one */
         code = CLI_EXIT_INTERNAL;
         goto done;
     }
@@ -216,17 +245,50 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     }
     double t_ao = obs_time_now();
     cli_progress pr = {t_ao, 0.0, 0, "truth ao"};
-    if (!g->quiet && isatty(fileno(stderr))) {
+    if (!g->quiet && !comm && isatty(fileno(stderr))) {
         p.progress = cli_progress_draw;
         p.progress_user = &pr;
     }
+    if (comm && st == OBS_STATUS_OK) {
+        /* Deal the tasks (the pool's units, truth_ao_task_rect) by estimated cost: every rank
+         * computes the same dealing from the same G-buffer (docs/scale.md, "Balance"). */
+        ntasks = truth_ao_task_count(W, H, p.tile);
+        owner = (int *)malloc(sizeof(int) * (size_t)(ntasks > 0 ? ntasks : 1));
+        task_cost = (double *)malloc(sizeof(double) * (size_t)(ntasks > 0 ? ntasks : 1));
+        task_mask = (unsigned char *)malloc((size_t)(ntasks > 0 ? ntasks : 1));
+        per_rank = (scale_rank_stats *)calloc((size_t)ranks, sizeof(scale_rank_stats));
+        if (!owner || !task_cost || !task_mask || !per_rank)
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth ao: out of memory");
+        if (st == OBS_STATUS_OK && ntasks == 0)
+            st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth ao: tile %d out of range", p.tile);
+        if (st == OBS_STATUS_OK)
+            st = scale_ao_task_costs(ctx, &gb, p.tile, task_cost, ntasks);
+        if (st == OBS_STATUS_OK)
+            st = scale_deal_tasks(ctx, task_cost, ntasks, ranks, owner);
+        for (int64_t t = 0; st == OBS_STATUS_OK && t < ntasks; t++)
+            task_mask[t] = owner[t] == rank;
+    }
     if (st == OBS_STATUS_OK)
-        st = truth_ao_render(ctx, pool, ts, &scene, &cam, &gb, &p, &res);
+        st = comm ? truth_ao_render_tasks(ctx, pool, ts, &scene, &cam, &gb, &p, task_mask, &res)
+                  : truth_ao_render(ctx, pool, ts, &scene, &cam, &gb, &p, &res);
+    double t_wait = 0.0, t_gather = 0.0; /* rank 0: waiting for the slowest rank, then the gather */
+    if (comm) { /* one failed rank fails the job, before anything is written */
+        st = scale_fault_point(ctx, comm, st);
+        const double t0 = obs_time_now();
+        st = scale_mpi_agree(ctx, comm, st);
+        const double t1 = obs_time_now();
+        if (st == OBS_STATUS_OK)
+            st = scale_mpi_gather_ao(ctx, comm, owner, task_cost, ntasks, p.tile, &res, per_rank);
+        t_wait = t1 - t0;
+        t_gather = obs_time_now() - t1;
+        if (st == OBS_STATUS_OK && rank != 0)
+            goto done; /* rank 0 writes */
+    }
     double t_end = obs_time_now();
     if (pr.drawn)
         fputc('\n', stderr);
     if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
+        code = rank == 0 ? cli_fail(ctx, st) : CLI_EXIT_OK;
         goto done;
     }
     const truth_ao_stats *S = &res.stats;
@@ -279,6 +341,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     na++;
 
     char path[4200];
+    const double t_write = obs_time_now();
     st = cli_make_parent_dirs(ctx, prefix);
     if (st == OBS_STATUS_OK) {
         snprintf(path, sizeof path, "%s%s", prefix, exr_ext);
@@ -300,6 +363,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         goto done;
     }
 
+    const double seconds_write = obs_time_now() - t_write;
     /* JSON sidecar: every parameter, timing and counters. */
     double se_sum = 0.0, n_sum = 0.0;
     for (int y = 0; y < res.height; y++)
@@ -361,6 +425,36 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     io_json_number(&j, "seconds_ao_work", S->seconds_work);
     io_json_number(&j, "mrays_per_second", mrays);
     io_json_end_object(&j);
+    if (comm) { /* the MPI run: ranks, dealing and balance (docs/scale.md) */
+        const int nr = ranks;
+        double *rr = (double *)malloc(sizeof(double) * 2 * (size_t)nr), *rs = rr ? rr + nr : NULL;
+        for (int r = 0; rr && r < nr; r++) {
+            rr[r] = (double)per_rank[r].rays;
+            rs[r] = per_rank[r].seconds_work;
+        }
+        io_json_begin_object(&j, "scale");
+        io_json_int(&j, "ranks", ranks);
+        io_json_int(&j, "tasks", ntasks);
+        io_json_string(&j, "dealing", "greedy by estimated cost (surface pixels) in task order");
+        io_json_number(&j, "imbalance_rays", rr ? scale_imbalance(rr, nr) : NAN);
+        io_json_number(&j, "imbalance_seconds", rr ? scale_imbalance(rs, nr) : NAN);
+        free(rr);
+        io_json_number(&j, "seconds_wait_rank0", t_wait);   /* rank 0 waiting for the slowest rank */
+        io_json_number(&j, "seconds_gather", t_gather);     /* the pixels and counters to rank 0 */
+        io_json_number(&j, "seconds_write", seconds_write); /* EXR and PNG, rank 0 */
+        io_json_begin_array(&j, "per_rank");
+        for (int r = 0; r < nr; r++) {
+            io_json_begin_object(&j, NULL);
+            io_json_int(&j, "rank", r);
+            io_json_int(&j, "tasks", per_rank[r].tasks);
+            io_json_number(&j, "cost_estimate", per_rank[r].cost_estimate);
+            io_json_int(&j, "rays", (int64_t)per_rank[r].rays);
+            io_json_number(&j, "seconds_work", per_rank[r].seconds_work);
+            io_json_end_object(&j);
+        }
+        io_json_end_array(&j);
+        io_json_end_object(&j);
+    }
     io_json_begin_array(&j, "channels");
     for (int c = 0; c < 4; c++)
         io_json_string(&j, NULL, ch[c].name);
@@ -377,6 +471,11 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     if (!g->quiet)
         fprintf(stderr, "obscura: wrote %s%s, %s.png, %s.json\n", prefix, exr_ext, prefix, prefix);
 done:
+    free(owner);
+    free(task_cost);
+    free(task_mask);
+    free(per_rank);
+    scale_mpi_finalize(comm);
     io_json_free(&j);
     obs_image_f32_free(&preview);
     truth_ao_result_free(&res);

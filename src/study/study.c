@@ -808,3 +808,202 @@ int study_score_informative(double cal_skill)
 {
     return cal_skill > STUDY_SKILL_MIN;
 }
+
+/* ================================================================================================
+ * Shards, hashes, locks and manifests (docs/scale.md)
+ * ============================================================================================== */
+
+int study_shard_parse(const char *s, int *k, int *n)
+{
+    if (!s)
+        return 0;
+    char *end;
+    errno = 0;
+    long a = strtol(s, &end, 10);
+    if (end == s || *end != '/' || errno)
+        return 0;
+    const char *t = end + 1;
+    long b = strtol(t, &end, 10);
+    if (end == t || *end || errno || b < 1 || b > 1000000 || a < 1 || a > b)
+        return 0;
+    *k = (int)a;
+    *n = (int)b;
+    return 1;
+}
+
+int study_shard_from_env(int *k, int *n)
+{
+    const char *id = getenv("SLURM_ARRAY_TASK_ID"), *count = getenv("SLURM_ARRAY_TASK_COUNT");
+    const char *mn = getenv("SLURM_ARRAY_TASK_MIN");
+    if (!id || !count)
+        return 0;
+    long long i, c, m = 0;
+    if (!obs_parse_int(id, 0, 1 << 30, &i) || !obs_parse_int(count, 1, 1000000, &c) ||
+        (mn && !obs_parse_int(mn, 0, 1 << 30, &m)))
+        return 0;
+    if (i - m + 1 < 1 || i - m + 1 > c)
+        return 0;
+    *k = (int)(i - m + 1);
+    *n = (int)c;
+    return 1;
+}
+
+uint64_t study_hash_bytes(uint64_t h, const void *data, size_t len)
+{
+    const unsigned char *p = (const unsigned char *)data;
+    for (size_t i = 0; i < len; i++)
+        h = (h ^ p[i]) * 0x100000001b3ull; /* [FNV] FNV-1a */
+    return h;
+}
+
+uint64_t study_hash_string(uint64_t h, const char *s) { return study_hash_bytes(h, s, strlen(s) + 1); }
+
+obs_status study_hash_file(obs_context *ctx, uint64_t h, const char *path, uint64_t *out)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot open %s: %s", path, strerror(errno));
+    unsigned char buf[65536];
+    size_t n;
+    while ((n = fread(buf, 1, sizeof buf, f)) > 0)
+        h = study_hash_bytes(h, buf, n);
+    int bad = ferror(f);
+    fclose(f);
+    if (bad)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot read %s", path);
+    *out = h;
+    return OBS_STATUS_OK;
+}
+
+#include <fcntl.h>
+#include <signal.h>
+#include <time.h>
+
+obs_status study_lock_acquire(obs_context *ctx, const char *path, double timeout_s, study_lock *lock, int *waited)
+{
+    memset(lock, 0, sizeof *lock);
+    if (waited)
+        *waited = 0;
+    if (strlen(path) >= sizeof lock->path)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "lock path too long: %s", path);
+    snprintf(lock->path, sizeof lock->path, "%s", path);
+    char host[256] = "";
+    gethostname(host, sizeof host - 1);
+    const double t0 = obs_time_now();
+    for (unsigned tries = 0;; tries++) {
+        int fd = open(path, O_WRONLY | O_CREAT | O_EXCL, 0644);
+        if (fd >= 0) {
+            char text[320];
+            int len = snprintf(text, sizeof text, "%s %ld\n", host, (long)getpid());
+            ssize_t w = write(fd, text, (size_t)len);
+            close(fd);
+            if (w != len) {
+                unlink(path);
+                return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot write the lock %s", path);
+            }
+            lock->held = 1;
+            return OBS_STATUS_OK;
+        }
+        if (errno != EEXIST)
+            return obs_error(ctx, OBS_STATUS_IO_ERROR, "cannot create the lock %s: %s", path, strerror(errno));
+        if (waited)
+            *waited = 1;
+        /* a holder on this host that is gone left a stale lock */
+        FILE *f = fopen(path, "r");
+        if (f) {
+            char owner[256] = "";
+            long pid = 0;
+            if (fscanf(f, "%255s %ld", owner, &pid) == 2 && !strcmp(owner, host) && pid > 0 &&
+                kill((pid_t)pid, 0) != 0 && errno == ESRCH)
+                unlink(path);
+            fclose(f);
+        }
+        if (obs_time_now() - t0 > timeout_s)
+            return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "waited %.0f s for the lock %s (remove it if its holder is gone)",
+                             timeout_s, path);
+        struct timespec ts = {0, (long)(50 + (tries % 8) * 7) * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+}
+
+void study_lock_release(study_lock *lock)
+{
+    if (!lock || !lock->held)
+        return;
+    unlink(lock->path);
+    lock->held = 0;
+}
+
+obs_status study_manifest_write(obs_context *ctx, const char *dir, const study_manifest *m)
+{
+    io_json j;
+    io_json_init(&j);
+    io_json_begin_object(&j, NULL);
+    io_json_string(&j, "generator", "obscura");
+    io_json_string(&j, "study", m->study);
+    io_json_string(&j, "version", m->version);
+    io_json_string(&j, "config_hash", m->config_hash);
+    io_json_string(&j, "config", m->config);
+    io_json_int(&j, "shard", m->shard);
+    io_json_int(&j, "shards", m->shards);
+    io_json_end_object(&j);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/manifest.json", dir);
+    obs_status st = io_json_write(ctx, &j, path);
+    io_json_free(&j);
+    return st;
+}
+
+/* The string value of "key": "..." in text (our own writer's output: no escapes in these values). */
+static int manifest_string(const char *text, const char *key, char *out, size_t size)
+{
+    char pat[64];
+    snprintf(pat, sizeof pat, "\"%s\": \"", key);
+    const char *p = strstr(text, pat);
+    if (!p)
+        return 0;
+    p += strlen(pat);
+    const char *e = strchr(p, '"');
+    if (!e || (size_t)(e - p) >= size)
+        return 0;
+    memcpy(out, p, (size_t)(e - p));
+    out[e - p] = 0;
+    return 1;
+}
+
+static int manifest_int(const char *text, const char *key, int *out)
+{
+    char pat[64];
+    snprintf(pat, sizeof pat, "\"%s\": ", key);
+    const char *p = strstr(text, pat);
+    if (!p)
+        return 0;
+    *out = atoi(p + strlen(pat));
+    return 1;
+}
+
+obs_status study_manifest_read(obs_context *ctx, const char *dir, study_manifest *m)
+{
+    memset(m, 0, sizeof *m);
+    char path[4200];
+    snprintf(path, sizeof path, "%s/manifest.json", dir);
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return obs_error(ctx, OBS_STATUS_IO_ERROR, "%s: no manifest (%s): not a study's output directory", dir,
+                         strerror(errno));
+    char *text = (char *)malloc(65536);
+    size_t n = text ? fread(text, 1, 65535, f) : 0;
+    fclose(f);
+    if (!text)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "out of memory");
+    text[n] = 0;
+    int ok = manifest_string(text, "study", m->study, sizeof m->study) &&
+             manifest_string(text, "version", m->version, sizeof m->version) &&
+             manifest_string(text, "config_hash", m->config_hash, sizeof m->config_hash) &&
+             manifest_string(text, "config", m->config, sizeof m->config) && manifest_int(text, "shard", &m->shard) &&
+             manifest_int(text, "shards", &m->shards);
+    free(text);
+    if (!ok || m->shard < 1 || m->shard > m->shards)
+        return obs_error(ctx, OBS_STATUS_PARSE_ERROR, "%s is not a study manifest", path);
+    return OBS_STATUS_OK;
+}

@@ -194,6 +194,56 @@ typedef struct study_plot {
 obs_status study_svg_scatter(obs_context *ctx, const char *path, const study_plot *plot, const study_series *series,
                              int series_count);
 
+/* ---- Shards and a shared cache (docs/scale.md) ------------------------------------------------
+ * A study's points are numbered in its fixed enumeration order; shard K of N (1 <= K <= N) takes
+ * the points whose index i has i mod N = K - 1 (interleaved: every shard gets a share of every
+ * frame and technique). The shards of one study share its ground-truth cache directory; a file in
+ * it is named by a hash of what determines its content, written to a temporary name and renamed
+ * (io_exr_write), and computed under a lock file so that two shards never compute it at once. */
+
+/* "K/N" -> 1 and *k, *n (1 <= K <= N <= 1000000); 0 when malformed. */
+int study_shard_parse(const char *s, int *k, int *n);
+/* Slurm array jobs: K = SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN + 1 (MIN 0 when unset),
+ * N = SLURM_ARRAY_TASK_COUNT, when both ID and COUNT are set and give 1 <= K <= N (an array with a
+ * step other than 1 is not supported): returns 1. Else 0 (no shard). */
+int study_shard_from_env(int *k, int *n);
+/* 1 when point `index` belongs to shard k of n (always for n <= 1). */
+static inline int study_shard_has(int k, int n, int64_t index) { return n <= 1 || index % n == (int64_t)(k - 1); }
+
+/* FNV-1a, 64-bit [FNV]: h = (h ^ byte) * 0x100000001b3, from the offset basis 0xcbf29ce484222325
+ * (STUDY_HASH_INIT). Not cryptographic: it names cache files and checks configurations. */
+#define STUDY_HASH_INIT 0xcbf29ce484222325ull
+uint64_t study_hash_bytes(uint64_t h, const void *data, size_t len);
+uint64_t study_hash_string(uint64_t h, const char *s);      /* the bytes and a terminating 0 */
+/* The hash of a file's bytes, continuing from h. Returns OK or IO_ERROR. */
+obs_status study_hash_file(obs_context *ctx, uint64_t h, const char *path, uint64_t *out);
+
+/* A lock file: created with O_CREAT | O_EXCL (atomic on local and NFSv3+ file systems), holding
+ * "host pid". study_lock_acquire waits (polling every 50-100 ms) while another process holds it,
+ * up to timeout_s seconds (then LIMIT_EXCEEDED, naming the file); a lock held by a
+ * process of this host that no longer exists is stale and removed. *waited = 1 when it had to
+ * wait (another process held it). Returns OK, LIMIT_EXCEEDED, IO_ERROR. */
+typedef struct study_lock {
+    char path[4096];
+    int held;
+} study_lock;
+obs_status study_lock_acquire(obs_context *ctx, const char *path, double timeout_s, study_lock *lock, int *waited);
+void study_lock_release(study_lock *lock);                 /* NULL-safe; removes the file */
+
+/* The manifest of a study's output directory, DIR/manifest.json: which study, obscura's version,
+ * the configuration (its canonical text and hash) and the shard. Written beside results.csv;
+ * `obscura study merge` reads it to refuse tables from other configurations or versions. */
+typedef struct study_manifest {
+    char study[32];               /* "ao" */
+    char version[32];             /* OBS_VERSION_STRING */
+    char config_hash[17];         /* 16 hex digits of study_hash_string(STUDY_HASH_INIT, config) */
+    char config[4096];            /* canonical "key=value;" text of every option that decides a row */
+    int shard, shards;            /* K of N; 1 of 1 for an unsharded run */
+} study_manifest;
+obs_status study_manifest_write(obs_context *ctx, const char *dir, const study_manifest *m);
+/* Returns OK, IO_ERROR (missing), PARSE_ERROR (not a manifest). */
+obs_status study_manifest_read(obs_context *ctx, const char *dir, study_manifest *m);
+
 #ifdef __cplusplus
 }
 #endif

@@ -37,6 +37,9 @@ study_ao_options study_ao_options_default(void)
     o.gt_max_samples = STUDY_AO_DEFAULT_GT_MAX_SAMPLES;
     o.quick = 0;
     o.log = NULL;
+    o.shard = 1;
+    o.shards = 1;
+    o.gt_dir = NULL;
     return o;
 }
 
@@ -137,6 +140,9 @@ static obs_status check_options(obs_context *ctx, study_ao *s)
     const study_ao_options *o = &s->o;
     if (!o->out_dir || !*o->out_dir || !o->data_dir)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: no output or data directory");
+    if (o->shards < 1 || o->shard < 1 || o->shard > o->shards)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: shard %d of %d (need 1 <= K <= N)", o->shard,
+                         o->shards);
     if (o->runs < 1 || o->runs > 64)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study ao: runs %d outside [1, 64]", o->runs);
     if (o->gt_max_samples < 32 || o->gt_max_samples > (1 << 20) || o->gt_max_samples % 16 != 0)
@@ -378,15 +384,49 @@ obs_status study_ao_i_frame_render(obs_context *ctx, obs_pool *pool, const study
 /* The cache file of a ground truth (seed 0; another seed gets a suffix). The name records the
  * settings of study_ao_truth_params that decide its accuracy (the fixed count and the
  * replicates), so that a cached file is only reused for the same settings. */
+/* The ground-truth cache directory: o.gt_dir, shared by the shards of a study, or OUT/gt. */
+static void gt_dir(const study_ao *s, char *dir, size_t size)
+{
+    if (s->o.gt_dir)
+        snprintf(dir, size, "%s", s->o.gt_dir);
+    else
+        snprintf(dir, size, "%s/gt", s->o.out_dir);
+}
+
+/* The content hash of a cache file's inputs beyond its name's settings: the scene file's bytes and
+ * obscura's version (docs/scale.md, "The shared cache"). Hashed once per scene file and kept
+ * (a study opens a handful of scenes; the study runs on one thread). 0 when unreadable: the frame
+ * itself then fails to load. */
+static uint64_t scene_hash(const study_ao *s, const char *scene_name)
+{
+    static struct { char path[4096]; uint64_t h; } memo[16];
+    static int nmemo = 0;
+    char path[4096];
+    snprintf(path, sizeof path, "%s/%s.glb", s->o.data_dir, scene_name);
+    for (int i = 0; i < nmemo; i++)
+        if (!strcmp(memo[i].path, path))
+            return memo[i].h;
+    uint64_t h = 0;
+    if (study_hash_file(NULL, study_hash_string(STUDY_HASH_INIT, OBS_VERSION_STRING), path, &h) != OBS_STATUS_OK)
+        return 0;
+    if (nmemo < 16) {
+        snprintf(memo[nmemo].path, sizeof memo[nmemo].path, "%s", path);
+        memo[nmemo++].h = h;
+    }
+    return h;
+}
+
 static void gt_path(const study_ao *s, const char *scene_name, const char *view, const study_ao_i_frame *f,
                     const char *estimator, float radius, unsigned seed, char *path, size_t size)
 {
     const truth_ao_params tp = study_ao_truth_params(&s->o, f->in.w, f->in.h, seed);
-    char rep[16] = "";
+    char rep[16] = "", dir[2048];
     if (seed)
         snprintf(rep, sizeof rep, "_s%u", seed);
-    snprintf(path, size, "%s/gt/%s_%s_%dx%d_%s_r%.6g_n%lld_R%d%s.exr", s->o.out_dir, scene_name, view, f->in.w,
-             f->in.h, estimator, (double)radius, (long long)tp.max_samples, tp.replicates, rep);
+    gt_dir(s, dir, sizeof dir);
+    snprintf(path, size, "%s/%s_%s_%dx%d_%s_r%.6g_n%lld_R%d%s_%016llx.exr", dir, scene_name, view, f->in.w, f->in.h,
+             estimator, (double)radius, (long long)tp.max_samples, tp.replicates, rep,
+             (unsigned long long)scene_hash(s, scene_name));
 }
 
 /* Mean and root-mean-square of the ground truth's standard error over the surface pixels. */
@@ -420,7 +460,7 @@ static obs_status gt_write(obs_context *ctx, const study_ao *s, const char *path
     at[0].type = IO_ATTR_STRING;
     at[0].s = (char *)estimator;
     char gtdir[4200];
-    snprintf(gtdir, sizeof gtdir, "%s/gt", s->o.out_dir);
+    gt_dir(s, gtdir, sizeof gtdir);
     obs_status st = io_make_dirs(ctx, gtdir);
     if (st == OBS_STATUS_OK)
         st = io_exr_write(ctx, path, ch, 3, at, 1);
@@ -548,8 +588,29 @@ static obs_status gt_prepare(obs_context *ctx, obs_pool *pool, const study_ao *s
 {
     if (n > 256)
         n = 256;
+    /* Shards share the cache (docs/scale.md): the frame's missing ground truths are computed under
+     * one lock per frame, so two shards never compute the same one at once; a shard that waited
+     * finds the other's files (written to a temporary name and renamed) and computes only what is
+     * still missing. */
+    char dir[4096], lock_path[4400];
+    gt_dir(s, dir, sizeof dir);
+    obs_status st = io_make_dirs(ctx, dir);
+    if (st != OBS_STATUS_OK)
+        return st;
+    snprintf(lock_path, sizeof lock_path, "%s/%s_%s_%dx%d_%016llx.lock", dir, scene_name, view, f->in.w, f->in.h,
+             (unsigned long long)scene_hash(s, scene_name));
+    study_lock lock;
+    int waited = 0;
+    st = study_lock_acquire(ctx, lock_path, 7.0 * 24 * 3600, &lock, &waited);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (waited && s->o.log)
+        fprintf(s->o.log, "\rground truth %s/%s %dx%d: waited for another shard's lock\n", scene_name, view, f->in.w,
+                f->in.h);
     /* one seed: the noise estimate comes from the replicates inside each pixel (gt_cache_get) */
-    return gt_prepare_seed(ctx, pool, s, scene_name, view, f, need, n, 0);
+    st = gt_prepare_seed(ctx, pool, s, scene_name, view, f, need, n, 0);
+    study_lock_release(&lock);
+    return st;
 }
 
 /* The frame's ground truths in memory, loaded once each (a 4K EXR takes a while to decode). */
@@ -692,6 +753,27 @@ obs_status study_ao_i_run_point(obs_context *ctx, obs_pool *pool, const ao_metho
 
 static void fmt(char *buf, double v) { snprintf(buf, 32, "%.9g", v); }
 
+/* The manifest (study.h): the canonical text of every option that decides a row's values. */
+static void study_ao_i_manifest(const study_ao *s, study_manifest *m)
+{
+    memset(m, 0, sizeof *m);
+    snprintf(m->study, sizeof m->study, "ao");
+    snprintf(m->version, sizeof m->version, "%s", OBS_VERSION_STRING);
+    char methods[1200] = "";
+    size_t off = 0;
+    for (int i = 0; i < s->methods.n && off < sizeof methods; i++)
+        off += (size_t)snprintf(methods + off, sizeof methods - off, "%s%s", i ? "," : "", s->methods.v[i]);
+    snprintf(m->config, sizeof m->config,
+             "scenes=%s;views=%s;methods=%s;resolutions=%s;samples=%s;radii=%s;blurs=%s;runs=%d;gt_max_samples=%lld;"
+             "quick=%d",
+             s->o.scenes, s->o.views, methods, s->o.resolutions, s->o.samples, s->o.radii, s->o.blurs, s->o.runs,
+             s->o.gt_max_samples, s->o.quick);
+    snprintf(m->config_hash, sizeof m->config_hash, "%016llx",
+             (unsigned long long)study_hash_string(STUDY_HASH_INIT, m->config));
+    m->shard = s->o.shard;
+    m->shards = s->o.shards;
+}
+
 static obs_status save_table(obs_context *ctx, study_ao *s)
 {
     s->last_save = obs_time_now();
@@ -701,6 +783,11 @@ static obs_status save_table(obs_context *ctx, study_ao *s)
         st = study_table_write_csv(ctx, &s->table, s->csv);
     if (st == OBS_STATUS_OK)
         st = study_table_write_json(ctx, &s->table, s->json);
+    if (st == OBS_STATUS_OK) {
+        study_manifest m;
+        study_ao_i_manifest(s, &m);
+        st = study_manifest_write(ctx, s->o.out_dir, &m);
+    }
     return st;
 }
 
@@ -759,8 +846,21 @@ static obs_status complete_row(obs_context *ctx, study_table *t, int64_t row, do
 }
 
 /* Every ground truth the pending points of a frame need, computed together (gt_prepare). */
+/* The index of a point in the study's enumeration (frames in scene, view, resolution order; in a
+ * frame, method, samples, radius, blur): what shards split (study_shard_has). */
+static int64_t point_index(const study_ao *s, int64_t frame, int mi, int ni, int qi, int bi)
+{
+    const int64_t per_frame = (int64_t)s->methods.n * s->samples.n * s->radii.n * s->blurs.n;
+    return frame * per_frame + (((int64_t)mi * s->samples.n + ni) * s->radii.n + qi) * s->blurs.n + bi;
+}
+
+static int in_shard(const study_ao *s, int64_t frame, int mi, int ni, int qi, int bi)
+{
+    return study_shard_has(s->o.shard, s->o.shards, point_index(s, frame, mi, ni, qi, bi));
+}
+
 static obs_status frame_truths(obs_context *ctx, obs_pool *pool, study_ao *s, const char *scene, const char *view,
-                               const char *ws, const char *hs, study_ao_i_frame *f)
+                               const char *ws, const char *hs, study_ao_i_frame *f, int64_t frame)
 {
     const double unit = study_ao_scene_unit(scene);
     gt_need need[256];
@@ -771,7 +871,8 @@ static obs_status frame_truths(obs_context *ctx, obs_pool *pool, study_ao *s, co
                 for (int bi = 0; bi < s->blurs.n; bi++) {
                     const char *key[KEY_COLUMNS] = {scene, view, ws, hs, s->methods.v[mi], s->samples.v[ni],
                                                     s->radii.v[qi], s->blurs.v[bi]};
-                    if (!row_pending(&s->table, study_table_find(&s->table, key)))
+                    if (!in_shard(s, frame, mi, ni, qi, bi) ||
+                        !row_pending(&s->table, study_table_find(&s->table, key)))
                         continue;
                     const ao_method *m = ao_method_find(s->methods.v[mi]);
                     unsigned char p[AO_PARAMS_MAX_SIZE] __attribute__((aligned(16)));
@@ -892,6 +993,7 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, study_ao *s, int truth
         for (int vi = 0; vi < s->views.n && st == OBS_STATUS_OK; vi++)
             for (int ri = 0; ri < s->resolutions.n && st == OBS_STATUS_OK; ri++) {
                 const char *scene = s->scenes.v[si], *view = s->views.v[vi];
+                const int64_t frame = ((int64_t)si * s->views.n + vi) * s->resolutions.n + ri;
                 int W = 0, H = 0;
                 study_ao_i_parse_size(s->resolutions.v[ri], &W, &H);
                 char ws[32], hs[32];
@@ -905,7 +1007,8 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, study_ao *s, int truth
                             for (int bi = 0; bi < s->blurs.n; bi++) {
                                 const char *key[KEY_COLUMNS] = {scene, view, ws, hs, s->methods.v[mi], s->samples.v[ni],
                                                                 s->radii.v[qi], s->blurs.v[bi]};
-                                remaining += row_pending(&s->table, study_table_find(&s->table, key));
+                                remaining += in_shard(s, frame, mi, ni, qi, bi) &&
+                                             row_pending(&s->table, study_table_find(&s->table, key));
                             }
                 if (!remaining) {
                     for (int64_t k = 0; k < per_frame; k++)
@@ -918,7 +1021,7 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, study_ao *s, int truth
                     study_ao_i_frame_free(&f);
                     break;
                 }
-                st = frame_truths(ctx, pool, s, scene, view, ws, hs, &f);
+                st = frame_truths(ctx, pool, s, scene, view, ws, hs, &f, frame);
                 gt_cache gtc;
                 memset(&gtc, 0, sizeof gtc);
                 if (st == OBS_STATUS_OK)
@@ -941,7 +1044,7 @@ static obs_status sweep(obs_context *ctx, obs_pool *pool, study_ao *s, int truth
                                 char label[128];
                                 snprintf(label, sizeof label, "%s/%s %dx%d %s n=%s r=%s b=%s", scene, view, W, H,
                                          s->methods.v[mi], s->samples.v[ni], s->radii.v[qi], s->blurs.v[bi]);
-                                if (study_table_find(&s->table, key) >= 0) {
+                                if (!in_shard(s, frame, mi, ni, qi, bi) || study_table_find(&s->table, key) >= 0) {
                                     study_progress_step(&pr, 0, label);
                                     continue;
                                 }
@@ -989,4 +1092,170 @@ obs_status study_ao_sweep(obs_context *ctx, obs_pool *pool, study_ao *s)
 {
     log_plan(s, pool);
     return sweep(ctx, pool, s, 0);
+}
+
+/* ================================================================================================
+ * Merging shards (docs/scale.md)
+ * ============================================================================================== */
+
+/* The value of key in a manifest's config text ("k=v;k=v"), copied into out; NULL when absent. */
+static const char *config_value(const char *config, const char *key, char *out, size_t size)
+{
+    const size_t kl = strlen(key);
+    for (const char *p = config; p && *p;) {
+        const char *e = strchr(p, ';');
+        const size_t len = e ? (size_t)(e - p) : strlen(p);
+        if (len > kl && !strncmp(p, key, kl) && p[kl] == '=') {
+            const size_t vl = len - kl - 1 < size - 1 ? len - kl - 1 : size - 1;
+            memcpy(out, p + kl + 1, vl);
+            out[vl] = 0;
+            return out;
+        }
+        p = e ? e + 1 : NULL;
+    }
+    return NULL;
+}
+
+obs_status study_ao_merge(obs_context *ctx, obs_pool *pool, const char *const *dirs, int count, const char *out_dir,
+                          const char *report_dir, const char *data_dir, FILE *log)
+{
+    if (!dirs || count < 1 || !out_dir)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study merge: no shard directories or no output directory");
+    study_manifest *m = (study_manifest *)calloc((size_t)count, sizeof *m);
+    study_table *tables = (study_table *)calloc((size_t)count, sizeof *tables);
+    if (!m || !tables) {
+        free(m);
+        free(tables);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study merge: out of memory");
+    }
+    obs_status st = OBS_STATUS_OK;
+    /* The manifests: one study, one configuration, one version, one shard count, each shard once. */
+    for (int i = 0; i < count && st == OBS_STATUS_OK; i++) {
+        st = study_manifest_read(ctx, dirs[i], &m[i]);
+        if (st != OBS_STATUS_OK)
+            break;
+        if (strcmp(m[i].study, "ao") != 0)
+            st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study merge: %s holds a '%s' study, not 'ao'", dirs[i],
+                           m[i].study);
+        else if (i > 0 && strcmp(m[i].version, m[0].version) != 0)
+            st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                           "study merge: %s was written by obscura %s, %s by %s: refusing to merge versions", dirs[i],
+                           m[i].version, dirs[0], m[0].version);
+        else if (i > 0 && strcmp(m[i].config_hash, m[0].config_hash) != 0)
+            st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                           "study merge: %s has another configuration than %s (config hash %s, not %s): %s", dirs[i],
+                           dirs[0], m[i].config_hash, m[0].config_hash, m[i].config);
+        else if (i > 0 && m[i].shards != m[0].shards)
+            st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study merge: %s is a shard of %d, %s of %d", dirs[i],
+                           m[i].shards, dirs[0], m[0].shards);
+        for (int j = 0; j < i && st == OBS_STATUS_OK; j++)
+            if (m[j].shard == m[i].shard)
+                st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study merge: %s and %s are both shard %d of %d", dirs[j],
+                               dirs[i], m[i].shard, m[i].shards);
+    }
+    /* The study the shards ran, from the first manifest's configuration. */
+    char scenes[1024], views[1024], methods[1200], resolutions[1024], samples[512], radii[512], blurs[64], num[64];
+    study_ao_options o = study_ao_options_default();
+    if (st == OBS_STATUS_OK) {
+        const char *c = m[0].config;
+        if (!config_value(c, "scenes", scenes, sizeof scenes) || !config_value(c, "views", views, sizeof views) ||
+            !config_value(c, "methods", methods, sizeof methods) ||
+            !config_value(c, "resolutions", resolutions, sizeof resolutions) ||
+            !config_value(c, "samples", samples, sizeof samples) || !config_value(c, "radii", radii, sizeof radii) ||
+            !config_value(c, "blurs", blurs, sizeof blurs))
+            st = obs_error(ctx, OBS_STATUS_PARSE_ERROR, "study merge: %s/manifest.json: incomplete configuration", dirs[0]);
+        o.scenes = scenes, o.views = views, o.methods = methods, o.resolutions = resolutions;
+        o.samples = samples, o.radii = radii, o.blurs = blurs;
+        if (config_value(c, "runs", num, sizeof num))
+            o.runs = atoi(num);
+        if (config_value(c, "gt_max_samples", num, sizeof num))
+            o.gt_max_samples = atoll(num);
+        if (config_value(c, "quick", num, sizeof num))
+            o.quick = atoi(num);
+    }
+    o.out_dir = out_dir;
+    o.report_dir = report_dir;
+    if (data_dir)
+        o.data_dir = data_dir;
+    o.log = log;
+    study_ao *s = NULL;
+    if (st == OBS_STATUS_OK)
+        st = study_ao_open(ctx, &o, &s);
+    if (st == OBS_STATUS_OK && s->table.rows > 0)
+        st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "study merge: %s already holds a results table", out_dir);
+    /* Each shard's table (the merge does not trust a shard's rows to be its own: it takes a point
+     * from whichever table has it, and refuses a point two tables hold). */
+    for (int i = 0; i < count && st == OBS_STATUS_OK; i++) {
+        char csv[4200];
+        snprintf(csv, sizeof csv, "%s/results.csv", dirs[i]);
+        int64_t rows = 0;
+        st = study_table_init(ctx, &tables[i], study_ao_i_columns, NCOL, KEY_COLUMNS);
+        if (st == OBS_STATUS_OK)
+            st = study_table_read_csv(ctx, &tables[i], csv, &rows);
+    }
+    /* The rows in a single run's order: frames (scene, view, resolution), then radius, method,
+     * samples, blur (sweep). */
+    int64_t merged = 0, missing = 0;
+    for (int si = 0; st == OBS_STATUS_OK && si < s->scenes.n; si++)
+        for (int vi = 0; st == OBS_STATUS_OK && vi < s->views.n; vi++)
+            for (int ri = 0; st == OBS_STATUS_OK && ri < s->resolutions.n; ri++) {
+                int W = 0, H = 0;
+                study_ao_i_parse_size(s->resolutions.v[ri], &W, &H);
+                char ws[32], hs[32];
+                snprintf(ws, sizeof ws, "%d", W);
+                snprintf(hs, sizeof hs, "%d", H);
+                for (int qi = 0; qi < s->radii.n && st == OBS_STATUS_OK; qi++)
+                    for (int mi = 0; mi < s->methods.n && st == OBS_STATUS_OK; mi++)
+                        for (int ni = 0; ni < s->samples.n && st == OBS_STATUS_OK; ni++)
+                            for (int bi = 0; bi < s->blurs.n && st == OBS_STATUS_OK; bi++) {
+                                const char *key[KEY_COLUMNS] = {s->scenes.v[si], s->views.v[vi], ws, hs,
+                                                                s->methods.v[mi], s->samples.v[ni], s->radii.v[qi],
+                                                                s->blurs.v[bi]};
+                                int from = -1;
+                                int64_t row = -1;
+                                for (int i = 0; i < count && st == OBS_STATUS_OK; i++) {
+                                    const int64_t r = study_table_find(&tables[i], key);
+                                    if (r < 0)
+                                        continue;
+                                    if (from >= 0)
+                                        st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                                                       "study merge: %s and %s both hold the point %s/%s %sx%s %s n=%s "
+                                                       "r=%s b=%s",
+                                                       dirs[from], dirs[i], key[0], key[1], key[2], key[3], key[4],
+                                                       key[5], key[6], key[7]);
+                                    from = i;
+                                    row = r;
+                                }
+                                if (st != OBS_STATUS_OK)
+                                    break;
+                                if (from < 0) {
+                                    missing++;
+                                    continue;
+                                }
+                                const char *cells[STUDY_MAX_COLUMNS];
+                                for (int c = 0; c < NCOL; c++)
+                                    cells[c] = study_table_get(&tables[from], row, c);
+                                st = study_table_append(ctx, &s->table, cells);
+                                merged++;
+                            }
+            }
+    if (st == OBS_STATUS_OK) {
+        s->o.shard = 1, s->o.shards = 1; /* the merged table is the whole study's */
+        st = save_table(ctx, s);
+    }
+    if (st == OBS_STATUS_OK && log)
+        fprintf(log, "obscura: study merge: %d shard%s of %d, %lld points into %s/results.csv%s\n", count,
+                count > 1 ? "s" : "", m[0].shards, (long long)merged, out_dir,
+                missing ? " (some points were measured by no shard: see below)" : "");
+    if (st == OBS_STATUS_OK && log && missing)
+        fprintf(log, "obscura: study merge: %lld points missing (%d of %d shards given)\n", (long long)missing, count,
+                m[0].shards);
+    if (st == OBS_STATUS_OK && report_dir)
+        st = study_ao_report(ctx, pool, s);
+    for (int i = 0; i < count; i++)
+        study_table_free(&tables[i]);
+    free(tables);
+    free(m);
+    study_ao_close(s);
+    return st;
 }

@@ -75,6 +75,9 @@ typedef struct study_ao_options {
     long long gt_max_samples;       /* multiple of 16 in [32, 2^20]; see study_ao_truth_params */
     int quick;                      /* 1: the options came from study_ao_options_quick (the report says so) */
     FILE *log;                      /* the progress bar and one line per ground truth computed; NULL: silent */
+    /* scale-out (docs/scale.md) */
+    int shard, shards;              /* run shard K of N of the points (study_shard_has); default 1 of 1 */
+    const char *gt_dir;             /* the ground-truth cache, shared by shards; NULL: OUT/gt */
 } study_ao_options;
 
 study_ao_options study_ao_options_default(void);
@@ -144,6 +147,17 @@ obs_status study_ao_sweep(obs_context *ctx, obs_pool *pool, study_ao *s);
  * compute their ground truths). Returns OK, INVALID_ARGUMENT (no report_dir), IO_ERROR,
  * OUT_OF_MEMORY, or a scene's or the truth module's error. */
 obs_status study_ao_report(obs_context *ctx, obs_pool *pool, study_ao *s);
+
+/* Merge the output directories of shards of one study (each with manifest.json and results.csv)
+ * into out_dir: the rows in the order a single run writes them (so that the merged table equals a
+ * single run's, timings aside), then results.csv, results.json and a manifest of shard 1 of 1; with
+ * report_dir, the report from the merged table (study_ao_report). Refuses (INVALID_ARGUMENT, naming
+ * the directory) manifests of another study, another configuration (config_hash), another version
+ * or another shard count, the same shard twice, and an out_dir that already holds a table. Points
+ * no shard has measured are left out and counted in the log. Returns OK, INVALID_ARGUMENT,
+ * IO_ERROR, PARSE_ERROR, OUT_OF_MEMORY, or the report's errors. */
+obs_status study_ao_merge(obs_context *ctx, obs_pool *pool, const char *const *dirs, int count, const char *out_dir,
+                          const char *report_dir, const char *data_dir, FILE *log);
 
 #ifdef __cplusplus
 }

@@ -288,6 +288,26 @@ obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_s
                                  const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,
                                  const truth_ao_output *outputs, int count, truth_ao_result *out);
 
+/* Subsets of the image's tasks (scale-out over MPI ranks, docs/scale.md). truth_ao_render splits
+ * the inner image into tiles of p->tile pixels (row-major), and hands its thread pool TASKS: runs
+ * of ceil(16 / tile) horizontally adjacent tiles of one tile row (one tile for tile >= 16), row-
+ * major. A pixel's result depends on (inputs, params, seed) only, so any partition of the tasks,
+ * rendered anywhere and put together, equals the whole image bit for bit.
+ * truth_ao_task_count: the number of tasks of a width x height inner image (0 for a bad size or tile).
+ * truth_ao_task_rect: task `task`'s pixel rectangle [x0, x1) x [y0, y1) of the inner image. */
+int64_t truth_ao_task_count(int width, int height, int tile);
+void truth_ao_task_rect(int width, int height, int tile, int64_t task, int *x0, int *y0, int *x1, int *y1);
+
+/* truth_ao_render for the tasks whose task_mask[task] is nonzero only (task_mask holds
+ * truth_ao_task_count bytes; NULL = every task, truth_ao_render itself). The pixels of the
+ * selected tasks are bit-identical to truth_ao_render's; the others hold mean 0, std_error 0 and
+ * count 0 (not the background's mean 1). The stats count the selected tasks only: their sums
+ * (rays, pixels) and maxima (max_std_error, max_offset) over any partition combine to
+ * truth_ao_render's. Returns as truth_ao_render. */
+obs_status truth_ao_render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                 const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,
+                                 const unsigned char *task_mask, truth_ao_result *out);
+
 /* ============================================ end of AO ground truth ============================ */
 
 /* ================================================================================================

@@ -323,6 +323,7 @@ typedef struct ao_job {
     double inv_r2s[TRUTH_AO_MAX_OUTPUTS]; /* 1 / r^2 per output (0 for r = inf) */
     float radii[TRUTH_AO_MAX_OUTPUTS];
     const truth_ao_hooks *hooks;
+    const unsigned char *task_mask; /* truth_ao_render_tasks: the tasks to render (NULL = all) */
     obs_vec3 eye;          /* perspective eye (world) */
     obs_vec3 cam_back;     /* camera +Z axis in world (orthographic VOL) */
     atomic_int_fast64_t tiles_done;
@@ -1372,12 +1373,17 @@ static uint64_t ao_tile(ao_job *J, thread_scratch *S, int64_t tile)
     return tile_rays;
 }
 
+/* Tiles per task: at least 16 pixels wide (see ao_task). */
+static int task_group(int tile) { return tile < 16 ? (16 + tile - 1) / tile : 1; }
+
 /* A task is a run of `group` horizontally adjacent tiles, as many as make it at least 16 pixels
  * (64 bytes of an output row) wide: tiles that share a cache line of the output planes are then
  * written by the same thread (no false sharing between two 8-pixel tiles). */
 static void ao_task(void *user, int64_t task, int thread)
 {
     ao_job *J = (ao_job *)user;
+    if (J->task_mask && !J->task_mask[task])
+        return; /* another caller's task (truth_ao_render_tasks): its pixels stay zero */
     thread_scratch *S = &J->scratch[thread];
     const unsigned int saved_csr = _mm_getcsr();
     truth_thread_init(); /* FTZ/DAZ, as Embree asks; restored below */
@@ -1508,7 +1514,7 @@ obs_status truth_ao_render(obs_context *ctx, obs_pool *pool, const truth_scene *
 static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                                  const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
                                  const truth_ao_output *outputs, int nout, truth_ao_result *outs,
-                                 const truth_ao_hooks *hooks);
+                                 const truth_ao_hooks *hooks, const unsigned char *task_mask);
 
 obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                               const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
@@ -1520,7 +1526,41 @@ obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scen
     if (!p)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render: NULL argument");
     truth_ao_output one = {p->estimator, p->radius};
-    return render_outputs(ctx, pool, ts, scene, camera, gb, p, &one, 1, out, hooks);
+    return render_outputs(ctx, pool, ts, scene, camera, gb, p, &one, 1, out, hooks, NULL);
+}
+
+int64_t truth_ao_task_count(int width, int height, int tile)
+{
+    if (width < 1 || height < 1 || tile < 1)
+        return 0;
+    const obs_tiling t = obs_tiling_make(width, height, tile);
+    const int g = task_group(tile);
+    return (int64_t)t.tiles_y * ((t.tiles_x + g - 1) / g);
+}
+
+void truth_ao_task_rect(int width, int height, int tile, int64_t task, int *x0, int *y0, int *x1, int *y1)
+{
+    const obs_tiling t = obs_tiling_make(width, height, tile);
+    const int g = task_group(tile);
+    const int64_t groups_x = (t.tiles_x + g - 1) / g;
+    const int64_t ty = task / groups_x, tx0 = (task % groups_x) * g;
+    *x0 = (int)(tx0 * tile);
+    *y0 = (int)(ty * tile);
+    *x1 = (int)((tx0 + g) * tile < width ? (tx0 + g) * tile : width);
+    *y1 = *y0 + tile < height ? *y0 + tile : height;
+}
+
+obs_status truth_ao_render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                 const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
+                                 const unsigned char *task_mask, truth_ao_result *out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render_tasks: NULL result");
+    memset(out, 0, sizeof *out);
+    if (!p)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_ao_render_tasks: NULL argument");
+    truth_ao_output one = {p->estimator, p->radius};
+    return render_outputs(ctx, pool, ts, scene, camera, gb, p, &one, 1, out, NULL, task_mask);
 }
 
 obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
@@ -1556,7 +1596,7 @@ obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_s
                              j, ei->name, e0->name);
         q.radius = o->radius > q.radius ? o->radius : q.radius;
     }
-    return render_outputs(ctx, pool, ts, scene, camera, gb, &q, outputs, count, out, NULL);
+    return render_outputs(ctx, pool, ts, scene, camera, gb, &q, outputs, count, out, NULL, NULL);
 }
 
 /* p->radius is the largest output radius (the rays' tfar); p->estimator the single output's, or
@@ -1564,7 +1604,7 @@ obs_status truth_ao_render_multi(obs_context *ctx, obs_pool *pool, const truth_s
 static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                                  const obs_camera *camera, const rast_gbuffer *gb, const truth_ao_params *p,
                                  const truth_ao_output *outputs, int nout, truth_ao_result *outs,
-                                 const truth_ao_hooks *hooks)
+                                 const truth_ao_hooks *hooks, const unsigned char *task_mask)
 {
     truth_ao_result *out = &outs[0];
     double t0 = obs_time_now();
@@ -1582,6 +1622,7 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     J->p = *p;
     J->ei = k_est[p->estimator];
     J->hooks = hooks;
+    J->task_mask = task_mask;
     J->avx2 = truth_i_avx2_active();
 #if defined(OBS_HAVE_AVX2)
     if (J->avx2)
@@ -1720,10 +1761,16 @@ static obs_status render_outputs(obs_context *ctx, obs_pool *pool, const truth_s
     }
     if (st != OBS_STATUS_OK)
         goto done;
+    if (task_mask) /* the tasks left out are not written by ao_task: zero, padding included */
+        for (int j = 0; j < nout; j++) {
+            obs_image_f32 *pl[3] = {&outs[j].mean, &outs[j].std_error, &outs[j].count};
+            for (int k = 0; k < 3; k++)
+                memset(pl[k]->data, 0, sizeof(float) * (size_t)pl[k]->stride * (size_t)pl[k]->height);
+        }
     J->out = out;
 
     double tw = obs_time_now();
-    J->group = p->tile < 16 ? (16 + p->tile - 1) / p->tile : 1;
+    J->group = task_group(p->tile);
     obs_pool_run(pool, (int64_t)J->tiling.tiles_y * ((J->tiling.tiles_x + J->group - 1) / J->group), ao_task, J);
     double t_work = obs_time_now() - tw;
 

@@ -1,0 +1,194 @@
+/* scale_mpi.c: the MPI adapter (built with OBS_WITH_MPI; docs/scale.md). Only the thread that
+ * called scale_mpi_init talks to MPI (MPI_THREAD_FUNNELED); the worker pools never do. */
+#include "scale.h"
+
+#include <mpi.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct scale_comm {
+    int rank, size;
+};
+
+enum { TAG_STATS = 1701, TAG_PIXELS = 1702 };
+#define MSG_LEN 512
+/* MPI counts are int: pixel payloads go in chunks of at most 2^26 floats (256 MiB). */
+#define CHUNK_FLOATS ((int64_t)1 << 26)
+
+int scale_mpi_built(void) { return 1; }
+
+obs_status scale_mpi_init(obs_context *ctx, int *argc, char ***argv, scale_comm **out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_init: NULL argument");
+    *out = NULL;
+    scale_comm *c = (scale_comm *)calloc(1, sizeof *c);
+    if (!c)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "scale_mpi_init: out of memory");
+    int provided = 0;
+    if (MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided) != MPI_SUCCESS) {
+        free(c);
+        return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Init_thread failed");
+    }
+    if (provided < MPI_THREAD_FUNNELED) {
+        MPI_Finalize();
+        free(c);
+        return obs_error(ctx, OBS_STATUS_UNSUPPORTED, "the MPI library does not provide MPI_THREAD_FUNNELED");
+    }
+    MPI_Comm_rank(MPI_COMM_WORLD, &c->rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &c->size);
+    *out = c;
+    return OBS_STATUS_OK;
+}
+
+int scale_comm_rank(const scale_comm *c) { return c ? c->rank : 0; }
+int scale_comm_size(const scale_comm *c) { return c ? c->size : 1; }
+
+void scale_mpi_abort(scale_comm *c, int code)
+{
+    if (c)
+        MPI_Abort(MPI_COMM_WORLD, code);
+}
+
+void scale_mpi_finalize(scale_comm *c)
+{
+    if (!c)
+        return;
+    MPI_Finalize();
+    free(c);
+}
+
+obs_status scale_mpi_agree(obs_context *ctx, scale_comm *c, obs_status local)
+{
+    if (!c)
+        return local;
+    int mine = (int)local;
+    int *all = (int *)malloc(sizeof(int) * (size_t)c->size);
+    char msg[MSG_LEN];
+    if (!all) /* cannot take part: end the job rather than hang the others */
+        MPI_Abort(MPI_COMM_WORLD, 6);
+    MPI_Allgather(&mine, 1, MPI_INT, all, 1, MPI_INT, MPI_COMM_WORLD);
+    int first = -1, failed = 0;
+    for (int r = 0; r < c->size; r++)
+        if (all[r] != OBS_STATUS_OK) {
+            failed++;
+            if (first < 0)
+                first = r;
+        }
+    if (first < 0) {
+        free(all);
+        return OBS_STATUS_OK;
+    }
+    /* the lowest failing rank's message, to everyone */
+    memset(msg, 0, sizeof msg);
+    if (c->rank == first)
+        snprintf(msg, sizeof msg, "%s", obs_context_last_error(ctx));
+    MPI_Bcast(msg, MSG_LEN, MPI_CHAR, first, MPI_COMM_WORLD);
+    const obs_status st = (obs_status)all[first];
+    free(all);
+    obs_context_clear_error(ctx);
+    if (failed > 1)
+        return obs_error(ctx, st, "rank %d of %d failed (and %d other ranks): %s", first, c->size, failed - 1, msg);
+    return obs_error(ctx, st, "rank %d of %d failed: %s", first, c->size, msg);
+}
+
+/* Each owned task's rectangle, plane by plane (mean, std_error, count), rows in order. */
+static void pack_unpack(truth_ao_result *res, int tile, const int *owner, int64_t ntasks, int rank, float *buf, int unpack)
+{
+    obs_image_f32 *pl[3] = {&res->mean, &res->std_error, &res->count};
+    size_t at = 0;
+    for (int64_t t = 0; t < ntasks; t++) {
+        if (owner[t] != rank)
+            continue;
+        int x0, y0, x1, y1;
+        truth_ao_task_rect(res->width, res->height, tile, t, &x0, &y0, &x1, &y1);
+        const size_t n = (size_t)(x1 - x0);
+        for (int k = 0; k < 3; k++)
+            for (int y = y0; y < y1; y++, at += n) {
+                float *row = obs_image_f32_row(pl[k], y) + x0;
+                if (unpack)
+                    memcpy(row, buf + at, n * sizeof(float));
+                else
+                    memcpy(buf + at, row, n * sizeof(float));
+            }
+    }
+}
+
+static int xfer(float *buf, int64_t n, int peer, int send)
+{
+    for (int64_t at = 0; at < n; at += CHUNK_FLOATS) {
+        const int len = (int)(n - at < CHUNK_FLOATS ? n - at : CHUNK_FLOATS);
+        const int rc = send ? MPI_Send(buf + at, len, MPI_FLOAT, peer, TAG_PIXELS, MPI_COMM_WORLD)
+                            : MPI_Recv(buf + at, len, MPI_FLOAT, peer, TAG_PIXELS, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        if (rc != MPI_SUCCESS)
+            return 0;
+    }
+    return 1;
+}
+
+obs_status scale_mpi_gather_ao(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
+                               int tile, truth_ao_result *res, scale_rank_stats *per_rank)
+{
+    if (!c || !owner || !cost || !res)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_gather_ao: NULL argument");
+    truth_ao_stats *S = &res->stats;
+    /* the counters as doubles: exact up to 2^53 */
+    double mine[10] = {(double)S->rays, (double)S->primary_rays, (double)S->pixels_surface,
+                       (double)S->pixels_background, (double)S->pixels_invalid, (double)S->pixels_converged,
+                       (double)S->pixels_at_max, S->max_std_error, S->max_offset, S->seconds_work};
+    if (c->rank != 0) {
+        const int64_t n = 3 * scale_ao_rank_pixels(res->width, res->height, tile, owner, ntasks, c->rank);
+        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
+        if (!buf) /* rank 0 is waiting for this rank's pixels: end the job */
+            MPI_Abort(MPI_COMM_WORLD, 6);
+        pack_unpack(res, tile, owner, ntasks, c->rank, buf, 0);
+        int ok = MPI_Send(mine, 10, MPI_DOUBLE, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS && xfer(buf, n, 0, 1);
+        free(buf);
+        return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
+    }
+    if (per_rank)
+        for (int r = 0; r < c->size; r++) {
+            memset(&per_rank[r], 0, sizeof per_rank[r]);
+            if (r == 0) {
+                per_rank[0].rays = S->rays;
+                per_rank[0].seconds_work = S->seconds_work;
+            }
+        }
+    if (per_rank)
+        for (int64_t t = 0; t < ntasks; t++) {
+            per_rank[owner[t]].tasks++;
+            per_rank[owner[t]].cost_estimate += cost[t];
+        }
+    for (int r = 1; r < c->size; r++) {
+        double th[10];
+        if (MPI_Recv(th, 10, MPI_DOUBLE, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS)
+            return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv from rank %d failed", r);
+        const int64_t n = 3 * scale_ao_rank_pixels(res->width, res->height, tile, owner, ntasks, r);
+        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
+        if (!buf)
+            MPI_Abort(MPI_COMM_WORLD, 6);
+        if (!xfer(buf, n, r, 0)) {
+            free(buf);
+            return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv of rank %d's pixels failed", r);
+        }
+        pack_unpack(res, tile, owner, ntasks, r, buf, 1);
+        free(buf);
+        /* sums of the counters, maxima of the rest, as truth_ao_render combines its threads' */
+        S->rays += (uint64_t)th[0];
+        S->primary_rays += (uint64_t)th[1];
+        S->pixels_surface += (int64_t)th[2];
+        S->pixels_background += (int64_t)th[3];
+        S->pixels_invalid += (int64_t)th[4];
+        S->pixels_converged += (int64_t)th[5];
+        S->pixels_at_max += (int64_t)th[6];
+        S->max_std_error = th[7] > S->max_std_error ? th[7] : S->max_std_error;
+        S->max_offset = th[8] > S->max_offset ? th[8] : S->max_offset;
+        S->seconds_work = th[9] > S->seconds_work ? th[9] : S->seconds_work;
+        if (per_rank) {
+            per_rank[r].rays = (uint64_t)th[0];
+            per_rank[r].seconds_work = th[9];
+        }
+    }
+    return OBS_STATUS_OK;
+}
