@@ -51,26 +51,20 @@ double sss_i_visibility(const rast_gbuffer *gb, sss_visibility mode, double px, 
     return v / 9.0;
 }
 
-/* Bilinear radiance lookup, GL_LINEAR with clamp to edge ([DalCorso14] samples the map array with
- * linear filtering): texel centres at (i + 0.5, j + 0.5). */
-static void bilinear3(const obs_image_f32 *pl, double px, double py, double out[3])
-{
-    double u = px - 0.5, v = py - 0.5;
-    double fu = floor(u), fv = floor(v);
-    double a = u - fu, b = v - fv;
-    int x0 = (int)fu, y0 = (int)fv, W = pl[0].width, H = pl[0].height;
-    int xs[2] = {x0, x0 + 1}, ys[2] = {y0, y0 + 1};
-    for (int i = 0; i < 2; i++) {
-        xs[i] = xs[i] < 0 ? 0 : xs[i] >= W ? W - 1 : xs[i];
-        ys[i] = ys[i] < 0 ? 0 : ys[i] >= H ? H - 1 : ys[i];
-    }
-    for (int c = 0; c < 3; c++) {
-        const float *r0 = obs_image_f32_row(&pl[c], ys[0]), *r1 = obs_image_f32_row(&pl[c], ys[1]);
-        double top = (1.0 - a) * r0[xs[0]] + a * r0[xs[1]];
-        double bot = (1.0 - a) * r1[xs[0]] + a * r1[xs[1]];
-        out[c] = (1.0 - b) * top + b * bot;
-    }
-}
+/* One map layer's constants, hoisted out of the per-pixel loop (docs/sss/maps.md "Cost"): the view
+ * matrix's rows as doubles (the same values sss_i_project converts per call), the pixel model, the
+ * direction and the planes. Every expression below keeps the order of sss_i_project, shadow_tap
+ * and bilinear3, so the bits are those of the per-call code (and of the GLSL port). */
+typedef struct combine_map {
+    double r0[4], r1[4], r2[4];    /* view rows x, y, z: v_r = ((r[0] p0 + r[1] p1) + r[2] p2) + r[3] */
+    double cx, cy, fx, fy;
+    double wd[3];
+    int W, H;
+    const float *depth;
+    ptrdiff_t dstride;
+    const float *rad[3];
+    ptrdiff_t rstride;
+} combine_map;
 
 typedef struct combine_job {
     const sss_scene_materials *mats;
@@ -85,7 +79,20 @@ typedef struct combine_job {
     obs_tiling tiling;
     double eps_world;    /* shrink distance, world units */
     double bias_world;   /* shadow bias, world units */
+    combine_map *cm;     /* K */
 } combine_job;
+
+/* shadow_tap with the map's constants: (int) truncation then the clamp equals floor then the
+ * clamp (a position in (-1, 0) truncates to 0, one <= -1 to a negative index, both clamp to 0) */
+static inline int tap_fast(const combine_map *c, double px, double py, double d0, double px0, double py0, double gx,
+                           double gy, double bias)
+{
+    int ix = (int)px, iy = (int)py;
+    ix = ix < 0 ? 0 : ix >= c->W ? c->W - 1 : ix;
+    iy = iy < 0 ? 0 : iy >= c->H ? c->H - 1 : iy;
+    double d = d0 + gx * (ix + 0.5 - px0) + gy * (iy + 0.5 - py0);
+    return d - bias <= (double)c->depth[(ptrdiff_t)iy * c->dstride + ix];
+}
 
 static void combine_task(void *user, int64_t task, int thread)
 {
@@ -124,42 +131,73 @@ static void combine_task(void *user, int64_t task, int thread)
             double wo[3] = {-dir.x / dl, -dir.y / dl, -dir.z / dl}; /* towards the camera */
             double sumv = 0.0, acc[3] = {0, 0, 0};
             int seen = 0;
+            const int product5 = p->visibility == SSS_VISIBILITY_PRODUCT5;
             for (int k = 0; k < m->K; k++) {
-                const double *wd = m->dirs + 3 * k;
-                double nd = no[0] * wd[0] + no[1] * wd[1] + no[2] * wd[2];
+                const combine_map *c = &j->cm[k];
+                /* a point that faces away from direction k (or grazes it) is not seen by map k
+                 * (tested first: it does not depend on the shrink) */
+                const double nvz = (c->r2[0] * no[0] + c->r2[1] * no[1]) + c->r2[2] * no[2];
+                if (!(nvz > SSS_I_MIN_FACING))
+                    continue;
+                const double *wd = c->wd;
+                const double nd = no[0] * wd[0] + no[1] * wd[1] + no[2] * wd[2];
                 /* shrink along the tangent plane of direction k: x_o - eps_c (n_o - w_d (n_o.w_d))
                  * ([DalCorso14] ss_array_combination.frag, sss.md 3.6) */
                 double xs[3];
                 for (int a = 0; a < 3; a++)
                     xs[a] = xo[a] - j->eps_world * (no[a] - wd[a] * nd);
-                double px, py, d, ppu;
-                const rast_gbuffer *mk = &m->views[k];
-                if (!sss_i_project(&mk->constants, xs, &px, &py, &d, &ppu))
-                    continue;
-                if (px < 0.0 || py < 0.0 || px >= mk->width || py >= mk->height)
+                /* sss_i_project of xs (orthographic maps) */
+                const double px = c->cx + c->fx * (((c->r0[0] * xs[0] + c->r0[1] * xs[1]) + c->r0[2] * xs[2]) + c->r0[3]);
+                const double py = c->cy - c->fy * (((c->r1[0] * xs[0] + c->r1[1] * xs[1]) + c->r1[2] * xs[2]) + c->r1[3]);
+                if (px < 0.0 || py < 0.0 || px >= c->W || py >= c->H)
                     continue;
                 /* the receiver plane through the UNshrunk x_o (the maps are orthographic):
-                 * depth(px, py) = d0 + gx (px - px0) + gy (py - py0) from n_o in view space;
-                 * a point that faces away from direction k (or grazes it) is not seen by map k */
-                sss_i_depth_plane pl;
-                const float *vm = mk->constants.view.m;
-                double nvz = (double)vm[2] * no[0] + (double)vm[6] * no[1] + (double)vm[10] * no[2];
-                if (!(nvz > SSS_I_MIN_FACING))
-                    continue;
-                double nvx = (double)vm[0] * no[0] + (double)vm[4] * no[1] + (double)vm[8] * no[2];
-                double nvy = (double)vm[1] * no[0] + (double)vm[5] * no[1] + (double)vm[9] * no[2];
-                if (!sss_i_project(&mk->constants, xo, &pl.px0, &pl.py0, &pl.d0, &ppu))
-                    continue;
+                 * depth(px, py) = d0 + gx (px - px0) + gy (py - py0) from n_o in view space */
+                const double nvx = (c->r0[0] * no[0] + c->r0[1] * no[1]) + c->r0[2] * no[2];
+                const double nvy = (c->r1[0] * no[0] + c->r1[1] * no[1]) + c->r1[2] * no[2];
+                const double px0 = c->cx + c->fx * (((c->r0[0] * xo[0] + c->r0[1] * xo[1]) + c->r0[2] * xo[2]) + c->r0[3]);
+                const double py0 = c->cy - c->fy * (((c->r1[0] * xo[0] + c->r1[1] * xo[1]) + c->r1[2] * xo[2]) + c->r1[3]);
+                const double d0 = -((((c->r2[0] * xo[0] + c->r2[1] * xo[1]) + c->r2[2] * xo[2]) + c->r2[3]));
                 /* view z - z0 = -(nx dx + ny dy) / nz, dx = dpx / fx, dy = -dpy / fy, depth = -z */
-                pl.gx = nvx / (nvz * mk->constants.fx);
-                pl.gy = -nvy / (nvz * mk->constants.fy);
-                double v = sss_i_visibility(mk, p->visibility, px, py, &pl, j->bias_world);
-                if (!(v > 0.0))
-                    continue;
-                double r[3];
-                bilinear3(&m->radiance[3 * k], px, py, r);
-                for (int c = 0; c < 3; c++)
-                    acc[c] += v * r[c];
+                const double gx = nvx / (nvz * c->fx);
+                const double gy = -nvy / (nvz * c->fy);
+                double v;
+                if (product5) {
+                    /* sss_i_visibility's PRODUCT5: the centre and the rotated grid, any shadowed
+                     * tap gives 0 */
+                    const double bias = j->bias_world;
+                    if (!tap_fast(c, px, py, d0, px0, py0, gx, gy, bias) ||
+                        !tap_fast(c, px + 0.5, py + 1.5, d0, px0, py0, gx, gy, bias) ||
+                        !tap_fast(c, px + -1.5, py + 0.5, d0, px0, py0, gx, gy, bias) ||
+                        !tap_fast(c, px + -0.5, py + -1.5, d0, px0, py0, gx, gy, bias) ||
+                        !tap_fast(c, px + 1.5, py + -0.5, d0, px0, py0, gx, gy, bias))
+                        continue;
+                    v = 1.0;
+                } else {
+                    sss_i_depth_plane pl = {px0, py0, d0, gx, gy};
+                    v = sss_i_visibility(&m->views[k], p->visibility, px, py, &pl, j->bias_world);
+                    if (!(v > 0.0))
+                        continue;
+                }
+                /* bilinear3 (GL_LINEAR with clamp to edge, [DalCorso14] samples the map array with linear filtering;
+                 * texel centres at (i + 0.5, j + 0.5)); u >= -0.5, so floor is the truncation
+                 * minus one below 0 */
+                const double u = px - 0.5, vv = py - 0.5;
+                double fu = (double)(int)u, fv = (double)(int)vv;
+                if (fu > u)
+                    fu -= 1.0;
+                if (fv > vv)
+                    fv -= 1.0;
+                const double a = u - fu, b = vv - fv;
+                const int x0 = (int)fu, y0 = (int)fv;
+                const int xa = x0 < 0 ? 0 : x0 >= c->W ? c->W - 1 : x0, xb = x0 + 1 >= c->W ? c->W - 1 : x0 + 1;
+                const int ya = y0 < 0 ? 0 : y0 >= c->H ? c->H - 1 : y0, yb = y0 + 1 >= c->H ? c->H - 1 : y0 + 1;
+                for (int ch = 0; ch < 3; ch++) {
+                    const float *r0 = c->rad[ch] + (ptrdiff_t)ya * c->rstride, *r1 = c->rad[ch] + (ptrdiff_t)yb * c->rstride;
+                    const double top = (1.0 - a) * r0[xa] + a * r0[xb];
+                    const double bot = (1.0 - a) * r1[xa] + a * r1[xb];
+                    acc[ch] += v * ((1.0 - b) * top + b * bot);
+                }
                 sumv += v;
                 seen++;
             }
@@ -280,7 +318,42 @@ obs_status sss_combine(obs_context *ctx, obs_pool *pool, const obs_scene *scene,
     j.eps_world = p->shrink_eps * (double)maps->views[0].width / vc0->fx;
     /* bias in units of the map's depth range (far - near) */
     j.bias_world = p->shadow_bias * (vc0->zfar - vc0->znear);
+    j.cm = (combine_map *)malloc(sizeof(combine_map) * (size_t)maps->K);
+    if (!j.cm) {
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_combine: out of memory");
+        goto fail;
+    }
+    for (int k = 0; k < maps->K; k++) {
+        const rast_gbuffer *mk = &maps->views[k];
+        const rast_view_constants *vc = &mk->constants;
+        combine_map *c = &j.cm[k];
+        if (vc->projection_type != OBS_PROJECTION_ORTHOGRAPHIC || !mk->depth.data || !maps->radiance[3 * k].data) {
+            free(j.cm);
+            st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_combine: map %d is not an orthographic layer", k);
+            goto fail;
+        }
+        const float *vm = vc->view.m;
+        for (int i = 0; i < 4; i++) {
+            c->r0[i] = (double)vm[4 * i + 0];
+            c->r1[i] = (double)vm[4 * i + 1];
+            c->r2[i] = (double)vm[4 * i + 2];
+        }
+        c->cx = vc->cx;
+        c->cy = vc->cy;
+        c->fx = vc->fx;
+        c->fy = vc->fy;
+        for (int a = 0; a < 3; a++)
+            c->wd[a] = maps->dirs[3 * k + a];
+        c->W = mk->width;
+        c->H = mk->height;
+        c->depth = mk->depth.data;
+        c->dstride = mk->depth.stride;
+        for (int ch = 0; ch < 3; ch++)
+            c->rad[ch] = maps->radiance[3 * k + ch].data;
+        c->rstride = maps->radiance[3 * k].stride;
+    }
     obs_pool_run(pool, obs_tiling_count(&j.tiling), combine_task, &j);
+    free(j.cm);
     return OBS_STATUS_OK;
 fail:
     for (int c = 0; c < 3; c++)
