@@ -267,6 +267,28 @@ typedef struct sss_i_depth_plane {
 double sss_i_visibility(const rast_gbuffer *gb, sss_visibility mode, double px, double py,
                         const sss_i_depth_plane *pl, double bias);
 
+/* One map layer's constants for the combination (sss_combine.c), hoisted out of the per-pixel
+ * loop: the view matrix's rows as doubles (the same values sss_i_project converts per call), the
+ * pixel model, the direction and the planes. The combination keeps the order of sss_i_project,
+ * the shadow tap and the bilinear lookup, so its bits are those of per-call code (and of the GLSL
+ * port, tests/gl/glsl_sss.c). */
+typedef struct sss_i_combine_map {
+    double r0[4], r1[4], r2[4];    /* view rows x, y, z: v_r = ((r[0] p0 + r[1] p1) + r[2] p2) + r[3] */
+    double cx, cy, fx, fy;
+    double wd[3];
+    int W, H;
+    const float *depth;
+    ptrdiff_t dstride;
+    const float *rad[3];
+    ptrdiff_t rstride;
+} sss_i_combine_map;
+/* The combination's map loop (PRODUCT5 visibility) for 4 pixels, AVX2, lanes = pixels
+ * (sss_combine_avx2.c): xo, no as [component][lane]; out acc[channel][lane], sumv, seen. The
+ * same double operations per lane as sss_combine.c's scalar loop, so the same bits (test
+ * sss_combination_avx2_matches_scalar_bit_for_bit). */
+void sss_i_combine_maps_avx2(const sss_i_combine_map *cm, int K, double eps, double bias, const double xo[3][4],
+                             const double no[3][4], double acc[3][4], double sumv[4], int seen[4]);
+
 /* ---- Geometry helpers -------------------------------------------------------------------- */
 /* Projection of a world point into a view's full image: continuous pixel coordinates (pixel
  * centre x + 0.5, row 0 top), linear depth, and pixels per world unit in the view plane at
