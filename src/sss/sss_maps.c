@@ -775,14 +775,16 @@ static void build_task(void *user, int64_t task, int thread)
             }
         }
 #endif
+        /* texels off the object cost one compare: the radiance planes are allocated zeroed
+         * (obs_image_f32_alloc), so only covered texels are written */
+        const float *drow = obs_image_f32_row(&gb->depth, y);
         for (int x = x0; x < x1; x++) {
+            const float depth = drow[x];
+            if (!(depth < INFINITY))
+                continue;
             float *out[3];
             for (int c = 0; c < 3; c++)
                 out[c] = obs_image_f32_row(&m->radiance[3 * k + c], y) + x;
-            out[0][0] = out[1][0] = out[2][0] = 0.0f;
-            float depth = obs_image_f32_row(&gb->depth, y)[x];
-            if (!(depth < INFINITY))
-                continue;
             const mat_info *mi = job_material(j, obs_image_u32_row(&gb->material_id, y)[x]);
             if (!mi)
                 continue; /* opaque: no subsurface radiance */
