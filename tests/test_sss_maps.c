@@ -891,6 +891,38 @@ TEST(sss_combination_avx2_matches_scalar_bit_for_bit)
     sphere_fixture_free(&f);
 }
 
+/* The Russian-roulette pre-filter's bound table (sss_maps_internal.h) never rejects a candidate
+ * whose zeta is below exp(-sigma (rho - m)) (the bound of the exact test's p), for 10^6 random
+ * LCG states and several sigma R; and it does reject most candidates far out on the disk. */
+TEST(sss_rr_table_bounds_the_acceptance)
+{
+    static uint32_t zmax[SSS_I_RR_BINS];
+    const double sr[4] = {0.5, 4.0, 15.0, 80.0};
+    uint32_t st = 12345u;
+    for (int c = 0; c < 4; c++) {
+        const double R = 0.15, sigma = sr[c] / R, m = 0.01 * R;
+        sss_i_rr_table_make(sigma, R, m, zmax);
+        int bad = 0, rejected = 0, far = 0;
+        for (int i = 0; i < 1000000; i++) {
+            const uint32_t s1 = 1664525u * st + 1013904223u;
+            const float u1 = sss_i_rand(&st);
+            (void)sss_i_rand(&st);
+            const float z = sss_i_rand(&st);
+            const double rho = R * sqrt((double)u1);
+            const double p = exp(-sigma * (rho - m));
+            const int rej = (st >> 8) >= zmax[s1 >> 22];
+            bad += rej && (double)z < p;
+            if (rho > 0.5 * R) {
+                far++;
+                rejected += rej;
+            }
+        }
+        CHECK_MSG(bad == 0, "sigma R %g: %d candidates rejected below the bound", sr[c], bad);
+        if (sr[c] >= 15.0)
+            CHECK(rejected > 0.9 * far);
+    }
+}
+
 TEST(sss_rr_prefilter_changes_no_bit)
 {
     /* The Russian-roulette pre-filter (docs/sss/maps.md "Cost") only skips candidates that the

@@ -57,18 +57,26 @@ static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, dou
 }
 /* The Russian-roulette pre-filter (a speed-up that changes no bit; docs/sss/maps.md "Cost"): for
  * an orthographic light map the 3D distance |x_o - x_i| is at least the in-plane distance, which
- * is at least rho - (half a texel diagonal), so p <= exp(-sigma* (rho - m)) for a margin m that
- * also covers float rounding. A candidate whose zeta >= (1 + 1e-4) expf(-sigma* (rho_f - m))
- * (float rho_f = R sqrtf(u1)) is certainly rejected by the exact test and is skipped without its
- * cos, sin, fetch and exp. Draws N candidates (3 draws each, in order) from *state and returns
- * how many may pass; their draws are packed into u1, u2, zeta (room for N). The AVX2 path may
- * pass a slightly different set (its exp need not match the scalar one): the exact test decides. */
+ * is at least rho - m for a margin m of half a texel diagonal plus float rounding, so the exact
+ * test's p is at most exp(-sigma* (rho - m)). rho = R sqrt(u1) with u1 = (s1 >> 8) 2^-24 from the
+ * candidate's first LCG state s1, so rho >= R sqrt(b / 1024) in bin b = s1 >> 22, and the
+ * candidate is certainly rejected when its zeta = (s3 >> 8) 2^-24 is >= the bin's bound
+ * p_b = (1 + 1e-4) exp(-sigma* (R sqrt(b / 1024) - m)) (in double), i.e. when the integer
+ * s3 >> 8 >= ceil(p_b 2^24): a table of 1024 integers per material and light
+ * (sss_i_rr_table_make), with m taken at its largest over the scene (the per-texel margin of the
+ * first version was 0.75 texel + 1e-4 R + 1e-5 (|x_o|_inf + R); here |x_o|_inf is bounded by the
+ * scene's bounds). Such candidates are skipped without their cos, sin, fetch and exp. Draws N
+ * candidates (3 draws each, in order) from *state and returns how many may pass; their draws are
+ * packed into u1, u2, zeta (room for N). */
 /* Test hook: non-zero turns the pre-filter off (test sss_rr_prefilter_changes_no_bit). */
 extern int sss_i_rr_prefilter_off;
+#define SSS_I_RR_BINS 1024
 typedef struct sss_i_rr_filter {
-    float R, sigma, m;       /* disk radius, sigma*, margin (world units) */
+    const uint32_t *zmax;    /* SSS_I_RR_BINS bounds: reject when (s3 >> 8) >= zmax[s1 >> 22] */
     const struct sss_i_exp_disk *jd; /* the LCG's jump-ahead constants */
 } sss_i_rr_filter;
+/* zmax[b] = min(2^24 + 1, ceil((1 + 1e-4) exp(-sigma (R sqrt(b / 1024) - m)) 2^24)) */
+void sss_i_rr_table_make(double sigma, double R, double m, uint32_t *zmax);
 int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
                        int use_avx2);
 int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
