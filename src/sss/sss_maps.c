@@ -852,6 +852,16 @@ static void build_task(void *user, int64_t task, int thread)
                         /* four interleaved partial sums (sample q into q mod 4), then
                          * (s0 + s1) + (s2 + s3): a fixed order that the compiler can vectorise */
                         const int n4 = n & ~3;
+#if defined(OBS_HAVE_AVX2)
+                        if (j->use_avx2) {
+                            double sums[3];
+                            const float *const outs[3] = {b.out[0], b.out[1], b.out[2]};
+                            sss_i_wsum3_avx2(s->w, outs, n, sums);
+                            for (int c = 0; c < 3; c++)
+                                acc[c] += li->radiance[c] * sums[c];
+                            continue;
+                        }
+#endif
                         for (int c = 0; c < 3; c++) {
                             const float *o = b.out[c];
                             double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;

@@ -241,6 +241,21 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
     return n;
 }
 
+void sss_i_wsum3_avx2(const double *w, const float *const o[3], int n, double out[3])
+{
+    const int n4 = n & ~3;
+    for (int c = 0; c < 3; c++) {
+        __m256d acc = _mm256_setzero_pd();
+        for (int q = 0; q < n4; q += 4)
+            acc = _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(w + q), _mm256_cvtps_pd(_mm_loadu_ps(o[c] + q))));
+        double a[4];
+        _mm256_storeu_pd(a, acc);
+        for (int q = n4; q < n; q++)
+            a[q - n4] += w[q] * (double)o[c][q];
+        out[c] = (a[0] + a[1]) + (a[2] + a[3]);
+    }
+}
+
 int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
                             float *zeta)
 {

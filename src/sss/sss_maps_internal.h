@@ -237,6 +237,10 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
                              const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
                              double *wout, int n);
 void sss_i_pack_lut_make(int32_t lut[256 * 8]);
+/* The exponential sampler's weighted sums of one batch, AVX2: for each channel c, four partial sums
+ * a_i = sum over q = i (mod 4) of w[q] o_c[q] (in increasing q), then (a0 + a1) + (a2 + a3): the
+ * order of the scalar loop in sss_maps.c, one partial sum per double lane, so the same bits. */
+void sss_i_wsum3_avx2(const double *w, const float *const o[3], int n, double out[3]);
 /* Dispatch: AVX2 for whole groups of 8 when use_avx2, the rest scalar. */
 void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w, int use_avx2);
 
