@@ -349,6 +349,8 @@ obs_status sss_combine(obs_context *ctx, obs_pool *pool, const obs_scene *scene,
     obs_status st = sss_params_validate(ctx, p);
     if (st != OBS_STATUS_OK)
         return st;
+    if (p->isa != SSS_ISA_AUTO && !sss_isa_available(p->isa))
+        return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "sss_combine: ISA %s is not available", sss_isa_name(p->isa));
     if (!maps->views || !maps->radiance || !maps->dirs || maps->K < 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_combine: the maps are not built");
     if (!camera_gb->depth.data || !camera_gb->normal[0].data || !camera_gb->material_id.data)
