@@ -825,18 +825,13 @@ static void build_task(void *user, int64_t task, int thread)
                         b.wi[a] = s->buf + (size_t)(6 + a) * j->np;
                         b.out[a] = s->buf + (size_t)(9 + a) * j->np;
                     }
-                    /* With AVX2, pad to whole vectors with copies of sample 0: the kernel gives
-                     * every lane the scalar path's bits, so the n real outputs are unchanged and the
-                     * tail does not run on the (8x slower) scalar path; the pad lanes are not summed. */
-                    if (j->use_avx2 && (n & 7)) {
-                        const int n8 = (n + 7) & ~7;
-                        for (int t = 0; t < 9; t++) {
-                            float *col = s->buf + (size_t)t * j->np;
-                            for (int q = n; q < n8; q++)
-                                col[q] = col[0];
-                        }
-                        b.n = n8;
-                    }
+                    /* With AVX2, round up to whole vectors: the lanes past n hold whatever earlier
+                     * batches left there (finite samples, or the zeros the scratch is allocated
+                     * with) and their outputs are not summed; every lane is independent, so the n
+                     * real outputs are the scalar path's bits, and the tail does not run on the
+                     * (8x slower) scalar path. */
+                    if (j->use_avx2 && (n & 7))
+                        b.n = (n + 7) & ~7;
                     /* T12 S_d per sample ([DalCorso14] eq. inter2: L_d A_c/N sum S e^{sigma r}):
                      * sss_eval_batch's two paths, called directly (the arguments are checked
                      * once, in sss_maps_build; the ISA is resolved once, not per call) */
@@ -1057,7 +1052,7 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
             }
     }
     for (int t = 0; t < threads; t++) {
-        job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)job.np);
+        job.scr[t].buf = (float *)calloc(15 * (size_t)job.np, sizeof(float)); /* zeroed: the batches' pad lanes */
         job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)job.np);
         job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
         if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {
