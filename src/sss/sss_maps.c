@@ -659,15 +659,16 @@ static int gather_light(const build_job *j, const light_info *li, const double x
             }
         }
         /* the block, row by row: weight = texel area in the disk plane, 1/ppu^2 */
-        for (int iy = by; block && iy < by + 3; iy++)
-            for (int ix = bx; ix < bx + 3; ix++) {
-                if (ix < 0 || iy < 0 || ix >= size || iy >= size)
-                    continue;
+        const double wgt0 = 1.0 / (ppu * ppu);
+        const int ix0 = bx < 0 ? 0 : bx, ix1 = bx + 3 > size ? size : bx + 3;
+        const int iy0 = by < 0 ? 0 : by, iy1 = by + 3 > size ? size : by + 3;
+        for (int iy = iy0; block && iy < iy1; iy++)
+            for (int ix = ix0; ix < ix1; ix++) {
                 const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
                 const float px = P0[o];
                 if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
                     continue;
-                double wgt = 1.0 / (ppu * ppu);
+                double wgt = wgt0;
                 xi[0][n] = px;
                 xi[1][n] = P1[o];
                 xi[2][n] = P2[o];
