@@ -14,6 +14,11 @@
  * RESULT lines give the medians (min, max) in ms, the BSSRDF evaluations and their rate.
  * --views V also times V camera views that reuse one set of maps ("8 views cost about one map
  *  build plus 8 cheap combinations", issue 16), each view a different Halton direction.
+ * --dump PREFIX writes the last repetition's maps (PREFIX.maps.f32: 3K planes of size^2 floats) and
+ *  combination (PREFIX.comb.f32: 3 planes) as raw floats, to compare the output bits of two builds
+ *  with cmp (docs/sss/maps.md, "Cost").
+ * --warmup 0 skips the warm-up (for callgrind: one build under the tool).
+ * --isa scalar|avx2 picks the maps' and kernels' ISA (default auto).
  * --sweep times the maps over K in {4, 8, 16, 32} (N 48, 512^2), N in {16, 48, 128} (K 16, 512^2)
  * and map size in {256, 512, 1024} (K 16, N 48), and prints the least-squares line of each
  * (time = a + b x) with its coefficient of determination: the cost growth, expected linear in K,
@@ -137,7 +142,8 @@ int main(int argc, char **argv)
 {
     const char *scene_path = "build/data/bunny_cream.glb";
     sss_params p = sss_params_default();
-    int threads = 2, reps = 7, sweep = 0, views = 0;
+    int threads = 2, reps = 7, sweep = 0, views = 0, warmup = 1;
+    const char *dump = NULL;
     bench b;
     memset(&b, 0, sizeof b);
     b.W = 1920;
@@ -152,6 +158,12 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--reps") && v) reps = atoi(argv[++i]);
         else if (!strcmp(a, "--views") && v) views = atoi(argv[++i]);
         else if (!strcmp(a, "--sweep")) sweep = 1;
+        else if (!strcmp(a, "--dump") && v) dump = argv[++i];
+        else if (!strcmp(a, "--warmup") && v) warmup = atoi(argv[++i]) != 0;
+        else if (!strcmp(a, "--isa") && v) {
+            const char *n = argv[++i];
+            p.isa = !strcmp(n, "scalar") ? SSS_ISA_SCALAR : !strcmp(n, "avx2") ? SSS_ISA_AVX2 : SSS_ISA_AUTO;
+        }
         else if (!strcmp(a, "--size") && v) {
             if (sscanf(argv[++i], "%dx%d", &b.W, &b.H) != 2) return 2;
         } else if (!strcmp(a, "--sampler") && v) {
@@ -204,7 +216,7 @@ int main(int argc, char **argv)
         die_status(&b, OBS_STATUS_OUT_OF_MEMORY);
     double tl[64], tm[64], tc[64], tb[64];
     uint64_t evals = 0;
-    for (int r = -1; r < reps; r++) {
+    for (int r = warmup ? -1 : 0; r < reps; r++) {
         sss_light_map lm[8];
         memset(lm, 0, sizeof lm);
         double t0 = obs_time_now();
@@ -261,6 +273,23 @@ int main(int argc, char **argv)
             printf("VIEWS views=%d maps_ms=%.2f views_total_ms=%.2f per_view_ms=%.2f total_ms=%.2f "
                    "(one map build + %d camera G-buffers and combinations)\n",
                    views, tm[r], tv, tv / views, tl[r] + tm[r] + tv, views);
+        }
+        if (dump && r == reps - 1) {
+            char fn[1024];
+            snprintf(fn, sizeof fn, "%s.maps.f32", dump);
+            FILE *f = fopen(fn, "wb");
+            for (int i = 0; f && i < 3 * maps.K; i++)
+                for (int y = 0; y < maps.size; y++)
+                    fwrite(obs_image_f32_row(&maps.radiance[i], y), sizeof(float), (size_t)maps.size, f);
+            if (f)
+                fclose(f);
+            snprintf(fn, sizeof fn, "%s.comb.f32", dump);
+            f = fopen(fn, "wb");
+            for (int c = 0; f && c < 3; c++)
+                for (int y = 0; y < out[c].height; y++)
+                    fwrite(obs_image_f32_row(&out[c], y), sizeof(float), (size_t)out[c].width, f);
+            if (f)
+                fclose(f);
         }
         for (int c = 0; c < 3; c++)
             obs_image_f32_free(&out[c]);

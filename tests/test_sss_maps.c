@@ -832,6 +832,97 @@ TEST(sss_maps_and_combination_are_identical_for_1_2_8_threads_and_both_isas)
     sphere_fixture_free(&f);
 }
 
+/* The combination's AVX2 map loop (4 pixels per vector, sss_combine_avx2.c) against the scalar
+ * loop: the same image and visible-map counts bit for bit, with gamma and specular, for one set of
+ * maps; and some pixels are seen by some but not all maps (the lane masks are exercised). */
+TEST(sss_combination_avx2_matches_scalar_bit_for_bit)
+{
+    if (!sss_isa_available(SSS_ISA_AVX2)) {
+        fprintf(stderr, "AVX2 not available: skipped\n");
+        return;
+    }
+    sphere_fixture f;
+    CHECK(sphere_fixture_make(&f));
+    f.p.K = 11;
+    f.p.frames = 1;
+    obs_pool *pool = obs_pool_create(2);
+    sss_light_map lm;
+    CHECK_OK(sss_light_map_render(f.ctx, pool, &f.s, &f.L, &f.p, &lm), f.ctx);
+    sss_maps m;
+    CHECK_OK(sss_maps_build(f.ctx, pool, &f.s, &f.tm.m, &lm, 1, &f.p, &m), f.ctx);
+    const obs_camera cams[2] = {
+        obs_camera_look_at(obs_v3(0, 5, 40), obs_v3(0, 0, 0), obs_v3(0, 1, 0), 0.7f, 1.0f, 100.0f),
+        obs_camera_look_at(obs_v3(-30, -12, 20), obs_v3(1, 0, 0), obs_v3(0, 1, 0), 0.5f, 1.0f, 100.0f)};
+    int partial = 0;
+    for (int ci = 0; ci < 2; ci++) {
+        rast_gbuffer gb;
+        CHECK_OK(camera_gbuffer(f.ctx, pool, &f.s, &cams[ci], 64, &gb), f.ctx);
+        for (int variant = 0; variant < 2; variant++) {
+            sss_params p = f.p;
+            p.gamma = variant ? 1.8 : 1.0;
+            p.specular = variant;
+            obs_image_f32 a[3], b[3], ca, cb;
+            p.isa = SSS_ISA_SCALAR;
+            CHECK_OK(sss_combine(f.ctx, pool, &f.s, &f.tm.m, &m, &lm, 1, &gb, &cams[ci], &p, a, &ca), f.ctx);
+            p.isa = SSS_ISA_AVX2;
+            CHECK_OK(sss_combine(f.ctx, pool, &f.s, &f.tm.m, &m, &lm, 1, &gb, &cams[ci], &p, b, &cb), f.ctx);
+            for (int c = 0; c < 3; c++)
+                CHECK_MSG(planes_equal(&a[c], &b[c]), "camera %d variant %d channel %d differs", ci, variant, c);
+            CHECK(planes_equal(&ca, &cb));
+            CHECK(plane_sum(&a[0]) > 0.0);
+            for (int y = 0; y < ca.height; y++)
+                for (int x = 0; x < ca.width; x++) {
+                    const float v = obs_image_f32_row(&ca, y)[x];
+                    partial += v > 0.0f && v < (float)f.p.K;
+                }
+            for (int c = 0; c < 3; c++) {
+                obs_image_f32_free(&a[c]);
+                obs_image_f32_free(&b[c]);
+            }
+            obs_image_f32_free(&ca);
+            obs_image_f32_free(&cb);
+        }
+        rast_gbuffer_free(&gb);
+    }
+    CHECK(partial > 100);
+    sss_maps_free(&m);
+    sss_light_map_free(&lm);
+    obs_pool_destroy(pool);
+    sphere_fixture_free(&f);
+}
+
+/* The Russian-roulette pre-filter's bound table (sss_maps_internal.h) never rejects a candidate
+ * whose zeta is below exp(-sigma (rho - m)) (the bound of the exact test's p), for 10^6 random
+ * LCG states and several sigma R; and it does reject most candidates far out on the disk. */
+TEST(sss_rr_table_bounds_the_acceptance)
+{
+    static uint32_t zmax[SSS_I_RR_BINS];
+    const double sr[4] = {0.5, 4.0, 15.0, 80.0};
+    uint32_t st = 12345u;
+    for (int c = 0; c < 4; c++) {
+        const double R = 0.15, sigma = sr[c] / R, m = 0.01 * R;
+        sss_i_rr_table_make(sigma, R, m, zmax);
+        int bad = 0, rejected = 0, far = 0;
+        for (int i = 0; i < 1000000; i++) {
+            const uint32_t s1 = 1664525u * st + 1013904223u;
+            const float u1 = sss_i_rand(&st);
+            (void)sss_i_rand(&st);
+            const float z = sss_i_rand(&st);
+            const double rho = R * sqrt((double)u1);
+            const double p = exp(-sigma * (rho - m));
+            const int rej = (st >> 8) >= zmax[s1 >> 22];
+            bad += rej && (double)z < p;
+            if (rho > 0.5 * R) {
+                far++;
+                rejected += rej;
+            }
+        }
+        CHECK_MSG(bad == 0, "sigma R %g: %d candidates rejected below the bound", sr[c], bad);
+        if (sr[c] >= 15.0)
+            CHECK(rejected > 0.9 * far);
+    }
+}
+
 TEST(sss_rr_prefilter_changes_no_bit)
 {
     /* The Russian-roulette pre-filter (docs/sss/maps.md "Cost") only skips candidates that the

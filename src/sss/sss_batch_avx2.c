@@ -73,16 +73,13 @@ static inline vf vt12(vf cos_raw, vf eta)
     return _mm256_andnot_ps(tir, T);
 }
 
-/* spf of sss_batch.c */
-static inline vf vsp(vf sigma_tr, vf D, vf c_phi, vf c_e, vf x0, vf x1, vf x2, vf w0, vf w1, vf w2, vf r, vf n0,
-                     vf n1, vf n2)
+/* spf of sss_batch.c, with its three dot products x.w, x.n_o, w.n_o passed in (the real source's
+ * are the same for the three channels, and w.n_o of the virtual source too: computed once per group
+ * instead of once per channel, the same values) and D3 = 3 D hoisted per call */
+static inline vf vsp(vf sigma_tr, vf D, vf D3, vf c_phi, vf c_e, vf x_w, vf x_no, vf w_no, vf r)
 {
     const vf s = VMUL(sigma_tr, r);
     const vf one_p = VADD(VSET(1.0f), s);
-    const vf x_w = vdot(x0, x1, x2, w0, w1, w2);
-    const vf x_no = vdot(x0, x1, x2, n0, n1, n2);
-    const vf w_no = vdot(w0, w1, w2, n0, n1, n2);
-    const vf D3 = VMUL(VSET(3.0f), D);
     const vf rr = VMUL(r, r);
     const vf three_one_p = VMUL(VSET(3.0f), one_p);
     const vf t_phi = VMUL(c_phi, VADD(VDIV(rr, D), VMUL(three_one_p, x_w)));
@@ -102,6 +99,22 @@ void sss_i_eval_avx2(const sss_gpu_constants *g, const float xo[3], const float 
     const vf xo0 = VSET(xo[0]), xo1 = VSET(xo[1]), xo2 = VSET(xo[2]);
     const vf no0 = VSET(no[0]), no1 = VSET(no[1]), no2 = VSET(no[2]);
     const vf zero = VSET(0.0f), one = VSET(1.0f);
+    /* the directional dipole's per-channel constants, once per call (the same float products as
+     * the per-group expressions they replace, so the same bits) */
+    vf cD[3], cD3[3], cde2[3], c2de[3], cst[3], cfloor[3], cback[3], cad[3];
+    for (int c = 0; c < 3; c++) {
+        cD[c] = VSET(g->D[c]);
+        cD3[c] = VMUL(VSET(3.0f), cD[c]);
+        const vf de = VSET(g->d_e[c]);
+        cde2[c] = VMUL(de, de);
+        c2de[c] = VMUL(VSET(2.0f), de);
+        cst[c] = VSET(g->sigma_tr[c]);
+        cfloor[c] = VMUL(VSET((float)SSS_I_DIST_FLOOR_D), cD[c]);
+        cback[c] = VSET(g->backlit_d2[c]);
+        cad[c] = VSET(g->two_a_de[c]);
+    }
+    const vf cphi = VSET(g->c_phi), ce = VSET(g->c_e);
+    const int alpha_zero[3] = {g->alpha_p[0] == 0.0f, g->alpha_p[1] == 0.0f, g->alpha_p[2] == 0.0f};
     for (int gi = 0; gi < groups; gi++) {
         const int k = begin + 8 * gi;
         const vf ni0 = _mm256_loadu_ps(b->ni[0] + k), ni1 = _mm256_loadu_ps(b->ni[1] + k),
@@ -163,24 +176,28 @@ void sss_i_eval_avx2(const sss_gpu_constants *g, const float xo[3], const float 
         const vf wn2 = VMUL(VSET(2.0f), vdot(w0, w1, w2, s0, s1, s2));
         const vf v0 = VSUB(w0, VMUL(wn2, s0)), v1 = VSUB(w1, VMUL(wn2, s1)), v2 = VSUB(w2, VMUL(wn2, s2));
         const vf num = VMAX(VSUB(r2, VMUL(x_w12, x_w12)), zero);
+        /* the dot products of spf that do not depend on the channel */
+        const vf r_w_no = vdot(w0, w1, w2, no0, no1, no2);
+        const vf r_x_no = vdot(x0, x1, x2, no0, no1, no2);
+        const vf v_w_no = vdot(v0, v1, v2, no0, no1, no2);
         for (int c = 0; c < 3; c++) {
-            if (g->alpha_p[c] == 0.0f) {
+            if (alpha_zero[c]) {
                 _mm256_storeu_ps(b->out[c] + k, zero);
                 continue;
             }
-            const vf D = VSET(g->D[c]), de = VSET(g->d_e[c]), st = VSET(g->sigma_tr[c]);
-            const vf floor_d = VMUL(VSET((float)SSS_I_DIST_FLOOR_D), D);
-            const vf cos_beta = VNEG(VSQRT(VDIV(num, VADD(r2, VMUL(de, de)))));
+            const vf D = cD[c], st = cst[c];
+            const vf floor_d = cfloor[c];
+            const vf cos_beta = VNEG(VSQRT(VDIV(num, VADD(r2, cde2[c]))));
             const vf Dmu0 = VMUL(D, mu0);
-            const vf dr_f = VSQRT(VADD(r2, VMUL(Dmu0, VSUB(Dmu0, VMUL(VMUL(VSET(2.0f), de), cos_beta)))));
-            const vf dr_b = VSQRT(VADD(r2, VSET(g->backlit_d2[c])));
+            const vf dr_f = VSQRT(VADD(r2, VMUL(Dmu0, VSUB(Dmu0, VMUL(c2de[c], cos_beta)))));
+            const vf dr_b = VSQRT(VADD(r2, cback[c]));
             const vf dr = VMAX(VSEL(front, dr_f, dr_b), floor_d);
-            const vf ad = VSET(g->two_a_de[c]);
+            const vf ad = cad[c];
             const vf y0 = VSUB(x0, VMUL(ad, s0)), y1 = VSUB(x1, VMUL(ad, s1)), y2 = VSUB(x2, VMUL(ad, s2));
             const vf dv = VMAX(VSQRT(vdot(y0, y1, y2, y0, y1, y2)), floor_d);
-            const vf cphi = VSET(g->c_phi), ce = VSET(g->c_e);
-            const vf sr = vsp(st, D, cphi, ce, x0, x1, x2, w0, w1, w2, dr, no0, no1, no2);
-            const vf sv = vsp(st, D, cphi, ce, y0, y1, y2, v0, v1, v2, dv, no0, no1, no2);
+            const vf sr = vsp(st, D, cD3[c], cphi, ce, x_w12, r_x_no, r_w_no, dr);
+            const vf sv = vsp(st, D, cD3[c], cphi, ce, vdot(y0, y1, y2, v0, v1, v2), vdot(y0, y1, y2, no0, no1, no2),
+                              v_w_no, dv);
             const vf sd = VMAX(VMUL(norm_k, VSUB(sr, sv)), zero);
             _mm256_storeu_ps(b->out[c] + k, VMUL(T, sd));
         }

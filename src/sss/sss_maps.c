@@ -243,6 +243,16 @@ void sss_i_pack_lut_make(int32_t lut[256 * 8])
     }
 }
 
+void sss_i_rr_table_make(double sigma, double R, double m, uint32_t *zmax)
+{
+    for (int b = 0; b < SSS_I_RR_BINS; b++) {
+        const double arg = sigma * (R * sqrt((double)b / SSS_I_RR_BINS) - m);
+        const double pb = arg <= 0.0 ? 2.0 : (1.0 + 1e-4) * exp(-arg);
+        const double z = ceil(pb * 16777216.0);
+        zmax[b] = z >= 16777217.0 ? 16777217u : (uint32_t)z;
+    }
+}
+
 int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
                        int use_avx2)
 {
@@ -256,9 +266,9 @@ int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *
     (void)use_avx2;
 #endif
     for (int i = done; i < N; i++) {
+        const uint32_t s1 = 1664525u * *state + 1013904223u;
         const float a = sss_i_rand(state), b = sss_i_rand(state), z = sss_i_rand(state);
-        const float arg = f->sigma * (f->R * sqrtf(a) - f->m);
-        if (arg > 0.0f && z >= 1.0001f * sss_i_expf(-arg))
+        if ((*state >> 8) >= f->zmax[s1 >> 22])
             continue;
         u1[n] = a;
         u2[n] = b;
@@ -496,6 +506,7 @@ typedef struct build_job {
     int use_avx2;           /* the exponential sampler's sample generation; batch padding */
     int np;                 /* N rounded up to a multiple of 8: the scratch arrays' length */
     int32_t pack_lut[256 * 8]; /* left-pack permutations (sss_i_pack_lut_make) */
+    uint32_t *rr_zmax;      /* Russian roulette: the pre-filter's tables, (count + 1) x lights x 1024, or NULL */
 } build_job;
 
 static const mat_info *job_material(const build_job *j, uint32_t id)
@@ -648,15 +659,16 @@ static int gather_light(const build_job *j, const light_info *li, const double x
             }
         }
         /* the block, row by row: weight = texel area in the disk plane, 1/ppu^2 */
-        for (int iy = by; block && iy < by + 3; iy++)
-            for (int ix = bx; ix < bx + 3; ix++) {
-                if (ix < 0 || iy < 0 || ix >= size || iy >= size)
-                    continue;
+        const double wgt0 = 1.0 / (ppu * ppu);
+        const int ix0 = bx < 0 ? 0 : bx, ix1 = bx + 3 > size ? size : bx + 3;
+        const int iy0 = by < 0 ? 0 : by, iy1 = by + 3 > size ? size : by + 3;
+        for (int iy = iy0; block && iy < iy1; iy++)
+            for (int ix = ix0; ix < ix1; ix++) {
                 const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
                 const float px = P0[o];
                 if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
                     continue;
-                double wgt = 1.0 / (ppu * ppu);
+                double wgt = wgt0;
                 xi[0][n] = px;
                 xi[1][n] = P1[o];
                 xi[2][n] = P2[o];
@@ -692,16 +704,13 @@ static int gather_light(const build_job *j, const light_info *li, const double x
             SSS_PUSH(j->area / ((double)N * pa));                                                      \
     }
         const rast_view_constants *lvc = &lm->gb.constants;
-        if (!sss_i_rr_prefilter_off && !li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
+        if (j->rr_zmax && !li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
             /* The pre-filter (sss_maps_internal.h; no bit changes): only candidates that may pass
              * the exact test below get their cos, sin, fetch and exp. Margin: half a texel
              * diagonal (0.7072 texel, as 0.75) plus float rounding of rho, positions and the view
              * matrix (1e-4 R + 1e-5 (|x_o|_inf + R)). */
-            double xmax = fmax(fabs(xo[0]), fmax(fabs(xo[1]), fabs(xo[2])));
             sss_i_rr_filter f;
-            f.R = (float)R;
-            f.sigma = (float)mi->sigma_star;
-            f.m = (float)(0.75 / ppu + 1e-4 * R + 1e-5 * (xmax + R));
+            f.zmax = j->rr_zmax + ((size_t)(mi - j->mats) * (size_t)j->light_count + (size_t)(li - j->lights)) * SSS_I_RR_BINS;
             f.jd = &mi->ed;
             float *fu1 = s->buf + (size_t)12 * j->np, *fu2 = s->buf + (size_t)13 * j->np,
                   *fz = s->buf + (size_t)14 * j->np;
@@ -775,14 +784,16 @@ static void build_task(void *user, int64_t task, int thread)
             }
         }
 #endif
+        /* texels off the object cost one compare: the radiance planes are allocated zeroed
+         * (obs_image_f32_alloc), so only covered texels are written */
+        const float *drow = obs_image_f32_row(&gb->depth, y);
         for (int x = x0; x < x1; x++) {
+            const float depth = drow[x];
+            if (!(depth < INFINITY))
+                continue;
             float *out[3];
             for (int c = 0; c < 3; c++)
                 out[c] = obs_image_f32_row(&m->radiance[3 * k + c], y) + x;
-            out[0][0] = out[1][0] = out[2][0] = 0.0f;
-            float depth = obs_image_f32_row(&gb->depth, y)[x];
-            if (!(depth < INFINITY))
-                continue;
             const mat_info *mi = job_material(j, obs_image_u32_row(&gb->material_id, y)[x]);
             if (!mi)
                 continue; /* opaque: no subsurface radiance */
@@ -815,18 +826,13 @@ static void build_task(void *user, int64_t task, int thread)
                         b.wi[a] = s->buf + (size_t)(6 + a) * j->np;
                         b.out[a] = s->buf + (size_t)(9 + a) * j->np;
                     }
-                    /* With AVX2, pad to whole vectors with copies of sample 0: the kernel gives
-                     * every lane the scalar path's bits, so the n real outputs are unchanged and the
-                     * tail does not run on the (8x slower) scalar path; the pad lanes are not summed. */
-                    if (j->use_avx2 && (n & 7)) {
-                        const int n8 = (n + 7) & ~7;
-                        for (int t = 0; t < 9; t++) {
-                            float *col = s->buf + (size_t)t * j->np;
-                            for (int q = n; q < n8; q++)
-                                col[q] = col[0];
-                        }
-                        b.n = n8;
-                    }
+                    /* With AVX2, round up to whole vectors: the lanes past n hold whatever earlier
+                     * batches left there (finite samples, or the zeros the scratch is allocated
+                     * with) and their outputs are not summed; every lane is independent, so the n
+                     * real outputs are the scalar path's bits, and the tail does not run on the
+                     * (8x slower) scalar path. */
+                    if (j->use_avx2 && (n & 7))
+                        b.n = (n + 7) & ~7;
                     /* T12 S_d per sample ([DalCorso14] eq. inter2: L_d A_c/N sum S e^{sigma r}):
                      * sss_eval_batch's two paths, called directly (the arguments are checked
                      * once, in sss_maps_build; the ISA is resolved once, not per call) */
@@ -842,6 +848,16 @@ static void build_task(void *user, int64_t task, int thread)
                         /* four interleaved partial sums (sample q into q mod 4), then
                          * (s0 + s1) + (s2 + s3): a fixed order that the compiler can vectorise */
                         const int n4 = n & ~3;
+#if defined(OBS_HAVE_AVX2)
+                        if (j->use_avx2) {
+                            double sums[3];
+                            const float *const outs[3] = {b.out[0], b.out[1], b.out[2]};
+                            sss_i_wsum3_avx2(s->w, outs, n, sums);
+                            for (int c = 0; c < 3; c++)
+                                acc[c] += li->radiance[c] * sums[c];
+                            continue;
+                        }
+#endif
                         for (int c = 0; c < 3; c++) {
                             const float *o = b.out[c];
                             double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;
@@ -1011,8 +1027,33 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
                 mi[i].nofm_p[q] = exp(-sigma_r * (double)hd.rho[q]);
         }
     }
+    if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE && !sss_i_rr_prefilter_off && light_count > 0) {
+        /* the pre-filter's bound tables (sss_maps_internal.h), per material and light; the margin
+         * m at its largest over the scene: half a texel diagonal (0.7072 texel, as 0.75) plus
+         * float rounding of rho, positions and the view matrix (1e-4 R + 1e-5 (|x_o|_inf + R),
+         * |x_o|_inf <= the bounds' largest |coordinate| + their radius) */
+        const obs_aabb *bb = &scene->bounds;
+        const double xmax = fmax(fmax(fmax(fabs(bb->lo.x), fabs(bb->hi.x)), fmax(fabs(bb->lo.y), fabs(bb->hi.y))),
+                                 fmax(fabs(bb->lo.z), fabs(bb->hi.z))) + rad;
+        job.rr_zmax = (uint32_t *)malloc(sizeof(uint32_t) * SSS_I_RR_BINS * ((size_t)mats->count + 1) * (size_t)light_count);
+        if (!job.rr_zmax) {
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+            goto done;
+        }
+        for (uint32_t i = 0; i <= mats->count; i++)
+            for (int l = 0; l < light_count; l++) {
+                const double ppu = lights[l].gb.constants.fx;
+                const double m = 0.75 / ppu + 1e-4 * job.R + 1e-5 * (xmax + job.R);
+                uint32_t *t = job.rr_zmax + ((size_t)i * (size_t)light_count + (size_t)l) * SSS_I_RR_BINS;
+                if (mi[i].c)
+                    sss_i_rr_table_make(mi[i].sigma_star, job.R, m, t);
+                else
+                    for (int b = 0; b < SSS_I_RR_BINS; b++)
+                        t[b] = 16777217u;
+            }
+    }
     for (int t = 0; t < threads; t++) {
-        job.scr[t].buf = (float *)malloc(sizeof(float) * 15 * (size_t)job.np);
+        job.scr[t].buf = (float *)calloc(15 * (size_t)job.np, sizeof(float)); /* zeroed: the batches' pad lanes */
         job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)job.np);
         job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
         if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {
@@ -1062,6 +1103,7 @@ done:
             free(mi[i].nofm_p);
     free(job.hd_cos);
     free(job.hd_sin);
+    free(job.rr_zmax);
     free(mi);
     free(li);
     if (st != OBS_STATUS_OK)

@@ -241,41 +241,54 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
     return n;
 }
 
+void sss_i_wsum3_avx2(const double *w, const float *const o[3], int n, double out[3])
+{
+    const int n4 = n & ~3;
+    for (int c = 0; c < 3; c++) {
+        __m256d acc = _mm256_setzero_pd();
+        for (int q = 0; q < n4; q += 4)
+            acc = _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(w + q), _mm256_cvtps_pd(_mm_loadu_ps(o[c] + q))));
+        double a[4];
+        _mm256_storeu_pd(a, acc);
+        for (int q = n4; q < n; q++)
+            a[q - n4] += w[q] * (double)o[c][q];
+        out[c] = (a[0] + a[1]) + (a[2] + a[3]);
+    }
+}
+
 int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
                             float *zeta)
 {
-    /* lane j: draws 3j+1 (u1), 3j+2 (u2), 3j+3 (zeta) after the group's start */
+    /* lane j: states 3j+1 (u1), 3j+2 (u2), 3j+3 (zeta) after the group's start; the bound is a
+     * table lookup on the u1 state's top 10 bits, compared with the zeta state's top 24 bits
+     * (integers: no sqrt, no exp) */
     vi A[3], C[3];
     for (int d = 0; d < 3; d++) {
         A[d] = _mm256_loadu_si256((const vi *)f->jd->lane3_a[d]);
         C[d] = _mm256_loadu_si256((const vi *)f->jd->lane3_c[d]);
     }
-    const vf R = VSET(f->R), sigma = VSET(f->sigma), m = VSET(f->m), zero = VSET(0.0f);
     uint32_t st = *state;
     int n = 0;
-    float t1[8], t2[8], t3[8];
     for (int g = 0; g < groups; g++) {
         const vi s0 = _mm256_set1_epi32((int32_t)st);
-        const vf x1 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[0], s0), C[0]));
-        const vf x2 = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[1], s0), C[1]));
-        const vf z = vunit(_mm256_add_epi32(_mm256_mullo_epi32(A[2], s0), C[2]));
+        const vi s1 = _mm256_add_epi32(_mm256_mullo_epi32(A[0], s0), C[0]);
+        const vi s3 = _mm256_add_epi32(_mm256_mullo_epi32(A[2], s0), C[2]);
+        const uint32_t g0 = st;
         st = f->jd->jump_a[23] * st + f->jd->jump_c[23];
-        const vf arg = VMUL(sigma, VSUB(VMUL(R, _mm256_sqrt_ps(x1)), m));
-        const vf bound = VMUL(VSET(1.0001f), vexpf(_mm256_xor_ps(arg, VSET(-0.0f))));
-        /* reject: arg > 0 and z >= bound */
-        const vf rej = _mm256_and_ps(_mm256_cmp_ps(arg, zero, _CMP_GT_OQ), _mm256_cmp_ps(z, bound, _CMP_GE_OQ));
-        unsigned keep = (unsigned)(~_mm256_movemask_ps(rej)) & 0xffu;
-        if (!keep)
-            continue;
-        _mm256_storeu_ps(t1, x1);
-        _mm256_storeu_ps(t2, x2);
-        _mm256_storeu_ps(t3, z);
+        const vi zmax = _mm256_i32gather_epi32((const int *)f->zmax, _mm256_srli_epi32(s1, 22), 4);
+        /* keep: (s3 >> 8) < zmax (both < 2^25: a signed compare is exact) */
+        const vi keepv = _mm256_cmpgt_epi32(zmax, _mm256_srli_epi32(s3, 8));
+        unsigned keep = (unsigned)_mm256_movemask_ps(_mm256_castsi256_ps(keepv));
         while (keep) {
             const int j = __builtin_ctz(keep);
             keep &= keep - 1;
-            u1[n] = t1[j];
-            u2[n] = t2[j];
-            zeta[n] = t3[j];
+            /* the three draws of lane j, as sss_i_rand gives them */
+            const uint32_t a1 = f->jd->jump_a[3 * j] * g0 + f->jd->jump_c[3 * j];
+            const uint32_t a2 = f->jd->jump_a[3 * j + 1] * g0 + f->jd->jump_c[3 * j + 1];
+            const uint32_t a3 = f->jd->jump_a[3 * j + 2] * g0 + f->jd->jump_c[3 * j + 2];
+            u1[n] = (float)(a1 >> 8) * (1.0f / 16777216.0f);
+            u2[n] = (float)(a2 >> 8) * (1.0f / 16777216.0f);
+            zeta[n] = (float)(a3 >> 8) * (1.0f / 16777216.0f);
             n++;
         }
     }

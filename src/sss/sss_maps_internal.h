@@ -57,18 +57,26 @@ static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, dou
 }
 /* The Russian-roulette pre-filter (a speed-up that changes no bit; docs/sss/maps.md "Cost"): for
  * an orthographic light map the 3D distance |x_o - x_i| is at least the in-plane distance, which
- * is at least rho - (half a texel diagonal), so p <= exp(-sigma* (rho - m)) for a margin m that
- * also covers float rounding. A candidate whose zeta >= (1 + 1e-4) expf(-sigma* (rho_f - m))
- * (float rho_f = R sqrtf(u1)) is certainly rejected by the exact test and is skipped without its
- * cos, sin, fetch and exp. Draws N candidates (3 draws each, in order) from *state and returns
- * how many may pass; their draws are packed into u1, u2, zeta (room for N). The AVX2 path may
- * pass a slightly different set (its exp need not match the scalar one): the exact test decides. */
+ * is at least rho - m for a margin m of half a texel diagonal plus float rounding, so the exact
+ * test's p is at most exp(-sigma* (rho - m)). rho = R sqrt(u1) with u1 = (s1 >> 8) 2^-24 from the
+ * candidate's first LCG state s1, so rho >= R sqrt(b / 1024) in bin b = s1 >> 22, and the
+ * candidate is certainly rejected when its zeta = (s3 >> 8) 2^-24 is >= the bin's bound
+ * p_b = (1 + 1e-4) exp(-sigma* (R sqrt(b / 1024) - m)) (in double), i.e. when the integer
+ * s3 >> 8 >= ceil(p_b 2^24): a table of 1024 integers per material and light
+ * (sss_i_rr_table_make), with m taken at its largest over the scene (the per-texel margin of the
+ * first version was 0.75 texel + 1e-4 R + 1e-5 (|x_o|_inf + R); here |x_o|_inf is bounded by the
+ * scene's bounds). Such candidates are skipped without their cos, sin, fetch and exp. Draws N
+ * candidates (3 draws each, in order) from *state and returns how many may pass; their draws are
+ * packed into u1, u2, zeta (room for N). */
 /* Test hook: non-zero turns the pre-filter off (test sss_rr_prefilter_changes_no_bit). */
 extern int sss_i_rr_prefilter_off;
+#define SSS_I_RR_BINS 1024
 typedef struct sss_i_rr_filter {
-    float R, sigma, m;       /* disk radius, sigma*, margin (world units) */
+    const uint32_t *zmax;    /* SSS_I_RR_BINS bounds: reject when (s3 >> 8) >= zmax[s1 >> 22] */
     const struct sss_i_exp_disk *jd; /* the LCG's jump-ahead constants */
 } sss_i_rr_filter;
+/* zmax[b] = min(2^24 + 1, ceil((1 + 1e-4) exp(-sigma (R sqrt(b / 1024) - m)) 2^24)) */
+void sss_i_rr_table_make(double sigma, double R, double m, uint32_t *zmax);
 int sss_i_rr_prefilter(uint32_t *state, int N, const sss_i_rr_filter *f, float *u1, float *u2, float *zeta,
                        int use_avx2);
 int sss_i_rr_prefilter_avx2(uint32_t *state, int groups, const sss_i_rr_filter *f, float *u1, float *u2,
@@ -229,6 +237,10 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
                              const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
                              double *wout, int n);
 void sss_i_pack_lut_make(int32_t lut[256 * 8]);
+/* The exponential sampler's weighted sums of one batch, AVX2: for each channel c, four partial sums
+ * a_i = sum over q = i (mod 4) of w[q] o_c[q] (in increasing q), then (a0 + a1) + (a2 + a3): the
+ * order of the scalar loop in sss_maps.c, one partial sum per double lane, so the same bits. */
+void sss_i_wsum3_avx2(const double *w, const float *const o[3], int n, double out[3]);
 /* Dispatch: AVX2 for whole groups of 8 when use_avx2, the rest scalar. */
 void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *ox, float *oy, float *w, int use_avx2);
 
@@ -266,6 +278,28 @@ typedef struct sss_i_depth_plane {
  * gb (sss_combine.c): PRODUCT5 in {0, 1}, PCF3X3 in {0, 1/9, .., 1}. bias in depth units. */
 double sss_i_visibility(const rast_gbuffer *gb, sss_visibility mode, double px, double py,
                         const sss_i_depth_plane *pl, double bias);
+
+/* One map layer's constants for the combination (sss_combine.c), hoisted out of the per-pixel
+ * loop: the view matrix's rows as doubles (the same values sss_i_project converts per call), the
+ * pixel model, the direction and the planes. The combination keeps the order of sss_i_project,
+ * the shadow tap and the bilinear lookup, so its bits are those of per-call code (and of the GLSL
+ * port, tests/gl/glsl_sss.c). */
+typedef struct sss_i_combine_map {
+    double r0[4], r1[4], r2[4];    /* view rows x, y, z: v_r = ((r[0] p0 + r[1] p1) + r[2] p2) + r[3] */
+    double cx, cy, fx, fy;
+    double wd[3];
+    int W, H;
+    const float *depth;
+    ptrdiff_t dstride;
+    const float *rad[3];
+    ptrdiff_t rstride;
+} sss_i_combine_map;
+/* The combination's map loop (PRODUCT5 visibility) for 4 pixels, AVX2, lanes = pixels
+ * (sss_combine_avx2.c): xo, no as [component][lane]; out acc[channel][lane], sumv, seen. The
+ * same double operations per lane as sss_combine.c's scalar loop, so the same bits (test
+ * sss_combination_avx2_matches_scalar_bit_for_bit). */
+void sss_i_combine_maps_avx2(const sss_i_combine_map *cm, int K, double eps, double bias, const double xo[3][4],
+                             const double no[3][4], double acc[3][4], double sumv[4], int seen[4]);
 
 /* ---- Geometry helpers -------------------------------------------------------------------- */
 /* Projection of a world point into a view's full image: continuous pixel coordinates (pixel
