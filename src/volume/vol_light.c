@@ -30,6 +30,8 @@
 #include "vol_light_internal.h"
 
 #include <math.h>
+#include <sched.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -238,6 +240,15 @@ static double lv_seed_march(const lv_pass *P, const double x[3])
     return exp(-acc);
 }
 
+/* floor(x), exactly, without the libm call for |x| < 2^30 (the fetch coordinates; beyond, libm's). */
+static inline double lv_floor(double x)
+{
+    if (!(x > -1073741824.0 && x < 1073741824.0))
+        return floor(x);
+    double t = (double)(int)x; /* truncation toward zero: exact in this range */
+    return t > x ? t - 1.0 : t;
+}
+
 /* Bilinear fetch of channel ch of the previous slice at continuous (pu, pv) (centres at integers),
  * texels outside the slice read `border` (GL's CLAMP_TO_BORDER: outside the light volume the light
  * is unattenuated, Inviwo's border colour 1, volume.md 1.2). */
@@ -251,13 +262,13 @@ static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, flo
         float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
         return a + (b - a) * tv;
     }
-    double fu = floor(pu), fv = floor(pv);
-    int i0 = (int)fu, j0 = (int)fv;
-    float tu = (float)(pu - fu), tv = (float)(pv - fv);
-    const float *s = P->prev[ch];
     const int nu = P->nu, nv = P->nv;
     if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0)
         return border;
+    double fu = lv_floor(pu), fv = lv_floor(pv);
+    int i0 = (int)fu, j0 = (int)fv;
+    float tu = (float)(pu - fu), tv = (float)(pv - fv);
+    const float *s = P->prev[ch];
     float t00, t10, t01, t11;
     if (i0 >= 0 && j0 >= 0 && i0 + 1 < nu && j0 + 1 < nv) {
         const float *r0 = s + (size_t)j0 * nu + i0, *r1 = r0 + nu;
@@ -292,8 +303,26 @@ static inline void lv_fetch3(const lv_pass *P, int ch0, double pu, double pv, fl
         }
         return;
     }
-    for (int c = 0; c < 3; c++)
-        out[c] = lv_fetch(P, ch0 + c, pu, pv, border);
+    /* lv_fetch's border case for the three channels, its index arithmetic done once. */
+    if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0) {
+        out[0] = out[1] = out[2] = border;
+        return;
+    }
+    double fu = lv_floor(pu), fv = lv_floor(pv);
+    int i0 = (int)fu, j0 = (int)fv;
+    float tu = (float)(pu - fu), tv = (float)(pv - fv);
+    int in0u = i0 >= 0 && i0 < nu, in1u = i0 + 1 >= 0 && i0 + 1 < nu;
+    int in0v = j0 >= 0 && j0 < nv, in1v = j0 + 1 >= 0 && j0 + 1 < nv;
+    size_t o00 = (size_t)j0 * nu + i0; /* used only where in range */
+    for (int c = 0; c < 3; c++) {
+        const float *s = P->prev[ch0 + c];
+        float t00 = (in0u && in0v) ? s[o00] : border;
+        float t10 = (in1u && in0v) ? s[o00 + 1] : border;
+        float t01 = (in0u && in1v) ? s[o00 + nu] : border;
+        float t11 = (in1u && in1v) ? s[o00 + nu + 1] : border;
+        float a = t00 + (t10 - t00) * tu, b = t01 + (t11 - t01) * tu;
+        out[c] = a + (b - a) * tv;
+    }
 }
 
 /* One voxel (iu, jv) of the current slice by the general path (every mode; the per-tap cone, and
@@ -519,17 +548,58 @@ static void lv_band_task(void *user, int64_t task, int thread)
         lv_row(P, jv, scr);
 }
 
-/* Run one slice and make it the previous one for the next. */
-static void lv_run_slice(obs_pool *pool, lv_pass *P, int k, lv_mode mode, float *slices[2][LV_CH], int *which)
+/* A chain of slices k0, k0 + dir, ... (count of them), the first in mode `first`, the others
+ * propagated from the one before, as ONE pool job: item t is band t % bands of slice t / bands
+ * (lv_band_task), and waits until every band of the slice before is done (done[]). The pool hands
+ * items out in increasing order, so an item's dependencies were all handed out before it to
+ * threads that are running them: no deadlock for any thread count, and no wake-up of the pool per
+ * slice. Slice i reads buffer i & 1 and writes buffer (i + 1) & 1: when slice i - 1 is complete,
+ * nothing reads slice i - 2's buffer any more. Which thread computes a voxel never changes it. */
+typedef struct lv_chain {
+    const lv_pass *P;
+    float *(*slices)[LV_CH];
+    int k0, dir, count, bands;
+    lv_mode first;
+    atomic_int *done;
+} lv_chain;
+
+static void lv_chain_task(void *user, int64_t task, int thread)
 {
-    P->k = k;
-    P->mode = mode;
-    for (int c = 0; c < LV_CH; c++) {
-        P->prev[c] = slices[*which][c];
-        P->cur[c] = slices[1 - *which][c];
+    const lv_chain *C = (const lv_chain *)user;
+    const int i = (int)(task / C->bands), b = (int)(task % C->bands);
+    if (i > 0) {
+        int spins = 0;
+        while (atomic_load_explicit(&C->done[i - 1], memory_order_acquire) < C->bands)
+            if (++spins > 64) {
+                sched_yield();
+                spins = 0;
+            }
     }
-    obs_pool_run(pool, (P->nv + P->rows_per_task - 1) / P->rows_per_task, lv_band_task, P);
-    *which = 1 - *which;
+    lv_pass L = *C->P;
+    L.k = C->k0 + C->dir * i;
+    L.mode = i == 0 ? C->first : LV_MODE_PROPAGATE;
+    for (int c = 0; c < LV_CH; c++) {
+        L.prev[c] = C->slices[i & 1][c];
+        L.cur[c] = C->slices[(i + 1) & 1][c];
+    }
+    lv_band_task(&L, b, thread);
+    atomic_fetch_add_explicit(&C->done[i], 1, memory_order_release);
+}
+
+static void lv_run_chain(obs_pool *pool, const lv_pass *P, int k0, int dir, int count, lv_mode first,
+                         float *slices[2][LV_CH], atomic_int *done)
+{
+    if (count <= 0)
+        return;
+    lv_chain C;
+    C.P = P;
+    C.slices = slices;
+    C.k0 = k0, C.dir = dir, C.count = count, C.first = first;
+    C.bands = (P->nv + P->rows_per_task - 1) / P->rows_per_task;
+    C.done = done;
+    for (int i = 0; i < count; i++)
+        atomic_init(&done[i], 0);
+    obs_pool_run(pool, (int64_t)count * C.bands, lv_chain_task, &C);
 }
 
 /* Set up the kernel path for a directional light along axis a (P->kern = 0 otherwise, or when
@@ -625,7 +695,11 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     const int threads = obs_pool_threads(pool);
     P->nu_pad = ((size_t)P->nu + 15) & ~(size_t)7;
     P->scratch = (float *)obs_aligned_alloc((size_t)threads * 5 * P->nu_pad * sizeof(float));
-    if (!P->scratch) {
+    atomic_int *done = (atomic_int *)malloc((size_t)P->n[a] * sizeof(atomic_int)); /* lv_run_chain */
+    if (!P->scratch || !done) {
+        obs_aligned_free(P->scratch);
+        P->scratch = NULL;
+        free(done);
         obs_aligned_free(buf);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the row buffers");
     }
@@ -634,7 +708,6 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         P->rows_per_task = (P->nv + tasks - 1) / tasks;
     }
     const int na = P->n[a];
-    int which = 0;
 
     /* The light's plane in light-volume slice units (point lights only). */
     double kL = 0.0;
@@ -646,13 +719,9 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     if (!inside) {
         int low = P->point ? (kL < -0.5) : lowside;
         if (low) {
-            lv_run_slice(pool, P, 0, LV_MODE_FACE, slices, &which);
-            for (int k = 1; k < na; k++)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, 0, 1, na, LV_MODE_FACE, slices, done);
         } else {
-            lv_run_slice(pool, P, na - 1, LV_MODE_FACE, slices, &which);
-            for (int k = na - 2; k >= 0; k--)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, na - 1, -1, na, LV_MODE_FACE, slices, done);
         }
     } else {
         /* A light inside the slab range ([Ropinski10] via the seed thesis, "PROPAGACION DE LA LUZ":
@@ -662,18 +731,14 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         int kup = (int)ceil(kL);
         int kdn = kup - 1;
         if (kup < na) {
-            lv_run_slice(pool, P, kup, LV_MODE_SEED, slices, &which);
-            for (int k = kup + 1; k < na; k++)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, kup, 1, na - kup, LV_MODE_SEED, slices, done);
         }
         if (kdn >= 0) {
-            which = 0;
-            lv_run_slice(pool, P, kdn, LV_MODE_SEED, slices, &which);
-            for (int k = kdn - 1; k >= 0; k--)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, kdn, -1, kdn + 1, LV_MODE_SEED, slices, done);
         }
     }
     obs_aligned_free(buf);
+    free(done);
     obs_aligned_free(P->scratch);
     P->scratch = NULL;
     return OBS_STATUS_OK;

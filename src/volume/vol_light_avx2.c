@@ -22,8 +22,15 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
     const __m256d vfirst = _mm256_set1_pd(T->value[0]), vlast = _mm256_set1_pd(T->value[np - 1]);
     const __m256d one = _mm256_set1_pd(1.0);
     float *outc[3] = {c0, c1, c2};
-    int i = 0;
-    for (; i + 4 <= n; i += 4) {
+    if (n < 4) {
+        vol_i_lv_classify_scalar(T, s, n, sigma, c0, c1, c2);
+        return;
+    }
+    /* Blocks of 4; the last block overlaps the one before where n is not a multiple of 4
+     * (recomputing a value writes the same bits). */
+    for (int i = 0;; i += 4) {
+        if (i > n - 4)
+            i = n - 4;
         const __m256d v = _mm256_cvtps_pd(_mm_loadu_ps(s + i));
         /* lo = the largest q in [0, np - 2] with value[q] <= v (the binary search's segment, values
          * strictly increasing): the count of q in [1, np - 2] with value[q] <= v. */
@@ -31,14 +38,20 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
         for (int q = 1; q <= np - 2; q++)
             lo = _mm256_sub_epi64(lo, _mm256_castpd_si256(_mm256_cmp_pd(_mm256_set1_pd(T->value[q]), v, _CMP_LE_OQ)));
         const __m256i hi = _mm256_add_epi64(lo, _mm256_set1_epi64x(1));
-        const __m256d vl = _mm256_i64gather_pd(T->value, lo, 8), vh = _mm256_i64gather_pd(T->value, hi, 8);
+        /* One segment for all four (smooth data): broadcasts instead of gathers, the same values. */
+        const long long q0 = _mm256_extract_epi64(lo, 0);
+        const int uni =
+            _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(lo, _mm256_set1_epi64x(q0)))) == 0xF;
+        const __m256d vl = uni ? _mm256_set1_pd(T->value[q0]) : _mm256_i64gather_pd(T->value, lo, 8);
+        const __m256d vh = uni ? _mm256_set1_pd(T->value[q0 + 1]) : _mm256_i64gather_pd(T->value, hi, 8);
         const __m256d t = _mm256_div_pd(_mm256_sub_pd(v, vl), _mm256_sub_pd(vh, vl));
         const __m256d omt = _mm256_sub_pd(one, t);
         const __m256d below = _mm256_cmp_pd(v, vfirst, _CMP_LE_OQ), above = _mm256_cmp_pd(v, vlast, _CMP_GE_OQ);
         const __m256d nan = _mm256_cmp_pd(v, v, _CMP_UNORD_Q);
         __m128 ch[4];
         for (int c = 0; c < 4; c++) {
-            const __m256d cl = _mm256_i64gather_pd(T->rgba[c], lo, 8), chh = _mm256_i64gather_pd(T->rgba[c], hi, 8);
+            const __m256d cl = uni ? _mm256_set1_pd(T->rgba[c][q0]) : _mm256_i64gather_pd(T->rgba[c], lo, 8);
+            const __m256d chh = uni ? _mm256_set1_pd(T->rgba[c][q0 + 1]) : _mm256_i64gather_pd(T->rgba[c], hi, 8);
             __m256d r = _mm256_add_pd(_mm256_mul_pd(cl, omt), _mm256_mul_pd(chh, t));
             /* vol_tf_eval's order: NaN first, then value <= first, then value >= last. */
             r = _mm256_blendv_pd(r, _mm256_set1_pd(T->rgba[c][np - 1]), above);
@@ -58,9 +71,9 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
             for (int q = 0; q < 4; q++)
                 sigma[i + q] = (pos >> q) & 1 ? (float)(T->kappa * vol_sigma_from_alpha(a[q], T->ref_step)) : 0.0f;
         }
+        if (i + 4 >= n)
+            break;
     }
-    if (i < n)
-        vol_i_lv_classify_scalar(T, s + i, n - i, sigma + i, c0 + i, c1 + i, c2 + i);
 }
 
 /* ---- The kernel path's row ------------------------------------------------------------------------- */
@@ -74,8 +87,16 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
     const float *K = S->K;
     const size_t ob = (size_t)(S->jv + S->bv) * nu + (size_t)S->bu;
     const size_t kb = (size_t)(S->jv + S->kJ0) * nu + (size_t)S->kI0;
-    int iu = iu0;
-    for (; iu + 8 <= iu1; iu += 8) {
+    if (iu1 - iu0 < 8) {
+        vol_i_lv_span_scalar(S, iu0, iu1);
+        return;
+    }
+    /* Blocks of 8; the last block overlaps the one before where the span is not a multiple of 8
+     * (a voxel reads only the previous slice and its row's classification: recomputing it writes
+     * the same bits). */
+    for (int iu = iu0;; iu += 8) {
+        if (iu > iu1 - 8)
+            iu = iu1 - 8;
         const __m256 sigma = _mm256_loadu_ps(S->sigma + iu);
         const float *s0 = S->prev_sigma + ob + iu, *s1 = s0 + nu;
         const float *l0 = S->prev_l + ob + iu, *l1 = l0 + nu;
@@ -148,7 +169,7 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
                 S->out_c[2][oi] = t[3][q];
             }
         }
+        if (iu + 8 >= iu1)
+            break;
     }
-    if (iu < iu1)
-        vol_i_lv_span_scalar(S, iu, iu1);
 }
