@@ -84,6 +84,7 @@ obs_status vol_lv_params_validate(obs_context *ctx, const vol_lv_params *p)
 /* ---- One propagation pass ---------------------------------------------------------------------- */
 
 enum { LV_L = 0, LV_C0, LV_C1, LV_C2, LV_SIGMA, LV_CH };
+#define LV_PAD 3 /* border texels around the slice buffers: fetches reach 2 texels out (lv_fetch) */
 
 typedef enum lv_mode {
     LV_MODE_FACE = 0,   /* first slice next to the face the light enters by: l_{-1} = 1, c_{-1} = 1 */
@@ -102,6 +103,7 @@ typedef struct lv_pass {
     double lo[3], hi[3];        /* the data's bounds (vol_grid_bounds) */
     int a, u, v;                /* propagation axis; in-plane axes (u fastest in the slice buffers) */
     int nu, nv;
+    int W;                      /* row stride of the slice buffers: nu + 2 LV_PAD (lv_propagate) */
     int point;                  /* 1: point light at P; 0: directional, travel direction D */
     double P[3], D[3];
     double tan_theta;
@@ -164,11 +166,12 @@ int vol_i_lv_avx2_active(void)
  * (exp(+-0) = 1 exactly, C11 F.10.3.1), which changes no bit. */
 void vol_i_lv_span_scalar(const vol_i_lv_span *S, int iu0, int iu1)
 {
-    const int nu = S->nu, kW = S->kW, kH = S->kH;
+    const ptrdiff_t nu = S->stride; /* row stride */
+    const int kW = S->kW, kH = S->kH;
     const float fu = S->fu, fv = S->fv, Ksum = S->Ksum;
     const float *K = S->K;
-    const size_t ob = (size_t)(S->jv + S->bv) * nu + (size_t)S->bu;
-    const size_t kb = (size_t)(S->jv + S->kJ0) * nu + (size_t)S->kI0;
+    const ptrdiff_t ob = (ptrdiff_t)(S->jv + S->bv) * nu + S->bu;
+    const ptrdiff_t kb = (ptrdiff_t)(S->jv + S->kJ0) * nu + S->kI0;
     for (int iu = iu0; iu < iu1; iu++) {
         const float sigma = S->sigma[iu];
         const float *s0 = S->prev_sigma + ob + iu, *s1 = s0 + nu;
@@ -181,7 +184,7 @@ void vol_i_lv_span_scalar(const vol_i_lv_span *S, int iu0, int iu1)
         float l = tau * (la + (lb - la) * fv);
         float acc[3] = {0.0f, 0.0f, 0.0f};
         for (int dj = 0; dj < kH; dj++) {
-            const size_t ro = kb + (size_t)dj * nu + iu;
+            const ptrdiff_t ro = kb + (ptrdiff_t)dj * nu + iu;
             const float *r0 = S->prev_c[0] + ro, *r1 = S->prev_c[1] + ro, *r2 = S->prev_c[2] + ro;
             const float *Kr = K + dj * kW;
             for (int di = 0; di < kW; di++) {
@@ -251,38 +254,30 @@ static inline double lv_floor(double x)
 
 /* Bilinear fetch of channel ch of the previous slice at continuous (pu, pv) (centres at integers),
  * texels outside the slice read `border` (GL's CLAMP_TO_BORDER: outside the light volume the light
- * is unattenuated, Inviwo's border colour 1, volume.md 1.2). */
+ * is unattenuated, Inviwo's border colour 1, volume.md 1.2). The slice buffers carry LV_PAD texels
+ * of each channel's border value around the slice (lv_propagate), so a texel outside the slice
+ * reads the border value from memory instead of a test per texel; beyond 2 texels out the fetch
+ * returns the border value itself (the same number: a lerp of equal values is exact). */
 static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, float border)
 {
-    if (pu >= 0.0 && pv >= 0.0 && pu < (double)(P->nu - 1) && pv < (double)(P->nv - 1)) {
-        /* Interior: truncation is floor. */
-        int i0 = (int)pu, j0 = (int)pv;
-        float tu = (float)(pu - (double)i0), tv = (float)(pv - (double)j0);
-        const float *r0 = P->prev[ch] + (size_t)j0 * P->nu + i0, *r1 = r0 + P->nu;
-        float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
-        return a + (b - a) * tv;
-    }
     const int nu = P->nu, nv = P->nv;
-    if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0)
-        return border;
-    double fu = lv_floor(pu), fv = lv_floor(pv);
-    int i0 = (int)fu, j0 = (int)fv;
-    float tu = (float)(pu - fu), tv = (float)(pv - fv);
-    const float *s = P->prev[ch];
-    float t00, t10, t01, t11;
-    if (i0 >= 0 && j0 >= 0 && i0 + 1 < nu && j0 + 1 < nv) {
-        const float *r0 = s + (size_t)j0 * nu + i0, *r1 = r0 + nu;
-        t00 = r0[0], t10 = r0[1], t01 = r1[0], t11 = r1[1];
+    const ptrdiff_t W = P->W;
+    int i0, j0;
+    float tu, tv;
+    if (pu >= 0.0 && pv >= 0.0 && pu < (double)(nu - 1) && pv < (double)(nv - 1)) {
+        /* Interior: truncation is floor. */
+        i0 = (int)pu, j0 = (int)pv;
+        tu = (float)(pu - (double)i0), tv = (float)(pv - (double)j0);
     } else {
-        int in0u = i0 >= 0 && i0 < nu, in1u = i0 + 1 >= 0 && i0 + 1 < nu;
-        int in0v = j0 >= 0 && j0 < nv, in1v = j0 + 1 >= 0 && j0 + 1 < nv;
-        t00 = (in0u && in0v) ? s[(size_t)j0 * nu + i0] : border;
-        t10 = (in1u && in0v) ? s[(size_t)j0 * nu + i0 + 1] : border;
-        t01 = (in0u && in1v) ? s[(size_t)(j0 + 1) * nu + i0] : border;
-        t11 = (in1u && in1v) ? s[(size_t)(j0 + 1) * nu + i0 + 1] : border;
+        if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0)
+            return border;
+        double fu = lv_floor(pu), fv = lv_floor(pv);
+        i0 = (int)fu, j0 = (int)fv; /* in [-2, n + 1]: inside the padding */
+        tu = (float)(pu - fu), tv = (float)(pv - fv);
     }
+    const float *r0 = P->prev[ch] + (ptrdiff_t)j0 * W + i0, *r1 = r0 + W;
     /* Lerps as a + (b - a) t: a constant field is reproduced exactly (the empty-TF limit l = 1). */
-    float a = t00 + (t10 - t00) * tu, b = t01 + (t11 - t01) * tu;
+    float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
     return a + (b - a) * tv;
 }
 
@@ -290,37 +285,26 @@ static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, flo
 static inline void lv_fetch3(const lv_pass *P, int ch0, double pu, double pv, float border, float out[3])
 {
     const int nu = P->nu, nv = P->nv;
-    /* Interior fast path: for pu, pv in [0, n-1) truncation is floor (no libm call). */
+    const ptrdiff_t W = P->W;
+    int i0, j0;
+    float tu, tv;
     if (pu >= 0.0 && pv >= 0.0 && pu < (double)(nu - 1) && pv < (double)(nv - 1)) {
-        int i0 = (int)pu, j0 = (int)pv;
-        double fu = (double)i0, fv = (double)j0;
-        float tu = (float)(pu - fu), tv = (float)(pv - fv);
-        size_t o = (size_t)j0 * nu + i0;
-        for (int c = 0; c < 3; c++) {
-            const float *r0 = P->prev[ch0 + c] + o, *r1 = r0 + nu;
-            float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
-            out[c] = a + (b - a) * tv;
+        /* Interior fast path: for pu, pv in [0, n-1) truncation is floor (no libm call). */
+        i0 = (int)pu, j0 = (int)pv;
+        tu = (float)(pu - (double)i0), tv = (float)(pv - (double)j0);
+    } else {
+        if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0) {
+            out[0] = out[1] = out[2] = border;
+            return;
         }
-        return;
+        double fu = lv_floor(pu), fv = lv_floor(pv);
+        i0 = (int)fu, j0 = (int)fv;
+        tu = (float)(pu - fu), tv = (float)(pv - fv);
     }
-    /* lv_fetch's border case for the three channels, its index arithmetic done once. */
-    if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0) {
-        out[0] = out[1] = out[2] = border;
-        return;
-    }
-    double fu = lv_floor(pu), fv = lv_floor(pv);
-    int i0 = (int)fu, j0 = (int)fv;
-    float tu = (float)(pu - fu), tv = (float)(pv - fv);
-    int in0u = i0 >= 0 && i0 < nu, in1u = i0 + 1 >= 0 && i0 + 1 < nu;
-    int in0v = j0 >= 0 && j0 < nv, in1v = j0 + 1 >= 0 && j0 + 1 < nv;
-    size_t o00 = (size_t)j0 * nu + i0; /* used only where in range */
+    const ptrdiff_t o = (ptrdiff_t)j0 * W + i0;
     for (int c = 0; c < 3; c++) {
-        const float *s = P->prev[ch0 + c];
-        float t00 = (in0u && in0v) ? s[o00] : border;
-        float t10 = (in1u && in0v) ? s[o00 + 1] : border;
-        float t01 = (in0u && in1v) ? s[o00 + nu] : border;
-        float t11 = (in1u && in1v) ? s[o00 + nu + 1] : border;
-        float a = t00 + (t10 - t00) * tu, b = t01 + (t11 - t01) * tu;
+        const float *r0 = P->prev[ch0 + c] + o, *r1 = r0 + W;
+        float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
         out[c] = a + (b - a) * tv;
     }
 }
@@ -337,7 +321,7 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
     double x[3];
     for (int c = 0; c < 3; c++)
         x[c] = P->org[c] + idx[c] * P->sp[c];
-    size_t si = (size_t)jv * P->nu + iu;
+    ptrdiff_t si = (ptrdiff_t)jv * P->W + iu;
     float l, cc[3];
 
     /* Travel direction of the light at x: constant (directional) or away from the light (point). */
@@ -375,9 +359,9 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
         /* The kernel path: the same quantities as the per-tap path below, with the bilinear
          * weights of all taps gathered into one kernel per pass (lv_kernel_init). */
         double ds = P->sp[a] / cos_g;
-        size_t o = (size_t)(jv + P->bv) * P->nu + (size_t)(iu + P->bu);
-        const float *s0 = P->prev[LV_SIGMA] + o, *s1 = s0 + P->nu;
-        const float *l0 = P->prev[LV_L] + o, *l1 = l0 + P->nu;
+        ptrdiff_t o = (ptrdiff_t)(jv + P->bv) * P->W + (iu + P->bu);
+        const float *s0 = P->prev[LV_SIGMA] + o, *s1 = s0 + P->W;
+        const float *l0 = P->prev[LV_L] + o, *l1 = l0 + P->W;
         float fu = P->fu, fv = P->fv;
         float sa = s0[0] + (s0[1] - s0[0]) * fu, sb = s1[0] + (s1[1] - s1[0]) * fu;
         float sigma_p = sa + (sb - sa) * fv;
@@ -386,11 +370,11 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
         l = tau * (la + (lb - la) * fv);
         float acc[3] = {0.0f, 0.0f, 0.0f};
         const float *K = P->K;
-        size_t ko = (size_t)(jv + P->kJ0) * P->nu + (size_t)(iu + P->kI0);
+        ptrdiff_t ko = (ptrdiff_t)(jv + P->kJ0) * P->W + (iu + P->kI0);
         for (int dj = 0; dj < P->kH; dj++) {
-            const float *r0 = P->prev[LV_C0] + ko + (size_t)dj * P->nu;
-            const float *r1 = P->prev[LV_C1] + ko + (size_t)dj * P->nu;
-            const float *r2 = P->prev[LV_C2] + ko + (size_t)dj * P->nu;
+            const float *r0 = P->prev[LV_C0] + ko + (ptrdiff_t)dj * P->W;
+            const float *r1 = P->prev[LV_C1] + ko + (ptrdiff_t)dj * P->W;
+            const float *r2 = P->prev[LV_C2] + ko + (ptrdiff_t)dj * P->W;
             for (int di = 0; di < P->kW; di++) {
                 float w = K[dj * P->kW + di];
                 acc[0] += w * r0[di];
@@ -510,17 +494,17 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
         for (int c = 0; c < 3; c++) {
             S.prev_c[c] = P->prev[LV_C0 + c];
             S.ctf[c] = ctf[c];
-            S.cur_c[c] = P->cur[LV_C0 + c] + (size_t)jv * nu;
+            S.cur_c[c] = P->cur[LV_C0 + c] + (ptrdiff_t)jv * P->W;
             S.out_c[c] = P->out_c[c] + (size_t)P->k * stride[a] + (size_t)jv * stride[v];
         }
-        S.nu = nu, S.jv = jv;
+        S.stride = P->W, S.jv = jv;
         S.bu = P->bu, S.bv = P->bv, S.kI0 = P->kI0, S.kJ0 = P->kJ0, S.kW = P->kW, S.kH = P->kH;
         S.fu = P->fu, S.fv = P->fv, S.Ksum = P->Ksum;
         S.K = P->K;
         S.ds = P->sp[a] / fabs(P->D[a]); /* the kernel path's ds (directional: cos_g = |D_a|) */
         S.sigma = sig;
-        S.cur_l = P->cur[LV_L] + (size_t)jv * nu;
-        S.cur_sigma = P->cur[LV_SIGMA] + (size_t)jv * nu;
+        S.cur_l = P->cur[LV_L] + (ptrdiff_t)jv * P->W;
+        S.cur_sigma = P->cur[LV_SIGMA] + (ptrdiff_t)jv * P->W;
         S.out_l = P->out_l + (size_t)P->k * stride[a] + (size_t)jv * stride[v];
         S.out_stride = (ptrdiff_t)stride[u];
 #if defined(OBS_HAVE_AVX2)
@@ -678,14 +662,21 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     P->out_l = out_l;
     for (int c = 0; c < 3; c++)
         P->out_c[c] = out_c[c];
-    size_t plane = (size_t)P->nu * (size_t)P->nv;
+    /* Two slice buffers of each channel, with LV_PAD texels of the channel's border value (l, c: 1;
+     * sigma_t: 0) around the slice that no voxel overwrites (lv_fetch). */
+    P->W = P->nu + 2 * LV_PAD;
+    size_t plane = (size_t)P->W * (size_t)(P->nv + 2 * LV_PAD);
     float *buf = (float *)obs_aligned_alloc(plane * 2 * LV_CH * sizeof(float));
     if (!buf)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the slice buffers");
     float *slices[2][LV_CH];
     for (int s = 0; s < 2; s++)
-        for (int c = 0; c < LV_CH; c++)
-            slices[s][c] = buf + (size_t)(s * LV_CH + c) * plane;
+        for (int c = 0; c < LV_CH; c++) {
+            float *b = buf + (size_t)(s * LV_CH + c) * plane, fill = c == LV_SIGMA ? 0.0f : 1.0f;
+            for (size_t q = 0; q < plane; q++)
+                b[q] = fill;
+            slices[s][c] = b + (size_t)LV_PAD * (size_t)P->W + LV_PAD;
+        }
     if (!lv_kernel_init(P)) {
         obs_aligned_free(buf);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the cone kernel");

@@ -80,13 +80,14 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
 
 void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
 {
-    const int nu = S->nu, kW = S->kW, kH = S->kH;
+    const ptrdiff_t nu = S->stride; /* row stride */
+    const int kW = S->kW, kH = S->kH;
     const __m256 fu = _mm256_set1_ps(S->fu), fv = _mm256_set1_ps(S->fv), Ksum = _mm256_set1_ps(S->Ksum);
     const __m256 one = _mm256_set1_ps(1.0f);
     const __m256d ds = _mm256_set1_pd(S->ds), mhalf = _mm256_set1_pd(-0.5), zero = _mm256_setzero_pd();
     const float *K = S->K;
-    const size_t ob = (size_t)(S->jv + S->bv) * nu + (size_t)S->bu;
-    const size_t kb = (size_t)(S->jv + S->kJ0) * nu + (size_t)S->kI0;
+    const ptrdiff_t ob = (ptrdiff_t)(S->jv + S->bv) * nu + S->bu;
+    const ptrdiff_t kb = (ptrdiff_t)(S->jv + S->kJ0) * nu + S->kI0;
     if (iu1 - iu0 < 8) {
         vol_i_lv_span_scalar(S, iu0, iu1);
         return;
@@ -133,7 +134,7 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
         const __m256 l = _mm256_mul_ps(tau, _mm256_add_ps(la, _mm256_mul_ps(_mm256_sub_ps(lb, la), fv)));
         __m256 acc0 = _mm256_setzero_ps(), acc1 = _mm256_setzero_ps(), acc2 = _mm256_setzero_ps();
         for (int dj = 0; dj < kH; dj++) {
-            const size_t ro = kb + (size_t)dj * nu + iu;
+            const ptrdiff_t ro = kb + (ptrdiff_t)dj * nu + iu;
             const float *r0 = S->prev_c[0] + ro, *r1 = S->prev_c[1] + ro, *r2 = S->prev_c[2] + ro;
             const float *Kr = K + dj * kW;
             for (int di = 0; di < kW; di++) {

@@ -41,12 +41,13 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
  *   sigma_p = bilinear(prev_sigma at (iu + bu + fu, jv + bv + fv)),
  *   tau     = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds),
  *   l       = tau * bilinear(prev_l, same weights),
- *   acc_c   = sum over dj < kH, di < kW (in that order) of K[dj kW + di] * prev_c[(jv + kJ0 + dj) nu + iu + kI0 + di],
+ *   acc_c   = sum over dj < kH, di < kW (in that order) of K[dj kW + di] * prev_c[(jv + kJ0 + dj) stride + iu + kI0 + di],
  *   c_c     = tau * (acc_c / Ksum) + (1 - tau) * ctf_c,
  * written to the current slice (cur_*[iu]) and the output (out_*[iu * out_stride]). */
 typedef struct vol_i_lv_span {
     const float *prev_l, *prev_sigma, *prev_c[3];
-    int nu, jv;
+    ptrdiff_t stride;                     /* row stride of the slice buffers (prev_*, cur_*) */
+    int jv;
     int bu, bv, kI0, kJ0, kW, kH;
     float fu, fv, Ksum;
     const float *K;
