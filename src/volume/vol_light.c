@@ -32,6 +32,7 @@
 #include <math.h>
 #include <sched.h>
 #include <stdatomic.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -958,6 +959,21 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
     for (int c = 0; c < 4; c++)
         P.T.rgba[c] = tft + (size_t)(c + 1) * (size_t)(ntf + 1);
     P.T.tf = tf;
+    /* The TF is +0 (every component's bits 0) from -inf up to point zq's value: there
+     * vol_tf_eval returns +0 exactly (point 0's copy below it; 0 (1 - t) + 0 t = +0 with t in
+     * [0, 1) between two such points), and vol_sigma_from_alpha(+0) = 0. */
+    P.T.zero_upto = -HUGE_VAL;
+    for (int i = 0; i < ntf; i++) {
+        uint32_t bits = 0;
+        for (int c = 0; c < 4; c++) {
+            uint32_t b;
+            memcpy(&b, &tf->points[i].rgba[c], sizeof b);
+            bits |= b;
+        }
+        if (bits != 0)
+            break;
+        P.T.zero_upto = tf->points[i].value;
+    }
     P.T.kappa = P.sigma_scale;
     P.T.ref_step = P.ref_step;
     P.avx2 = vol_i_lv_avx2_active();

@@ -20,7 +20,7 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
 {
     const int np = T->n;
     const __m256d vfirst = _mm256_set1_pd(T->value[0]), vlast = _mm256_set1_pd(T->value[np - 1]);
-    const __m256d one = _mm256_set1_pd(1.0);
+    const __m256d one = _mm256_set1_pd(1.0), vzero = _mm256_set1_pd(T->zero_upto);
     float *outc[3] = {c0, c1, c2};
     if (n < 4) {
         vol_i_lv_classify_scalar(T, s, n, sigma, c0, c1, c2);
@@ -32,6 +32,17 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
         if (i > n - 4)
             i = n - 4;
         const __m256d v = _mm256_cvtps_pd(_mm_loadu_ps(s + i));
+        /* Empty space (all four at or below zero_upto, none NaN): +0 everywhere, exactly. */
+        if (_mm256_movemask_pd(_mm256_cmp_pd(v, vzero, _CMP_LE_OQ)) == 0xF) {
+            const __m128 z = _mm_setzero_ps();
+            _mm_storeu_ps(c0 + i, z);
+            _mm_storeu_ps(c1 + i, z);
+            _mm_storeu_ps(c2 + i, z);
+            _mm_storeu_ps(sigma + i, z);
+            if (i + 4 >= n)
+                break;
+            continue;
+        }
         /* lo = the largest q in [0, np - 2] with value[q] <= v (the binary search's segment, values
          * strictly increasing): the count of q in [1, np - 2] with value[q] <= v. */
         __m256i lo = _mm256_setzero_si256();
@@ -78,10 +89,11 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
 
 /* ---- The kernel path's row ------------------------------------------------------------------------- */
 
-void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
+/* The span with the kernel's size as arguments: inlined with constants, the kernel loops unroll. */
+static inline __attribute__((always_inline)) void lv_span8(const vol_i_lv_span *S, int iu0, int iu1, const int kW,
+                                                           const int kH)
 {
     const ptrdiff_t nu = S->stride; /* row stride */
-    const int kW = S->kW, kH = S->kH;
     const __m256 fu = _mm256_set1_ps(S->fu), fv = _mm256_set1_ps(S->fv), Ksum = _mm256_set1_ps(S->Ksum);
     const __m256 one = _mm256_set1_ps(1.0f);
     const __m256d ds = _mm256_set1_pd(S->ds), mhalf = _mm256_set1_pd(-0.5), zero = _mm256_setzero_pd();
@@ -173,4 +185,12 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
         if (iu + 8 >= iu1)
             break;
     }
+}
+
+void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
+{
+    if (S->kW == 3 && S->kH == 3)
+        lv_span8(S, iu0, iu1, 3, 3); /* the default 45-degree cone along an axis */
+    else
+        lv_span8(S, iu0, iu1, S->kW, S->kH);
 }

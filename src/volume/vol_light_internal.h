@@ -26,6 +26,8 @@ typedef struct vol_i_lv_tf {
     const double *rgba[4]; /* n + 1 each, (double) of the float components */
     const vol_tf *tf;      /* the original (the scalar path calls vol_tf_eval on it) */
     double kappa, ref_step;
+    double zero_upto;      /* every value v <= zero_upto classifies to RGBA +0 and sigma_t +0 (the
+                              points up to it are all +0 bits); -inf when point 0 is not */
 } vol_i_lv_tf;
 
 /* Classification of n values s[i] (the data's, trilinear at scale 2 and 4):
