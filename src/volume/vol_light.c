@@ -165,10 +165,10 @@ int vol_i_lv_avx2_active(void)
 /* The kernel path's row (vol_light_internal.h), one voxel after the other. The arithmetic is the
  * per-voxel kernel path's, operation for operation; exp is skipped where its argument is 0
  * (exp(+-0) = 1 exactly, C11 F.10.3.1), which changes no bit. */
-void vol_i_lv_span_scalar(const vol_i_lv_span *S, int iu0, int iu1)
+static inline __attribute__((always_inline)) void lv_span1(const vol_i_lv_span *S, int iu0, int iu1, const int kW,
+                                                           const int kH)
 {
     const ptrdiff_t nu = S->stride; /* row stride */
-    const int kW = S->kW, kH = S->kH;
     const float fu = S->fu, fv = S->fv, Ksum = S->Ksum;
     const float *K = S->K;
     const ptrdiff_t ob = (ptrdiff_t)(S->jv + S->bv) * nu + S->bu;
@@ -205,6 +205,15 @@ void vol_i_lv_span_scalar(const vol_i_lv_span *S, int iu0, int iu1)
             S->out_c[c][oi] = cc;
         }
     }
+}
+
+/* The kernel's size as constants for the default 45-degree cone along an axis (the loops unroll). */
+void vol_i_lv_span_scalar(const vol_i_lv_span *S, int iu0, int iu1)
+{
+    if (S->kW == 3 && S->kH == 3)
+        lv_span1(S, iu0, iu1, 3, 3);
+    else
+        lv_span1(S, iu0, iu1, S->kW, S->kH);
 }
 
 /* Extinction of the data at a world point: trilinear value, then TF (post-classification); 0
