@@ -24,8 +24,13 @@
  * against the exact 1 + (1 - a) ln(1 - a) / a (a = 0.3: 0.178 against 0.168 per ramp, 0.0089 in
  * transmittance; docs/volume/light.md, "Measured errors").
  *
- * Threads: slices depend on each other, so the pool runs the rows of ONE slice at a time; each
- * voxel reads only the previous slice, so the output is identical for any thread count. */
+ * Threads: slices depend on each other. A propagation chain is one pool job of bands of rows, slice
+ * after slice, each band waiting for the whole previous slice (lv_run_chain); each voxel reads only
+ * the previous slice, so the output is identical for any thread count.
+ *
+ * Speed (docs/volume/light.md, "Row kernels and AVX2", "Cost"): each row is classified at once and
+ * the kernel path's interior runs as a row kernel (vol_light_internal.h), scalar or AVX2 with the
+ * same bits; the output is bit for bit that of the per-voxel loop it replaced. */
 #include "vol.h"
 #include "vol_light_internal.h"
 
