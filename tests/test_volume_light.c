@@ -857,3 +857,55 @@ TEST(volume_light_avx2_matches_scalar_bit_for_bit)
     obs_pool_destroy(pool);
     obs_context_destroy(ctx);
 }
+
+TEST(volume_light_kernel_span_bounds_on_thin_slices_and_small_cones)
+{
+    /* The kernel path's span per row (vol_light.c lv_row) is bounded by where the 2x2 and the
+     * cone's kernels lie inside the slice; with a small cone in the second face's pass (|p - x| > 1
+     * texel: the kernel wholly to one side of x) or slices narrower than the offset, those bounds
+     * pass the row's end and must be clipped to it (a heap overflow before: found by AddressSanitizer
+     * on exactly these cases). Checked: finite values in [0, 1], AVX2 and scalar byte for byte, and
+     * the kernel path against the per-tap path (OBS_LV_PER_TAP=1) within its rounding bound. */
+    obs_context *ctx = obs_context_create();
+    const int dims[3][3] = {{19, 14, 21}, {3, 2, 9}, {1, 12, 16}};
+    const double sps[3][3] = {{1, 1, 1}, {1, 2.5, 0.4}, {0.3, 1, 1}};
+    const vol_light Ls[3] = {dir_light(0.8, 0, 0.6), dir_light(0.7, 0.7, 0.1), dir_light(0.1, -0.9, 0.42)};
+    const float rgb[3] = {0.2f, 0.5f, 0.9f};
+    vol_tf tf;
+    CHECK(make_tf(&tf, 0.05f, 0.6f, rgb));
+    for (int v = 0; v < 3; v++) {
+        vol_grid g;
+        CHECK_OK(vol_grid_alloc(ctx, dims[v][0], dims[v][1], dims[v][2], sps[v], &g), ctx);
+        size_t n = (size_t)g.nx * g.ny * g.nz;
+        for (size_t i = 0; i < n; i++)
+            g.data[i] = (float)((i * 2654435761u) % 1000u) / 1000.0f;
+        vol_grid_update_range(&g);
+        for (int l = 0; l < 3; l++)
+            for (int c = 0; c < 2; c++) {
+                vol_lv_params p = vol_lv_params_default();
+                p.cone_angle_deg = c == 0 ? 1.0 : 5.0;
+                p.blend_second = 1;
+                vol_light_volume a, b, t;
+                unsetenv("OBS_ISA");
+                CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &a), ctx);
+                setenv("OBS_ISA", "scalar", 1);
+                CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &b), ctx);
+                unsetenv("OBS_ISA");
+                setenv("OBS_LV_PER_TAP", "1", 1);
+                CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &t), ctx);
+                unsetenv("OBS_LV_PER_TAP");
+                CHECK(lv_all_finite_unit(&a));
+                size_t bytes = (size_t)a.nx * a.ny * a.nz * sizeof(float);
+                CHECK(memcmp(a.l, b.l, bytes) == 0);
+                for (int ch = 0; ch < 3; ch++)
+                    CHECK(memcmp(a.c[ch], b.c[ch], bytes) == 0);
+                CHECK(lv_maxdiff(&a, &t) <= 1e-5);
+                vol_light_volume_free(&a);
+                vol_light_volume_free(&b);
+                vol_light_volume_free(&t);
+            }
+        vol_grid_free(&g);
+    }
+    vol_tf_free(&tf);
+    obs_context_destroy(ctx);
+}

@@ -494,6 +494,10 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
         iu_lo = -P->kI0 > -P->bu ? -P->kI0 : -P->bu;
         iu_lo = iu_lo > 0 ? iu_lo : 0;
         iu_hi = nu - P->kI0 - P->kW + 1 < nu - P->bu - 1 ? nu - P->kI0 - P->kW + 1 : nu - P->bu - 1;
+        /* and 0 <= iu < nu: a kernel wholly to one side of p (a small cone, |p - x| > 1 texel in
+         * the second face's pass, or a slice narrower than the offset) moves a bound past nu */
+        iu_lo = iu_lo < nu ? iu_lo : nu;
+        iu_hi = iu_hi < nu ? iu_hi : nu;
         if (iu_hi < iu_lo)
             iu_hi = iu_lo;
     }
