@@ -133,6 +133,8 @@ typedef struct lv_pass {
     lv_mode mode;
     float *prev[LV_CH], *cur[LV_CH];
     float *out_l, *out_c[3];
+    size_t ostr[3];             /* out_* elements per step along x, y, z (lv_propagate) */
+    int stage_ok;               /* a pass along x may stage its output slice-major (lv_propagate) */
     /* the row kernels (vol_light_internal.h) */
     int avx2;                   /* vol_i_lv_avx2_active() at the build's start */
     vol_i_lv_tf T;              /* the TF prepared for row classification */
@@ -440,8 +442,7 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
     P->cur[LV_C1][si] = cc[1];
     P->cur[LV_C2][si] = cc[2];
     P->cur[LV_SIGMA][si] = sigma;
-    const size_t stride[3] = {1, (size_t)P->n[0], (size_t)P->n[0] * (size_t)P->n[1]};
-    size_t oi = idx[0] * stride[0] + idx[1] * stride[1] + idx[2] * stride[2];
+    size_t oi = idx[0] * P->ostr[0] + idx[1] * P->ostr[1] + idx[2] * P->ostr[2];
     P->out_l[oi] = l;
     P->out_c[0][oi] = cc[0];
     P->out_c[1][oi] = cc[1];
@@ -506,7 +507,7 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
         lv_voxel(P, iu, jv, sig[iu], c3);
     }
     if (iu_hi > iu_lo) {
-        const size_t stride[3] = {1, (size_t)P->n[0], (size_t)P->n[0] * (size_t)P->n[1]};
+        const size_t *stride = P->ostr;
         vol_i_lv_span S;
         S.prev_l = P->prev[LV_L];
         S.prev_sigma = P->prev[LV_SIGMA];
@@ -668,6 +669,33 @@ static int lv_kernel_init(lv_pass *P)
     return 1;
 }
 
+/* The staged output of a pass along x (lv_propagate) into the x-fastest output: task z moves the
+ * plane z, in tiles of 16 x values (16 rows of the stage read, 16 consecutive floats written). */
+typedef struct lv_unstage {
+    const float *stage;
+    float *out[4];
+    int nx, ny, nz;
+    size_t voxels;
+} lv_unstage;
+
+static void lv_unstage_task(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const lv_unstage *U = (const lv_unstage *)user;
+    const int z = (int)task, nx = U->nx, ny = U->ny;
+    const size_t sx = (size_t)U->ny * (size_t)U->nz; /* stage elements per x */
+    for (int c = 0; c < 4; c++) {
+        const float *st = U->stage + (size_t)c * U->voxels + (size_t)z * (size_t)ny;
+        float *o = U->out[c] + (size_t)z * (size_t)ny * (size_t)nx;
+        for (int x0 = 0; x0 < nx; x0 += 16) {
+            const int x1 = x0 + 16 < nx ? x0 + 16 : nx;
+            for (int y = 0; y < ny; y++)
+                for (int x = x0; x < x1; x++)
+                    o[(size_t)y * nx + x] = st[(size_t)x * sx + y];
+        }
+    }
+}
+
 /* Propagate along axis a (light entering from the low side when lowside, else the high side, for a
  * light outside the slab range; both ways from the light's plane for a light inside it). */
 static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int a, int lowside, float *out_l,
@@ -681,13 +709,29 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     P->out_l = out_l;
     for (int c = 0; c < 3; c++)
         P->out_c[c] = out_c[c];
+    P->ostr[0] = 1, P->ostr[1] = (size_t)P->n[0], P->ostr[2] = (size_t)P->n[0] * (size_t)P->n[1];
+    /* A pass along x would write every voxel of a slice to its own cache line (the output is x
+     * fastest): stage it slice-major (x slowest, then z, then y: the slices' own order) and
+     * transpose it into out_* at the end (lv_unstage_task). The values are the same. */
+    const size_t voxels = (size_t)P->n[0] * (size_t)P->n[1] * (size_t)P->n[2];
+    float *stage = NULL;
+    if (a == 0 && P->stage_ok)
+        stage = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
+    if (stage) {
+        P->out_l = stage;
+        for (int c = 0; c < 3; c++)
+            P->out_c[c] = stage + (size_t)(c + 1) * voxels;
+        P->ostr[0] = (size_t)P->n[1] * (size_t)P->n[2], P->ostr[1] = 1, P->ostr[2] = (size_t)P->n[1];
+    }
     /* Two slice buffers of each channel, with LV_PAD texels of the channel's border value (l, c: 1;
      * sigma_t: 0) around the slice that no voxel overwrites (lv_fetch). */
     P->W = P->nu + 2 * LV_PAD;
     size_t plane = (size_t)P->W * (size_t)(P->nv + 2 * LV_PAD);
     float *buf = (float *)obs_aligned_alloc(plane * 2 * LV_CH * sizeof(float));
-    if (!buf)
+    if (!buf) {
+        obs_aligned_free(stage);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the slice buffers");
+    }
     float *slices[2][LV_CH];
     for (int s = 0; s < 2; s++)
         for (int c = 0; c < LV_CH; c++) {
@@ -697,6 +741,7 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
             slices[s][c] = b + (size_t)LV_PAD * (size_t)P->W + LV_PAD;
         }
     if (!lv_kernel_init(P)) {
+        obs_aligned_free(stage);
         obs_aligned_free(buf);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the cone kernel");
     }
@@ -711,6 +756,7 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         P->scratch = NULL;
         free(done);
         obs_aligned_free(buf);
+        obs_aligned_free(stage);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the row buffers");
     }
     {
@@ -751,6 +797,20 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     free(done);
     obs_aligned_free(P->scratch);
     P->scratch = NULL;
+    if (stage) {
+        lv_unstage U;
+        U.stage = stage;
+        U.out[0] = out_l;
+        for (int c = 0; c < 3; c++)
+            U.out[c + 1] = out_c[c];
+        U.nx = P->n[0], U.ny = P->n[1], U.nz = P->n[2];
+        U.voxels = voxels;
+        obs_pool_run(pool, P->n[2], lv_unstage_task, &U);
+        obs_aligned_free(stage);
+        P->out_l = out_l;
+        for (int c = 0; c < 3; c++)
+            P->out_c[c] = out_c[c];
+    }
     return OBS_STATUS_OK;
 }
 
@@ -950,6 +1010,9 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
         out->c[c] = mem + (size_t)(c + 1) * voxels;
     }
     out->l = mem;
+    /* Staging a pass along x (lv_propagate) costs one more volume of 4 channels: only within the
+     * limits. */
+    P.stage_ok = (int64_t)(bytes + voxels * 4 * sizeof(float)) <= lim->max_memory_bytes;
     out->face0 = f0;
     out->face1 = p->blend_second ? f1 : -1;
     out->blend_weight = w;
