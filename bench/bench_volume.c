@@ -3,6 +3,7 @@
  *   obscura_bench_volume [--synth bucky|sphere|slab|box] [--n 256] [--file PATH] [--tf bucky]
  *                        [--shading ea|phong|lightvolume] [--step 0] [--brick 8] [--et 0.99]
  *                        [--threads 2] [--reps 3] [--size 1920x1080] [--sweep]
+ *                        [--lv-only] [--light X,Y,Z] [--blend 0|1] [--scale 1|2|4] [--cone DEG]
  *
  * Ray casts a synthetic volume (vol_synth, n^3, default the bucky at 256^3) with a transfer-function
  * preset (or a file io_volume_load reads, e.g. the head CT as NRRD with --tf ct-skin), from a fixed
@@ -12,7 +13,12 @@
  * --shading lightvolume the light volume (vol_lv_params_default) is built once first and its build
  * time printed; the ray casts reuse it.
  * --sweep times the brick sizes {0, 4, 8, 16} and the early-termination thresholds {1, 0.99, 0.95}
- * (one RESULT line each). Wall clock (CLOCK_MONOTONIC): on a shared machine, take the minimum. */
+ * (one RESULT line each). Wall clock (CLOCK_MONOTONIC): on a shared machine, take the minimum.
+ * --lv-only times vol_light_volume_build alone (issue 15 item 11: 256^3, a directional light, the
+ * default 45-degree cone, 2 threads: <= 25 ms): one warm-up build, then REPS timed builds; the RESULT
+ * line gives the median (min, max) in ms and ns per light-volume voxel. --light sets the directional
+ * light's travel direction (default -0.4,-0.7,-0.6, normalised; 0,0,1 is the bar's axis-aligned
+ * light with its 3x3 cone), --blend, --scale and --cone the vol_lv_params. */
 #include "core/obs.h"
 #include "io/io.h"
 #include "volume/vol.h"
@@ -92,7 +98,9 @@ int main(int argc, char **argv)
     bench b;
     memset(&b, 0, sizeof b);
     const char *synth = "bucky", *tfname = NULL, *file = NULL;
-    int n = 256, threads = 2, sweep = 0;
+    int n = 256, threads = 2, sweep = 0, lv_only = 0;
+    double ldir[3] = {-0.4, -0.7, -0.6};
+    vol_lv_params lp = vol_lv_params_default();
     b.W = 1920;
     b.H = 1080;
     b.reps = 3;
@@ -102,6 +110,10 @@ int main(int argc, char **argv)
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (!strcmp(a, "--sweep")) {
             sweep = 1;
+            continue;
+        }
+        if (!strcmp(a, "--lv-only")) {
+            lv_only = 1;
             continue;
         }
         if (!v) {
@@ -128,6 +140,17 @@ int main(int argc, char **argv)
             p.brick = atoi(v);
         else if (!strcmp(a, "--et"))
             p.early_termination = atof(v);
+        else if (!strcmp(a, "--light")) {
+            if (sscanf(v, "%lf,%lf,%lf", &ldir[0], &ldir[1], &ldir[2]) != 3) {
+                fprintf(stderr, "obscura_bench_volume: --light X,Y,Z\n");
+                return 2;
+            }
+        } else if (!strcmp(a, "--blend"))
+            lp.blend_second = atoi(v);
+        else if (!strcmp(a, "--scale"))
+            lp.scale = atoi(v);
+        else if (!strcmp(a, "--cone"))
+            lp.cone_angle_deg = atof(v);
         else if (!strcmp(a, "--threads"))
             threads = atoi(v);
         else if (!strcmp(a, "--reps"))
@@ -171,12 +194,9 @@ int main(int argc, char **argv)
     }
     /* A light from the upper right front; a camera framing the box (vol_synth centres it on 0). */
     b.light.type = OBS_LIGHT_DIRECTIONAL;
-    b.light.direction[0] = -0.4;
-    b.light.direction[1] = -0.7;
-    b.light.direction[2] = -0.6;
-    double l = sqrt(0.16 + 0.49 + 0.36);
+    double l = sqrt(ldir[0] * ldir[0] + ldir[1] * ldir[1] + ldir[2] * ldir[2]);
     for (int a = 0; a < 3; a++)
-        b.light.direction[a] /= l;
+        b.light.direction[a] = ldir[a] / l;
     b.light.color[0] = b.light.color[1] = b.light.color[2] = 1.0f;
     /* The box's centre and half diagonal: for vol_synth (centred on 0, n^3) the camera is at
      * (1.3, 0.9, 2.6) x n/2. */
@@ -193,8 +213,34 @@ int main(int argc, char **argv)
     printf("# obscura_bench_volume: %s %dx%dx%d (made/loaded in %.0f ms), TF %s, %dx%d, %d threads, %d reps\n",
            file ? file : synth, b.g.nx, b.g.ny, b.g.nz, t_synth,
            tfname ? tfname : "bench", b.W, b.H, threads, b.reps);
+    if (lv_only) {
+        double *ms = (double *)malloc(sizeof(double) * (size_t)(b.reps + 1));
+        for (int r = 0; r <= b.reps; r++) { /* r = 0: the warm-up */
+            double tl = now_ms();
+            if (vol_light_volume_build(b.ctx, b.pool, &b.g, &b.tf, &b.light, &lp, &b.lv) != OBS_STATUS_OK)
+                die(&b);
+            ms[r] = now_ms() - tl;
+            if (r == 0)
+                printf("# light volume %dx%dx%d, light (%.3f, %.3f, %.3f), faces %d/%d, blend weight %.3f, scale %d, "
+                       "cone %g\n", b.lv.nx, b.lv.ny, b.lv.nz, b.light.direction[0], b.light.direction[1],
+                       b.light.direction[2], b.lv.face0, b.lv.face1, b.lv.blend_weight, lp.scale, lp.cone_angle_deg);
+            vol_light_volume_free(&b.lv);
+        }
+        qsort(ms + 1, (size_t)b.reps, sizeof(double), cmp_double);
+        double med = b.reps % 2 ? ms[1 + b.reps / 2] : 0.5 * (ms[b.reps / 2] + ms[1 + b.reps / 2]);
+        double vox = (double)((b.g.nx + lp.scale - 1) / lp.scale) * ((b.g.ny + lp.scale - 1) / lp.scale) *
+                     ((b.g.nz + lp.scale - 1) / lp.scale);
+        printf("RESULT lightvolume %s%d threads %d: %9.1f ms (min %.1f, max %.1f); %.1f ns per voxel (median)\n", synth,
+               b.g.nx, threads, med, ms[1], ms[b.reps], med * 1e6 / vox);
+        free(ms);
+        if (tfname)
+            vol_tf_free(&b.tf);
+        vol_grid_free(&b.g);
+        obs_pool_destroy(b.pool);
+        obs_context_destroy(b.ctx);
+        return 0;
+    }
     if (p.shading == VOL_SHADING_LIGHT_VOLUME) {
-        vol_lv_params lp = vol_lv_params_default();
         double tl = now_ms();
         if (vol_light_volume_build(b.ctx, b.pool, &b.g, &b.tf, &b.light, &lp, &b.lv) != OBS_STATUS_OK)
             die(&b);

@@ -768,7 +768,7 @@ TEST(volume_light_sample_is_trilinear)
 TEST(volume_light_kernel_path_matches_per_tap_path)
 {
     /* Directional lights use one gathered kernel per pass (vol_light.c, lv_kernel_init);
-     * OBS_ISA=scalar forces the per-tap reference. Same sums, other rounding: agree to 1e-5. */
+     * OBS_LV_PER_TAP=1 forces the per-tap reference (OBS_ISA=scalar did before the AVX2 path). Same sums, other rounding: agree to 1e-5. */
     obs_context *ctx = obs_context_create();
     vol_grid g;
     CHECK_OK(vol_synth(ctx, "bucky", 32, &g), ctx);
@@ -781,11 +781,11 @@ TEST(volume_light_kernel_path_matches_per_tap_path)
         p.cone_angle_deg = cones[t];
         p.scale = t == 2 ? 2 : 1;
         vol_light_volume a, b;
-        unsetenv("OBS_ISA");
+        unsetenv("OBS_LV_PER_TAP");
         CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[t], &p, &a), ctx);
-        setenv("OBS_ISA", "scalar", 1);
+        setenv("OBS_LV_PER_TAP", "1", 1);
         CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[t], &p, &b), ctx);
-        unsetenv("OBS_ISA");
+        unsetenv("OBS_LV_PER_TAP");
         double d = lv_maxdiff(&a, &b);
         printf("light %d, cone %g: kernel vs per-tap max diff %.3g\n", t, cones[t], d);
         CHECK(d <= 1e-5);
@@ -794,5 +794,118 @@ TEST(volume_light_kernel_path_matches_per_tap_path)
     }
     vol_tf_free(&tf);
     vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
+TEST(volume_light_avx2_matches_scalar_bit_for_bit)
+{
+    /* The row kernels (vol_light_internal.h): the AVX2 forms perform the scalar forms' operations
+     * lane by lane, so the default build (AVX2 where the CPU has it) and OBS_ISA=scalar give the
+     * same bytes: volumes of odd and even sizes (8-voxel blocks and scalar tails), anisotropic
+     * spacing, directional lights along each axis both ways and oblique, point lights outside and
+     * inside, scales 1, 2, 4, blend on and off, three cones. Without AVX2 both runs are scalar. */
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    CHECK(pool);
+    const char *names[3] = {"bucky", "sphere", "box"};
+    const int sizes[3] = {26, 21, 17};
+    vol_light Ls[10] = {dir_light(0, 0, 1),         dir_light(0, 0, -1),        dir_light(1, 0, 0),
+                        dir_light(0, -1, 0),        dir_light(0.3, -0.5, 0.8),  dir_light(-0.7, 0.2, 0.1),
+                        dir_light(-0.4, -0.7, -0.6), point_light(-40.0, 15.0, 50.0), point_light(1.0, -2.0, 0.5),
+                        dir_light(0.02, 0.05, -1)};
+    const float rgb[3] = {0.9f, 0.6f, 0.3f};
+    int cases = 0;
+    for (int v = 0; v < 3; v++) {
+        vol_grid g;
+        CHECK_OK(vol_synth(ctx, names[v], sizes[v], &g), ctx);
+        vol_tf tf;
+        if (v == 0) {
+            CHECK_OK(vol_tf_preset(ctx, "bucky", &tf), ctx);
+        } else {
+            CHECK(make_tf(&tf, 0.05f, 0.4f, rgb));
+            g.spacing[1] = v == 1 ? 0.8 : 1.0;
+            g.spacing[2] = v == 1 ? 1.3 : 1.0;
+        }
+        for (int l = 0; l < 10; l++)
+            for (int s = 0; s < 3; s++)
+                for (int b = 0; b < 2; b++) {
+                    vol_lv_params p = vol_lv_params_default();
+                    p.scale = 1 << s;
+                    p.blend_second = b;
+                    p.cone_angle_deg = (l + s) % 3 == 0 ? 45.0 : ((l + s) % 3 == 1 ? 20.0 : 70.0);
+                    vol_light_volume a, c;
+                    unsetenv("OBS_ISA");
+                    CHECK_OK(vol_light_volume_build(ctx, pool, &g, &tf, &Ls[l], &p, &a), ctx);
+                    setenv("OBS_ISA", "scalar", 1);
+                    CHECK_OK(vol_light_volume_build(ctx, pool, &g, &tf, &Ls[l], &p, &c), ctx);
+                    unsetenv("OBS_ISA");
+                    size_t bytes = (size_t)a.nx * a.ny * a.nz * sizeof(float);
+                    int same = memcmp(a.l, c.l, bytes) == 0;
+                    for (int ch = 0; ch < 3; ch++)
+                        same = same && memcmp(a.c[ch], c.c[ch], bytes) == 0;
+                    if (!same)
+                        printf("differ: volume %s, light %d, scale %d, blend %d\n", names[v], l, p.scale, b);
+                    CHECK(same);
+                    cases++;
+                    vol_light_volume_free(&a);
+                    vol_light_volume_free(&c);
+                }
+        vol_tf_free(&tf);
+        vol_grid_free(&g);
+    }
+    printf("%d cases identical\n", cases);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}
+
+TEST(volume_light_kernel_span_bounds_on_thin_slices_and_small_cones)
+{
+    /* The kernel path's span per row (vol_light.c lv_row) is bounded by where the 2x2 and the
+     * cone's kernels lie inside the slice; with a small cone in the second face's pass (|p - x| > 1
+     * texel: the kernel wholly to one side of x) or slices narrower than the offset, those bounds
+     * pass the row's end and must be clipped to it (a heap overflow before: found by AddressSanitizer
+     * on exactly these cases). Checked: finite values in [0, 1], AVX2 and scalar byte for byte, and
+     * the kernel path against the per-tap path (OBS_LV_PER_TAP=1) within its rounding bound. */
+    obs_context *ctx = obs_context_create();
+    const int dims[3][3] = {{19, 14, 21}, {3, 2, 9}, {1, 12, 16}};
+    const double sps[3][3] = {{1, 1, 1}, {1, 2.5, 0.4}, {0.3, 1, 1}};
+    const vol_light Ls[3] = {dir_light(0.8, 0, 0.6), dir_light(0.7, 0.7, 0.1), dir_light(0.1, -0.9, 0.42)};
+    const float rgb[3] = {0.2f, 0.5f, 0.9f};
+    vol_tf tf;
+    CHECK(make_tf(&tf, 0.05f, 0.6f, rgb));
+    for (int v = 0; v < 3; v++) {
+        vol_grid g;
+        CHECK_OK(vol_grid_alloc(ctx, dims[v][0], dims[v][1], dims[v][2], sps[v], &g), ctx);
+        size_t n = (size_t)g.nx * g.ny * g.nz;
+        for (size_t i = 0; i < n; i++)
+            g.data[i] = (float)((i * 2654435761u) % 1000u) / 1000.0f;
+        vol_grid_update_range(&g);
+        for (int l = 0; l < 3; l++)
+            for (int c = 0; c < 2; c++) {
+                vol_lv_params p = vol_lv_params_default();
+                p.cone_angle_deg = c == 0 ? 1.0 : 5.0;
+                p.blend_second = 1;
+                vol_light_volume a, b, t;
+                unsetenv("OBS_ISA");
+                CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &a), ctx);
+                setenv("OBS_ISA", "scalar", 1);
+                CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &b), ctx);
+                unsetenv("OBS_ISA");
+                setenv("OBS_LV_PER_TAP", "1", 1);
+                CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &t), ctx);
+                unsetenv("OBS_LV_PER_TAP");
+                CHECK(lv_all_finite_unit(&a));
+                size_t bytes = (size_t)a.nx * a.ny * a.nz * sizeof(float);
+                CHECK(memcmp(a.l, b.l, bytes) == 0);
+                for (int ch = 0; ch < 3; ch++)
+                    CHECK(memcmp(a.c[ch], b.c[ch], bytes) == 0);
+                CHECK(lv_maxdiff(&a, &t) <= 1e-5);
+                vol_light_volume_free(&a);
+                vol_light_volume_free(&b);
+                vol_light_volume_free(&t);
+            }
+        vol_grid_free(&g);
+    }
+    vol_tf_free(&tf);
     obs_context_destroy(ctx);
 }

@@ -24,11 +24,20 @@
  * against the exact 1 + (1 - a) ln(1 - a) / a (a = 0.3: 0.178 against 0.168 per ramp, 0.0089 in
  * transmittance; docs/volume/light.md, "Measured errors").
  *
- * Threads: slices depend on each other, so the pool runs the rows of ONE slice at a time; each
- * voxel reads only the previous slice, so the output is identical for any thread count. */
+ * Threads: slices depend on each other. A propagation chain is one pool job of bands of rows, slice
+ * after slice, each band waiting for the whole previous slice (lv_run_chain); each voxel reads only
+ * the previous slice, so the output is identical for any thread count.
+ *
+ * Speed (docs/volume/light.md, "Row kernels and AVX2", "Cost"): each row is classified at once and
+ * the kernel path's interior runs as a row kernel (vol_light_internal.h), scalar or AVX2 with the
+ * same bits; the output is bit for bit that of the per-voxel loop it replaced. */
 #include "vol.h"
+#include "vol_light_internal.h"
 
 #include <math.h>
+#include <sched.h>
+#include <stdatomic.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -81,6 +90,7 @@ obs_status vol_lv_params_validate(obs_context *ctx, const vol_lv_params *p)
 /* ---- One propagation pass ---------------------------------------------------------------------- */
 
 enum { LV_L = 0, LV_C0, LV_C1, LV_C2, LV_SIGMA, LV_CH };
+#define LV_PAD 3 /* border texels around the slice buffers: fetches reach 2 texels out (lv_fetch) */
 
 typedef enum lv_mode {
     LV_MODE_FACE = 0,   /* first slice next to the face the light enters by: l_{-1} = 1, c_{-1} = 1 */
@@ -99,6 +109,7 @@ typedef struct lv_pass {
     double lo[3], hi[3];        /* the data's bounds (vol_grid_bounds) */
     int a, u, v;                /* propagation axis; in-plane axes (u fastest in the slice buffers) */
     int nu, nv;
+    int W;                      /* row stride of the slice buffers: nu + 2 LV_PAD (lv_propagate) */
     int point;                  /* 1: point light at P; 0: directional, travel direction D */
     double P[3], D[3];
     double tan_theta;
@@ -122,26 +133,94 @@ typedef struct lv_pass {
     lv_mode mode;
     float *prev[LV_CH], *cur[LV_CH];
     float *out_l, *out_c[3];
+    size_t ostr[3];             /* out_* elements per step along x, y, z (lv_propagate) */
+    int stage_ok;               /* a pass along x may stage its output slice-major (lv_propagate) */
+    /* the row kernels (vol_light_internal.h) */
+    int avx2;                   /* vol_i_lv_avx2_active() at the build's start */
+    vol_i_lv_tf T;              /* the TF prepared for row classification */
+    float *scratch;             /* per thread: the row's values, sigma_t and c_TF (5 rows of nu_pad) */
+    size_t nu_pad;
+    int rows_per_task;
 } lv_pass;
 
-/* Classification of a light-volume voxel: the data trilinearly at its centre, then the TF. */
-static void lv_classify(const lv_pass *P, const int idx[3], const double x[3], float *sigma, float ctf[3])
+/* Classification (vol_light_internal.h): the TF at each value, sigma_t by vol.h's convention. */
+void vol_i_lv_classify_scalar(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
+                              float *c2)
 {
-    const vol_grid *g = P->g;
-    float s;
-    if (P->scale == 1) {
-        /* The light volume's voxels are the data's: the exact voxel value. */
-        s = g->data[((size_t)idx[2] * (size_t)g->ny + (size_t)idx[1]) * (size_t)g->nx + (size_t)idx[0]];
-    } else {
-        s = vol_grid_sample(g, (x[0] - g->origin[0]) / g->spacing[0], (x[1] - g->origin[1]) / g->spacing[1],
-                            (x[2] - g->origin[2]) / g->spacing[2]);
+    for (int i = 0; i < n; i++) {
+        float rgba[4];
+        vol_tf_eval(T->tf, s[i], rgba);
+        sigma[i] = (float)(T->kappa * vol_sigma_from_alpha(rgba[3], T->ref_step));
+        c0[i] = rgba[0];
+        c1[i] = rgba[1];
+        c2[i] = rgba[2];
     }
-    float rgba[4];
-    vol_tf_eval(P->tf, s, rgba);
-    *sigma = (float)(P->sigma_scale * vol_sigma_from_alpha(rgba[3], P->ref_step));
-    ctf[0] = rgba[0];
-    ctf[1] = rgba[1];
-    ctf[2] = rgba[2];
+}
+
+int vol_i_lv_avx2_active(void)
+{
+#if defined(OBS_HAVE_AVX2) && (defined(__x86_64__) || defined(__i386__))
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "scalar"))
+        return 0;
+    return __builtin_cpu_supports("avx2") ? 1 : 0;
+#else
+    return 0;
+#endif
+}
+
+/* The kernel path's row (vol_light_internal.h), one voxel after the other. The arithmetic is the
+ * per-voxel kernel path's, operation for operation; exp is skipped where its argument is 0
+ * (exp(+-0) = 1 exactly, C11 F.10.3.1), which changes no bit. */
+static inline __attribute__((always_inline)) void lv_span1(const vol_i_lv_span *S, int iu0, int iu1, const int kW,
+                                                           const int kH)
+{
+    const ptrdiff_t nu = S->stride; /* row stride */
+    const float fu = S->fu, fv = S->fv, Ksum = S->Ksum;
+    const float *K = S->K;
+    const ptrdiff_t ob = (ptrdiff_t)(S->jv + S->bv) * nu + S->bu;
+    const ptrdiff_t kb = (ptrdiff_t)(S->jv + S->kJ0) * nu + S->kI0;
+    for (int iu = iu0; iu < iu1; iu++) {
+        const float sigma = S->sigma[iu];
+        const float *s0 = S->prev_sigma + ob + iu, *s1 = s0 + nu;
+        const float *l0 = S->prev_l + ob + iu, *l1 = l0 + nu;
+        float sa = s0[0] + (s0[1] - s0[0]) * fu, sb = s1[0] + (s1[1] - s1[0]) * fu;
+        float sigma_p = sa + (sb - sa) * fv;
+        double arg = -0.5 * ((double)sigma + (double)sigma_p) * S->ds;
+        float tau = arg == 0.0 ? 1.0f : (float)exp(arg);
+        float la = l0[0] + (l0[1] - l0[0]) * fu, lb = l1[0] + (l1[1] - l1[0]) * fu;
+        float l = tau * (la + (lb - la) * fv);
+        float acc[3] = {0.0f, 0.0f, 0.0f};
+        for (int dj = 0; dj < kH; dj++) {
+            const ptrdiff_t ro = kb + (ptrdiff_t)dj * nu + iu;
+            const float *r0 = S->prev_c[0] + ro, *r1 = S->prev_c[1] + ro, *r2 = S->prev_c[2] + ro;
+            const float *Kr = K + dj * kW;
+            for (int di = 0; di < kW; di++) {
+                float w = Kr[di];
+                acc[0] += w * r0[di];
+                acc[1] += w * r1[di];
+                acc[2] += w * r2[di];
+            }
+        }
+        S->cur_l[iu] = l;
+        S->cur_sigma[iu] = sigma;
+        const ptrdiff_t oi = (ptrdiff_t)iu * S->out_stride;
+        S->out_l[oi] = l;
+        for (int c = 0; c < 3; c++) {
+            float cc = tau * (acc[c] / Ksum) + (1.0f - tau) * S->ctf[c][iu];
+            S->cur_c[c][iu] = cc;
+            S->out_c[c][oi] = cc;
+        }
+    }
+}
+
+/* The kernel's size as constants for the default 45-degree cone along an axis (the loops unroll). */
+void vol_i_lv_span_scalar(const vol_i_lv_span *S, int iu0, int iu1)
+{
+    if (S->kW == 3 && S->kH == 3)
+        lv_span1(S, iu0, iu1, 3, 3);
+    else
+        lv_span1(S, iu0, iu1, S->kW, S->kH);
 }
 
 /* Extinction of the data at a world point: trilinear value, then TF (post-classification); 0
@@ -181,40 +260,41 @@ static double lv_seed_march(const lv_pass *P, const double x[3])
     return exp(-acc);
 }
 
+/* floor(x), exactly, without the libm call for |x| < 2^30 (the fetch coordinates; beyond, libm's). */
+static inline double lv_floor(double x)
+{
+    if (!(x > -1073741824.0 && x < 1073741824.0))
+        return floor(x);
+    double t = (double)(int)x; /* truncation toward zero: exact in this range */
+    return t > x ? t - 1.0 : t;
+}
+
 /* Bilinear fetch of channel ch of the previous slice at continuous (pu, pv) (centres at integers),
  * texels outside the slice read `border` (GL's CLAMP_TO_BORDER: outside the light volume the light
- * is unattenuated, Inviwo's border colour 1, volume.md 1.2). */
+ * is unattenuated, Inviwo's border colour 1, volume.md 1.2). The slice buffers carry LV_PAD texels
+ * of each channel's border value around the slice (lv_propagate), so a texel outside the slice
+ * reads the border value from memory instead of a test per texel; beyond 2 texels out the fetch
+ * returns the border value itself (the same number: a lerp of equal values is exact). */
 static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, float border)
 {
-    if (pu >= 0.0 && pv >= 0.0 && pu < (double)(P->nu - 1) && pv < (double)(P->nv - 1)) {
-        /* Interior: truncation is floor. */
-        int i0 = (int)pu, j0 = (int)pv;
-        float tu = (float)(pu - (double)i0), tv = (float)(pv - (double)j0);
-        const float *r0 = P->prev[ch] + (size_t)j0 * P->nu + i0, *r1 = r0 + P->nu;
-        float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
-        return a + (b - a) * tv;
-    }
-    double fu = floor(pu), fv = floor(pv);
-    int i0 = (int)fu, j0 = (int)fv;
-    float tu = (float)(pu - fu), tv = (float)(pv - fv);
-    const float *s = P->prev[ch];
     const int nu = P->nu, nv = P->nv;
-    if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0)
-        return border;
-    float t00, t10, t01, t11;
-    if (i0 >= 0 && j0 >= 0 && i0 + 1 < nu && j0 + 1 < nv) {
-        const float *r0 = s + (size_t)j0 * nu + i0, *r1 = r0 + nu;
-        t00 = r0[0], t10 = r0[1], t01 = r1[0], t11 = r1[1];
+    const ptrdiff_t W = P->W;
+    int i0, j0;
+    float tu, tv;
+    if (pu >= 0.0 && pv >= 0.0 && pu < (double)(nu - 1) && pv < (double)(nv - 1)) {
+        /* Interior: truncation is floor. */
+        i0 = (int)pu, j0 = (int)pv;
+        tu = (float)(pu - (double)i0), tv = (float)(pv - (double)j0);
     } else {
-        int in0u = i0 >= 0 && i0 < nu, in1u = i0 + 1 >= 0 && i0 + 1 < nu;
-        int in0v = j0 >= 0 && j0 < nv, in1v = j0 + 1 >= 0 && j0 + 1 < nv;
-        t00 = (in0u && in0v) ? s[(size_t)j0 * nu + i0] : border;
-        t10 = (in1u && in0v) ? s[(size_t)j0 * nu + i0 + 1] : border;
-        t01 = (in0u && in1v) ? s[(size_t)(j0 + 1) * nu + i0] : border;
-        t11 = (in1u && in1v) ? s[(size_t)(j0 + 1) * nu + i0 + 1] : border;
+        if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0)
+            return border;
+        double fu = lv_floor(pu), fv = lv_floor(pv);
+        i0 = (int)fu, j0 = (int)fv; /* in [-2, n + 1]: inside the padding */
+        tu = (float)(pu - fu), tv = (float)(pv - fv);
     }
+    const float *r0 = P->prev[ch] + (ptrdiff_t)j0 * W + i0, *r1 = r0 + W;
     /* Lerps as a + (b - a) t: a constant field is reproduced exactly (the empty-TF limit l = 1). */
-    float a = t00 + (t10 - t00) * tu, b = t01 + (t11 - t01) * tu;
+    float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
     return a + (b - a) * tv;
 }
 
@@ -222,168 +302,312 @@ static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, flo
 static inline void lv_fetch3(const lv_pass *P, int ch0, double pu, double pv, float border, float out[3])
 {
     const int nu = P->nu, nv = P->nv;
-    /* Interior fast path: for pu, pv in [0, n-1) truncation is floor (no libm call). */
+    const ptrdiff_t W = P->W;
+    int i0, j0;
+    float tu, tv;
     if (pu >= 0.0 && pv >= 0.0 && pu < (double)(nu - 1) && pv < (double)(nv - 1)) {
-        int i0 = (int)pu, j0 = (int)pv;
-        double fu = (double)i0, fv = (double)j0;
-        float tu = (float)(pu - fu), tv = (float)(pv - fv);
-        size_t o = (size_t)j0 * nu + i0;
-        for (int c = 0; c < 3; c++) {
-            const float *r0 = P->prev[ch0 + c] + o, *r1 = r0 + nu;
-            float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
-            out[c] = a + (b - a) * tv;
+        /* Interior fast path: for pu, pv in [0, n-1) truncation is floor (no libm call). */
+        i0 = (int)pu, j0 = (int)pv;
+        tu = (float)(pu - (double)i0), tv = (float)(pv - (double)j0);
+    } else {
+        if (pu > (double)nu + 1.0 || pv > (double)nv + 1.0 || pu < -2.0 || pv < -2.0) {
+            out[0] = out[1] = out[2] = border;
+            return;
         }
-        return;
+        double fu = lv_floor(pu), fv = lv_floor(pv);
+        i0 = (int)fu, j0 = (int)fv;
+        tu = (float)(pu - fu), tv = (float)(pv - fv);
     }
-    for (int c = 0; c < 3; c++)
-        out[c] = lv_fetch(P, ch0 + c, pu, pv, border);
+    const ptrdiff_t o = (ptrdiff_t)j0 * W + i0;
+    for (int c = 0; c < 3; c++) {
+        const float *r0 = P->prev[ch0 + c] + o, *r1 = r0 + W;
+        float a = r0[0] + (r0[1] - r0[0]) * tu, b = r1[0] + (r1[1] - r1[0]) * tu;
+        out[c] = a + (b - a) * tv;
+    }
 }
 
-/* One row (v) of the current slice. */
-static void lv_row_task(void *user, int64_t task, int thread)
+/* One voxel (iu, jv) of the current slice by the general path (every mode; the per-tap cone, and
+ * the kernel path where its kernels lie inside the slice), from its classification. */
+static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float ctf[3])
 {
-    (void)thread;
-    const lv_pass *P = (const lv_pass *)user;
-    const int jv = (int)task;
     const int a = P->a, u = P->u, v = P->v;
-    size_t stride[3] = {1, (size_t)P->n[0], (size_t)P->n[0] * (size_t)P->n[1]};
-    for (int iu = 0; iu < P->nu; iu++) {
-        int idx[3];
-        idx[a] = P->k;
-        idx[u] = iu;
-        idx[v] = jv;
-        double x[3];
+    int idx[3];
+    idx[a] = P->k;
+    idx[u] = iu;
+    idx[v] = jv;
+    double x[3];
+    for (int c = 0; c < 3; c++)
+        x[c] = P->org[c] + idx[c] * P->sp[c];
+    ptrdiff_t si = (ptrdiff_t)jv * P->W + iu;
+    float l, cc[3];
+
+    /* Travel direction of the light at x: constant (directional) or away from the light (point). */
+    double D[3];
+    if (P->point) {
+        double dx = x[0] - P->P[0], dy = x[1] - P->P[1], dz = x[2] - P->P[2];
+        double len = sqrt(dx * dx + dy * dy + dz * dz);
+        if (len > 0.0)
+            D[0] = dx / len, D[1] = dy / len, D[2] = dz / len;
+        else
+            D[0] = D[1] = 0.0, D[2] = 1.0;
+    } else {
+        D[0] = P->D[0], D[1] = P->D[1], D[2] = P->D[2];
+    }
+    double cos_g = fabs(D[a]);
+
+    if (P->mode == LV_MODE_SEED) {
+        /* Light inside the slab range: no previous slice lies between x and the light; march
+         * straight to it (a reconstruction, docs/volume/light.md "A light inside"). */
+        double T = lv_seed_march(P, x);
+        l = (float)T;
         for (int c = 0; c < 3; c++)
-            x[c] = P->org[c] + idx[c] * P->sp[c];
-        float sigma, ctf[3];
-        lv_classify(P, idx, x, &sigma, ctf);
-        size_t si = (size_t)jv * P->nu + iu;
-        float l, cc[3];
-
-        /* Travel direction of the light at x: constant (directional) or away from the light (point). */
-        double D[3];
-        if (P->point) {
-            double dx = x[0] - P->P[0], dy = x[1] - P->P[1], dz = x[2] - P->P[2];
-            double len = sqrt(dx * dx + dy * dy + dz * dz);
-            if (len > 0.0)
-                D[0] = dx / len, D[1] = dy / len, D[2] = dz / len;
-            else
-                D[0] = D[1] = 0.0, D[2] = 1.0;
-        } else {
-            D[0] = P->D[0], D[1] = P->D[1], D[2] = P->D[2];
-        }
-        double cos_g = fabs(D[a]);
-
-        if (P->mode == LV_MODE_SEED) {
-            /* Light inside the slab range: no previous slice lies between x and the light; march
-             * straight to it (a reconstruction, docs/volume/light.md "A light inside"). */
-            double T = lv_seed_march(P, x);
-            l = (float)T;
-            for (int c = 0; c < 3; c++)
-                cc[c] = (float)(T + (1.0 - T) * ctf[c]);
-        } else if (P->mode == LV_MODE_FACE || cos_g < 1e-12) {
-            /* First slice: from the voxel centre back to the face it lies half a slab behind,
-             * through constant sigma_t(x) (the edge value); l_{-1} = c_{-1} = 1 beyond. */
-            double ds = cos_g > 0.0 ? 0.5 * P->sp[a] / cos_g : 0.0;
-            float tau = (float)exp(-(double)sigma * ds);
-            l = tau;
-            for (int c = 0; c < 3; c++)
-                cc[c] = tau + (1.0f - tau) * ctf[c];
-        } else if (P->kern && iu + P->kI0 >= 0 && iu + P->kI0 + P->kW <= P->nu && jv + P->kJ0 >= 0 &&
-                   jv + P->kJ0 + P->kH <= P->nv && iu + P->bu >= 0 && iu + P->bu + 1 < P->nu &&
-                   jv + P->bv >= 0 && jv + P->bv + 1 < P->nv) {
-            /* The kernel path: the same quantities as the per-tap path below, with the bilinear
-             * weights of all taps gathered into one kernel per pass (lv_kernel_init). */
-            double ds = P->sp[a] / cos_g;
-            size_t o = (size_t)(jv + P->bv) * P->nu + (size_t)(iu + P->bu);
-            const float *s0 = P->prev[LV_SIGMA] + o, *s1 = s0 + P->nu;
-            const float *l0 = P->prev[LV_L] + o, *l1 = l0 + P->nu;
-            float fu = P->fu, fv = P->fv;
-            float sa = s0[0] + (s0[1] - s0[0]) * fu, sb = s1[0] + (s1[1] - s1[0]) * fu;
-            float sigma_p = sa + (sb - sa) * fv;
-            float tau = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds);
-            float la = l0[0] + (l0[1] - l0[0]) * fu, lb = l1[0] + (l1[1] - l1[0]) * fu;
-            l = tau * (la + (lb - la) * fv);
-            float acc[3] = {0.0f, 0.0f, 0.0f};
-            const float *K = P->K;
-            size_t ko = (size_t)(jv + P->kJ0) * P->nu + (size_t)(iu + P->kI0);
-            for (int dj = 0; dj < P->kH; dj++) {
-                const float *r0 = P->prev[LV_C0] + ko + (size_t)dj * P->nu;
-                const float *r1 = P->prev[LV_C1] + ko + (size_t)dj * P->nu;
-                const float *r2 = P->prev[LV_C2] + ko + (size_t)dj * P->nu;
-                for (int di = 0; di < P->kW; di++) {
-                    float w = K[dj * P->kW + di];
-                    acc[0] += w * r0[di];
-                    acc[1] += w * r1[di];
-                    acc[2] += w * r2[di];
-                }
+            cc[c] = (float)(T + (1.0 - T) * ctf[c]);
+    } else if (P->mode == LV_MODE_FACE || cos_g < 1e-12) {
+        /* First slice: from the voxel centre back to the face it lies half a slab behind,
+         * through constant sigma_t(x) (the edge value); l_{-1} = c_{-1} = 1 beyond. */
+        double ds = cos_g > 0.0 ? 0.5 * P->sp[a] / cos_g : 0.0;
+        float tau = (float)exp(-(double)sigma * ds);
+        l = tau;
+        for (int c = 0; c < 3; c++)
+            cc[c] = tau + (1.0f - tau) * ctf[c];
+    } else if (P->kern && iu + P->kI0 >= 0 && iu + P->kI0 + P->kW <= P->nu && jv + P->kJ0 >= 0 &&
+               jv + P->kJ0 + P->kH <= P->nv && iu + P->bu >= 0 && iu + P->bu + 1 < P->nu &&
+               jv + P->bv >= 0 && jv + P->bv + 1 < P->nv) {
+        /* The kernel path: the same quantities as the per-tap path below, with the bilinear
+         * weights of all taps gathered into one kernel per pass (lv_kernel_init). */
+        double ds = P->sp[a] / cos_g;
+        ptrdiff_t o = (ptrdiff_t)(jv + P->bv) * P->W + (iu + P->bu);
+        const float *s0 = P->prev[LV_SIGMA] + o, *s1 = s0 + P->W;
+        const float *l0 = P->prev[LV_L] + o, *l1 = l0 + P->W;
+        float fu = P->fu, fv = P->fv;
+        float sa = s0[0] + (s0[1] - s0[0]) * fu, sb = s1[0] + (s1[1] - s1[0]) * fu;
+        float sigma_p = sa + (sb - sa) * fv;
+        float tau = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds);
+        float la = l0[0] + (l0[1] - l0[0]) * fu, lb = l1[0] + (l1[1] - l1[0]) * fu;
+        l = tau * (la + (lb - la) * fv);
+        float acc[3] = {0.0f, 0.0f, 0.0f};
+        const float *K = P->K;
+        ptrdiff_t ko = (ptrdiff_t)(jv + P->kJ0) * P->W + (iu + P->kI0);
+        for (int dj = 0; dj < P->kH; dj++) {
+            const float *r0 = P->prev[LV_C0] + ko + (ptrdiff_t)dj * P->W;
+            const float *r1 = P->prev[LV_C1] + ko + (ptrdiff_t)dj * P->W;
+            const float *r2 = P->prev[LV_C2] + ko + (ptrdiff_t)dj * P->W;
+            for (int di = 0; di < P->kW; di++) {
+                float w = K[dj * P->kW + di];
+                acc[0] += w * r0[di];
+                acc[1] += w * r1[di];
+                acc[2] += w * r2[di];
             }
-            for (int c = 0; c < 3; c++)
-                cc[c] = tau * (acc[c] / P->Ksum) + (1.0f - tau) * ctf[c];
-        } else {
-            /* Where the light ray through x meets the previous slice ([Ropinski10] via Voreen /
-             * Inviwo, volume.md 1.4): p = x - t D with t = Delta_a / |D_a| (= ds, |D| = 1). */
-            double ds = P->sp[a] / cos_g;
-            double pu = (double)iu - ds * D[u] / P->sp[u];
-            double pv = (double)jv - ds * D[v] / P->sp[v];
-            /* tau = exp(-sigma_t ds), sigma_t the segment's trapezoid mean (deviation: see top). */
-            float sigma_p = lv_fetch(P, LV_SIGMA, pu, pv, 0.0f);
-            float tau = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds);
-            /* Hard shadow: one bilinear fetch (volume.md 1.5). */
-            l = tau * lv_fetch(P, LV_L, pu, pv, 1.0f);
-            /* Chromaticity: cone of half-angle theta, footprint radius r = ds tan(theta) on slice
-             * i-1 (volume.md 1.6 [R]): the centre tap and R rings of 8j bilinear taps at radius
-             * r j / R, Gaussian weights exp(-|o|^2 / (2 (r/2)^2)), normalised. */
-            double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
-            double rmax = ru > rv ? ru : rv;
-            int R = (int)ceil(rmax - 1e-9);
-            if (R < 1)
-                R = 1;
-            if (R > VOL_LV_MAX_RINGS)
-                R = VOL_LV_MAX_RINGS;
-            float acc[3], q[3];
-            lv_fetch3(P, LV_C0, pu, pv, 1.0f, acc);
-            const int cnt = P->st_count[R];
-            const double *cu = P->st_cu[R], *cv = P->st_cv[R];
-            const float *w = P->st_w[R];
-            for (int m = 0; m < cnt; m++) {
-                lv_fetch3(P, LV_C0, pu + ru * cu[m], pv + rv * cv[m], 1.0f, q);
-                for (int c = 0; c < 3; c++)
-                    acc[c] += w[m] * q[c];
-            }
-            const float wsum = P->st_wsum[R];
-            for (int c = 0; c < 3; c++)
-                cc[c] = tau * (acc[c] / wsum) + (1.0f - tau) * ctf[c];
         }
+        for (int c = 0; c < 3; c++)
+            cc[c] = tau * (acc[c] / P->Ksum) + (1.0f - tau) * ctf[c];
+    } else {
+        /* Where the light ray through x meets the previous slice ([Ropinski10] via Voreen /
+         * Inviwo, volume.md 1.4): p = x - t D with t = Delta_a / |D_a| (= ds, |D| = 1). */
+        double ds = P->sp[a] / cos_g;
+        double pu = (double)iu - ds * D[u] / P->sp[u];
+        double pv = (double)jv - ds * D[v] / P->sp[v];
+        /* tau = exp(-sigma_t ds), sigma_t the segment's trapezoid mean (deviation: see top). */
+        float sigma_p = lv_fetch(P, LV_SIGMA, pu, pv, 0.0f);
+        float tau = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds);
+        /* Hard shadow: one bilinear fetch (volume.md 1.5). */
+        l = tau * lv_fetch(P, LV_L, pu, pv, 1.0f);
+        /* Chromaticity: cone of half-angle theta, footprint radius r = ds tan(theta) on slice
+         * i-1 (volume.md 1.6 [R]): the centre tap and R rings of 8j bilinear taps at radius
+         * r j / R, Gaussian weights exp(-|o|^2 / (2 (r/2)^2)), normalised. */
+        double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
+        double rmax = ru > rv ? ru : rv;
+        int R = (int)ceil(rmax - 1e-9);
+        if (R < 1)
+            R = 1;
+        if (R > VOL_LV_MAX_RINGS)
+            R = VOL_LV_MAX_RINGS;
+        float acc[3], q[3];
+        lv_fetch3(P, LV_C0, pu, pv, 1.0f, acc);
+        const int cnt = P->st_count[R];
+        const double *cu = P->st_cu[R], *cv = P->st_cv[R];
+        const float *w = P->st_w[R];
+        for (int m = 0; m < cnt; m++) {
+            lv_fetch3(P, LV_C0, pu + ru * cu[m], pv + rv * cv[m], 1.0f, q);
+            for (int c = 0; c < 3; c++)
+                acc[c] += w[m] * q[c];
+        }
+        const float wsum = P->st_wsum[R];
+        for (int c = 0; c < 3; c++)
+            cc[c] = tau * (acc[c] / wsum) + (1.0f - tau) * ctf[c];
+    }
 
-        P->cur[LV_L][si] = l;
-        P->cur[LV_C0][si] = cc[0];
-        P->cur[LV_C1][si] = cc[1];
-        P->cur[LV_C2][si] = cc[2];
-        P->cur[LV_SIGMA][si] = sigma;
-        size_t oi = idx[0] * stride[0] + idx[1] * stride[1] + idx[2] * stride[2];
-        P->out_l[oi] = l;
-        P->out_c[0][oi] = cc[0];
-        P->out_c[1][oi] = cc[1];
-        P->out_c[2][oi] = cc[2];
+    P->cur[LV_L][si] = l;
+    P->cur[LV_C0][si] = cc[0];
+    P->cur[LV_C1][si] = cc[1];
+    P->cur[LV_C2][si] = cc[2];
+    P->cur[LV_SIGMA][si] = sigma;
+    size_t oi = idx[0] * P->ostr[0] + idx[1] * P->ostr[1] + idx[2] * P->ostr[2];
+    P->out_l[oi] = l;
+    P->out_c[0][oi] = cc[0];
+    P->out_c[1][oi] = cc[1];
+    P->out_c[2][oi] = cc[2];
+}
+
+/* One row (v) of the current slice: classify the row, then the kernel path's span [iu_lo, iu_hi)
+ * (the voxels whose 2x2 and kW x kH kernels lie inside the previous slice) by the row kernel
+ * (vol_light_internal.h, scalar or AVX2: the same bits), the rest voxel by voxel. */
+static void lv_row(const lv_pass *P, int jv, float *scr)
+{
+    const int a = P->a, u = P->u, v = P->v, nu = P->nu;
+    const vol_grid *g = P->g;
+    float *s = scr, *sig = scr + P->nu_pad, *ctf[3] = {sig + P->nu_pad, sig + 2 * P->nu_pad, sig + 3 * P->nu_pad};
+    if (P->scale == 1) {
+        /* The light volume's voxels are the data's: the exact voxel values. */
+        const size_t dstr[3] = {1, (size_t)g->nx, (size_t)g->nx * (size_t)g->ny};
+        const float *d = g->data + (size_t)P->k * dstr[a] + (size_t)jv * dstr[v];
+        const size_t su = dstr[u];
+        if (su == 1)
+            memcpy(s, d, (size_t)nu * sizeof(float));
+        else
+            for (int iu = 0; iu < nu; iu++)
+                s[iu] = d[(size_t)iu * su];
+    } else {
+        /* The data trilinearly at the light-volume voxel's centre. */
+        for (int iu = 0; iu < nu; iu++) {
+            int idx[3];
+            idx[a] = P->k;
+            idx[u] = iu;
+            idx[v] = jv;
+            double x[3];
+            for (int c = 0; c < 3; c++)
+                x[c] = P->org[c] + idx[c] * P->sp[c];
+            s[iu] = vol_grid_sample(g, (x[0] - g->origin[0]) / g->spacing[0], (x[1] - g->origin[1]) / g->spacing[1],
+                                    (x[2] - g->origin[2]) / g->spacing[2]);
+        }
+    }
+#if defined(OBS_HAVE_AVX2)
+    if (P->avx2)
+        vol_i_lv_classify_avx2(&P->T, s, nu, sig, ctf[0], ctf[1], ctf[2]);
+    else
+#endif
+        vol_i_lv_classify_scalar(&P->T, s, nu, sig, ctf[0], ctf[1], ctf[2]);
+
+    int iu_lo = 0, iu_hi = 0;
+    if (P->mode == LV_MODE_PROPAGATE && P->kern && jv + P->kJ0 >= 0 && jv + P->kJ0 + P->kH <= P->nv &&
+        jv + P->bv >= 0 && jv + P->bv + 1 < P->nv) {
+        /* iu + kI0 >= 0, iu + kI0 + kW <= nu, iu + bu >= 0, iu + bu + 1 < nu */
+        iu_lo = -P->kI0 > -P->bu ? -P->kI0 : -P->bu;
+        iu_lo = iu_lo > 0 ? iu_lo : 0;
+        iu_hi = nu - P->kI0 - P->kW + 1 < nu - P->bu - 1 ? nu - P->kI0 - P->kW + 1 : nu - P->bu - 1;
+        /* and 0 <= iu < nu: a kernel wholly to one side of p (a small cone, |p - x| > 1 texel in
+         * the second face's pass, or a slice narrower than the offset) moves a bound past nu */
+        iu_lo = iu_lo < nu ? iu_lo : nu;
+        iu_hi = iu_hi < nu ? iu_hi : nu;
+        if (iu_hi < iu_lo)
+            iu_hi = iu_lo;
+    }
+    for (int iu = 0; iu < iu_lo; iu++) {
+        const float c3[3] = {ctf[0][iu], ctf[1][iu], ctf[2][iu]};
+        lv_voxel(P, iu, jv, sig[iu], c3);
+    }
+    if (iu_hi > iu_lo) {
+        const size_t *stride = P->ostr;
+        vol_i_lv_span S;
+        S.prev_l = P->prev[LV_L];
+        S.prev_sigma = P->prev[LV_SIGMA];
+        for (int c = 0; c < 3; c++) {
+            S.prev_c[c] = P->prev[LV_C0 + c];
+            S.ctf[c] = ctf[c];
+            S.cur_c[c] = P->cur[LV_C0 + c] + (ptrdiff_t)jv * P->W;
+            S.out_c[c] = P->out_c[c] + (size_t)P->k * stride[a] + (size_t)jv * stride[v];
+        }
+        S.stride = P->W, S.jv = jv;
+        S.bu = P->bu, S.bv = P->bv, S.kI0 = P->kI0, S.kJ0 = P->kJ0, S.kW = P->kW, S.kH = P->kH;
+        S.fu = P->fu, S.fv = P->fv, S.Ksum = P->Ksum;
+        S.K = P->K;
+        S.ds = P->sp[a] / fabs(P->D[a]); /* the kernel path's ds (directional: cos_g = |D_a|) */
+        S.sigma = sig;
+        S.cur_l = P->cur[LV_L] + (ptrdiff_t)jv * P->W;
+        S.cur_sigma = P->cur[LV_SIGMA] + (ptrdiff_t)jv * P->W;
+        S.out_l = P->out_l + (size_t)P->k * stride[a] + (size_t)jv * stride[v];
+        S.out_stride = (ptrdiff_t)stride[u];
+#if defined(OBS_HAVE_AVX2)
+        if (P->avx2)
+            vol_i_lv_span_avx2(&S, iu_lo, iu_hi);
+        else
+#endif
+            vol_i_lv_span_scalar(&S, iu_lo, iu_hi);
+    }
+    for (int iu = iu_hi > iu_lo ? iu_hi : iu_lo; iu < nu; iu++) {
+        const float c3[3] = {ctf[0][iu], ctf[1][iu], ctf[2][iu]};
+        lv_voxel(P, iu, jv, sig[iu], c3);
     }
 }
 
-/* Run one slice and make it the previous one for the next. */
-static void lv_run_slice(obs_pool *pool, lv_pass *P, int k, lv_mode mode, float *slices[2][LV_CH], int *which)
+/* A band of rows_per_task rows of the current slice (thread's own scratch rows). */
+static void lv_band_task(void *user, int64_t task, int thread)
 {
-    P->k = k;
-    P->mode = mode;
-    for (int c = 0; c < LV_CH; c++) {
-        P->prev[c] = slices[*which][c];
-        P->cur[c] = slices[1 - *which][c];
+    const lv_pass *P = (const lv_pass *)user;
+    int j0 = (int)task * P->rows_per_task, j1 = j0 + P->rows_per_task;
+    if (j1 > P->nv)
+        j1 = P->nv;
+    float *scr = P->scratch + (size_t)thread * 5 * P->nu_pad;
+    for (int jv = j0; jv < j1; jv++)
+        lv_row(P, jv, scr);
+}
+
+/* A chain of slices k0, k0 + dir, ... (count of them), the first in mode `first`, the others
+ * propagated from the one before, as ONE pool job: item t is band t % bands of slice t / bands
+ * (lv_band_task), and waits until every band of the slice before is done (done[]). The pool hands
+ * items out in increasing order, so an item's dependencies were all handed out before it to
+ * threads that are running them: no deadlock for any thread count, and no wake-up of the pool per
+ * slice. Slice i reads buffer i & 1 and writes buffer (i + 1) & 1: when slice i - 1 is complete,
+ * nothing reads slice i - 2's buffer any more. Which thread computes a voxel never changes it. */
+typedef struct lv_chain {
+    const lv_pass *P;
+    float *(*slices)[LV_CH];
+    int k0, dir, count, bands;
+    lv_mode first;
+    atomic_int *done;
+} lv_chain;
+
+static void lv_chain_task(void *user, int64_t task, int thread)
+{
+    const lv_chain *C = (const lv_chain *)user;
+    const int i = (int)(task / C->bands), b = (int)(task % C->bands);
+    if (i > 0) {
+        int spins = 0;
+        while (atomic_load_explicit(&C->done[i - 1], memory_order_acquire) < C->bands)
+            if (++spins > 64) {
+                sched_yield();
+                spins = 0;
+            }
     }
-    obs_pool_run(pool, P->nv, lv_row_task, P);
-    *which = 1 - *which;
+    lv_pass L = *C->P;
+    L.k = C->k0 + C->dir * i;
+    L.mode = i == 0 ? C->first : LV_MODE_PROPAGATE;
+    for (int c = 0; c < LV_CH; c++) {
+        L.prev[c] = C->slices[i & 1][c];
+        L.cur[c] = C->slices[(i + 1) & 1][c];
+    }
+    lv_band_task(&L, b, thread);
+    atomic_fetch_add_explicit(&C->done[i], 1, memory_order_release);
+}
+
+static void lv_run_chain(obs_pool *pool, const lv_pass *P, int k0, int dir, int count, lv_mode first,
+                         float *slices[2][LV_CH], atomic_int *done)
+{
+    if (count <= 0)
+        return;
+    lv_chain C;
+    C.P = P;
+    C.slices = slices;
+    C.k0 = k0, C.dir = dir, C.count = count, C.first = first;
+    C.bands = (P->nv + P->rows_per_task - 1) / P->rows_per_task;
+    C.done = done;
+    for (int i = 0; i < count; i++)
+        atomic_init(&done[i], 0);
+    obs_pool_run(pool, (int64_t)count * C.bands, lv_chain_task, &C);
 }
 
 /* Set up the kernel path for a directional light along axis a (P->kern = 0 otherwise, or when
- * OBS_ISA=scalar asks for the per-tap reference). The kernel gathers, per integer texel offset, the
+ * the environment's OBS_LV_PER_TAP=1 asks for the per-tap reference). The kernel gathers, per integer texel offset, the
  * bilinear weights of the centre tap (weight 1) and of every ring tap (weight w_m) at the pass's
  * constant offsets; Ksum is the sum of its entries in the order the voxel loop uses them, so a
  * constant slice gives exactly that constant. Agreement with the per-tap path:
@@ -394,8 +618,8 @@ static int lv_kernel_init(lv_pass *P)
     free(P->K);
     P->K = NULL;
     P->kern = 0;
-    const char *env = getenv("OBS_ISA");
-    if (P->point || (env && strcmp(env, "scalar") == 0))
+    const char *env = getenv("OBS_LV_PER_TAP");
+    if (P->point || (env && strcmp(env, "1") == 0))
         return 1;
     const int a = P->a, u = P->u, v = P->v;
     double cos_g = fabs(P->D[a]);
@@ -445,6 +669,33 @@ static int lv_kernel_init(lv_pass *P)
     return 1;
 }
 
+/* The staged output of a pass along x (lv_propagate) into the x-fastest output: task z moves the
+ * plane z, in tiles of 16 x values (16 rows of the stage read, 16 consecutive floats written). */
+typedef struct lv_unstage {
+    const float *stage;
+    float *out[4];
+    int nx, ny, nz;
+    size_t voxels;
+} lv_unstage;
+
+static void lv_unstage_task(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const lv_unstage *U = (const lv_unstage *)user;
+    const int z = (int)task, nx = U->nx, ny = U->ny;
+    const size_t sx = (size_t)U->ny * (size_t)U->nz; /* stage elements per x */
+    for (int c = 0; c < 4; c++) {
+        const float *st = U->stage + (size_t)c * U->voxels + (size_t)z * (size_t)ny;
+        float *o = U->out[c] + (size_t)z * (size_t)ny * (size_t)nx;
+        for (int x0 = 0; x0 < nx; x0 += 16) {
+            const int x1 = x0 + 16 < nx ? x0 + 16 : nx;
+            for (int y = 0; y < ny; y++)
+                for (int x = x0; x < x1; x++)
+                    o[(size_t)y * nx + x] = st[(size_t)x * sx + y];
+        }
+    }
+}
+
 /* Propagate along axis a (light entering from the low side when lowside, else the high side, for a
  * light outside the slab range; both ways from the light's plane for a light inside it). */
 static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int a, int lowside, float *out_l,
@@ -458,20 +709,61 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     P->out_l = out_l;
     for (int c = 0; c < 3; c++)
         P->out_c[c] = out_c[c];
-    size_t plane = (size_t)P->nu * (size_t)P->nv;
+    P->ostr[0] = 1, P->ostr[1] = (size_t)P->n[0], P->ostr[2] = (size_t)P->n[0] * (size_t)P->n[1];
+    /* A pass along x would write every voxel of a slice to its own cache line (the output is x
+     * fastest): stage it slice-major (x slowest, then z, then y: the slices' own order) and
+     * transpose it into out_* at the end (lv_unstage_task). The values are the same. */
+    const size_t voxels = (size_t)P->n[0] * (size_t)P->n[1] * (size_t)P->n[2];
+    float *stage = NULL;
+    if (a == 0 && P->stage_ok)
+        stage = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
+    if (stage) {
+        P->out_l = stage;
+        for (int c = 0; c < 3; c++)
+            P->out_c[c] = stage + (size_t)(c + 1) * voxels;
+        P->ostr[0] = (size_t)P->n[1] * (size_t)P->n[2], P->ostr[1] = 1, P->ostr[2] = (size_t)P->n[1];
+    }
+    /* Two slice buffers of each channel, with LV_PAD texels of the channel's border value (l, c: 1;
+     * sigma_t: 0) around the slice that no voxel overwrites (lv_fetch). */
+    P->W = P->nu + 2 * LV_PAD;
+    size_t plane = (size_t)P->W * (size_t)(P->nv + 2 * LV_PAD);
     float *buf = (float *)obs_aligned_alloc(plane * 2 * LV_CH * sizeof(float));
-    if (!buf)
+    if (!buf) {
+        obs_aligned_free(stage);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the slice buffers");
+    }
     float *slices[2][LV_CH];
     for (int s = 0; s < 2; s++)
-        for (int c = 0; c < LV_CH; c++)
-            slices[s][c] = buf + (size_t)(s * LV_CH + c) * plane;
+        for (int c = 0; c < LV_CH; c++) {
+            float *b = buf + (size_t)(s * LV_CH + c) * plane, fill = c == LV_SIGMA ? 0.0f : 1.0f;
+            for (size_t q = 0; q < plane; q++)
+                b[q] = fill;
+            slices[s][c] = b + (size_t)LV_PAD * (size_t)P->W + LV_PAD;
+        }
     if (!lv_kernel_init(P)) {
+        obs_aligned_free(stage);
         obs_aligned_free(buf);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the cone kernel");
     }
+    /* Per thread: one row's values, sigma_t and c_TF (lv_row). Tasks are bands of rows, about four
+     * per thread and slice (which rows a task holds never changes a voxel's value). */
+    const int threads = obs_pool_threads(pool);
+    P->nu_pad = ((size_t)P->nu + 15) & ~(size_t)7;
+    P->scratch = (float *)obs_aligned_alloc((size_t)threads * 5 * P->nu_pad * sizeof(float));
+    atomic_int *done = (atomic_int *)malloc((size_t)P->n[a] * sizeof(atomic_int)); /* lv_run_chain */
+    if (!P->scratch || !done) {
+        obs_aligned_free(P->scratch);
+        P->scratch = NULL;
+        free(done);
+        obs_aligned_free(buf);
+        obs_aligned_free(stage);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the row buffers");
+    }
+    {
+        int tasks = 4 * threads < P->nv ? 4 * threads : P->nv;
+        P->rows_per_task = (P->nv + tasks - 1) / tasks;
+    }
     const int na = P->n[a];
-    int which = 0;
 
     /* The light's plane in light-volume slice units (point lights only). */
     double kL = 0.0;
@@ -483,13 +775,9 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     if (!inside) {
         int low = P->point ? (kL < -0.5) : lowside;
         if (low) {
-            lv_run_slice(pool, P, 0, LV_MODE_FACE, slices, &which);
-            for (int k = 1; k < na; k++)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, 0, 1, na, LV_MODE_FACE, slices, done);
         } else {
-            lv_run_slice(pool, P, na - 1, LV_MODE_FACE, slices, &which);
-            for (int k = na - 2; k >= 0; k--)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, na - 1, -1, na, LV_MODE_FACE, slices, done);
         }
     } else {
         /* A light inside the slab range ([Ropinski10] via the seed thesis, "PROPAGACION DE LA LUZ":
@@ -499,18 +787,30 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         int kup = (int)ceil(kL);
         int kdn = kup - 1;
         if (kup < na) {
-            lv_run_slice(pool, P, kup, LV_MODE_SEED, slices, &which);
-            for (int k = kup + 1; k < na; k++)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, kup, 1, na - kup, LV_MODE_SEED, slices, done);
         }
         if (kdn >= 0) {
-            which = 0;
-            lv_run_slice(pool, P, kdn, LV_MODE_SEED, slices, &which);
-            for (int k = kdn - 1; k >= 0; k--)
-                lv_run_slice(pool, P, k, LV_MODE_PROPAGATE, slices, &which);
+            lv_run_chain(pool, P, kdn, -1, kdn + 1, LV_MODE_SEED, slices, done);
         }
     }
     obs_aligned_free(buf);
+    free(done);
+    obs_aligned_free(P->scratch);
+    P->scratch = NULL;
+    if (stage) {
+        lv_unstage U;
+        U.stage = stage;
+        U.out[0] = out_l;
+        for (int c = 0; c < 3; c++)
+            U.out[c + 1] = out_c[c];
+        U.nx = P->n[0], U.ny = P->n[1], U.nz = P->n[2];
+        U.voxels = voxels;
+        obs_pool_run(pool, P->n[2], lv_unstage_task, &U);
+        obs_aligned_free(stage);
+        P->out_l = out_l;
+        for (int c = 0; c < 3; c++)
+            P->out_c[c] = out_c[c];
+    }
     return OBS_STATUS_OK;
 }
 
@@ -710,16 +1010,54 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
         out->c[c] = mem + (size_t)(c + 1) * voxels;
     }
     out->l = mem;
+    /* Staging a pass along x (lv_propagate) costs one more volume of 4 channels: only within the
+     * limits. */
+    P.stage_ok = (int64_t)(bytes + voxels * 4 * sizeof(float)) <= lim->max_memory_bytes;
     out->face0 = f0;
     out->face1 = p->blend_second ? f1 : -1;
     out->blend_weight = w;
 
     lv_stencils *stencils = (lv_stencils *)malloc(sizeof *stencils);
-    if (!stencils) {
+    /* The TF for the row classification (vol_light_internal.h): values and RGBA as doubles, the
+     * last point repeated once. */
+    const int ntf = tf->count;
+    double *tft = (double *)malloc((size_t)5 * (size_t)(ntf + 1) * sizeof(double));
+    if (!stencils || !tft) {
+        free(stencils);
+        free(tft);
         vol_light_volume_free(out);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory");
     }
     lv_stencil_init(&P, stencils);
+    for (int i = 0; i <= ntf; i++) {
+        const vol_tf_point *q = &tf->points[i < ntf ? i : ntf - 1];
+        tft[i] = q->value;
+        for (int c = 0; c < 4; c++)
+            tft[(size_t)(c + 1) * (size_t)(ntf + 1) + (size_t)i] = (double)q->rgba[c];
+    }
+    P.T.n = ntf;
+    P.T.value = tft;
+    for (int c = 0; c < 4; c++)
+        P.T.rgba[c] = tft + (size_t)(c + 1) * (size_t)(ntf + 1);
+    P.T.tf = tf;
+    /* The TF is +0 (every component's bits 0) from -inf up to point zq's value: there
+     * vol_tf_eval returns +0 exactly (point 0's copy below it; 0 (1 - t) + 0 t = +0 with t in
+     * [0, 1) between two such points), and vol_sigma_from_alpha(+0) = 0. */
+    P.T.zero_upto = -HUGE_VAL;
+    for (int i = 0; i < ntf; i++) {
+        uint32_t bits = 0;
+        for (int c = 0; c < 4; c++) {
+            uint32_t b;
+            memcpy(&b, &tf->points[i].rgba[c], sizeof b);
+            bits |= b;
+        }
+        if (bits != 0)
+            break;
+        P.T.zero_upto = tf->points[i].value;
+    }
+    P.T.kappa = P.sigma_scale;
+    P.T.ref_step = P.ref_step;
+    P.avx2 = vol_i_lv_avx2_active();
 
     /* F0: light enters by face f0 (dir_max = -n_F0): from the low side when f0 is a minus face. */
     st = lv_propagate(ctx, pool, &P, f0 >> 1, (f0 & 1) == 0, out->l, out->c);
@@ -738,6 +1076,7 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
         }
     }
     free(stencils);
+    free(tft);
     free(P.K);
     if (st != OBS_STATUS_OK)
         vol_light_volume_free(out);

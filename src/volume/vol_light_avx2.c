@@ -1,0 +1,196 @@
+/* vol_light_avx2.c: the light volume's row kernels, 8 voxels of a row at a time (AVX2, compiled
+ * with -mavx2 and no FMA; selected at run time by vol_i_lv_avx2_active, OBS_ISA=scalar forces the
+ * scalar forms). Each lane performs the scalar form's IEEE operations in the same order
+ * (vol_light_internal.h; vol_light.c vol_i_lv_classify_scalar, vol_i_lv_span_scalar), so the two
+ * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit). libm's log1p and exp are
+ * called lane by lane where their result is not known exactly without them: log1p where alpha > 0,
+ * exp where its argument is not 0 (vol_sigma_from_alpha returns 0 for alpha <= 0, and exp(+-0) = 1,
+ * C11 F.10.3.1). */
+#include "vol_light_internal.h"
+
+#include <immintrin.h>
+#include <math.h>
+
+/* ---- Classification ----------------------------------------------------------------------------- */
+
+/* vol_tf_eval, 4 values at a time in double (its arithmetic: t = (v - v_lo) / (v_hi - v_lo),
+ * rgba = (float)(rgba_lo (1 - t) + rgba_hi t); constant beyond the ends; NaN -> 0), then sigma_t. */
+void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
+                            float *c2)
+{
+    const int np = T->n;
+    const __m256d vfirst = _mm256_set1_pd(T->value[0]), vlast = _mm256_set1_pd(T->value[np - 1]);
+    const __m256d one = _mm256_set1_pd(1.0), vzero = _mm256_set1_pd(T->zero_upto);
+    float *outc[3] = {c0, c1, c2};
+    if (n < 4) {
+        vol_i_lv_classify_scalar(T, s, n, sigma, c0, c1, c2);
+        return;
+    }
+    /* Blocks of 4; the last block overlaps the one before where n is not a multiple of 4
+     * (recomputing a value writes the same bits). */
+    for (int i = 0;; i += 4) {
+        if (i > n - 4)
+            i = n - 4;
+        const __m256d v = _mm256_cvtps_pd(_mm_loadu_ps(s + i));
+        /* Empty space (all four at or below zero_upto, none NaN): +0 everywhere, exactly. */
+        if (_mm256_movemask_pd(_mm256_cmp_pd(v, vzero, _CMP_LE_OQ)) == 0xF) {
+            const __m128 z = _mm_setzero_ps();
+            _mm_storeu_ps(c0 + i, z);
+            _mm_storeu_ps(c1 + i, z);
+            _mm_storeu_ps(c2 + i, z);
+            _mm_storeu_ps(sigma + i, z);
+            if (i + 4 >= n)
+                break;
+            continue;
+        }
+        /* lo = the largest q in [0, np - 2] with value[q] <= v (the binary search's segment, values
+         * strictly increasing): the count of q in [1, np - 2] with value[q] <= v. */
+        __m256i lo = _mm256_setzero_si256();
+        for (int q = 1; q <= np - 2; q++)
+            lo = _mm256_sub_epi64(lo, _mm256_castpd_si256(_mm256_cmp_pd(_mm256_set1_pd(T->value[q]), v, _CMP_LE_OQ)));
+        const __m256i hi = _mm256_add_epi64(lo, _mm256_set1_epi64x(1));
+        /* One segment for all four (smooth data): broadcasts instead of gathers, the same values. */
+        const long long q0 = _mm256_extract_epi64(lo, 0);
+        const int uni =
+            _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(lo, _mm256_set1_epi64x(q0)))) == 0xF;
+        const __m256d vl = uni ? _mm256_set1_pd(T->value[q0]) : _mm256_i64gather_pd(T->value, lo, 8);
+        const __m256d vh = uni ? _mm256_set1_pd(T->value[q0 + 1]) : _mm256_i64gather_pd(T->value, hi, 8);
+        const __m256d t = _mm256_div_pd(_mm256_sub_pd(v, vl), _mm256_sub_pd(vh, vl));
+        const __m256d omt = _mm256_sub_pd(one, t);
+        const __m256d below = _mm256_cmp_pd(v, vfirst, _CMP_LE_OQ), above = _mm256_cmp_pd(v, vlast, _CMP_GE_OQ);
+        const __m256d nan = _mm256_cmp_pd(v, v, _CMP_UNORD_Q);
+        __m128 ch[4];
+        for (int c = 0; c < 4; c++) {
+            const __m256d cl = uni ? _mm256_set1_pd(T->rgba[c][q0]) : _mm256_i64gather_pd(T->rgba[c], lo, 8);
+            const __m256d chh = uni ? _mm256_set1_pd(T->rgba[c][q0 + 1]) : _mm256_i64gather_pd(T->rgba[c], hi, 8);
+            __m256d r = _mm256_add_pd(_mm256_mul_pd(cl, omt), _mm256_mul_pd(chh, t));
+            /* vol_tf_eval's order: NaN first, then value <= first, then value >= last. */
+            r = _mm256_blendv_pd(r, _mm256_set1_pd(T->rgba[c][np - 1]), above);
+            r = _mm256_blendv_pd(r, _mm256_set1_pd(T->rgba[c][0]), below);
+            r = _mm256_andnot_pd(nan, r);
+            ch[c] = _mm256_cvtpd_ps(r);
+        }
+        for (int c = 0; c < 3; c++)
+            _mm_storeu_ps(outc[c] + i, ch[c]);
+        /* sigma_t = (float)(kappa * vol_sigma_from_alpha(alpha)): 0 where alpha <= 0 (or NaN). */
+        const int pos = _mm_movemask_ps(_mm_cmpgt_ps(ch[3], _mm_setzero_ps()));
+        if (!pos) {
+            _mm_storeu_ps(sigma + i, _mm_setzero_ps());
+        } else {
+            float a[4];
+            _mm_storeu_ps(a, ch[3]);
+            for (int q = 0; q < 4; q++)
+                sigma[i + q] = (pos >> q) & 1 ? (float)(T->kappa * vol_sigma_from_alpha(a[q], T->ref_step)) : 0.0f;
+        }
+        if (i + 4 >= n)
+            break;
+    }
+}
+
+/* ---- The kernel path's row ------------------------------------------------------------------------- */
+
+/* The span with the kernel's size as arguments: inlined with constants, the kernel loops unroll. */
+static inline __attribute__((always_inline)) void lv_span8(const vol_i_lv_span *S, int iu0, int iu1, const int kW,
+                                                           const int kH)
+{
+    const ptrdiff_t nu = S->stride; /* row stride */
+    const __m256 fu = _mm256_set1_ps(S->fu), fv = _mm256_set1_ps(S->fv), Ksum = _mm256_set1_ps(S->Ksum);
+    const __m256 one = _mm256_set1_ps(1.0f);
+    const __m256d ds = _mm256_set1_pd(S->ds), mhalf = _mm256_set1_pd(-0.5), zero = _mm256_setzero_pd();
+    const float *K = S->K;
+    const ptrdiff_t ob = (ptrdiff_t)(S->jv + S->bv) * nu + S->bu;
+    const ptrdiff_t kb = (ptrdiff_t)(S->jv + S->kJ0) * nu + S->kI0;
+    if (iu1 - iu0 < 8) {
+        vol_i_lv_span_scalar(S, iu0, iu1);
+        return;
+    }
+    /* Blocks of 8; the last block overlaps the one before where the span is not a multiple of 8
+     * (a voxel reads only the previous slice and its row's classification: recomputing it writes
+     * the same bits). */
+    for (int iu = iu0;; iu += 8) {
+        if (iu > iu1 - 8)
+            iu = iu1 - 8;
+        const __m256 sigma = _mm256_loadu_ps(S->sigma + iu);
+        const float *s0 = S->prev_sigma + ob + iu, *s1 = s0 + nu;
+        const float *l0 = S->prev_l + ob + iu, *l1 = l0 + nu;
+        const __m256 s00 = _mm256_loadu_ps(s0), s01 = _mm256_loadu_ps(s0 + 1);
+        const __m256 s10 = _mm256_loadu_ps(s1), s11 = _mm256_loadu_ps(s1 + 1);
+        const __m256 sa = _mm256_add_ps(s00, _mm256_mul_ps(_mm256_sub_ps(s01, s00), fu));
+        const __m256 sb = _mm256_add_ps(s10, _mm256_mul_ps(_mm256_sub_ps(s11, s10), fu));
+        const __m256 sigma_p = _mm256_add_ps(sa, _mm256_mul_ps(_mm256_sub_ps(sb, sa), fv));
+        /* arg = -0.5 * ((double)sigma + (double)sigma_p) * ds, in two halves of 4 doubles */
+        const __m256d alo = _mm256_mul_pd(
+            _mm256_mul_pd(mhalf, _mm256_add_pd(_mm256_cvtps_pd(_mm256_castps256_ps128(sigma)),
+                                               _mm256_cvtps_pd(_mm256_castps256_ps128(sigma_p)))),
+            ds);
+        const __m256d ahi = _mm256_mul_pd(
+            _mm256_mul_pd(mhalf, _mm256_add_pd(_mm256_cvtps_pd(_mm256_extractf128_ps(sigma, 1)),
+                                               _mm256_cvtps_pd(_mm256_extractf128_ps(sigma_p, 1)))),
+            ds);
+        const int nz = _mm256_movemask_pd(_mm256_cmp_pd(alo, zero, _CMP_NEQ_UQ)) |
+                       (_mm256_movemask_pd(_mm256_cmp_pd(ahi, zero, _CMP_NEQ_UQ)) << 4);
+        __m256 tau = one;
+        if (nz) {
+            double arg[8];
+            float tv[8];
+            _mm256_storeu_pd(arg, alo);
+            _mm256_storeu_pd(arg + 4, ahi);
+            for (int q = 0; q < 8; q++)
+                tv[q] = (nz >> q) & 1 ? (float)exp(arg[q]) : 1.0f;
+            tau = _mm256_loadu_ps(tv);
+        }
+        const __m256 l00 = _mm256_loadu_ps(l0), l01 = _mm256_loadu_ps(l0 + 1);
+        const __m256 l10 = _mm256_loadu_ps(l1), l11 = _mm256_loadu_ps(l1 + 1);
+        const __m256 la = _mm256_add_ps(l00, _mm256_mul_ps(_mm256_sub_ps(l01, l00), fu));
+        const __m256 lb = _mm256_add_ps(l10, _mm256_mul_ps(_mm256_sub_ps(l11, l10), fu));
+        const __m256 l = _mm256_mul_ps(tau, _mm256_add_ps(la, _mm256_mul_ps(_mm256_sub_ps(lb, la), fv)));
+        __m256 acc0 = _mm256_setzero_ps(), acc1 = _mm256_setzero_ps(), acc2 = _mm256_setzero_ps();
+        for (int dj = 0; dj < kH; dj++) {
+            const ptrdiff_t ro = kb + (ptrdiff_t)dj * nu + iu;
+            const float *r0 = S->prev_c[0] + ro, *r1 = S->prev_c[1] + ro, *r2 = S->prev_c[2] + ro;
+            const float *Kr = K + dj * kW;
+            for (int di = 0; di < kW; di++) {
+                const __m256 w = _mm256_set1_ps(Kr[di]);
+                acc0 = _mm256_add_ps(acc0, _mm256_mul_ps(w, _mm256_loadu_ps(r0 + di)));
+                acc1 = _mm256_add_ps(acc1, _mm256_mul_ps(w, _mm256_loadu_ps(r1 + di)));
+                acc2 = _mm256_add_ps(acc2, _mm256_mul_ps(w, _mm256_loadu_ps(r2 + di)));
+            }
+        }
+        const __m256 omt = _mm256_sub_ps(one, tau);
+        __m256 cc[3];
+        cc[0] = _mm256_add_ps(_mm256_mul_ps(tau, _mm256_div_ps(acc0, Ksum)), _mm256_mul_ps(omt, _mm256_loadu_ps(S->ctf[0] + iu)));
+        cc[1] = _mm256_add_ps(_mm256_mul_ps(tau, _mm256_div_ps(acc1, Ksum)), _mm256_mul_ps(omt, _mm256_loadu_ps(S->ctf[1] + iu)));
+        cc[2] = _mm256_add_ps(_mm256_mul_ps(tau, _mm256_div_ps(acc2, Ksum)), _mm256_mul_ps(omt, _mm256_loadu_ps(S->ctf[2] + iu)));
+        _mm256_storeu_ps(S->cur_l + iu, l);
+        _mm256_storeu_ps(S->cur_sigma + iu, sigma);
+        for (int c = 0; c < 3; c++)
+            _mm256_storeu_ps(S->cur_c[c] + iu, cc[c]);
+        if (S->out_stride == 1) {
+            _mm256_storeu_ps(S->out_l + iu, l);
+            for (int c = 0; c < 3; c++)
+                _mm256_storeu_ps(S->out_c[c] + iu, cc[c]);
+        } else {
+            float t[4][8];
+            _mm256_storeu_ps(t[0], l);
+            for (int c = 0; c < 3; c++)
+                _mm256_storeu_ps(t[c + 1], cc[c]);
+            for (int q = 0; q < 8; q++) {
+                const ptrdiff_t oi = (ptrdiff_t)(iu + q) * S->out_stride;
+                S->out_l[oi] = t[0][q];
+                S->out_c[0][oi] = t[1][q];
+                S->out_c[1][oi] = t[2][q];
+                S->out_c[2][oi] = t[3][q];
+            }
+        }
+        if (iu + 8 >= iu1)
+            break;
+    }
+}
+
+void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
+{
+    if (S->kW == 3 && S->kH == 3)
+        lv_span8(S, iu0, iu1, 3, 3); /* the default 45-degree cone along an axis */
+    else
+        lv_span8(S, iu0, iu1, S->kW, S->kH);
+}

@@ -1,0 +1,73 @@
+/* vol_light_internal.h: the light volume's row kernels shared by vol_light.c (scalar) and
+ * vol_light_avx2.c (AVX2, compiled with -mavx2, no FMA), for its tests (not installed; prefix
+ * vol_i_lv_).
+ *
+ * Both forms of each kernel perform the same IEEE operations in the same order per voxel, so they
+ * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit); the transcendental functions
+ * (log1p in the classification, exp in tau) are libm's in both, called per voxel (the AVX2 form
+ * calls them lane by lane, and only where the argument is not 0: exp(0) = 1 exactly, and an alpha
+ * of 0 gives sigma_t 0 without log1p). */
+#ifndef VOL_LIGHT_INTERNAL_H
+#define VOL_LIGHT_INTERNAL_H
+
+#include "vol.h"
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The transfer function prepared for row classification: point values and RGBA as doubles,
+ * padded with one copy of the last point (so that index lo + 1 is always readable). */
+typedef struct vol_i_lv_tf {
+    int n;                 /* tf->count */
+    const double *value;   /* n + 1 */
+    const double *rgba[4]; /* n + 1 each, (double) of the float components */
+    const vol_tf *tf;      /* the original (the scalar path calls vol_tf_eval on it) */
+    double kappa, ref_step;
+    double zero_upto;      /* every value v <= zero_upto classifies to RGBA +0 and sigma_t +0 (the
+                              points up to it are all +0 bits); -inf when point 0 is not */
+} vol_i_lv_tf;
+
+/* Classification of n values s[i] (the data's, trilinear at scale 2 and 4):
+ *   rgba = vol_tf_eval(tf, s), sigma[i] = (float)(kappa * vol_sigma_from_alpha(rgba[3], ref_step)),
+ *   c0/c1/c2[i] = rgba[0..2]. */
+void vol_i_lv_classify_scalar(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
+                              float *c2);
+void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
+                            float *c2);
+
+/* One row of the kernel path (directional light, voxels whose kernels lie inside the previous
+ * slice; vol_light.c lv_kernel_init): for iu in [iu0, iu1) of row jv,
+ *   sigma_p = bilinear(prev_sigma at (iu + bu + fu, jv + bv + fv)),
+ *   tau     = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds),
+ *   l       = tau * bilinear(prev_l, same weights),
+ *   acc_c   = sum over dj < kH, di < kW (in that order) of K[dj kW + di] * prev_c[(jv + kJ0 + dj) stride + iu + kI0 + di],
+ *   c_c     = tau * (acc_c / Ksum) + (1 - tau) * ctf_c,
+ * written to the current slice (cur_*[iu]) and the output (out_*[iu * out_stride]). */
+typedef struct vol_i_lv_span {
+    const float *prev_l, *prev_sigma, *prev_c[3];
+    ptrdiff_t stride;                     /* row stride of the slice buffers (prev_*, cur_*) */
+    int jv;
+    int bu, bv, kI0, kJ0, kW, kH;
+    float fu, fv, Ksum;
+    const float *K;
+    double ds;
+    const float *sigma, *ctf[3];          /* the row's classification, index iu */
+    float *cur_l, *cur_sigma, *cur_c[3];  /* the current slice's row, index iu */
+    float *out_l, *out_c[3];              /* the output at iu = 0 of this row */
+    ptrdiff_t out_stride;                 /* output elements between iu and iu + 1 */
+} vol_i_lv_span;
+void vol_i_lv_span_scalar(const vol_i_lv_span *S, int iu0, int iu1);
+void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1);
+
+/* 1 when the AVX2 kernels run: built with OBS_ENABLE_SIMD, the CPU has AVX2, and the environment's
+ * OBS_ISA is not "scalar" (read at each vol_light_volume_build). */
+int vol_i_lv_avx2_active(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VOL_LIGHT_INTERNAL_H */
