@@ -50,7 +50,7 @@ static int sphere_tf(obs_context *ctx, vol_tf *tf)
 }
 
 /* Bounds (measured, then rounded up; docs/volume/light.md, "GLSL port"): float rounding of
- * values in [0, 1]. Ours against the port's per-tap form: the per-tap path (OBS_ISA=scalar); ours by
+ * values in [0, 1]. Ours against the port's per-tap form: the per-tap path (OBS_LV_PER_TAP=1); ours by
  * default (directional lights take the gathered-kernel path: the cone's sums in another order). */
 #define GV_TOL_PER_TAP 1e-6
 #define GV_TOL_DEFAULT 1e-5
@@ -87,9 +87,9 @@ static void run_case(glh *g, const gv_case *cs, double *worst_tap, double *worst
     vol_light_volume ours, tap, gl;
     unsetenv("OBS_ISA");
     CHECK_OK(vol_light_volume_build(ctx, NULL, &grid, &tf, &L, &p, &ours), ctx);
-    setenv("OBS_ISA", "scalar", 1);
+    setenv("OBS_LV_PER_TAP", "1", 1); /* the per-tap reference path (vol_light.c) */
     CHECK_OK(vol_light_volume_build(ctx, NULL, &grid, &tf, &L, &p, &tap), ctx);
-    unsetenv("OBS_ISA");
+    unsetenv("OBS_LV_PER_TAP");
     glsl_volume r;
     const int built = glsl_volume_build(g, ctx, &grid, &tf, &L, &p, &r);
     CHECK_MSG(built, "%s: the port was not built", cs->synth);
