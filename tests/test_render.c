@@ -649,3 +649,49 @@ TEST(render_volume_eye_pass_runs_per_view_and_keeps_the_light_volume_cached)
     obs_scene_free(&s);
     obs_context_destroy(ctx);
 }
+
+/* The hybrid scene (issue 15, item 6): the volume shadows the meshes. The direct pass reads the light
+ * volume and multiplies each light's term by the volume's transmittance toward it, so with the
+ * volume on the floor some pixels of the direct layer get darker and none brighter; without light-
+ * volume shading (emission-absorption) the volume casts no shadow and the layer is the plain one. */
+TEST(render_volume_shadows_the_meshes_through_the_light_volume)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    make_scene(&s, 0, NULL);
+    render_settings st = small_settings();
+    st.outputs = RENDER_OUT_DIRECT;
+    render_frame plain, shadowed, ea;
+    render_session *ses = session(ctx, 2, NULL);
+    CHECK_MSG(render_frame_run(ses, &s, &st, 0, &plain) == OBS_STATUS_OK, "%s", obs_context_last_error(ctx));
+    use_volume(&st);
+    CHECK_MSG(render_frame_run(ses, &s, &st, 0, &shadowed) == OBS_STATUS_OK, "%s", obs_context_last_error(ctx));
+    st.volume.rc.shading = VOL_SHADING_EMISSION_ABSORPTION;
+    CHECK_MSG(render_frame_run(ses, &s, &st, 0, &ea) == OBS_STATUS_OK, "%s", obs_context_last_error(ctx));
+    render_session_destroy(ses);
+    const render_pass_record *d = rec(&shadowed, "direct");
+    CHECK(d != NULL);
+    if (d) {
+        CHECK_MSG(strstr(d->reads, "light_volume") != NULL, "direct reads: %s", d->reads);
+        CHECK_MSG(strstr(d->reason, "shadowed by the volume") != NULL, "direct: %s", d->reason);
+    }
+    CHECK_EQ_INT(state_of(&shadowed, "light_volume"), RENDER_PASS_RAN); /* only direct was asked for */
+    CHECK_EQ_INT(state_of(&shadowed, "raycast"), RENDER_PASS_CULLED);
+    int darker = 0, brighter = 0;
+    for (int c = 0; c < 3; c++)
+        for (int y = 0; y < plain.height; y++) {
+            const float *a = obs_image_f32_row(&plain.direct[c], y), *b = obs_image_f32_row(&shadowed.direct[c], y);
+            for (int x = 0; x < plain.width; x++) {
+                darker += b[x] < a[x] - 1e-6f;
+                brighter += b[x] > a[x] + 1e-6f;
+            }
+        }
+    CHECK_MSG(darker > 0, "the volume darkened no pixel of the direct layer");
+    CHECK_EQ_INT(brighter, 0);
+    CHECK(planes_equal(plain.direct, ea.direct, 3));
+    render_frame_free(&plain);
+    render_frame_free(&shadowed);
+    render_frame_free(&ea);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}

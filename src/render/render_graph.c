@@ -23,11 +23,12 @@ const char *render_resource_name(unsigned bit)
     return "?";
 }
 
-/* The passes in execution order: producers before readers. */
+/* The passes in execution order: producers before readers (the light volume before direct: the
+ * volume shadows the meshes, docs/render.md "Composition"). */
 static const render_pass *const passes[] = {
-    &render_pass_gbuffer,    &render_pass_shadow_maps, &render_pass_direct,      &render_pass_ao,
-    &render_pass_ambient,    &render_pass_sss_light_maps, &render_pass_sss_maps, &render_pass_sss_combine,
-    &render_pass_volume_load, &render_pass_light_volume, &render_pass_raycast,   &render_pass_compose,
+    &render_pass_gbuffer,     &render_pass_shadow_maps, &render_pass_volume_load, &render_pass_light_volume,
+    &render_pass_direct,      &render_pass_ao,          &render_pass_ambient,     &render_pass_sss_light_maps,
+    &render_pass_sss_maps,    &render_pass_sss_combine, &render_pass_raycast,     &render_pass_compose,
     &render_pass_ref_scene,  &render_pass_ref_ao,      &render_pass_ref_ambient, &render_pass_ref_sss,
     &render_pass_ref_volume, &render_pass_ref_compose,
 };

@@ -328,11 +328,58 @@ static float shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_
  * direct
  * ---------------------------------------------------------------------------------------------- */
 
+/* Whether the volume shadows the meshes: a volume lit by one of the scene's lights, with its light
+ * volume built (light-volume shading). The issue's hybrid scene: "meshes receive shadows from the
+ * volume: the light volume is sampled at their surface points". */
+static int volume_shadows_meshes(const render_job *j)
+{
+    return j->st->volume.enabled && j->volume_light >= 0 &&
+           j->st->volume.rc.shading == VOL_SHADING_LIGHT_VOLUME;
+}
+
 static unsigned direct_reads(const render_job *j, char *t, size_t n)
 {
+    const int vs = volume_shadows_meshes(j);
     if (j->st->shadows)
-        return reads_text(t, n, "gbuffer,shadow_maps,lights", RES_GBUFFER | RES_SHADOW_MAPS);
-    return reads_text(t, n, "gbuffer,lights", RES_GBUFFER);
+        return reads_text(t, n, vs ? "gbuffer,shadow_maps,light_volume,lights" : "gbuffer,shadow_maps,lights",
+                          RES_GBUFFER | RES_SHADOW_MAPS | (vs ? RES_LIGHT_VOLUME : 0u));
+    return reads_text(t, n, vs ? "gbuffer,light_volume,lights" : "gbuffer,lights",
+                      RES_GBUFFER | (vs ? RES_LIGHT_VOLUME : 0u));
+}
+
+/* The volume's transmittance from the light to the surface point p (world), from the light volume:
+ * l is the transmittance from the light to each point of the volume's box, so for p inside the box
+ * it is l(p), and for p outside it is l at the point where the segment from p toward the light
+ * first enters the box (beyond it, toward p, there is no more volume); 1 when the segment misses
+ * the box. dir: unit, toward the light; tmax: the distance to a point light (INFINITY: directional). */
+static float volume_transmittance(const render_job *j, obs_vec3 p, obs_vec3 dir, float tmax)
+{
+    const vol_light_volume *lv = j->lv;
+    double lo[3], hi[3];
+    vol_grid_bounds(&j->vol->grid, lo, hi);
+    const double o[3] = {p.x, p.y, p.z}, d[3] = {dir.x, dir.y, dir.z};
+    double t0 = 0.0, t1 = (double)tmax;
+    for (int a = 0; a < 3; a++) {
+        if (d[a] == 0.0) {
+            if (o[a] < lo[a] || o[a] > hi[a])
+                return 1.0f;
+            continue;
+        }
+        double ta = (lo[a] - o[a]) / d[a], tb = (hi[a] - o[a]) / d[a];
+        if (ta > tb) {
+            const double tt = ta;
+            ta = tb;
+            tb = tt;
+        }
+        if (ta > t0) t0 = ta;
+        if (tb < t1) t1 = tb;
+    }
+    if (!(t1 >= t0))
+        return 1.0f;
+    const double x[3] = {o[0] + t0 * d[0], o[1] + t0 * d[1], o[2] + t0 * d[2]};
+    float l, c[3];
+    vol_light_volume_sample(lv, x, &l, c);
+    return l;
 }
 static int direct_wanted(const render_job *j, char *r, size_t n)
 {
@@ -341,7 +388,8 @@ static int direct_wanted(const render_job *j, char *r, size_t n)
                                                  : "no opaque mesh in the scene");
         return 0;
     }
-    snprintf(r, n, "Lambert direct light from %d light(s) on opaque meshes%s", j->light_count,
+    snprintf(r, n, "Lambert direct light from %d light(s) on opaque meshes%s%s", j->light_count,
+             volume_shadows_meshes(j) ? ", shadowed by the volume" : "",
              j->spot_lights ? " (spot lights are not supported: left out)" : "");
     return 1;
 }
@@ -375,7 +423,7 @@ static void direct_row(void *user, int64_t yy, int thread)
             for (int i = 0; i < j->light_count; i++) {
                 const obs_light *L = &j->lights[i];
                 obs_vec3 l;
-                float E = L->intensity;
+                float E = L->intensity, dist = INFINITY;
                 if (L->type == OBS_LIGHT_DIRECTIONAL) {
                     l = obs_v3_scale(obs_v3_normalize(L->direction), -1.0f);
                 } else {
@@ -383,13 +431,17 @@ static void direct_row(void *user, int64_t yy, int thread)
                     float d2 = obs_v3_dot(v, v);
                     if (!(d2 > 0))
                         continue;
-                    l = obs_v3_scale(v, 1.0f / sqrtf(d2));
+                    dist = sqrtf(d2);
+                    l = obs_v3_scale(v, 1.0f / dist);
                     E = E / d2;
                 }
                 const float ndl = obs_v3_dot(nw, l);
                 if (!(ndl > 0))
                     continue;
-                const float vis = j->shadow ? shadow_lookup(&j->shadow->maps[i], L, p, nw) : 1.0f;
+                float vis = j->shadow ? shadow_lookup(&j->shadow->maps[i], L, p, nw) : 1.0f;
+                if (j->lv && j->vol && j->volume_light >= 0 && L->node == j->scene->lights[j->volume_light].node &&
+                    vis > 0.0f)
+                    vis *= volume_transmittance(j, p, l, dist);
                 const float s = E * ndl * vis / OBS_PI_F;
                 out[0] += s * L->color.x;
                 out[1] += s * L->color.y;
