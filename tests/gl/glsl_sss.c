@@ -36,7 +36,19 @@
  *   - llvmpipe flushes float subnormals to zero; ours does not. Only values below 1.2e-38 differ.
  *
  * The N-of-M sampler's candidate disk is our own sss_i_halton_disk_make (M points sorted by rho),
- * uploaded as an RG32F texture of M x 1, as a GPU renderer would hold it. */
+ * uploaded as an RG32F texture of M x 1, as a GPU renderer would hold it.
+ *
+ * The exponential sampler (ours, the default; sss_maps_internal.h sss_i_exp_sample) is float
+ * arithmetic only in C (+ - * / sqrt, compares, bit manipulation), so the port follows it op for
+ * op in float: -ln(1 - u1 Z) by the atanh series or sss_i_logf (frexp by floatBitsToUint), the
+ * three Newton steps on t - ln(1 + t) = w, rho = min(t / sigma*, R), sss_i_sincos_2pi's quadrant
+ * and Taylor polynomials, the weight w0 e^{sigma* rho} with the kernel's s_expf. Its float
+ * constants (1/9, ..., 1/479001600, ln 2 in two parts, sqrt 2, pi/2, 1e-30) travel as the bits C
+ * folded them to; its per-material constants (sigma*, R, T, q, Z, w0) come from sss_maps.c's own
+ * sss_i_exp_disk_make, as uniforms. Then the float fetch (tx = fcx + ox ppu), the 3 x 3 near-field
+ * block (its samples skipped, its 9 texels added after them with weight 1/ppu^2), and the double
+ * sums into four partial sums by accepted-sample index mod 4, (s0 + s1) + (s2 + s3), as the scalar
+ * C path sums them. */
 #include "gl/glsl_sss.h"
 
 #include "sss/sss_internal.h"
@@ -255,6 +267,93 @@ GLSL_D_EXP
 "  return o;\n"
 "}\n"
 "\n"
+"/* ---- the exponential sampler (sss_maps_internal.h sss_i_exp_sample), float ops only ---- */\n"
+"#if SAMPLER == 2\n"
+"uniform vec4 g_ed0[NMAT]; /* sss_i_exp_disk: sigma*, R, T, q */\n"
+"uniform vec4 g_ed1[NMAT]; /* Z, w0 */\n"
+"float s_logf(float y) {\n"
+"  uint b = floatBitsToUint(y);\n"
+"  int e = int(b >> 23) - 127;\n"
+"  precise float m = uintBitsToFloat((b & 0x007fffffu) | 0x3f800000u);\n"
+"  if (m > CF_SQRT2) { m = m * 0.5; e = e + 1; }\n"
+"  precise float s = (m - 1.0) / (m + 1.0);\n"
+"  precise float s2 = s * s;\n"
+"  precise float p = CF_I9;\n"
+"  p = p * s2 + CF_I7;\n"
+"  p = p * s2 + CF_I5;\n"
+"  p = p * s2 + CF_I3;\n"
+"  precise float lnm = (2.0 * s) + (2.0 * s) * (s2 * p);\n"
+"  precise float ef = float(e);\n"
+"  precise float l = ef * CF_LN2_HI + (ef * CF_LN2_LO + lnm);\n"
+"  return l;\n"
+"}\n"
+"float s_atanh_tail(float s) {\n"
+"  precise float s2 = s * s;\n"
+"  precise float p = CF_I15;\n"
+"  p = p * s2 + CF_I13;\n"
+"  p = p * s2 + CF_I11;\n"
+"  p = p * s2 + CF_I9;\n"
+"  p = p * s2 + CF_I7;\n"
+"  p = p * s2 + CF_I5;\n"
+"  p = p * s2 + CF_I3;\n"
+"  precise float r = (2.0 * s) * (s2 * p);\n"
+"  return r;\n"
+"}\n"
+"float s_exp_g(float t, float w) {\n"
+"  if (t < 0.5) {\n"
+"    precise float s = t / (2.0 + t);\n"
+"    precise float g = ((t * t) / (2.0 + t) - s_atanh_tail(s)) - w;\n"
+"    return g;\n"
+"  }\n"
+"  precise float g2 = (t - s_logf(1.0 + t)) - w;\n"
+"  return g2;\n"
+"}\n"
+"vec3 exp_sample(int ms, float u1, float u2) {\n"
+"  float sigma = g_ed0[ms].x, Rf = g_ed0[ms].y, T = g_ed0[ms].z, q = g_ed0[ms].w, Z = g_ed1[ms].x, w0 = g_ed1[ms].y;\n"
+"  /* the radius t = sigma rho (sss_i_exp_t) */\n"
+"  precise float v = u1 * Z;\n"
+"  precise float w;\n"
+"  if (v <= 0.5) {\n"
+"    precise float s = v / (2.0 - v);\n"
+"    w = 2.0 * s + s_atanh_tail(s);\n"
+"  } else {\n"
+"    precise float a = (1.0 - u1) + u1 * q;\n"
+"    w = -s_logf(a);\n"
+"  }\n"
+"  precise float t = w + sqrt(2.0 * w);\n"
+"  for (int it = 0; it < 3; it++) {\n"
+"    precise float g = s_exp_g(t, w);\n"
+"    t = t - (g * (1.0 + t)) / mx(t, CF_TINY);\n"
+"  }\n"
+"  t = mn(mx(t, 0.0), T);\n"
+"  precise float rho = mn(t / sigma, Rf);\n"
+"  /* cos and sin of 2 pi u2 (sss_i_sincos_2pi) */\n"
+"  precise float u4 = 4.0 * u2;\n"
+"  int k = int(u4);\n"
+"  precise float a = (u4 - float(k)) * CF_HALF_PI;\n"
+"  precise float a2 = a * a;\n"
+"  precise float ps = -CF_F11;\n"
+"  ps = ps * a2 + CF_F9;\n"
+"  ps = ps * a2 - CF_F7;\n"
+"  ps = ps * a2 + CF_F5;\n"
+"  ps = ps * a2 - CF_F3;\n"
+"  precise float sa = a + a * (a2 * ps);\n"
+"  precise float pc = CF_F12;\n"
+"  pc = pc * a2 - CF_F10;\n"
+"  pc = pc * a2 + CF_F8;\n"
+"  pc = pc * a2 - CF_F6;\n"
+"  pc = pc * a2 + CF_F4;\n"
+"  pc = pc * a2 - 0.5;\n"
+"  precise float ca = 1.0 + a2 * pc;\n"
+"  float c1 = (k & 1) != 0 ? -sa : ca, s1 = (k & 1) != 0 ? ca : sa;\n"
+"  float c = (k & 2) != 0 ? -c1 : c1, sn = (k & 2) != 0 ? -s1 : s1;\n"
+"  precise float ox = rho * c;\n"
+"  precise float oy = rho * sn;\n"
+"  precise float ew = w0 * s_expf(sigma * rho);\n"
+"  return vec3(ox, oy, ew);\n"
+"}\n"
+"#endif\n"
+"\n"
 "vec4 lpos(int l, ivec2 t) { return l == 0 ? texelFetch(lpos0, t, 0) : texelFetch(lpos1, t, 0); }\n"
 "vec4 lnrm(int l, ivec2 t) { return l == 0 ? texelFetch(lnrm0, t, 0) : texelFetch(lnrm1, t, 0); }\n"
 "int lsize(int l) { return l == 0 ? textureSize(lpos0, 0).x : textureSize(lpos1, 0).x; }\n"
@@ -324,6 +423,57 @@ GLSL_D_EXP
 "      dvec3 lp = dvec3(dc(lb + 23), dc(lb + 24), dc(lb + 25)), tl = dvec3(dc(lb + 20), dc(lb + 21), dc(lb + 22));\n"
 "      double ls = double(lsize(l));\n"
 "      precise dvec3 sum = dvec3(0.0LF);\n"
+"#if SAMPLER == 2\n"
+"      /* exponential (sss_maps.c gather_light): the N samples in draw order (u1, u2 each), the\n"
+"       * float fetch, the 3 x 3 near-field block whose samples count 0, then the block itself;\n"
+"       * four interleaved partial sums (accepted sample q into q mod 4) */\n"
+"      precise float fcx = float(pcx);\n"
+"      precise float fcy = float(pcy);\n"
+"      precise float fppu = float(ppu);\n"
+"      float fsize = float(lsize(l));\n"
+"      bool block = R * ppu >= 3.0LF && fcx > -4.0 && fcy > -4.0 && fcx < fsize + 4.0 && fcy < fsize + 4.0;\n"
+"      int bx = block ? int(floor(fcx)) - 1 : 0, by = block ? int(floor(fcy)) - 1 : 0;\n"
+"      precise dvec3 ps0 = dvec3(0.0LF), ps1 = dvec3(0.0LF), ps2 = dvec3(0.0LF), ps3 = dvec3(0.0LF);\n"
+"      int n = 0;\n"
+"      for (int i = 0; i < N + 9; i++) {\n"
+"        ivec2 it;\n"
+"        precise double w;\n"
+"        if (i < N) {\n"
+"          float u1 = rnd(state), u2 = rnd(state);\n"
+"          vec3 sm = exp_sample(ms, u1, u2); /* (ox, oy, 1 / (N p)) */\n"
+"          precise float tx = fcx + sm.x * fppu;\n"
+"          precise float ty = fcy - sm.y * fppu;\n"
+"          if (!(tx >= 0.0 && ty >= 0.0 && tx < fsize && ty < fsize)) continue;\n"
+"          it = ivec2(int(tx), int(ty)); /* nearest texel */\n"
+"          if (block && uint(it.x - bx) < 3u && uint(it.y - by) < 3u) continue; /* counts 0 */\n"
+"          w = double(sm.z);\n"
+"        } else {\n"
+"          /* the block, row by row, weight = the texel's area 1 / ppu^2 */\n"
+"          if (!block) break;\n"
+"          int b9 = i - N;\n"
+"          it = ivec2(bx + b9 % 3, by + b9 / 3);\n"
+"          if (it.x < 0 || it.y < 0 || it.x >= lsize(l) || it.y >= lsize(l)) continue;\n"
+"          w = 1.0LF / (ppu * ppu);\n"
+"        }\n"
+"        vec4 pp = lpos(l, it);\n"
+"        if (pp.w != inst) continue; /* empty (-1) or another instance */\n"
+"        dvec3 x_i = dvec3(pp.xyz);\n"
+"        vec3 wlf = vec3(tl);\n"
+"        if (point) {\n"
+"          precise dvec3 dl = lp - x_i;\n"
+"          precise double d2 = (dl.x * dl.x + dl.y * dl.y) + dl.z * dl.z;\n"
+"          precise double il = 1.0LF / sqrt(d2);\n"
+"          w = w / d2;\n"
+"          wlf = vec3(dl * il);\n"
+"        }\n"
+"        vec3 o = kernel(ms, xof, nof, pp.xyz, lnrm(l, it).xyz, wlf);\n"
+"        precise dvec3 c = w * dvec3(o);\n"
+"        int q = n & 3;\n"
+"        if (q == 0) ps0 = ps0 + c; else if (q == 1) ps1 = ps1 + c; else if (q == 2) ps2 = ps2 + c; else ps3 = ps3 + c;\n"
+"        n++;\n"
+"      }\n"
+"      sum = (ps0 + ps1) + (ps2 + ps3);\n"
+"#else\n"
 "#if SAMPLER == 0\n"
 "      /* Russian roulette ([DalCorso14] final shader): three draws per candidate, always */\n"
 "      for (int i = 0; i < N; i++) {\n"
@@ -376,6 +526,7 @@ GLSL_D_EXP
 "        vec3 o = kernel(ms, xof, nof, pp.xyz, lnrm(l, it).xyz, vec3(wl));\n"
 "        sum = sum + w * dvec3(o);\n"
 "      }\n"
+"#endif\n"
 "      acc = acc + dvec3(dc(lb + 26), dc(lb + 27), dc(lb + 28)) * sum;\n"
 "    }\n"
 "  }\n"
@@ -565,7 +716,8 @@ int glsl_sss_gather_build(glh *g, obs_context *ctx, const obs_scene *scene, cons
         printf("  glsl_sss: %d light maps (the port takes 1..%d)\n", light_count, GLSL_SSS_MAX_LIGHTS);
         return 0;
     }
-    if (p->sampler != SSS_SAMPLER_RUSSIAN_ROULETTE && p->sampler != SSS_SAMPLER_NEAREST_N_OF_M) {
+    if (p->sampler != SSS_SAMPLER_RUSSIAN_ROULETTE && p->sampler != SSS_SAMPLER_NEAREST_N_OF_M &&
+        p->sampler != SSS_SAMPLER_EXPONENTIAL) {
         printf("  glsl_sss: sampler %s is not ported\n", sss_sampler_name(p->sampler));
         return 0;
     }
@@ -757,8 +909,25 @@ int glsl_sss_gather_build(glh *g, obs_context *ctx, const obs_scene *scene, cons
     put_double(db, gb0 + 1, OBS_PI * R * R); /* A_c, as sss_maps_build */
     put_double(db, gb0 + 2, 2.0 * OBS_PI);
 
-    char pre[2048];
-    snprintf(pre, sizeof pre,
+    /* the exponential sampler's float constants, as sss_maps_internal.h spells them (C folds them
+     * in float), passed as bits so that no GLSL literal is rounded twice */
+    const struct {
+        const char *name;
+        float v;
+    } cf[] = {{"CF_SQRT2", 1.41421356f},   {"CF_I3", 1.0f / 3.0f},   {"CF_I5", 1.0f / 5.0f},
+              {"CF_I7", 1.0f / 7.0f},      {"CF_I9", 1.0f / 9.0f},   {"CF_I11", 1.0f / 11.0f},
+              {"CF_I13", 1.0f / 13.0f},    {"CF_I15", 1.0f / 15.0f}, {"CF_LN2_HI", SSS_I_LN2_HI},
+              {"CF_LN2_LO", SSS_I_LN2_LO}, {"CF_TINY", 1e-30f},      {"CF_HALF_PI", 1.57079632679f},
+              {"CF_F3", 1.0f / 6.0f},      {"CF_F5", 1.0f / 120.0f}, {"CF_F7", 1.0f / 5040.0f},
+              {"CF_F9", 1.0f / 362880.0f}, {"CF_F11", 1.0f / 39916800.0f},
+              {"CF_F4", 1.0f / 24.0f},     {"CF_F6", 1.0f / 720.0f}, {"CF_F8", 1.0f / 40320.0f},
+              {"CF_F10", 1.0f / 3628800.0f}, {"CF_F12", 1.0f / 479001600.0f}};
+    char pre[4096];
+    int np = 0;
+    for (size_t i = 0; i < sizeof cf / sizeof cf[0]; i++)
+        np += snprintf(pre + np, sizeof pre - (size_t)np, "#define %s uintBitsToFloat(0x%08xu)\n", cf[i].name,
+                       fbits(cf[i].v));
+    snprintf(pre + np, sizeof pre - (size_t)np,
              "#define K %d\n#define SIZE %d\n#define NL %d\n#define N %d\n#define M %d\n#define SAMPLER %d\n"
              "#define FRAMES %d\n#define NMAT %d\n#define ND %d\n"
              "#define EXPF_LOG2E uintBitsToFloat(0x%08xu)\n#define EXPF_MAGIC uintBitsToFloat(0x%08xu)\n"
@@ -768,7 +937,7 @@ int glsl_sss_gather_build(glh *g, obs_context *ctx, const obs_scene *scene, cons
              "#define EXPF_C3 uintBitsToFloat(0x%08xu)\n#define EXPF_C2 uintBitsToFloat(0x%08xu)\n"
              "#define INV_4PI2F uintBitsToFloat(0x%08xu)\n#define PAR_EPS_F uintBitsToFloat(0x%08xu)\n"
              "#define FLOOR_D_F uintBitsToFloat(0x%08xu)\n",
-             K, S, NL, p->N, M, p->sampler == SSS_SAMPLER_NEAREST_N_OF_M ? 1 : 0, p->frames, nmat, ND,
+             K, S, NL, p->N, M, p->sampler == SSS_SAMPLER_NEAREST_N_OF_M ? 1 : p->sampler == SSS_SAMPLER_EXPONENTIAL ? 2 : 0, p->frames, nmat, ND,
              fbits(SSS_I_EXPF_LOG2E), fbits(SSS_I_EXPF_MAGIC), fbits(SSS_I_EXPF_LN2_HI), fbits(SSS_I_EXPF_LN2_LO),
              fbits(SSS_I_EXPF_C7), fbits(SSS_I_EXPF_C6), fbits(SSS_I_EXPF_C5), fbits(SSS_I_EXPF_C4),
              fbits(SSS_I_EXPF_C3), fbits(SSS_I_EXPF_C2), fbits((float)SSS_I_INV_4PI2),
@@ -805,6 +974,27 @@ int glsl_sss_gather_build(glh *g, obs_context *ctx, const obs_scene *scene, cons
                                           "g_zr",       "g_zv",    "g_alpha", "g_misc0", "g_misc1"};
     for (int i = 0; i < 10; i++)
         glh_setfv(g, prog, names[i], 4, nmat, u[i]);
+    if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
+        /* the sampler's per-material constants (sigma*, R, N), made by sss_maps.c's own
+         * sss_i_exp_disk_make as a GPU renderer would fill its uniform block on the CPU */
+        float e0[4 * GLSL_SSS_MAX_MATERIALS], e1[4 * GLSL_SSS_MAX_MATERIALS];
+        memset(e0, 0, sizeof e0);
+        memset(e1, 0, sizeof e1);
+        for (int s = 0; s < nmat; s++) {
+            if (!slot[s])
+                continue;
+            sss_i_exp_disk ed;
+            sss_i_exp_disk_make(slot[s]->min_sigma_tr / p->spread_q, R, p->N, &ed);
+            e0[4 * s] = ed.sigma;
+            e0[4 * s + 1] = ed.R;
+            e0[4 * s + 2] = ed.T;
+            e0[4 * s + 3] = ed.q;
+            e1[4 * s] = ed.Z;
+            e1[4 * s + 1] = ed.w0;
+        }
+        glh_setfv(g, prog, "g_ed0", 4, nmat, e0);
+        glh_setfv(g, prog, "g_ed1", 4, nmat, e1);
+    }
     GLuint tex[7] = {tva, tvb, tl[0], tl[1], NL > 1 ? tl[2] : tl[0], NL > 1 ? tl[3] : tl[1], thd};
     glh_run_add(r, "sss gather (K layers)", prog, fout, K * S, S, 7, tex);
     r->nkernel = r->npass;

@@ -1,6 +1,7 @@
 /* glsl_sss.h: a GLSL port of the scattering-map gather of [DalCorso14]'s final shader
  * (ss_array_render_to_arraymap_multilight_directional.frag, #define RUSSIAN_ROULETTE) and of the
- * thesis text's N-of-M variant, as src/sss/sss_maps.c does them, run by the GL harness (glh.h) on
+ * thesis text's N-of-M variant, and of our exponential sampler (the default), as src/sss/sss_maps.c
+ * does them, run by the GL harness (glh.h) on
  * llvmpipe. tests/gl/test_gl_sss.c compares it with sss_maps_build texel by texel; docs/gl.md,
  * "SSS scattering maps", has the figures.
  *
