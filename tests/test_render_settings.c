@@ -121,7 +121,7 @@ TEST(render_settings_defaults_are_the_documented_ones)
     CHECK(s.ref_ao.target_error == ta.target_error && s.ref_ao.min_samples == ta.min_samples);
     truth_sss_params ts = truth_sss_params_default();
     CHECK(rs_same_tsss(&ts, &s.ref_sss));
-    CHECK_EQ_INT(s.ref_volume_shadow_steps, 2);
+    CHECK_EQ_INT(s.ref_volume_samples, 256);
     /* The defaults pass validation, with and without a scene. */
     obs_scene sc;
     rs_scene(&sc);
@@ -165,7 +165,7 @@ TEST(render_settings_apply_a_full_object_sets_every_key)
         "\"kappa\":2},"
         "\"reference\":{\"ao_target_error\":0.01,\"ao_min_samples\":32,\"ao_max_samples\":1024,"
         "\"sss_estimator\":\"random-walk\",\"sss_target_rel_error\":0.05,\"sss_min_samples\":4096,"
-        "\"sss_max_samples\":65536,\"sss_batch\":1024,\"sss_patch_radius\":0.01,\"volume_shadow_steps\":4}}";
+        "\"sss_max_samples\":65536,\"sss_batch\":1024,\"sss_patch_radius\":0.01,\"volume_samples\":64}}";
     obs_context *ctx = obs_context_create();
     render_settings s = render_settings_default();
     CHECK_OK(render_settings_apply_json(ctx, json, "test.glb", &sc, &s), ctx);
@@ -219,7 +219,7 @@ TEST(render_settings_apply_a_full_object_sets_every_key)
     CHECK_EQ_INT(s.ref_sss.min_samples, 4096);
     CHECK_EQ_INT(s.ref_sss.max_samples, 65536);
     CHECK_EQ_INT(s.ref_sss.batch, 1024);
-    CHECK_EQ_INT(s.ref_volume_shadow_steps, 4);
+    CHECK_EQ_INT(s.ref_volume_samples, 64);
     CHECK_OK(render_settings_validate(ctx, &sc, &s), ctx);
 
     /* Keys not given keep their values: a second object changes only what it names. */
@@ -316,8 +316,10 @@ TEST(render_settings_wrong_types_and_ranges_are_errors_naming_the_key)
                     "obscura_render.reference.ao_min_samples: must be a multiple"));
     CHECK(rs_expect("{\"reference\":{\"sss_estimator\":\"photon\"}}", &sc, BAD,
                     "obscura_render.reference.sss_estimator: \"photon\" is not an estimator"));
-    CHECK(rs_expect("{\"reference\":{\"volume_shadow_steps\":0}}", &sc, BAD,
-                    "obscura_render.reference.volume_shadow_steps: must be in [1, 64]"));
+    CHECK(rs_expect("{\"reference\":{\"volume_samples\":0}}", &sc, BAD,
+                    "obscura_render.reference.volume_samples: must be in [8, 1048576]"));
+    CHECK(rs_expect("{\"reference\":{\"volume_samples\":12}}", &sc, BAD,
+                    "obscura_render.reference.volume_samples: must be a multiple of 8"));
     /* Malformed JSON is a parse error. */
     CHECK(rs_expect("{\"size\":[1,2}", &sc, OBS_STATUS_PARSE_ERROR, "test.glb: obscura_render is not valid JSON"));
     CHECK(rs_expect("{} trailing", &sc, OBS_STATUS_PARSE_ERROR, "not valid JSON"));
@@ -396,7 +398,7 @@ static int rs_same(const render_settings *a, const render_settings *b)
                (!a->ao || !memcmp(a->ao_params, b->ao_params, a->ao->params_size)) && a->shadows == b->shadows &&
                a->shadow_map_size == b->shadow_map_size && rs_same_sss(&a->sss, &b->sss) &&
                a->mm_per_unit == b->mm_per_unit && a->reference == b->reference &&
-               a->ref_volume_shadow_steps == b->ref_volume_shadow_steps &&
+               a->ref_volume_samples == b->ref_volume_samples &&
                rs_same_tsss(&a->ref_sss, &b->ref_sss) && (!a->ao || (a->ref_ao.radius == b->ref_ao.radius &&
                a->ref_ao.estimator == b->ref_ao.estimator)) && /* (no AO: nothing to match) */ a->ref_ao.target_error == b->ref_ao.target_error &&
                a->ref_ao.min_samples == b->ref_ao.min_samples && a->ref_ao.max_samples == b->ref_ao.max_samples;

@@ -501,3 +501,74 @@ TEST(volume_mc_cli_writes_exr_with_error_bars_and_refuses_bad_flags)
     const char *b3[] = {"volume", "synth:bucky:16", "--image", "-o", prefix, NULL}; /* truth volume only */
     CHECK_EQ_INT(test_cli_run(b3, "b3"), 2);
 }
+
+/* The hybrid scene's depth limit: +inf everywhere is no limit (the same bytes as none); a limit in
+ * front of the near plane leaves every pixel empty (L = 0, A = 0); a limit halfway through the
+ * volume leaves alpha no larger than the whole ray's anywhere and smaller somewhere; a plane of
+ * the wrong size is refused. */
+TEST(volume_mc_depth_limit_stops_the_rays)
+{
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    vol_grid g;
+    vol_tf tf;
+    CHECK_OK(vol_synth(ctx, "bucky", 16, &g), ctx);
+    CHECK_OK(vol_tf_preset(ctx, "bucky", &tf), ctx);
+    const int W = 12, H = 10;
+    obs_camera cam = bucky_camera(&g, W, H);
+    vol_light L = light_dir(0.3, -1.0, 0.2);
+    truth_volume_mc_params p = truth_volume_mc_params_default();
+    p.samples = 32;
+    obs_image_f32 lim;
+    CHECK_OK(obs_image_f32_alloc(ctx, W, H, &lim), ctx);
+    truth_volume_image none, inf, zero, half;
+    CHECK_OK(truth_volume_mc_render(ctx, pool, &g, &tf, &L, &cam, W, H, &p, &none), ctx);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            obs_image_f32_row(&lim, y)[x] = INFINITY;
+    p.depth_limit = &lim;
+    CHECK_OK(truth_volume_mc_render(ctx, pool, &g, &tf, &L, &cam, W, H, &p, &inf), ctx);
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            obs_image_f32_row(&lim, y)[x] = 0.0f;
+    CHECK_OK(truth_volume_mc_render(ctx, pool, &g, &tf, &L, &cam, W, H, &p, &zero), ctx);
+    /* halfway: the linear depth of the volume's centre, from the camera */
+    double lo[3], hi[3];
+    vol_grid_bounds(&g, lo, hi);
+    const obs_vec3 ctr = obs_v3((float)(0.5 * (lo[0] + hi[0])), (float)(0.5 * (lo[1] + hi[1])), (float)(0.5 * (lo[2] + hi[2])));
+    const float zc = -obs_mat4_mul_point(cam.view, ctr).z;
+    for (int y = 0; y < H; y++)
+        for (int x = 0; x < W; x++)
+            obs_image_f32_row(&lim, y)[x] = zc;
+    CHECK_OK(truth_volume_mc_render(ctx, pool, &g, &tf, &L, &cam, W, H, &p, &half), ctx);
+    int smaller = 0, larger = 0;
+    for (int q = 0; q < 4; q++)
+        for (int y = 0; y < H; y++) {
+            CHECK(!memcmp(obs_image_f32_row(&none.rgba[q], y), obs_image_f32_row(&inf.rgba[q], y), W * sizeof(float)));
+            for (int x = 0; x < W; x++) {
+                CHECK(obs_image_f32_row(&zero.rgba[q], y)[x] == 0.0f);
+                if (q == 3) {
+                    const float a = obs_image_f32_row(&none.rgba[3], y)[x], b = obs_image_f32_row(&half.rgba[3], y)[x];
+                    smaller += b < a;
+                    larger += b > a + 1e-6f;
+                }
+            }
+        }
+    CHECK_MSG(smaller > 0, "a limit halfway through the volume made no pixel more transparent");
+    CHECK_EQ_INT(larger, 0);
+    obs_image_f32 bad;
+    CHECK_OK(obs_image_f32_alloc(ctx, W + 1, H, &bad), ctx);
+    p.depth_limit = &bad;
+    truth_volume_image out;
+    CHECK_EQ_INT(truth_volume_mc_render(ctx, pool, &g, &tf, &L, &cam, W, H, &p, &out), OBS_STATUS_INVALID_ARGUMENT);
+    obs_image_f32_free(&bad);
+    obs_image_f32_free(&lim);
+    truth_volume_image_free(&none);
+    truth_volume_image_free(&inf);
+    truth_volume_image_free(&zero);
+    truth_volume_image_free(&half);
+    vol_tf_free(&tf);
+    vol_grid_free(&g);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}

@@ -101,8 +101,9 @@ typedef struct render_settings {
     truth_ao_params ref_ao;        /* truth_ao_params_default() with the AO method's radius and
                                       matched estimator (ao_method.truth_estimator) */
     truth_sss_params ref_sss;      /* truth_sss_params_default() */
-    int ref_volume_shadow_steps;   /* the volume reference: exact transmittance to the light at every
-                                      ray-cast sample, by this many steps per voxel (default 2) */
+    int ref_volume_samples;        /* the volume reference: truth_volume_mc_render's samples per pixel
+                                      (a multiple of its 8 replicates, [8, 1048576]); default 256
+                                      (TRUTH_VOLUME_MC_DEFAULT_SAMPLES) */
 } render_settings;
 
 render_settings render_settings_default(void);

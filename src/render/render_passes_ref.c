@@ -4,13 +4,12 @@
  *   ref_ao      truth_ao_render with the AO method's matched estimator and radius
  *   ref_ambient ambient x albedo x ref_ao
  *   ref_sss     truth_sss_render (settings.ref_sss: the brute force by default)
- *   ref_volume  the ray cast with the light volume's transmittance l replaced by the exact
- *               transmittance to the light (truth_volume_transmittance_at's march) at every voxel
- *               centre of a full-resolution light volume, and chromaticity 1. DEVIATION from "at
- *               every ray-cast sample": the ray caster interpolates the exact values trilinearly
- *               between voxel centres (the data's own resolution), so the reference reuses the ray
- *               caster unchanged; what it checks is the light volume's propagation, blur and
- *               resolution.
+ *   ref_volume  the volume's Monte Carlo single-scattering reference (truth_volume_mc_render:
+ *               delta tracking, ratio-tracked shadow rays, g = 0, which is the ray caster's
+ *               light-volume model with the exact transmittance and chromaticity 1), each ray
+ *               stopped at the camera G-buffer's depth as the ray cast is. The light volume's
+ *               cone-blurred chromaticity c has no ground truth (docs/volume/truth.md), so the
+ *               volume layer's error includes it.
  *   ref_compose beauty composed the same way from direct (shared), ref_ambient, ref_sss, ref_volume.
  * The direct light is shared: both sides use the shadow-mapped Lambert term. */
 #include "render_internal.h"
@@ -205,43 +204,30 @@ static int rvol_wanted(const render_job *j, char *r, size_t n)
         snprintf(r, n, "the volume is not lit through a light volume: nothing to check");
         return 0;
     }
-    snprintf(r, n, "ray cast with the exact transmittance to the light (%d steps per voxel), chromaticity 1",
-             j->st->ref_volume_shadow_steps);
+    snprintf(r, n, "Monte Carlo single scattering (delta tracking, ratio-tracked shadow rays, %d samples per "
+             "pixel), stopped at the meshes' depth", j->st->ref_volume_samples);
     return 1;
 }
 static obs_status rvol_run(render_job *j, render_pass_state *state, uint64_t *bytes)
 {
     render_volume_light(j);
-    const vol_grid *g = &j->vol->grid;
-    vol_light_volume lv;
-    memset(&lv, 0, sizeof lv);
-    const size_t nv = (size_t)g->nx * (size_t)g->ny * (size_t)g->nz;
-    float *mem = (float *)obs_aligned_alloc(16 * nv);
-    if (!mem)
-        return obs_error(j->ctx, OBS_STATUS_OUT_OF_MEMORY, "ref_volume: out of memory");
-    lv.nx = g->nx, lv.ny = g->ny, lv.nz = g->nz, lv.scale = 1;
-    for (int a = 0; a < 3; a++) {
-        lv.spacing[a] = g->spacing[a];
-        lv.origin[a] = g->origin[a];
-        lv.c[a] = mem + (size_t)(a + 1) * nv;
-    }
-    lv.l = mem;
-    lv.face0 = 0, lv.face1 = -1, lv.blend_weight = 1.0f;
-    for (size_t i = 0; i < 4 * nv; i++)
-        mem[i] = i < nv ? 0.0f : 1.0f;
-    truth_volume_params tp = truth_volume_params_default();
-    tp.kappa = j->st->volume.lv.kappa;
-    tp.step_fraction = 1.0 / (double)(j->st->ref_volume_shadow_steps > 0 ? j->st->ref_volume_shadow_steps : 1);
-    float *T = NULL;
-    obs_status st = truth_volume_light_error(j->ctx, j->pool, g, &j->vol->tf, &j->vlight, &tp, &lv, &T, NULL, NULL);
+    truth_volume_mc_params mp = truth_volume_mc_params_default();
+    mp.samples = j->st->ref_volume_samples;
+    mp.kappa = j->st->volume.lv.kappa;
+    mp.seed = j->st->seed;
+    mp.depth_limit = &j->gb.depth; /* the ray stops at the meshes, as the ray cast does */
+    truth_volume_image im;
+    memset(&im, 0, sizeof im);
+    obs_status st = truth_volume_mc_render(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &j->cam, j->W,
+                                           j->H, &mp, &im);
     if (st == OBS_STATUS_OK) {
-        memcpy(lv.l, T, sizeof(float) * nv);
-        vol_rc_params rp = render_volume_rc_params(j);
-        st = vol_raycast(j->ctx, j->pool, g, &j->vol->tf, &j->vlight, &lv, &j->cam, j->W, j->H, &j->gb.depth, &rp,
-                         j->f->ref_volume);
+        /* The frame owns its planes: take the RGBA planes over, free the error bars. */
+        for (int c = 0; c < 4; c++) {
+            j->f->ref_volume[c] = im.rgba[c];
+            memset(&im.rgba[c], 0, sizeof im.rgba[c]);
+        }
     }
-    obs_aligned_free(T);
-    vol_light_volume_free(&lv);
+    truth_volume_image_free(&im);
     *state = RENDER_PASS_RAN;
     *bytes = render_planes_bytes(4, j->f->ref_volume);
     return st;

@@ -33,7 +33,7 @@
 #define RS_MAX_SHADOW_MAP_SIZE 16384       /* = RAST_MAX_DIM: one shadow map is one raster view */
 #define RS_MIN_SHADOW_MAP_SIZE 16          /* as SSS_MIN_SIZE for the SSS light G-buffers */
 #define RS_MAX_SYNTH_SIZE 1024             /* synth:NAME:N side; 1024^3 floats = 4 GiB */
-#define RS_MAX_VOLUME_SHADOW_STEPS 64      /* the volume reference's steps per voxel */
+#define RS_MAX_VOLUME_SAMPLES 1048576     /* the volume reference's samples per pixel (obs_limits' default max_samples) */
 
 /* ------------------------------------------------------------------------------------------------
  * Outputs
@@ -103,7 +103,7 @@ render_settings render_settings_default(void)
     s.reference = 0;
     s.ref_ao = truth_ao_params_default();
     s.ref_sss = truth_sss_params_default();
-    s.ref_volume_shadow_steps = 2;             /* render.h: 2 steps per voxel */
+    s.ref_volume_samples = 256;                /* render.h: TRUTH_VOLUME_MC_DEFAULT_SAMPLES */
     rs_sync_ref_ao(&s);
     return s;
 }
@@ -823,7 +823,7 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
 
 /* "reference": false | true | {"enabled", "ao_target_error", "ao_min_samples", "ao_max_samples",
  *   "sss_estimator", "sss_target_rel_error", "sss_min_samples", "sss_max_samples", "sss_batch",
- *   "sss_patch_radius", "volume_shadow_steps"} */
+ *   "sss_patch_radius", "volume_samples"} */
 static obs_status rs_reference(const rs_parse *P, const cJSON *v, render_settings *s)
 {
     const char *path = "obscura_render.reference";
@@ -837,11 +837,11 @@ static obs_status rs_reference(const rs_parse *P, const cJSON *v, render_setting
     static const char *const known[] = {"enabled",         "ao_target_error",      "ao_min_samples",
                                         "ao_max_samples",  "sss_estimator",        "sss_target_rel_error",
                                         "sss_min_samples", "sss_max_samples",      "sss_batch",
-                                        "sss_patch_radius", "volume_shadow_steps", NULL};
+                                        "sss_patch_radius", "volume_samples", NULL};
     obs_status st = rs_check_keys(P, path, v, known);
     if (st != OBS_STATUS_OK)
         return st;
-    int enabled = 1, steps = s->ref_volume_shadow_steps;
+    int enabled = 1, vsamples = s->ref_volume_samples;
     truth_ao_params ra = s->ref_ao;
     truth_sss_params rss = s->ref_sss;
     for (const cJSON *it = v->child; it && st == OBS_STATUS_OK; it = it->next) {
@@ -870,8 +870,11 @@ static obs_status rs_reference(const rs_parse *P, const cJSON *v, render_setting
             st = rs_int(P, path, k, it, 1, 0x7fffffff, &rss.batch);
         } else if (!strcmp(k, "sss_patch_radius")) {
             st = rs_number(P, path, k, it, 0.0, INFINITY, 1, &rss.patch_radius);
-        } else if (!strcmp(k, "volume_shadow_steps")) {
-            st = rs_int(P, path, k, it, 1, RS_MAX_VOLUME_SHADOW_STEPS, &steps);
+        } else if (!strcmp(k, "volume_samples")) {
+            st = rs_int(P, path, k, it, 8, RS_MAX_VOLUME_SAMPLES, &vsamples);
+            if (st == OBS_STATUS_OK && vsamples % 8 != 0)
+                st = rs_err(P, OBS_STATUS_INVALID_ARGUMENT, path, k,
+                            "must be a multiple of 8 (the volume reference's replicates; got %d)", vsamples);
         }
     }
     /* truth_ao has no separate validate: its sample counts must be multiples of the batch, the
@@ -889,7 +892,7 @@ static obs_status rs_reference(const rs_parse *P, const cJSON *v, render_setting
     s->reference = enabled;
     s->ref_ao = ra;
     s->ref_sss = rss;
-    s->ref_volume_shadow_steps = steps;
+    s->ref_volume_samples = vsamples;
     return OBS_STATUS_OK;
 }
 
@@ -1084,9 +1087,9 @@ obs_status render_settings_validate(obs_context *ctx, const obs_scene *scene, co
     if (s->reference) {
         if ((st = rs_wrap_validate(&P, "obscura_render.reference", rs_tsss_validate, &s->ref_sss, NULL)) != OBS_STATUS_OK)
             return st;
-        if (s->ref_volume_shadow_steps < 1 || s->ref_volume_shadow_steps > RS_MAX_VOLUME_SHADOW_STEPS)
-            return rs_err(&P, OBS_STATUS_INVALID_ARGUMENT, "obscura_render.reference", "volume_shadow_steps",
-                          "%d is not in [1, %d]", s->ref_volume_shadow_steps, RS_MAX_VOLUME_SHADOW_STEPS);
+        if (s->ref_volume_samples < 8 || s->ref_volume_samples > RS_MAX_VOLUME_SAMPLES || s->ref_volume_samples % 8)
+            return rs_err(&P, OBS_STATUS_INVALID_ARGUMENT, "obscura_render.reference", "volume_samples",
+                          "%d is not a multiple of 8 in [8, %d]", s->ref_volume_samples, RS_MAX_VOLUME_SAMPLES);
     }
     return OBS_STATUS_OK;
 }
@@ -1228,7 +1231,7 @@ void render_settings_to_json(const render_settings *s, struct io_json *j)
     io_json_int(j, "sss_max_samples", s->ref_sss.max_samples);
     io_json_int(j, "sss_batch", s->ref_sss.batch);
     rs_json_double(j, "sss_patch_radius", s->ref_sss.patch_radius);
-    io_json_int(j, "volume_shadow_steps", s->ref_volume_shadow_steps);
+    io_json_int(j, "volume_samples", s->ref_volume_samples);
     io_json_end_object(j);
     io_json_end_object(j);
 }

@@ -511,6 +511,10 @@ typedef struct truth_volume_mc_params {
     double kappa;                   /* extinction scale, >= 0; default 1 (as vol_lv_params) */
     uint64_t seed;                  /* default 0 */
     int tile;                       /* tile side in pixels, [1, 64]; default 8 */
+    const obs_image_f32 *depth_limit; /* optional (default NULL): per pixel, the linear view depth
+                                       where the view ray stops (the hybrid scene's rasterized mesh
+                                       depth, as vol_raycast's depth_limit; +inf or NaN: none);
+                                       width x height */
 } truth_volume_mc_params;
 #define TRUTH_VOLUME_MC_MAX_REPLICATES 32
 truth_volume_mc_params truth_volume_mc_params_default(void);

@@ -310,6 +310,7 @@ typedef struct tvi_job {
     int R;
     uint64_t seed;
     double step;                   /* the march's step (world units); 0 = MC */
+    const obs_image_f32 *depth_limit; /* MC: per pixel, where the view ray stops (NULL: none) */
     truth_volume_image *out;
     truth_volume_mc_stats *tile_stats;
 } tvi_job;
@@ -520,9 +521,15 @@ static void tvi_mc_pixel(const tvi_job *J, int x, int y, double (*acc)[4], truth
     const double dl = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (int r = 0; r < J->R; r++)
         acc[r][0] = acc[r][1] = acc[r][2] = acc[r][3] = 0.0;
-    /* The ray caster's interval: t is the linear depth (rast_pixel_ray), clipped to near/far. */
+    /* The ray caster's interval: t is the linear depth (rast_pixel_ray), clipped to near/far, and
+     * to the mesh depth when one is given (as vol_raycast's depth_limit). */
     double t0 = J->vc.znear, t1 = J->vc.zfar;
-    if (!(dl > 0.0) || !tvi_clip(&J->tc, o, d, &t0, &t1)) {
+    if (J->depth_limit) {
+        const float dz = obs_image_f32_row(J->depth_limit, y)[x];
+        if (dz < t1) /* NaN and +inf leave the interval alone */
+            t1 = dz;
+    }
+    if (!(dl > 0.0) || !(t1 > t0) || !tvi_clip(&J->tc, o, d, &t0, &t1)) {
         for (int r = 0; r < J->R; r++)
             acc[r][3] = (double)(J->samples / J->R); /* every sample escapes */
         return;
@@ -771,6 +778,9 @@ obs_status truth_volume_mc_render(obs_context *ctx, obs_pool *pool, const vol_gr
                          (long long)p->samples, p->replicates);
     if (p->tile < 1 || p->tile > 64)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth volume image: tile %d must be in [1, 64]", p->tile);
+    if (p->depth_limit && (!p->depth_limit->data || p->depth_limit->width != width || p->depth_limit->height != height))
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "truth volume image: the depth limit must be a %d x %d plane", width, height);
     {
         obs_limits deflim = obs_limits_default();
         const obs_limits *lim = ctx ? obs_context_limits(ctx) : &deflim;
@@ -837,6 +847,7 @@ obs_status truth_volume_mc_render(obs_context *ctx, obs_pool *pool, const vol_gr
     J.R = p->replicates;
     J.seed = p->seed;
     J.step = 0.0;
+    J.depth_limit = p->depth_limit;
     obs_status rs = tvi_run(ctx, pool, &J, width, height, p->tile, out);
     free(J.maj);
     return rs;
