@@ -152,6 +152,126 @@ TEST(scale_truth_ao_task_partition_equals_whole_render)
     obs_context_destroy(ctx);
 }
 
+/* The same for truth_sss: the tiles tile the image once; three subsets of them, dealt by the
+ * translucent-pixel estimate and rendered apart (2 threads), give the whole render's seven planes
+ * bit for bit, zeros elsewhere, and counters that sum to the whole's. */
+TEST(scale_truth_sss_task_partition_equals_whole_render)
+{
+    const int sizes[][3] = {{24, 18, 4}, {25, 17, 4}, {10, 7, 3}, {5, 5, 64}};
+    for (size_t k = 0; k < sizeof sizes / sizeof sizes[0]; k++) {
+        const int W = sizes[k][0], H = sizes[k][1], T = sizes[k][2];
+        const int64_t n = truth_sss_task_count(W, H, T);
+        CHECK(n > 0);
+        unsigned char *hit = (unsigned char *)calloc((size_t)W * H, 1);
+        for (int64_t t = 0; t < n; t++) {
+            int x0, y0, x1, y1;
+            truth_sss_task_rect(W, H, T, t, &x0, &y0, &x1, &y1);
+            CHECK(x0 >= 0 && y0 >= 0 && x1 <= W && y1 <= H && x0 < x1 && y0 < y1);
+            for (int y = y0; y < y1; y++)
+                for (int x = x0; x < x1; x++)
+                    hit[(size_t)y * W + x]++;
+        }
+        for (int i = 0; i < W * H; i++)
+            CHECK_MSG(hit[i] == 1, "%dx%d tile %d: pixel %d covered %d times", W, H, T, i, hit[i]);
+        free(hit);
+    }
+    CHECK_EQ_INT(truth_sss_task_count(0, 10, 4), 0);
+    CHECK_EQ_INT(truth_sss_task_count(10, 10, 65), 0);
+
+    obs_context *ctx = obs_context_create();
+    obs_scene scene;
+    io_gltf_options go = io_gltf_options_default();
+    CHECK_OK(io_gltf_load(ctx, test_path(test_data_dir(), "sphere_potato.glb"), &go, &scene), ctx);
+    CHECK(scene.camera_count > 0);
+    sss_scene_setup setup;
+    CHECK_OK(sss_scene_setup_make(ctx, &scene, NULL, 1.0, &setup), ctx);
+    CHECK(setup.translucent_slots > 0);
+    enum { W = 24, H = 18 };
+    rast_params rp = rast_params_default();
+    rp.width = W;
+    rp.height = H;
+    rp.outputs = RAST_OUT_DEPTH | RAST_OUT_PRIM_ID | RAST_OUT_INSTANCE_ID;
+    rast_gbuffer gb;
+    CHECK_OK(rast_gbuffer_alloc(ctx, &rp, &gb), ctx);
+    rast_view v = {scene.cameras[0]};
+    CHECK_OK(rast_render(ctx, NULL, &scene, &v, 1, &rp, &gb, NULL), ctx);
+    truth_scene *ts = NULL;
+    CHECK_OK(truth_scene_create(ctx, &scene, TRUTH_BUILD_MEDIUM, &ts), ctx);
+    truth_sss_params p = truth_sss_params_default();
+    p.min_samples = p.max_samples = p.batch = 256;
+    p.patch_radius = 0.05;
+    const int64_t nt = truth_sss_task_count(W, H, p.tile);
+    double *cost = (double *)malloc(sizeof(double) * (size_t)nt);
+    int *owner = (int *)malloc(sizeof(int) * (size_t)nt);
+    unsigned char *mask = (unsigned char *)malloc((size_t)nt);
+    CHECK_OK(scale_sss_task_costs(ctx, &gb, &scene, &setup.mats, p.tile, cost, nt), ctx);
+    double total = 0.0;
+    for (int64_t t = 0; t < nt; t++)
+        total += cost[t];
+    CHECK(total > 1.0 && total < (double)W * H); /* some translucent pixels, not all */
+    CHECK_OK(scale_deal_tasks(ctx, cost, nt, 3, owner), ctx);
+    obs_pool *pool = obs_pool_create(2);
+    for (int e = 0; e < 2; e++) {
+        p.estimator = e ? TRUTH_SSS_RANDOM_WALK : TRUTH_SSS_BRUTE_FORCE;
+        truth_sss_result whole;
+        CHECK_OK(truth_sss_render(ctx, NULL, ts, &scene, &setup.mats, &scene.cameras[0], &gb, &p, &whole), ctx);
+        CHECK(whole.stats.pixels_surface > 0);
+        truth_sss_stats sum;
+        memset(&sum, 0, sizeof sum);
+        for (int r = 0; r < 3; r++) {
+            for (int64_t t = 0; t < nt; t++)
+                mask[t] = owner[t] == r;
+            truth_sss_result part;
+            CHECK_OK(truth_sss_render_tasks(ctx, pool, ts, &scene, &setup.mats, &scene.cameras[0], &gb, &p, mask, &part),
+                     ctx);
+            const obs_image_f32 *pa[7] = {&part.radiance[0], &part.radiance[1], &part.radiance[2], &part.std_error[0],
+                                          &part.std_error[1], &part.std_error[2], &part.count};
+            const obs_image_f32 *pw[7] = {&whole.radiance[0], &whole.radiance[1], &whole.radiance[2], &whole.std_error[0],
+                                          &whole.std_error[1], &whole.std_error[2], &whole.count};
+            for (int64_t t = 0; t < nt; t++) {
+                int x0, y0, x1, y1;
+                truth_sss_task_rect(W, H, p.tile, t, &x0, &y0, &x1, &y1);
+                for (int y = y0; y < y1; y++)
+                    for (int x = x0; x < x1; x++)
+                        for (int q = 0; q < 7; q++) {
+                            const float a = obs_image_f32_row(pa[q], y)[x];
+                            if (mask[t]) /* bit for bit */
+                                CHECK(!memcmp(&a, obs_image_f32_row(pw[q], y) + x, 4));
+                            else
+                                CHECK(a == 0.0f);
+                        }
+            }
+            sum.candidates += part.stats.candidates;
+            sum.accepted += part.stats.accepted;
+            sum.rays += part.stats.rays;
+            sum.walk_events += part.stats.walk_events;
+            sum.pixels_surface += part.stats.pixels_surface;
+            sum.pixels_skipped += part.stats.pixels_skipped;
+            sum.pixels_converged += part.stats.pixels_converged;
+            sum.pixels_at_max += part.stats.pixels_at_max;
+            truth_sss_result_free(&part);
+        }
+        CHECK_EQ_INT(sum.candidates, whole.stats.candidates);
+        CHECK_EQ_INT(sum.accepted, whole.stats.accepted);
+        CHECK_EQ_INT(sum.rays, whole.stats.rays);
+        CHECK_EQ_INT(sum.walk_events, whole.stats.walk_events);
+        CHECK_EQ_INT(sum.pixels_surface, whole.stats.pixels_surface);
+        CHECK_EQ_INT(sum.pixels_skipped, whole.stats.pixels_skipped);
+        CHECK_EQ_INT(sum.pixels_converged, whole.stats.pixels_converged);
+        CHECK_EQ_INT(sum.pixels_at_max, whole.stats.pixels_at_max);
+        truth_sss_result_free(&whole);
+    }
+    obs_pool_destroy(pool);
+    free(cost);
+    free(owner);
+    free(mask);
+    truth_scene_destroy(ts);
+    sss_scene_setup_free(&setup);
+    rast_gbuffer_free(&gb);
+    obs_scene_free(&scene);
+    obs_context_destroy(ctx);
+}
+
 /* ---- MPI runs ----------------------------------------------------------------------------------- */
 
 #define SKIP_CODE 77
@@ -207,13 +327,15 @@ static int same_file(const char *a, const char *b)
 /* mpiexec -np N [flags] obscura --threads 1 truth ao ... -o <dir>/x/t, run from the test. The flags
  * are what a container needs (docs/scale.md, "Running on one machine"): root allowed, more ranks
  * than cores, no binding (ranks share the 2 cores). */
-static int run_mpi(int np, const char *out_prefix, const char *tag)
+static int run_mpi_args(int np, const char *const *cmd, const char *tag)
 {
     char npb[16];
     snprintf(npb, sizeof npb, "%d", np);
-    const char *args[] = {"--allow-run-as-root", "--oversubscribe", "--bind-to", "none", "-np", npb, OBS_CLI_PATH,
-                          "--quiet", "--threads", "1", "truth", "ao", test_path(test_data_dir(), "bunny.glb"),
-                          "--size", "48x32", "--max-samples", "128", "-o", out_prefix, NULL};
+    const char *args[64] = {"--allow-run-as-root", "--oversubscribe", "--bind-to", "none", "-np", npb, OBS_CLI_PATH};
+    int na = 7;
+    for (int i = 0; cmd[i] && na < 63; i++)
+        args[na++] = cmd[i];
+    args[na] = NULL;
     /* OpenMPI's libraries (not instrumented) keep allocations at exit that LeakSanitizer would
      * report in every rank of a sanitizer build: leak checks off for the ranks (obscura's own
      * leaks are checked by the plain runs of every other test). */
@@ -228,6 +350,13 @@ static int run_mpi(int np, const char *out_prefix, const char *tag)
     snprintf(out, sizeof out, "%s/%s.stdout", test_tmpdir(), tag);
     snprintf(err, sizeof err, "%s/%s.stderr", test_tmpdir(), tag);
     return test_spawn(OBS_TEST_MPIEXEC, args, out, err);
+}
+
+static int run_mpi(int np, const char *out_prefix, const char *tag)
+{
+    const char *cmd[] = {"--quiet", "--threads", "1", "truth", "ao", test_path(test_data_dir(), "bunny.glb"),
+                         "--size", "48x32", "--max-samples", "128", "-o", out_prefix, NULL};
+    return run_mpi_args(np, cmd, tag);
 }
 #endif
 
@@ -278,6 +407,68 @@ TEST(scale_mpi_truth_ao_any_rank_count_gives_the_plain_bytes)
         snprintf(to, sizeof to, "%s/np%d", dir, np);
         CHECK(rename(from, to) == 0);
     }
+#endif
+}
+
+/* truth sss over 1, 2 and 3 ranks: both references (brute force and random walk), tiny and few
+ * samples; the EXR, both PNGs and the sidecar (timings and "scale" aside) equal the plain run's. */
+TEST(scale_mpi_truth_sss_any_rank_count_gives_the_plain_bytes)
+{
+#ifndef OBS_TEST_MPIEXEC
+    fprintf(stderr, "skipped: a build without MPI (OBS_WITH_MPI off)\n");
+    exit(SKIP_CODE);
+#else
+    const char *dir = test_tmpdir();
+    char prefix[8400], plain[8400], from[8400], to[8400];
+    snprintf(prefix, sizeof prefix, "%s/x/t", dir);
+    snprintf(plain, sizeof plain, "%s/plain", dir);
+    snprintf(from, sizeof from, "%s/x", dir);
+    const char *cmd[] = {"--quiet", "--threads", "1", "truth", "sss", test_path(test_data_dir(), "sphere_potato.glb"),
+                         "--size", "20x15", "--min-samples", "256", "--max-samples", "256", "--batch", "256",
+                         "-o", prefix, NULL};
+    CHECK_EQ_INT(test_cli_run(cmd, "plain"), 0);
+    CHECK(rename(from, plain) == 0);
+    for (int np = 1; np <= 3; np++) {
+        char tag[16];
+        snprintf(tag, sizeof tag, "np%d", np);
+        int rc = run_mpi_args(np, cmd, tag);
+        if (rc != 0) {
+            char e[8400];
+            snprintf(e, sizeof e, "%s/%s.stderr", dir, tag);
+            char *b = test_slurp(e, NULL);
+            fprintf(stderr, "mpiexec -np %d: exit %d: %s\n", np, rc, b ? b : "");
+            free(b);
+        }
+        CHECK_EQ_INT(rc, 0);
+        const char *ext[] = {".exr", "_brute.png", "_walk.png"};
+        for (int k = 0; k < 3; k++) {
+            char a[8600], b[8600];
+            snprintf(a, sizeof a, "%s/t%s", plain, ext[k]);
+            snprintf(b, sizeof b, "%s%s", prefix, ext[k]);
+            CHECK_MSG(same_file(a, b), "-np %d: %s differs from the plain run's", np, ext[k]);
+        }
+        char a[8600], b[8600];
+        snprintf(a, sizeof a, "%s/t.json", plain);
+        snprintf(b, sizeof b, "%s.json", prefix);
+        char *ja = sidecar_without_timings(a), *jb = sidecar_without_timings(b), *full = test_slurp(b, NULL);
+        CHECK(ja && jb && full);
+        CHECK_MSG(!strcmp(ja, jb), "-np %d: the sidecars differ beyond timings:\n%s\n---\n%s", np, ja, jb);
+        CHECK(strstr(full, "\"imbalance_rays\"") != NULL);
+        CHECK(strstr(full, "translucent surface pixels") != NULL);
+        free(ja);
+        free(jb);
+        free(full);
+        snprintf(to, sizeof to, "%s/np%d", dir, np);
+        CHECK(rename(from, to) == 0);
+    }
+    /* a failing rank fails the job, named by rank 0, and nothing is written */
+    setenv("OBS_SCALE_FAULT", "fail:1", 1);
+    int rc = run_mpi_args(2, cmd, "failed");
+    unsetenv("OBS_SCALE_FAULT");
+    CHECK_EQ_INT(rc, 6);
+    CHECK(test_cli_stderr_has("failed", "rank 1 of 2 failed: injected failure"));
+    struct stat sb;
+    CHECK_MSG(stat(from, &sb) != 0, "the failed job left %s", from);
 #endif
 }
 
@@ -346,17 +537,14 @@ TEST(scale_mpi_not_built_is_reported_under_a_launcher)
 #endif
 }
 
-/* truth sss and truth volume do not split over ranks: under a launcher they refuse to start. */
-TEST(scale_mpi_truth_sss_and_volume_refuse_a_launcher)
+/* truth volume does not split over ranks yet: under a launcher it refuses to start (truth ao
+ * and truth sss split, scale_mpi_truth_*_any_rank_count_gives_the_plain_bytes). */
+TEST(scale_mpi_truth_volume_refuses_a_launcher)
 {
     setenv("OMPI_COMM_WORLD_SIZE", "2", 1);
-    const char *a[] = {"truth", "sss", test_path(test_data_dir(), "bunny_cream.glb"), NULL};
-    int rc = test_cli_run(a, "sss");
     const char *b[] = {"truth", "volume", "x.nrrd", NULL};
     int rc2 = test_cli_run(b, "vol");
     unsetenv("OMPI_COMM_WORLD_SIZE");
-    CHECK_EQ_INT(rc, 2);
-    CHECK(test_cli_stderr_has("sss", "does not run over MPI yet"));
     CHECK_EQ_INT(rc2, 2);
     CHECK(test_cli_stderr_has("vol", "does not run over MPI yet"));
 }

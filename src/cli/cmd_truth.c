@@ -67,9 +67,9 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         fputs(truth_help, stdout);
         return CLI_EXIT_OK;
     }
-    /* Only `truth ao` splits its image over MPI ranks so far: under a launcher, the others would
-     * have every rank compute and write the whole image (docs/scale.md). */
-    if ((!strcmp(argv[1], "sss") || !strcmp(argv[1], "volume")) && scale_mpi_launched())
+    /* `truth ao` and `truth sss` split their image over MPI ranks; `truth volume` does not yet:
+     * under a launcher every rank would compute and write the whole volume (docs/scale.md). */
+    if (!strcmp(argv[1], "volume") && scale_mpi_launched())
         return cli_usage_error("truth %s does not run over MPI yet: run it without mpirun (or set OBS_NO_MPI=1)",
                                argv[1]);
     if (!strcmp(argv[1], "sss"))

@@ -3,6 +3,7 @@
  * reference: the same BSSRDF as the scattering maps) and the volumetric random walk (the model's
  * reference), each as an EXR layer with its error bars, a PNG each, and a JSON sidecar. */
 #include "cli_sss.h"
+#include "scale/scale.h"
 #include "truth/truth.h"
 
 #include <math.h>
@@ -33,7 +34,10 @@ static const char *truth_sss_help =
     "  --exposure E          PNGs only: multiply by E before the sRGB encoding (default 1)\n"
     "  -o, --output PREFIX   PREFIX.exr (layers brute.R/G/B, brute.stderr.R/G/B, brute.count, the\n"
     "                        same for walk, Z), PREFIX_brute.png, PREFIX_walk.png, PREFIX.json\n"
-    "                        (default prefix: truth_sss)\n";
+    "                        (default prefix: truth_sss)\n"
+    "Under MPI (mpirun -np N obscura truth sss ...), the tiles are dealt over the ranks and rank 0\n"
+    "gathers and writes the same files as one process, byte for byte, with a 'scale' object in the\n"
+    "sidecar (docs/scale.md); OBS_NO_MPI=1 runs each rank as a plain process.\n";
 
 typedef struct ref_run {
     const char *tag;               /* "brute" or "walk" */
@@ -144,6 +148,25 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     obs_context *ctx = obs_context_create();
     if (!ctx)
         return CLI_EXIT_INTERNAL;
+    /* Under an MPI launcher: every rank loads the scene, draws the G-buffer and builds the BVH,
+     * renders the tasks (tiles) dealt to it for each reference, and rank 0 gathers and writes
+     * (docs/scale.md, as truth ao). */
+    scale_comm *comm = NULL;
+    if (scale_mpi_launched()) {
+        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
+        if (sm != OBS_STATUS_OK) {
+            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
+            obs_context_destroy(ctx);
+            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
+        }
+    }
+    const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
+    int *owner = NULL;
+    double *task_cost = NULL;
+    unsigned char *task_mask = NULL;
+    scale_rank_stats *per_rank[2] = {NULL, NULL};
+    int64_t ntasks = 0;
+    double t_wait = 0.0, t_gather = 0.0, seconds_write = 0.0;
     obs_context_set_limits(ctx, &g->limits);
     obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
@@ -169,13 +192,17 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
         st = cli_require_triangles(ctx, &scene);
     if (st == OBS_STATUS_OK)
         st = cli_pick_camera(ctx, &scene, camera, &cam);
-    if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
+    if (comm) /* every rank reads the same files: one that cannot ends the job (docs/scale.md) */
+        st = scale_mpi_agree(ctx, comm, st);
+    if (st != OBS_STATUS_OK) { /* rank 0 reports an agreed failure; mpirun returns its code */
+        code = rank == 0 ? cli_fail(ctx, st) : CLI_EXIT_OK;
         goto done;
     }
     st = cli_sss_prepare(ctx, &so, scene_path, &scene, &cam, &setup);
+    if (comm)
+        st = scale_mpi_agree(ctx, comm, st);
     if (st != OBS_STATUS_OK) {
-        code = cli_sss_exit_for(ctx, st);
+        code = rank == 0 ? cli_sss_exit_for(ctx, st) : CLI_EXIT_OK;
         goto done;
     }
     if (!patch_given) {
@@ -187,6 +214,7 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     pool = obs_pool_create(g->threads);
     if (!pool) {
         fprintf(stderr, "obscura: error: cannot start %d threads\n", g->threads);
+        scale_mpi_abort(comm, CLI_EXIT_INTERNAL); /* the other ranks would wait for this one */
         code = CLI_EXIT_INTERNAL;
         goto done;
     }
@@ -200,6 +228,27 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
         st = rast_render(ctx, pool, &scene, &view, 1, &rp, &gb, NULL);
     if (st == OBS_STATUS_OK)
         st = truth_scene_create(ctx, &scene, TRUTH_BUILD_MEDIUM, &ts);
+    if (comm && st == OBS_STATUS_OK) {
+        /* Deal the tasks (the pool's tiles, truth_sss_task_rect) by estimated cost, the
+         * translucent surface pixels: every rank computes the same dealing from the same G-buffer
+         * (docs/scale.md, "Balance"); both references use it. */
+        ntasks = truth_sss_task_count(W, H, p.tile);
+        owner = (int *)malloc(sizeof(int) * (size_t)(ntasks > 0 ? ntasks : 1));
+        task_cost = (double *)malloc(sizeof(double) * (size_t)(ntasks > 0 ? ntasks : 1));
+        task_mask = (unsigned char *)malloc((size_t)(ntasks > 0 ? ntasks : 1));
+        per_rank[0] = (scale_rank_stats *)calloc((size_t)ranks, sizeof(scale_rank_stats));
+        per_rank[1] = (scale_rank_stats *)calloc((size_t)ranks, sizeof(scale_rank_stats));
+        if (!owner || !task_cost || !task_mask || !per_rank[0] || !per_rank[1])
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth sss: out of memory");
+        if (st == OBS_STATUS_OK && ntasks == 0)
+            st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth sss: tile %d out of range", p.tile);
+        if (st == OBS_STATUS_OK)
+            st = scale_sss_task_costs(ctx, &gb, &scene, &setup.mats, p.tile, task_cost, ntasks);
+        if (st == OBS_STATUS_OK)
+            st = scale_deal_tasks(ctx, task_cost, ntasks, ranks, owner);
+        for (int64_t t = 0; st == OBS_STATUS_OK && t < ntasks; t++)
+            task_mask[t] = owner[t] == rank;
+    }
     for (int r = 0; r < 2 && st == OBS_STATUS_OK; r++) {
         if (!runs[r].wanted)
             continue;
@@ -208,16 +257,17 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
         char label[64];
         snprintf(label, sizeof label, "truth sss %s", truth_sss_estimator_name(q.estimator));
         cli_progress pr = {obs_time_now(), 0.0, 0, label};
-        if (!g->quiet && isatty(fileno(stderr))) {
+        if (!g->quiet && !comm && isatty(fileno(stderr))) {
             q.progress = cli_progress_draw;
             q.progress_user = &pr;
         }
         const double t0 = obs_time_now();
-        st = truth_sss_render(ctx, pool, ts, &scene, &setup.mats, &cam, &gb, &q, &runs[r].res);
+        st = comm ? truth_sss_render_tasks(ctx, pool, ts, &scene, &setup.mats, &cam, &gb, &q, task_mask, &runs[r].res)
+                  : truth_sss_render(ctx, pool, ts, &scene, &setup.mats, &cam, &gb, &q, &runs[r].res);
         runs[r].seconds = obs_time_now() - t0;
         if (pr.drawn)
             fputc('\n', stderr);
-        if (st == OBS_STATUS_OK && !g->quiet) {
+        if (st == OBS_STATUS_OK && !g->quiet && !comm) {
             const truth_sss_stats *S = &runs[r].res.stats;
             fprintf(stderr,
                     "obscura: truth sss %s: %dx%d: %lld surface pixels (%lld at the target, %lld at max samples), "
@@ -227,10 +277,35 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
                     runs[r].seconds, obs_pool_threads(pool));
         }
     }
+    if (comm) { /* one failed rank fails the job, before anything is written */
+        st = scale_fault_point(ctx, comm, st);
+        const double t0 = obs_time_now();
+        st = scale_mpi_agree(ctx, comm, st);
+        const double t1 = obs_time_now();
+        for (int r = 0; r < 2 && st == OBS_STATUS_OK; r++)
+            if (runs[r].wanted)
+                st = scale_mpi_gather_sss(ctx, comm, owner, task_cost, ntasks, p.tile, &runs[r].res, per_rank[r]);
+        t_wait = t1 - t0;
+        t_gather = obs_time_now() - t1;
+        if (st == OBS_STATUS_OK && rank != 0)
+            goto done; /* rank 0 writes */
+        for (int r = 0; r < 2 && st == OBS_STATUS_OK && !g->quiet; r++) {
+            if (!runs[r].wanted)
+                continue;
+            const truth_sss_stats *S = &runs[r].res.stats;
+            fprintf(stderr,
+                    "obscura: truth sss %s: %dx%d: %lld surface pixels (%lld at the target, %lld at max samples), "
+                    "%llu rays in %.2f s (%d ranks of %d threads)\n",
+                    truth_sss_estimator_name(runs[r].estimator), W, H, (long long)S->pixels_surface,
+                    (long long)S->pixels_converged, (long long)S->pixels_at_max, (unsigned long long)S->rays,
+                    runs[r].seconds, ranks, obs_pool_threads(pool));
+        }
+    }
     if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
+        code = rank == 0 ? cli_fail(ctx, st) : CLI_EXIT_OK;
         goto done;
     }
+    const double t_write = obs_time_now();
 
     /* ---- EXR: one layer per reference, then the depth ---- */
     {
@@ -297,6 +372,7 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
         goto done;
     }
 
+    seconds_write = obs_time_now() - t_write;
     /* ---- JSON sidecar ---- */
     io_json_begin_object(&j, NULL);
     cli_json_header(&j, "truth sss", argc, argv);
@@ -335,6 +411,49 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
         io_json_number(&j, "seconds", runs[r].seconds);
         io_json_end_object(&j);
     }
+    if (comm) { /* the MPI run: ranks, dealing and balance (docs/scale.md) */
+        const int nr = ranks;
+        double *rr = (double *)calloc(6 * (size_t)nr, sizeof(double)); /* total, brute, walk: rays, seconds */
+        for (int q = 0; rr && q < nr; q++)
+            for (int r = 0; r < 2; r++)
+                if (runs[r].wanted) {
+                    rr[(size_t)(1 + r) * nr + q] = (double)per_rank[r][q].rays;
+                    rr[(size_t)(4 + r) * nr + q] = per_rank[r][q].seconds_work;
+                    rr[q] += (double)per_rank[r][q].rays;
+                    rr[(size_t)3 * nr + q] += per_rank[r][q].seconds_work;
+                }
+        const scale_rank_stats *pr0 = runs[0].wanted ? per_rank[0] : per_rank[1];
+        io_json_begin_object(&j, "scale");
+        io_json_int(&j, "ranks", ranks);
+        io_json_int(&j, "tasks", ntasks);
+        io_json_string(&j, "dealing", "greedy by estimated cost (translucent surface pixels) in task order");
+        io_json_number(&j, "imbalance_rays", rr ? scale_imbalance(rr, nr) : NAN);
+        io_json_number(&j, "imbalance_seconds", rr ? scale_imbalance(rr + (size_t)3 * nr, nr) : NAN);
+        for (int r = 0; r < 2; r++) {
+            if (!runs[r].wanted)
+                continue;
+            io_json_begin_object(&j, runs[r].tag);
+            io_json_number(&j, "imbalance_rays", rr ? scale_imbalance(rr + (size_t)(1 + r) * nr, nr) : NAN);
+            io_json_number(&j, "imbalance_seconds", rr ? scale_imbalance(rr + (size_t)(4 + r) * nr, nr) : NAN);
+            io_json_end_object(&j);
+        }
+        io_json_number(&j, "seconds_wait_rank0", t_wait);   /* rank 0 waiting for the slowest rank */
+        io_json_number(&j, "seconds_gather", t_gather);     /* the pixels and counters to rank 0 */
+        io_json_number(&j, "seconds_write", seconds_write); /* EXR and PNGs, rank 0 */
+        io_json_begin_array(&j, "per_rank");
+        for (int q = 0; q < nr; q++) {
+            io_json_begin_object(&j, NULL);
+            io_json_int(&j, "rank", q);
+            io_json_int(&j, "tasks", pr0[q].tasks);
+            io_json_number(&j, "cost_estimate", pr0[q].cost_estimate);
+            io_json_int(&j, "rays", rr ? (int64_t)rr[q] : 0); /* both references */
+            io_json_number(&j, "seconds_work", rr ? rr[(size_t)3 * nr + q] : NAN);
+            io_json_end_object(&j);
+        }
+        io_json_end_array(&j);
+        io_json_end_object(&j);
+        free(rr);
+    }
     io_json_string(&j, "png", "<PREFIX>_<ref>.png: R, G, B times --exposure, sRGB-encoded, clamped to [0, 1]");
     io_json_end_object(&j);
     snprintf(path, sizeof path, "%s.json", prefix);
@@ -349,6 +468,12 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
                 runs[0].wanted ? prefix : "", runs[0].wanted ? "_brute.png, " : "",
                 runs[1].wanted ? prefix : "", runs[1].wanted ? "_walk.png, " : "", prefix);
 done:
+    free(owner);
+    free(task_cost);
+    free(task_mask);
+    free(per_rank[0]);
+    free(per_rank[1]);
+    scale_mpi_finalize(comm);
     io_json_free(&j);
     for (int c = 0; c < 3; c++)
         obs_image_f32_free(&png[c]);

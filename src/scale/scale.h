@@ -38,6 +38,15 @@ struct rast_gbuffer; /* raster/raster.h */
 obs_status scale_ao_task_costs(obs_context *ctx, const struct rast_gbuffer *gb, int tile, double *cost,
                                int64_t ntasks);
 
+/* The estimated cost of each of the ntasks = truth_sss_task_count(W, H, tile) tasks of gb's inner
+ * image for truth_sss: its translucent surface pixels (finite depth, an instance of `scene` whose
+ * material is translucent in mats: the pixels truth_sss estimates, less the few it skips as seen
+ * from inside) + SCALE_BACKGROUND_COST per other pixel (background, opaque: written, not
+ * estimated). gb needs depth and instance ids. Returns OK or INVALID_ARGUMENT (NULL, a missing
+ * plane, a size mismatch). */
+obs_status scale_sss_task_costs(obs_context *ctx, const struct rast_gbuffer *gb, const obs_scene *scene,
+                                const sss_scene_materials *mats, int tile, double *cost, int64_t ntasks);
+
 /* Deal ntasks tasks over nranks ranks: tasks taken in index order, each to the rank with the least
  * estimated cost so far (ties to the lowest rank): neighbouring tasks, whose true costs are alike,
  * go to different ranks, and every rank's total estimate is within one task's cost of the others'.
@@ -102,6 +111,14 @@ typedef struct scale_rank_stats {
  * (an MPI error; MPI's default handler aborts the job first). */
 obs_status scale_mpi_gather_ao(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
                                int tile, truth_ao_result *res, scale_rank_stats *per_rank);
+
+/* Collective, as scale_mpi_gather_ao for a truth_sss_render_tasks result (tasks
+ * truth_sss_task_rect of `tile`): rank 0's res then holds every pixel of the seven planes
+ * (radiance, std_error, count) and the summed stats (seconds: the maximum over the ranks).
+ * per_rank's rays are Embree rays, seconds_work each rank's stats.seconds. Returns as
+ * scale_mpi_gather_ao. */
+obs_status scale_mpi_gather_sss(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
+                                int tile, truth_sss_result *res, scale_rank_stats *per_rank);
 
 #ifdef __cplusplus
 }

@@ -31,6 +31,47 @@ obs_status scale_ao_task_costs(obs_context *ctx, const rast_gbuffer *gb, int til
     return OBS_STATUS_OK;
 }
 
+obs_status scale_sss_task_costs(obs_context *ctx, const rast_gbuffer *gb, const obs_scene *scene,
+                                const sss_scene_materials *mats, int tile, double *cost, int64_t ntasks)
+{
+    if (!gb || !scene || !mats || !cost)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_sss_task_costs: NULL argument");
+    if (!gb->depth.data || !gb->instance_id.data)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "scale_sss_task_costs: the G-buffer has no depth or instance id plane");
+    const int W = gb->width - 2 * gb->guard, H = gb->height - 2 * gb->guard;
+    if (truth_sss_task_count(W, H, tile) != ntasks)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_sss_task_costs: %lld tasks given, the %dx%d image has %lld",
+                         (long long)ntasks, W, H, (long long)truth_sss_task_count(W, H, tile));
+    /* per instance: 1 when truth_sss estimates its pixels (a translucent material; truth_sss.c's
+     * inst_material: a mesh without material takes mats->none) */
+    unsigned char *lit = (unsigned char *)calloc(scene->instance_count ? scene->instance_count : 1, 1);
+    if (!lit)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "scale_sss_task_costs: out of memory");
+    for (uint32_t i = 0; i < scene->instance_count; i++) {
+        const uint32_t m = scene->instances[i].mesh;
+        if (m >= scene->mesh_count)
+            continue;
+        const int mat = scene->meshes[m].material;
+        lit[i] = mat < 0 ? mats->none != NULL
+                         : (uint32_t)mat < mats->count && mats->translucent && mats->translucent[mat];
+    }
+    for (int64_t t = 0; t < ntasks; t++) {
+        int x0, y0, x1, y1;
+        truth_sss_task_rect(W, H, tile, t, &x0, &y0, &x1, &y1);
+        int64_t surface = 0, all = (int64_t)(x1 - x0) * (y1 - y0);
+        for (int y = y0; y < y1; y++) {
+            const float *d = obs_image_f32_row(&gb->depth, y + gb->guard) + gb->guard;
+            const uint32_t *id = obs_image_u32_row(&gb->instance_id, y + gb->guard) + gb->guard;
+            for (int x = x0; x < x1; x++)
+                surface += isfinite(d[x]) && id[x] < scene->instance_count && lit[id[x]];
+        }
+        cost[t] = (double)surface + SCALE_BACKGROUND_COST * (double)(all - surface);
+    }
+    free(lit);
+    return OBS_STATUS_OK;
+}
+
 obs_status scale_deal_tasks(obs_context *ctx, const double *cost, int64_t ntasks, int nranks, int *owner)
 {
     if ((!cost || !owner) && ntasks > 0)

@@ -192,3 +192,121 @@ obs_status scale_mpi_gather_ao(obs_context *ctx, scale_comm *c, const int *owner
     }
     return OBS_STATUS_OK;
 }
+
+/* ---- truth_sss: seven planes, tasks truth_sss_task_rect ---------------------------------------- */
+
+enum { SSS_PLANES = 7, SSS_COUNTERS = 9 };
+
+static void sss_planes(truth_sss_result *res, obs_image_f32 *pl[SSS_PLANES])
+{
+    for (int c = 0; c < 3; c++) {
+        pl[c] = &res->radiance[c];
+        pl[3 + c] = &res->std_error[c];
+    }
+    pl[6] = &res->count;
+}
+
+/* Pixels of the tasks owned by `rank` (per plane). */
+static int64_t sss_rank_pixels(int W, int H, int tile, const int *owner, int64_t ntasks, int rank)
+{
+    int64_t n = 0;
+    for (int64_t t = 0; t < ntasks; t++)
+        if (owner[t] == rank) {
+            int x0, y0, x1, y1;
+            truth_sss_task_rect(W, H, tile, t, &x0, &y0, &x1, &y1);
+            n += (int64_t)(x1 - x0) * (y1 - y0);
+        }
+    return n;
+}
+
+/* Each owned task's rectangle, plane by plane, rows in order (as pack_unpack). */
+static void sss_pack_unpack(truth_sss_result *res, int tile, const int *owner, int64_t ntasks, int rank, float *buf,
+                            int unpack)
+{
+    obs_image_f32 *pl[SSS_PLANES];
+    sss_planes(res, pl);
+    size_t at = 0;
+    for (int64_t t = 0; t < ntasks; t++) {
+        if (owner[t] != rank)
+            continue;
+        int x0, y0, x1, y1;
+        truth_sss_task_rect(res->width, res->height, tile, t, &x0, &y0, &x1, &y1);
+        const size_t n = (size_t)(x1 - x0);
+        for (int k = 0; k < SSS_PLANES; k++)
+            for (int y = y0; y < y1; y++, at += n) {
+                float *row = obs_image_f32_row(pl[k], y) + x0;
+                if (unpack)
+                    memcpy(row, buf + at, n * sizeof(float));
+                else
+                    memcpy(buf + at, row, n * sizeof(float));
+            }
+    }
+}
+
+obs_status scale_mpi_gather_sss(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
+                                int tile, truth_sss_result *res, scale_rank_stats *per_rank)
+{
+    if (!c || !owner || !cost || !res)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_gather_sss: NULL argument");
+    truth_sss_stats *S = &res->stats;
+    /* the counters as 64-bit integers (exact), the seconds apart */
+    uint64_t mine[SSS_COUNTERS] = {S->candidates, S->accepted, S->rays, S->walk_events, S->walks_lost,
+                                   (uint64_t)S->pixels_surface, (uint64_t)S->pixels_skipped,
+                                   (uint64_t)S->pixels_converged, (uint64_t)S->pixels_at_max};
+    double my_seconds = S->seconds;
+    if (c->rank != 0) {
+        const int64_t n = SSS_PLANES * sss_rank_pixels(res->width, res->height, tile, owner, ntasks, c->rank);
+        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
+        if (!buf) /* rank 0 is waiting for this rank's pixels: end the job */
+            MPI_Abort(MPI_COMM_WORLD, 6);
+        sss_pack_unpack(res, tile, owner, ntasks, c->rank, buf, 0);
+        int ok = MPI_Send(mine, SSS_COUNTERS, MPI_UINT64_T, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS &&
+                 MPI_Send(&my_seconds, 1, MPI_DOUBLE, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS &&
+                 xfer(buf, n, 0, 1);
+        free(buf);
+        return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
+    }
+    if (per_rank) {
+        for (int r = 0; r < c->size; r++)
+            memset(&per_rank[r], 0, sizeof per_rank[r]);
+        per_rank[0].rays = S->rays;
+        per_rank[0].seconds_work = S->seconds;
+        for (int64_t t = 0; t < ntasks; t++) {
+            per_rank[owner[t]].tasks++;
+            per_rank[owner[t]].cost_estimate += cost[t];
+        }
+    }
+    for (int r = 1; r < c->size; r++) {
+        uint64_t th[SSS_COUNTERS];
+        double secs = 0.0;
+        if (MPI_Recv(th, SSS_COUNTERS, MPI_UINT64_T, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS ||
+            MPI_Recv(&secs, 1, MPI_DOUBLE, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS)
+            return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv from rank %d failed", r);
+        const int64_t n = SSS_PLANES * sss_rank_pixels(res->width, res->height, tile, owner, ntasks, r);
+        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
+        if (!buf)
+            MPI_Abort(MPI_COMM_WORLD, 6);
+        if (!xfer(buf, n, r, 0)) {
+            free(buf);
+            return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv of rank %d's pixels failed", r);
+        }
+        sss_pack_unpack(res, tile, owner, ntasks, r, buf, 1);
+        free(buf);
+        /* every counter is a sum over tasks (truth_sss_render adds its tasks' the same way) */
+        S->candidates += th[0];
+        S->accepted += th[1];
+        S->rays += th[2];
+        S->walk_events += th[3];
+        S->walks_lost += th[4];
+        S->pixels_surface += (int64_t)th[5];
+        S->pixels_skipped += (int64_t)th[6];
+        S->pixels_converged += (int64_t)th[7];
+        S->pixels_at_max += (int64_t)th[8];
+        S->seconds = secs > S->seconds ? secs : S->seconds;
+        if (per_rank) {
+            per_rank[r].rays = th[2];
+            per_rank[r].seconds_work = secs;
+        }
+    }
+    return OBS_STATUS_OK;
+}

@@ -31,3 +31,10 @@ obs_status scale_mpi_gather_ao(obs_context *ctx, scale_comm *c, const int *owner
     (void)c, (void)owner, (void)cost, (void)ntasks, (void)tile, (void)res, (void)per_rank;
     return obs_error(ctx, OBS_STATUS_UNSUPPORTED, NOT_BUILT);
 }
+
+obs_status scale_mpi_gather_sss(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
+                                int tile, truth_sss_result *res, scale_rank_stats *per_rank)
+{
+    (void)c, (void)owner, (void)cost, (void)ntasks, (void)tile, (void)res, (void)per_rank;
+    return obs_error(ctx, OBS_STATUS_UNSUPPORTED, NOT_BUILT);
+}

@@ -415,6 +415,25 @@ obs_status truth_sss_render(obs_context *ctx, obs_pool *pool, const truth_scene 
                             const truth_sss_params *p, truth_sss_result *out);
 void truth_sss_result_free(truth_sss_result *r);   /* NULL-safe; zeroes it */
 
+/* Subsets of the image's tasks (scale-out over MPI ranks, docs/scale.md), as truth_ao's.
+ * truth_sss_render hands its thread pool TASKS: the tiles of p->tile pixels of the inner image,
+ * row-major (obs_tiling). A pixel's result depends on (inputs, params, seed) only, so any
+ * partition of the tasks, rendered anywhere and put together, equals the whole image bit for bit.
+ * truth_sss_task_count: the number of tasks of a width x height inner image (0 for a bad size or
+ * a tile outside [1, 64]). truth_sss_task_rect: task `task`'s pixel rectangle [x0, x1) x [y0, y1). */
+int64_t truth_sss_task_count(int width, int height, int tile);
+void truth_sss_task_rect(int width, int height, int tile, int64_t task, int *x0, int *y0, int *x1, int *y1);
+
+/* truth_sss_render for the tasks whose task_mask[task] is nonzero only (task_mask holds
+ * truth_sss_task_count bytes; NULL = every task, truth_sss_render itself). The pixels of the
+ * selected tasks are bit-identical to truth_sss_render's; the others hold 0 in every plane. The
+ * stats count the selected tasks only (all sums: over any partition they add up to
+ * truth_sss_render's); seconds is this call's. Returns as truth_sss_render. */
+obs_status truth_sss_render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                  const sss_scene_materials *mats, const obs_camera *camera,
+                                  const struct rast_gbuffer *gb, const truth_sss_params *p,
+                                  const unsigned char *task_mask, truth_sss_result *out);
+
 /* The random walk's flux reflectance from one entry point: `count` photons of unit power enter
  * instance `instance` at x_i (on its surface, outward normal n_i) along direction `dir` (already
  * inside the medium, dir.n_i < 0; no entry Fresnel), channel `channel`; *reflectance = the mean

@@ -405,6 +405,7 @@ typedef struct sss_job {
     truth_sss_result *out;
     task_stats *ts_stats;     /* per task */
     int64_t task_offset;      /* of the chunk being run */
+    const unsigned char *task_mask; /* truth_sss_render_tasks: the tasks to render (NULL = all) */
 } sss_job;
 
 static double offset_at(const sss_job *J, const double *p)
@@ -716,6 +717,10 @@ static void sss_task(void *user, int64_t task, int thread)
     task += J->task_offset;
     task_stats *S = &J->ts_stats[task];
     memset(S, 0, sizeof *S);
+    if (J->task_mask && !J->task_mask[task]) { /* another caller's task: its pixels stay zero */
+        _mm_setcsr(saved_csr);
+        return;
+    }
     int x0, y0, x1, y1;
     obs_tiling_rect(&J->tiling, task, &x0, &y0, &x1, &y1);
     for (int y = y0; y < y1; y++)
@@ -802,9 +807,42 @@ static obs_status check_mats(obs_context *ctx, const obs_scene *scene, const sss
     return OBS_STATUS_OK;
 }
 
+int64_t truth_sss_task_count(int width, int height, int tile)
+{
+    if (width < 1 || height < 1 || tile < 1 || tile > 64)
+        return 0;
+    obs_tiling t = obs_tiling_make(width, height, tile);
+    return obs_tiling_count(&t);
+}
+
+void truth_sss_task_rect(int width, int height, int tile, int64_t task, int *x0, int *y0, int *x1, int *y1)
+{
+    obs_tiling t = obs_tiling_make(width, height, tile);
+    obs_tiling_rect(&t, task, x0, y0, x1, y1);
+}
+
+static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                               const sss_scene_materials *mats, const obs_camera *camera, const struct rast_gbuffer *gb,
+                               const truth_sss_params *p, const unsigned char *task_mask, truth_sss_result *out);
+
 obs_status truth_sss_render(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                             const sss_scene_materials *mats, const obs_camera *camera, const struct rast_gbuffer *gb,
                             const truth_sss_params *p, truth_sss_result *out)
+{
+    return render_tasks(ctx, pool, ts, scene, mats, camera, gb, p, NULL, out);
+}
+
+obs_status truth_sss_render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                                  const sss_scene_materials *mats, const obs_camera *camera,
+                                  const struct rast_gbuffer *gb, const truth_sss_params *p,
+                                  const unsigned char *task_mask, truth_sss_result *out)
+{
+    return render_tasks(ctx, pool, ts, scene, mats, camera, gb, p, task_mask, out);
+}
+
+static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                               const sss_scene_materials *mats, const obs_camera *camera, const struct rast_gbuffer *gb,
+                               const truth_sss_params *p, const unsigned char *task_mask, truth_sss_result *out)
 {
     double t0 = obs_time_now();
     if (out)
@@ -891,6 +929,7 @@ obs_status truth_sss_render(obs_context *ctx, obs_pool *pool, const truth_scene 
     J.gb = gb;
     J.p = *p;
     J.out = out;
+    J.task_mask = task_mask; /* the planes are zeroed at allocation: the tasks left out stay 0 */
     {
         obs_aabb b = scene->bounds;
         double e = fmax(fmax(b.hi.x - b.lo.x, b.hi.y - b.lo.y), b.hi.z - b.lo.z);
