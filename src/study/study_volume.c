@@ -624,7 +624,7 @@ obs_status study_volume_sweep(obs_context *ctx, obs_pool *pool, study_volume *s)
         }
         /* The dataset's keys; skip it whole when every one is measured. */
         const int nlv = s->scales.n * s->cones.n * s->blends.n;
-        int todo = 0;
+        int pending = 0; /* points of this dataset not yet in the table */
         for (int k = 0; k < s->steps.n; k++) {
             for (int m = 0; m < nlv + 2; m++) {
                 const char *key[6] = {s->datasets.v[di], "ea", "-", "-", "-", s->steps.v[k]};
@@ -636,10 +636,10 @@ obs_status study_volume_sweep(obs_context *ctx, obs_pool *pool, study_volume *s)
                     key[3] = s->cones.v[(m / s->blends.n) % s->cones.n];
                     key[4] = s->blends.v[m % s->blends.n];
                 }
-                todo += study_table_find(&s->table, key) < 0;
+                pending += study_table_find(&s->table, key) < 0;
             }
         }
-        if (!todo) {
+        if (!pending) {
             for (int k = 0; k < s->steps.n * (nlv + 2); k++)
                 study_progress_step(&pr, 0, "resumed");
             continue;
