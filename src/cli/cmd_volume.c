@@ -52,7 +52,11 @@ static const char *volume_help =
     "  --samples N           samples per pixel, a multiple of --replicates (default 256)\n"
     "  --replicates R        independent replicates for the error bar, 2..32 (default 8)\n"
     "  --phase-g G           Henyey-Greenstein asymmetry in (-1, 1) (default 0: the ray caster's model)\n"
-    "  --seed S              random seed (default 0)\n";
+    "  --seed S              random seed (default 0)\n"
+    "Under MPI (mpirun -np N obscura truth volume ...), the light volume's z slices and the MC image's\n"
+    "tiles are dealt over the ranks and rank 0 gathers and writes the same files as one process, byte\n"
+    "for byte, with a 'scale' object in the sidecar (docs/scale.md); OBS_NO_MPI=1 runs each rank as a\n"
+    "plain process.\n";
 
 static void json_stats(io_json *j, const char *key, const truth_volume_error_stats *s)
 {
