@@ -7,6 +7,9 @@
 #include "raster/raster.h"
 #include "scale/scale.h"
 #include "truth/truth.h"
+#include "volume/vol.h"
+
+#include <math.h>
 
 #include <stdlib.h>
 #include <string.h>
@@ -269,6 +272,104 @@ TEST(scale_truth_sss_task_partition_equals_whole_render)
     sss_scene_setup_free(&setup);
     rast_gbuffer_free(&gb);
     obs_scene_free(&scene);
+    obs_context_destroy(ctx);
+}
+
+/* truth volume's split: the light volume's error computed by z slices under three masks that
+ * partition the slices, and the MC image by tiles under three masks that partition the tiles, put
+ * together give truth_volume_light_error's and truth_volume_mc_render's values bit for bit, and
+ * the tiles' stats add up to the whole render's. */
+TEST(scale_truth_volume_slice_and_task_partition_equals_whole_render)
+{
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    vol_grid g;
+    vol_tf tf;
+    CHECK_OK(vol_synth(ctx, "bucky", 16, &g), ctx);
+    CHECK_OK(vol_tf_preset(ctx, "bucky", &tf), ctx);
+    vol_light L;
+    memset(&L, 0, sizeof L);
+    L.type = OBS_LIGHT_DIRECTIONAL;
+    L.direction[0] = 0.48, L.direction[1] = -0.6, L.direction[2] = 0.64;
+    L.color[0] = L.color[1] = L.color[2] = 1.0f;
+    vol_lv_params lp = vol_lv_params_default();
+    vol_light_volume lv;
+    CHECK_OK(vol_light_volume_build(ctx, pool, &g, &tf, &L, &lp, &lv), ctx);
+    truth_volume_params tp = truth_volume_params_default();
+    float *T = NULL, *err = NULL;
+    truth_volume_error_stats es, es2;
+    CHECK_OK(truth_volume_light_error(ctx, pool, &g, &tf, &L, &tp, &lv, &T, &err, &es), ctx);
+    const size_t vox = (size_t)lv.nx * lv.ny * lv.nz;
+    float *T2 = (float *)calloc(vox, sizeof(float)), *e2 = (float *)calloc(vox, sizeof(float));
+    unsigned char *mask = (unsigned char *)malloc((size_t)lv.nz);
+    for (int part = 0; part < 3; part++) {
+        for (int k = 0; k < lv.nz; k++)
+            mask[k] = (unsigned char)(k % 3 == part);
+        CHECK_OK(truth_volume_light_error_slices(ctx, pool, &g, &tf, &L, &tp, &lv, mask, T2, e2), ctx);
+    }
+    CHECK(!memcmp(T, T2, vox * sizeof(float)));
+    CHECK(!memcmp(err, e2, vox * sizeof(float)));
+    truth_volume_error_stats_compute(e2, (int64_t)vox, &es2);
+    CHECK(!memcmp(&es, &es2, sizeof es));
+    CHECK_EQ_INT(truth_volume_light_error_slices(ctx, pool, &g, &tf, &L, &tp, &lv, mask, NULL, e2),
+                 OBS_STATUS_INVALID_ARGUMENT);
+
+    const int W = 21, H = 13;
+    obs_camera cam = obs_camera_look_at(obs_v3(0.5f, 0.4f, 3.0f), obs_v3(0.5f, 0.5f, 0.5f), obs_v3(0, 1, 0), 0.7f, 0.5f,
+                                        6.0f);
+    cam.aspect = (float)W / (float)H;
+    truth_volume_mc_params p = truth_volume_mc_params_default();
+    p.samples = 16;
+    p.replicates = 4;
+    p.tile = 4;
+    truth_volume_image whole, part[3];
+    CHECK_OK(truth_volume_mc_render(ctx, pool, &g, &tf, &L, &cam, W, H, &p, &whole), ctx);
+    const int64_t nt = truth_volume_mc_task_count(W, H, p.tile);
+    CHECK_EQ_INT(nt, 6 * 4);
+    CHECK_EQ_INT(truth_volume_mc_task_count(W, H, 0), 0);
+    unsigned char *tm = (unsigned char *)malloc((size_t)nt);
+    uint64_t tent = 0, coll = 0;
+    int64_t hit = 0;
+    for (int q = 0; q < 3; q++) {
+        for (int64_t t = 0; t < nt; t++)
+            tm[t] = (unsigned char)(t % 3 == q);
+        CHECK_OK(truth_volume_mc_render_tasks(ctx, pool, &g, &tf, &L, &cam, W, H, &p, tm, &part[q]), ctx);
+        tent += part[q].stats.tentative;
+        coll += part[q].stats.collisions;
+        hit += part[q].stats.pixels_hit;
+    }
+    int same = 1;
+    for (int64_t t = 0; t < nt; t++) {
+        int x0, y0, x1, y1;
+        truth_volume_mc_task_rect(W, H, p.tile, t, &x0, &y0, &x1, &y1);
+        const truth_volume_image *pi = &part[t % 3];
+        for (int c = 0; c < 4; c++)
+            for (int y = y0; y < y1; y++)
+                for (int x = x0; x < x1; x++) {
+                    same &= obs_image_f32_row(&pi->rgba[c], y)[x] == obs_image_f32_row(&whole.rgba[c], y)[x];
+                    same &= obs_image_f32_row(&pi->std_error[c], y)[x] == obs_image_f32_row(&whole.std_error[c], y)[x];
+                    /* another part's pixel reads 0 */
+                    same &= obs_image_f32_row(&part[(t + 1) % 3].rgba[c], y)[x] == 0.0f;
+                }
+    }
+    CHECK(same);
+    CHECK(tent == whole.stats.tentative);
+    CHECK(coll == whole.stats.collisions);
+    CHECK_EQ_INT(hit, whole.stats.pixels_hit);
+    CHECK(whole.stats.pixels_hit > 0);
+    for (int q = 0; q < 3; q++)
+        truth_volume_image_free(&part[q]);
+    truth_volume_image_free(&whole);
+    free(tm);
+    free(mask);
+    free(T2);
+    free(e2);
+    obs_aligned_free(T);
+    obs_aligned_free(err);
+    vol_light_volume_free(&lv);
+    vol_tf_free(&tf);
+    vol_grid_free(&g);
+    obs_pool_destroy(pool);
     obs_context_destroy(ctx);
 }
 
@@ -539,12 +640,64 @@ TEST(scale_mpi_not_built_is_reported_under_a_launcher)
 
 /* truth volume does not split over ranks yet: under a launcher it refuses to start (truth ao
  * and truth sss split, scale_mpi_truth_*_any_rank_count_gives_the_plain_bytes). */
-TEST(scale_mpi_truth_volume_refuses_a_launcher)
+/* truth volume over 1, 2 and 3 ranks: the light volume's exact transmittance (z slices) and the
+ * MC image (tiles), tiny and few samples; both NRRDs, the EXR and the sidecar (timings and "scale"
+ * aside) equal the plain run's; a failing rank fails the job and nothing is written. */
+TEST(scale_mpi_truth_volume_any_rank_count_gives_the_plain_bytes)
 {
-    setenv("OMPI_COMM_WORLD_SIZE", "2", 1);
-    const char *b[] = {"truth", "volume", "x.nrrd", NULL};
-    int rc2 = test_cli_run(b, "vol");
-    unsetenv("OMPI_COMM_WORLD_SIZE");
-    CHECK_EQ_INT(rc2, 2);
-    CHECK(test_cli_stderr_has("vol", "does not run over MPI yet"));
+#ifndef OBS_TEST_MPIEXEC
+    fprintf(stderr, "skipped: a build without MPI (OBS_WITH_MPI off)\n");
+    exit(SKIP_CODE);
+#else
+    const char *dir = test_tmpdir();
+    char prefix[8400], plain[8400], from[8400], to[8400];
+    snprintf(prefix, sizeof prefix, "%s/x/t", dir);
+    snprintf(plain, sizeof plain, "%s/plain", dir);
+    snprintf(from, sizeof from, "%s/x", dir);
+    const char *cmd[] = {"--quiet", "--threads", "1", "truth", "volume", "synth:bucky:16", "--image", "--size", "24x16",
+                         "--samples", "16", "--replicates", "4", "-o", prefix, NULL};
+    CHECK_EQ_INT(test_cli_run(cmd, "plain"), 0);
+    CHECK(rename(from, plain) == 0);
+    for (int np = 1; np <= 3; np++) {
+        char tag[16];
+        snprintf(tag, sizeof tag, "np%d", np);
+        int rc = run_mpi_args(np, cmd, tag);
+        if (rc != 0) {
+            char e[8400];
+            snprintf(e, sizeof e, "%s/%s.stderr", dir, tag);
+            char *b = test_slurp(e, NULL);
+            fprintf(stderr, "mpiexec -np %d: exit %d: %s\n", np, rc, b ? b : "");
+            free(b);
+        }
+        CHECK_EQ_INT(rc, 0);
+        const char *ext[] = {"_T.nrrd", "_err.nrrd", "_mc.exr"};
+        for (int k = 0; k < 3; k++) {
+            char a[8600], b[8600];
+            snprintf(a, sizeof a, "%s/t%s", plain, ext[k]);
+            snprintf(b, sizeof b, "%s%s", prefix, ext[k]);
+            CHECK_MSG(same_file(a, b), "-np %d: %s differs from the plain run's", np, ext[k]);
+        }
+        char a[8600], b[8600];
+        snprintf(a, sizeof a, "%s/t.json", plain);
+        snprintf(b, sizeof b, "%s.json", prefix);
+        char *ja = sidecar_without_timings(a), *jb = sidecar_without_timings(b), *full = test_slurp(b, NULL);
+        CHECK(ja && jb && full);
+        CHECK_MSG(!strcmp(ja, jb), "-np %d: the sidecars differ beyond timings:\n%s\n---\n%s", np, ja, jb);
+        CHECK(strstr(full, "\"imbalance_seconds_slices\"") != NULL);
+        CHECK(strstr(full, "\"imbalance_collisions\"") != NULL);
+        free(ja);
+        free(jb);
+        free(full);
+        snprintf(to, sizeof to, "%s/np%d", dir, np);
+        CHECK(rename(from, to) == 0);
+    }
+    /* a failing rank fails the job, named by rank 0, and nothing is written */
+    setenv("OBS_SCALE_FAULT", "fail:1", 1);
+    int rc = run_mpi_args(2, cmd, "failed");
+    unsetenv("OBS_SCALE_FAULT");
+    CHECK_EQ_INT(rc, 6);
+    CHECK(test_cli_stderr_has("failed", "rank 1 of 2 failed: injected failure"));
+    struct stat sb;
+    CHECK_MSG(stat(from, &sb) != 0, "the failed job left %s", from);
+#endif
 }

@@ -67,11 +67,8 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
         fputs(truth_help, stdout);
         return CLI_EXIT_OK;
     }
-    /* `truth ao` and `truth sss` split their image over MPI ranks; `truth volume` does not yet:
-     * under a launcher every rank would compute and write the whole volume (docs/scale.md). */
-    if (!strcmp(argv[1], "volume") && scale_mpi_launched())
-        return cli_usage_error("truth %s does not run over MPI yet: run it without mpirun (or set OBS_NO_MPI=1)",
-                               argv[1]);
+    /* `truth ao`, `truth sss` and `truth volume` split their work over MPI ranks under a launcher
+     * (docs/scale.md). */
     if (!strcmp(argv[1], "sss"))
         return cmd_truth_sss(g, argc, argv);
     if (!strcmp(argv[1], "volume"))

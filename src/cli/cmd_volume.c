@@ -2,6 +2,7 @@
  * volume; docs/volume.md) and `obscura truth volume FILE` (the exact transmittance against the
  * light volume; docs/volume/light.md). Only parses flags and calls the vol_ and truth_ passes. */
 #include "cli.h"
+#include "scale/scale.h"
 #include "truth/truth.h"
 #include "volume/vol.h"
 
@@ -51,7 +52,11 @@ static const char *volume_help =
     "  --samples N           samples per pixel, a multiple of --replicates (default 256)\n"
     "  --replicates R        independent replicates for the error bar, 2..32 (default 8)\n"
     "  --phase-g G           Henyey-Greenstein asymmetry in (-1, 1) (default 0: the ray caster's model)\n"
-    "  --seed S              random seed (default 0)\n";
+    "  --seed S              random seed (default 0)\n"
+    "Under MPI (mpirun -np N obscura truth volume ...), the light volume's z slices and the MC image's\n"
+    "tiles are dealt over the ranks and rank 0 gathers and writes the same files as one process, byte\n"
+    "for byte, with a 'scale' object in the sidecar (docs/scale.md); OBS_NO_MPI=1 runs each rank as a\n"
+    "plain process.\n";
 
 static void json_stats(io_json *j, const char *key, const truth_volume_error_stats *s)
 {
@@ -197,6 +202,25 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         return CLI_EXIT_INTERNAL;
     obs_context_set_limits(ctx, &g->limits);
     obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
+    /* truth volume under an MPI launcher: every rank loads the volume and builds the light volume
+     * (cheap against the truth), computes the z slices and the MC image's tiles dealt to it, and
+     * rank 0 gathers and writes (docs/scale.md, "truth volume"). */
+    scale_comm *comm = NULL;
+    if (truth && scale_mpi_launched()) {
+        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
+        if (sm != OBS_STATUS_OK) {
+            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
+            obs_context_destroy(ctx);
+            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
+        }
+    }
+    const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
+    int *slice_owner = NULL, *task_owner = NULL;
+    unsigned char *slice_mask = NULL, *task_mask = NULL;
+    double *task_cost = NULL, *slice_seconds = NULL;
+    scale_rank_stats *per_rank = NULL;
+    int64_t ntasks = 0;
+    double t_wait = 0.0, t_gather = 0.0, t_write = 0.0;
     obs_pool *pool = NULL;
     vol_grid grid;
     memset(&grid, 0, sizeof grid);
@@ -259,8 +283,10 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         }
         st = io_volume_load(ctx, file, &vo, &grid);
     }
+    if (comm) /* every rank reads the same file: one that cannot ends the job */
+        st = scale_mpi_agree(ctx, comm, st);
     if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
+        code = rank == 0 ? cli_fail(ctx, st) : CLI_EXIT_OK;
         goto done;
     }
     /* ---- The transfer function ---- */
@@ -276,6 +302,12 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         } else {
             st = vol_tf_preset(ctx, tf_arg, &tf);
         }
+    }
+    if (comm)
+        st = scale_mpi_agree(ctx, comm, st);
+    if (st != OBS_STATUS_OK && rank != 0) {
+        code = CLI_EXIT_OK;
+        goto done;
     }
     if (st != OBS_STATUS_OK) {
         code = st == OBS_STATUS_NOT_FOUND ? (fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx)), CLI_EXIT_USAGE)
@@ -324,6 +356,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     pool = obs_pool_create(g->threads);
     if (!pool) {
         fprintf(stderr, "obscura: error: cannot start %d threads\n", g->threads);
+        scale_mpi_abort(comm, CLI_EXIT_INTERNAL); /* the other ranks would wait for this one */
         code = CLI_EXIT_INTERNAL;
         goto done;
     }
@@ -334,23 +367,93 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     if (need_lv)
         st = vol_light_volume_build(ctx, pool, &grid, &tf, &L, &lp, &lv);
     t_lv = obs_time_now() - t0;
+    if (comm)
+        st = scale_mpi_agree(ctx, comm, st);
     if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
+        code = rank == 0 ? cli_fail(ctx, st) : CLI_EXIT_OK;
         goto done;
     }
-    st = cli_make_parent_dirs(ctx, prefix);
-    if (st != OBS_STATUS_OK) {
-        code = cli_fail(ctx, st);
-        goto done;
+    if (!comm) { /* under MPI, rank 0 makes them once every rank has succeeded */
+        st = cli_make_parent_dirs(ctx, prefix);
+        if (st != OBS_STATUS_OK) {
+            code = cli_fail(ctx, st);
+            goto done;
+        }
     }
     if (truth) {
         /* ---- The exact transmittance and the light volume's error ---- */
         truth_volume_params tp = truth_volume_params_default();
         tp.kappa = lp.kappa;
+        mcp.kappa = lp.kappa;
         t0 = obs_time_now();
-        if (!image_only)
+        if (!image_only && !comm)
             st = truth_volume_light_error(ctx, pool, &grid, &tf, &L, &tp, &lv, &T, &err, &es);
-        t_truth = obs_time_now() - t0;
+        if (comm) {
+            /* Deal: z slices interleaved (slice k to rank k mod N: neighbouring slices cost alike);
+             * the MC image's tiles greedily by a uniform estimate (scale_deal_tasks: interleaved
+             * too). Every rank computes the same dealing. */
+            const int nz = image_only ? 0 : lv.nz;
+            const size_t vox = image_only ? 0 : (size_t)lv.nx * lv.ny * lv.nz;
+            ntasks = mc_image ? truth_volume_mc_task_count(W, H, mcp.tile) : 0;
+            slice_owner = (int *)malloc(sizeof(int) * (size_t)(nz + 1));
+            slice_mask = (unsigned char *)malloc((size_t)nz + 1);
+            slice_seconds = (double *)calloc((size_t)ranks, sizeof(double));
+            task_owner = (int *)malloc(sizeof(int) * (size_t)(ntasks + 1));
+            task_mask = (unsigned char *)malloc((size_t)ntasks + 1);
+            task_cost = (double *)malloc(sizeof(double) * (size_t)(ntasks + 1));
+            per_rank = (scale_rank_stats *)calloc((size_t)ranks, sizeof(scale_rank_stats));
+            if (vox) {
+                T = (float *)calloc(vox, sizeof(float));
+                err = (float *)calloc(vox, sizeof(float));
+            }
+            if (!slice_owner || !slice_mask || !slice_seconds || !task_owner || !task_mask || !task_cost || !per_rank ||
+                (vox && (!T || !err)))
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth volume: out of memory");
+            if (st == OBS_STATUS_OK && mc_image && ntasks == 0)
+                st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth volume image: tile %d must be in [1, 64]", mcp.tile);
+            for (int k = 0; st == OBS_STATUS_OK && k < nz; k++) {
+                slice_owner[k] = k % ranks;
+                slice_mask[k] = slice_owner[k] == rank;
+            }
+            if (st == OBS_STATUS_OK && !image_only)
+                st = truth_volume_light_error_slices(ctx, pool, &grid, &tf, &L, &tp, &lv, slice_mask, T, err);
+            t_truth = obs_time_now() - t0;
+            for (int64_t t = 0; st == OBS_STATUS_OK && t < ntasks; t++)
+                task_cost[t] = 1.0;
+            if (st == OBS_STATUS_OK && ntasks > 0)
+                st = scale_deal_tasks(ctx, task_cost, ntasks, ranks, task_owner);
+            for (int64_t t = 0; st == OBS_STATUS_OK && t < ntasks; t++)
+                task_mask[t] = task_owner[t] == rank;
+            if (st == OBS_STATUS_OK && mc_image)
+                st = truth_volume_mc_render_tasks(ctx, pool, &grid, &tf, &L, &cam, W, H, &mcp, task_mask, &mci);
+            /* one failed rank fails the job, before anything is written */
+            st = scale_fault_point(ctx, comm, st);
+            const double tw = obs_time_now();
+            st = scale_mpi_agree(ctx, comm, st);
+            const double tg = obs_time_now();
+            if (st == OBS_STATUS_OK)
+                st = scale_mpi_gather_volume_slices(ctx, comm, slice_owner, nz, (int64_t)lv.nx * lv.ny, T, err, t_truth,
+                                                    slice_seconds);
+            if (st == OBS_STATUS_OK && mc_image)
+                st = scale_mpi_gather_volume_image(ctx, comm, task_owner, task_cost, ntasks, mcp.tile, &mci, per_rank);
+            t_wait = tg - tw;
+            t_gather = obs_time_now() - tg;
+            if (st == OBS_STATUS_OK && rank != 0)
+                goto done; /* rank 0 writes */
+            if (st == OBS_STATUS_OK && !image_only)
+                truth_volume_error_stats_compute(err, (int64_t)vox, &es);
+            if (st == OBS_STATUS_OK)
+                st = cli_make_parent_dirs(ctx, prefix);
+            if (st != OBS_STATUS_OK) {
+                code = rank == 0 ? cli_fail(ctx, st) : CLI_EXIT_OK;
+                goto done;
+            }
+        } else {
+            t_truth = obs_time_now() - t0;
+            if (st == OBS_STATUS_OK && mc_image)
+                st = truth_volume_mc_render(ctx, pool, &grid, &tf, &L, &cam, W, H, &mcp, &mci);
+        }
+        t_write = obs_time_now();
         if (st == OBS_STATUS_OK && !image_only) {
             snprintf(path, sizeof path, "%s_T.nrrd", prefix);
             st = write_lv_nrrd(ctx, path, &lv, T);
@@ -360,10 +463,8 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             st = write_lv_nrrd(ctx, path, &lv, err);
         }
         if (st == OBS_STATUS_OK && mc_image) {
-            /* ---- The Monte Carlo single-scattering image reference ---- */
-            mcp.kappa = lp.kappa;
-            st = truth_volume_mc_render(ctx, pool, &grid, &tf, &L, &cam, W, H, &mcp, &mci);
-            if (st == OBS_STATUS_OK) {
+            /* ---- The Monte Carlo single-scattering image reference (computed above) ---- */
+            {
                 io_channel ch[8] = {{"R", IO_PIXEL_FLOAT, &mci.rgba[0], NULL},
                                     {"G", IO_PIXEL_FLOAT, &mci.rgba[1], NULL},
                                     {"B", IO_PIXEL_FLOAT, &mci.rgba[2], NULL},
@@ -507,6 +608,48 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             io_json_string(&j, "file_suffix", "_mc.exr");
             io_json_end_object(&j);
         }
+        if (comm) { /* the MPI run: ranks, dealing and balance (docs/scale.md, "truth volume") */
+            double *sec = (double *)calloc(3 * (size_t)ranks, sizeof(double)); /* slices, image, collisions */
+            for (int q = 0; sec && q < ranks; q++) {
+                sec[q] = slice_seconds ? slice_seconds[q] : 0.0;
+                sec[ranks + q] = per_rank ? per_rank[q].seconds_work : 0.0;
+                sec[2 * ranks + q] = per_rank ? (double)per_rank[q].rays : 0.0;
+            }
+            io_json_begin_object(&j, "scale");
+            io_json_int(&j, "ranks", ranks);
+            io_json_int(&j, "slices", image_only ? 0 : lv.nz);
+            io_json_string(&j, "slice_dealing", "interleaved: z slice k to rank k mod ranks");
+            io_json_int(&j, "tasks", ntasks);
+            io_json_string(&j, "dealing", "greedy by a uniform estimate in task order (interleaved tiles)");
+            if (!image_only)
+                io_json_number(&j, "imbalance_seconds_slices", sec ? scale_imbalance(sec, ranks) : NAN);
+            if (mc_image) {
+                io_json_number(&j, "imbalance_seconds_image", sec ? scale_imbalance(sec + ranks, ranks) : NAN);
+                io_json_number(&j, "imbalance_collisions", sec ? scale_imbalance(sec + 2 * ranks, ranks) : NAN);
+            }
+            io_json_number(&j, "seconds_wait_rank0", t_wait);
+            io_json_number(&j, "seconds_gather", t_gather);
+            io_json_number(&j, "seconds_write", obs_time_now() - t_write);
+            io_json_begin_array(&j, "per_rank");
+            for (int q = 0; q < ranks; q++) {
+                int64_t ns = 0;
+                for (int k = 0; !image_only && k < lv.nz; k++)
+                    ns += slice_owner[k] == q;
+                io_json_begin_object(&j, NULL);
+                io_json_int(&j, "rank", q);
+                io_json_int(&j, "slices", ns);
+                io_json_number(&j, "seconds_slices", sec ? sec[q] : NAN);
+                if (mc_image) {
+                    io_json_int(&j, "tasks", per_rank[q].tasks);
+                    io_json_int(&j, "collisions", (int64_t)per_rank[q].rays);
+                    io_json_number(&j, "seconds_image", per_rank[q].seconds_work);
+                }
+                io_json_end_object(&j);
+            }
+            io_json_end_array(&j);
+            io_json_end_object(&j);
+            free(sec);
+        }
     } else {
         cli_json_camera(&j, &cam);
         io_json_int(&j, "width", W);
@@ -526,6 +669,14 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         code = CLI_EXIT_OUTPUT;
     }
 done:
+    free(slice_owner);
+    free(slice_mask);
+    free(slice_seconds);
+    free(task_owner);
+    free(task_mask);
+    free(task_cost);
+    free(per_rank);
+    scale_mpi_finalize(comm);
     io_json_free(&j);
     free(tf_text);
     free(T);

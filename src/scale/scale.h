@@ -120,6 +120,24 @@ obs_status scale_mpi_gather_ao(obs_context *ctx, scale_comm *c, const int *owner
 obs_status scale_mpi_gather_sss(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
                                 int tile, truth_sss_result *res, scale_rank_stats *per_rank);
 
+/* Collective, for truth volume's light-volume error (truth_volume_light_error_slices): slice k
+ * (slice_floats = nx*ny floats of T and of err, x fastest) was computed by rank owner[k]; rank 0's
+ * T and err then hold every slice. Other ranks' arrays are left as they were. `seconds` is this
+ * rank's time for its slices; per_rank_seconds (rank 0 only, may be NULL) receives every rank's
+ * (scale_comm_size entries). nz 0 gathers the seconds only. Returns OK or INTERNAL (an MPI error). */
+obs_status scale_mpi_gather_volume_slices(obs_context *ctx, scale_comm *c, const int *owner, int nz,
+                                          int64_t slice_floats, float *T, float *err, double seconds,
+                                          double *per_rank_seconds);
+
+/* Collective, as scale_mpi_gather_ao for a truth_volume_mc_render_tasks image (tasks
+ * truth_volume_mc_task_rect of `tile`): rank 0's im then holds every pixel of the eight planes and
+ * the combined stats (sums of the counters, maximum of max_std_error; seconds: the maximum over the
+ * ranks). per_rank's rays are real collisions (shadow rays), seconds_work each rank's
+ * stats.seconds. Returns as scale_mpi_gather_ao. */
+obs_status scale_mpi_gather_volume_image(obs_context *ctx, scale_comm *c, const int *owner, const double *cost,
+                                         int64_t ntasks, int tile, truth_volume_image *im,
+                                         scale_rank_stats *per_rank);
+
 #ifdef __cplusplus
 }
 #endif

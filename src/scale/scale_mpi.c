@@ -310,3 +310,149 @@ obs_status scale_mpi_gather_sss(obs_context *ctx, scale_comm *c, const int *owne
     }
     return OBS_STATUS_OK;
 }
+
+/* ---- truth volume: z slices of the light volume, tiles of the MC image -------------------------- */
+
+obs_status scale_mpi_gather_volume_slices(obs_context *ctx, scale_comm *c, const int *owner, int nz,
+                                          int64_t slice_floats, float *T, float *err, double seconds,
+                                          double *per_rank_seconds)
+{
+    if (!c || (nz > 0 && (!owner || !T || !err)) || nz < 0 || slice_floats < 0)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_gather_volume_slices: bad argument");
+    /* each rank's seconds first (tag TAG_STATS), then the slices (TAG_PIXELS) */
+    if (c->rank != 0) {
+        if (MPI_Send(&seconds, 1, MPI_DOUBLE, 0, TAG_STATS, MPI_COMM_WORLD) != MPI_SUCCESS)
+            return obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
+    } else {
+        if (per_rank_seconds)
+            per_rank_seconds[0] = seconds;
+        for (int r = 1; r < c->size; r++) {
+            double s = 0.0;
+            if (MPI_Recv(&s, 1, MPI_DOUBLE, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS)
+                return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv from rank %d failed", r);
+            if (per_rank_seconds)
+                per_rank_seconds[r] = s;
+        }
+    }
+    /* slice by slice in z order (T then err): each an MPI message of slice_floats floats, chunked */
+    for (int k = 0; k < nz; k++) {
+        if (owner[k] == 0)
+            continue;
+        float *t = T + (size_t)k * (size_t)slice_floats, *e = err + (size_t)k * (size_t)slice_floats;
+        if (c->rank == owner[k]) {
+            if (!xfer(t, slice_floats, 0, 1) || !xfer(e, slice_floats, 0, 1))
+                return obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
+        } else if (c->rank == 0) {
+            if (!xfer(t, slice_floats, owner[k], 0) || !xfer(e, slice_floats, owner[k], 0))
+                return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv of rank %d's slices failed", owner[k]);
+        }
+    }
+    return OBS_STATUS_OK;
+}
+
+enum { VI_PLANES = 8, VI_COUNTERS = 4 };
+
+static void vi_planes(truth_volume_image *im, obs_image_f32 *pl[VI_PLANES])
+{
+    for (int q = 0; q < 4; q++) {
+        pl[q] = &im->rgba[q];
+        pl[4 + q] = &im->std_error[q];
+    }
+}
+
+static int64_t vi_rank_pixels(int W, int H, int tile, const int *owner, int64_t ntasks, int rank)
+{
+    int64_t n = 0;
+    for (int64_t t = 0; t < ntasks; t++)
+        if (owner[t] == rank) {
+            int x0, y0, x1, y1;
+            truth_volume_mc_task_rect(W, H, tile, t, &x0, &y0, &x1, &y1);
+            n += (int64_t)(x1 - x0) * (y1 - y0);
+        }
+    return n;
+}
+
+static void vi_pack_unpack(truth_volume_image *im, int tile, const int *owner, int64_t ntasks, int rank, float *buf,
+                           int unpack)
+{
+    obs_image_f32 *pl[VI_PLANES];
+    vi_planes(im, pl);
+    size_t at = 0;
+    for (int64_t t = 0; t < ntasks; t++) {
+        if (owner[t] != rank)
+            continue;
+        int x0, y0, x1, y1;
+        truth_volume_mc_task_rect(im->width, im->height, tile, t, &x0, &y0, &x1, &y1);
+        const size_t n = (size_t)(x1 - x0);
+        for (int k = 0; k < VI_PLANES; k++)
+            for (int y = y0; y < y1; y++, at += n) {
+                float *row = obs_image_f32_row(pl[k], y) + x0;
+                if (unpack)
+                    memcpy(row, buf + at, n * sizeof(float));
+                else
+                    memcpy(buf + at, row, n * sizeof(float));
+            }
+    }
+}
+
+obs_status scale_mpi_gather_volume_image(obs_context *ctx, scale_comm *c, const int *owner, const double *cost,
+                                         int64_t ntasks, int tile, truth_volume_image *im,
+                                         scale_rank_stats *per_rank)
+{
+    if (!c || !owner || !cost || !im)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_gather_volume_image: NULL argument");
+    truth_volume_mc_stats *S = &im->stats;
+    /* the counters as 64-bit integers (exact); max_std_error and seconds apart */
+    uint64_t mine[VI_COUNTERS] = {S->tentative, S->collisions, S->over_majorant, (uint64_t)S->pixels_hit};
+    double mine_d[2] = {S->max_std_error, S->seconds};
+    if (c->rank != 0) {
+        const int64_t n = VI_PLANES * vi_rank_pixels(im->width, im->height, tile, owner, ntasks, c->rank);
+        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
+        if (!buf) /* rank 0 is waiting for this rank's pixels: end the job */
+            MPI_Abort(MPI_COMM_WORLD, 6);
+        vi_pack_unpack(im, tile, owner, ntasks, c->rank, buf, 0);
+        int ok = MPI_Send(mine, VI_COUNTERS, MPI_UINT64_T, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS &&
+                 MPI_Send(mine_d, 2, MPI_DOUBLE, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS && xfer(buf, n, 0, 1);
+        free(buf);
+        return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
+    }
+    if (per_rank) {
+        for (int r = 0; r < c->size; r++)
+            memset(&per_rank[r], 0, sizeof per_rank[r]);
+        per_rank[0].rays = S->collisions;
+        per_rank[0].seconds_work = S->seconds;
+        for (int64_t t = 0; t < ntasks; t++) {
+            per_rank[owner[t]].tasks++;
+            per_rank[owner[t]].cost_estimate += cost[t];
+        }
+    }
+    for (int r = 1; r < c->size; r++) {
+        uint64_t th[VI_COUNTERS];
+        double td[2];
+        if (MPI_Recv(th, VI_COUNTERS, MPI_UINT64_T, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS ||
+            MPI_Recv(td, 2, MPI_DOUBLE, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS)
+            return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv from rank %d failed", r);
+        const int64_t n = VI_PLANES * vi_rank_pixels(im->width, im->height, tile, owner, ntasks, r);
+        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
+        if (!buf)
+            MPI_Abort(MPI_COMM_WORLD, 6);
+        if (!xfer(buf, n, r, 0)) {
+            free(buf);
+            return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv of rank %d's pixels failed", r);
+        }
+        vi_pack_unpack(im, tile, owner, ntasks, r, buf, 1);
+        free(buf);
+        /* sums over tiles and a maximum, as tvi_run combines its tiles' (exact in any order) */
+        S->tentative += th[0];
+        S->collisions += th[1];
+        S->over_majorant += th[2];
+        S->pixels_hit += (int64_t)th[3];
+        S->max_std_error = td[0] > S->max_std_error ? td[0] : S->max_std_error;
+        S->seconds = td[1] > S->seconds ? td[1] : S->seconds;
+        if (per_rank) {
+            per_rank[r].rays = th[1];
+            per_rank[r].seconds_work = td[1];
+        }
+    }
+    return OBS_STATUS_OK;
+}

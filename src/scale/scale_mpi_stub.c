@@ -38,3 +38,19 @@ obs_status scale_mpi_gather_sss(obs_context *ctx, scale_comm *c, const int *owne
     (void)c, (void)owner, (void)cost, (void)ntasks, (void)tile, (void)res, (void)per_rank;
     return obs_error(ctx, OBS_STATUS_UNSUPPORTED, NOT_BUILT);
 }
+
+obs_status scale_mpi_gather_volume_slices(obs_context *ctx, scale_comm *c, const int *owner, int nz,
+                                          int64_t slice_floats, float *T, float *err, double seconds,
+                                          double *per_rank_seconds)
+{
+    (void)c, (void)owner, (void)nz, (void)slice_floats, (void)T, (void)err, (void)seconds, (void)per_rank_seconds;
+    return obs_error(ctx, OBS_STATUS_UNSUPPORTED, NOT_BUILT);
+}
+
+obs_status scale_mpi_gather_volume_image(obs_context *ctx, scale_comm *c, const int *owner, const double *cost,
+                                         int64_t ntasks, int tile, truth_volume_image *im,
+                                         scale_rank_stats *per_rank)
+{
+    (void)c, (void)owner, (void)cost, (void)ntasks, (void)tile, (void)im, (void)per_rank;
+    return obs_error(ctx, OBS_STATUS_UNSUPPORTED, NOT_BUILT);
+}

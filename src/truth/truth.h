@@ -576,6 +576,31 @@ obs_status truth_volume_march_image(obs_context *ctx, obs_pool *pool, const stru
                                     int width, int height, double step, const truth_volume_params *tp,
                                     double g_hg, truth_volume_image *out);
 
+/* ---- Splitting the work (MPI: docs/scale.md) ----
+ * The light volume's error by z slices: T and err (caller's arrays, lv->nx*ny*nz floats each, x
+ * fastest) get the slices k with slice_mask[k] (NULL: all), the others untouched; the values are
+ * truth_volume_light_error's bit for bit (a voxel depends on its position only). Same checks and
+ * returns as truth_volume_light_error (OUT_OF_MEMORY aside). */
+obs_status truth_volume_light_error_slices(obs_context *ctx, obs_pool *pool, const struct vol_grid *g,
+                                           const struct vol_tf *tf, const struct vol_light *light,
+                                           const truth_volume_params *p, const struct vol_light_volume *lv,
+                                           const unsigned char *slice_mask, float *T, float *err);
+/* truth_volume_light_error's statistics of an error volume of `voxels` floats (in voxel order). */
+void truth_volume_error_stats_compute(const float *err, int64_t voxels, truth_volume_error_stats *stats);
+
+/* The MC image's tasks: its tiles of side `tile` (the pool's; obs_tiling order). count 0 for a bad
+ * size or tile. truth_volume_mc_render_tasks is truth_volume_mc_render computing only the tiles t
+ * with task_mask[t] (ntasks = truth_volume_mc_task_count entries): their pixels are
+ * truth_volume_mc_render's bit for bit (a pixel depends on (inputs, pixel, sample, seed) only), the
+ * other pixels 0, and the stats count the computed tiles only (majorant: the whole grid's). */
+int64_t truth_volume_mc_task_count(int width, int height, int tile);
+void truth_volume_mc_task_rect(int width, int height, int tile, int64_t task, int *x0, int *y0, int *x1, int *y1);
+obs_status truth_volume_mc_render_tasks(obs_context *ctx, obs_pool *pool, const struct vol_grid *g,
+                                        const struct vol_tf *tf, const struct vol_light *light,
+                                        const obs_camera *camera, int width, int height,
+                                        const truth_volume_mc_params *p, const unsigned char *task_mask,
+                                        truth_volume_image *out);
+
 /* ============================================ end of volume light ground truth ================== */
 
 #ifdef __cplusplus

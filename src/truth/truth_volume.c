@@ -44,6 +44,7 @@ typedef struct tv_ctx {
     double D[3];                 /* directional: unit travel direction */
     const vol_light_volume *lv;
     float *T, *err;
+    const unsigned char *slice_mask; /* NULL: every z slice; else only slices k with slice_mask[k] */
 } tv_ctx;
 
 static double tv_sigma(const tv_ctx *c, const double y[3])
@@ -149,6 +150,8 @@ static void tv_slice_task(void *user, int64_t task, int thread)
     const tv_ctx *c = (const tv_ctx *)user;
     const vol_light_volume *lv = c->lv;
     int k = (int)task;
+    if (c->slice_mask && !c->slice_mask[k])
+        return; /* another rank's slab (truth_volume_light_error_slices) */
     for (int j = 0; j < lv->ny; j++) {
         for (int i = 0; i < lv->nx; i++) {
             double x[3] = {lv->origin[0] + i * lv->spacing[0], lv->origin[1] + j * lv->spacing[1],
@@ -162,17 +165,10 @@ static void tv_slice_task(void *user, int64_t task, int thread)
     }
 }
 
-obs_status truth_volume_light_error(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
-                                    const vol_light *light, const truth_volume_params *p,
-                                    const vol_light_volume *lv, float **T_out, float **err_out,
-                                    truth_volume_error_stats *stats)
+/* Validation shared by truth_volume_light_error and truth_volume_light_error_slices. */
+static obs_status tv_check(obs_context *ctx, const vol_grid *g, const vol_tf *tf, const vol_light *light,
+                           const truth_volume_params *p, const vol_light_volume *lv)
 {
-    if (T_out)
-        *T_out = NULL;
-    if (err_out)
-        *err_out = NULL;
-    if (stats)
-        memset(stats, 0, sizeof *stats);
     if (!g || !tf || !light || !p || !lv || !lv->l || !g->data)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_volume_light_error: a NULL argument");
     if (light->type == OBS_LIGHT_SPOT)
@@ -194,14 +190,15 @@ obs_status truth_volume_light_error(obs_context *ctx, obs_pool *pool, const vol_
             if (!isfinite(light->position[a]))
                 return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth volume: the light's position must be finite");
     }
-    size_t voxels = (size_t)lv->nx * lv->ny * lv->nz;
-    float *T = (float *)obs_aligned_alloc(voxels * sizeof(float));
-    float *err = (float *)obs_aligned_alloc(voxels * sizeof(float));
-    if (!T || !err) {
-        obs_aligned_free(T);
-        obs_aligned_free(err);
-        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth volume: out of memory");
-    }
+    return OBS_STATUS_OK;
+}
+
+/* T (and err) at the voxel centres of the z slices slice_mask selects (NULL: all), into the
+ * caller's full-size arrays. Inputs already checked by tv_check. */
+static void tv_fill(obs_pool *pool, const vol_grid *g, const vol_tf *tf, const vol_light *light,
+                    const truth_volume_params *p, const vol_light_volume *lv, const unsigned char *slice_mask,
+                    float *T, float *err)
+{
     tv_ctx c;
     memset(&c, 0, sizeof c);
     c.g = g;
@@ -222,25 +219,74 @@ obs_status truth_volume_light_error(obs_context *ctx, obs_pool *pool, const vol_
     c.lv = lv;
     c.T = T;
     c.err = err;
+    c.slice_mask = slice_mask;
     obs_pool_run(pool, lv->nz, tv_slice_task, &c);
+}
+
+void truth_volume_error_stats_compute(const float *err, int64_t voxels, truth_volume_error_stats *stats)
+{
+    if (!stats)
+        return;
+    memset(stats, 0, sizeof *stats);
+    if (!err || voxels < 1)
+        return;
     /* Statistics in voxel order (deterministic). */
-    if (stats) {
-        double sum = 0.0, sum2 = 0.0, sums = 0.0;
-        stats->voxels = (int64_t)voxels;
-        for (size_t i = 0; i < voxels; i++) {
-            double e = err[i], ae = fabs(e);
-            if (!(ae <= stats->max_abs)) {
-                stats->max_abs = ae;
-                stats->argmax = (int64_t)i;
-            }
-            sum += ae;
-            sum2 += e * e;
-            sums += e;
+    double sum = 0.0, sum2 = 0.0, sums = 0.0;
+    stats->voxels = voxels;
+    for (int64_t i = 0; i < voxels; i++) {
+        double e = err[i], ae = fabs(e);
+        if (!(ae <= stats->max_abs)) {
+            stats->max_abs = ae;
+            stats->argmax = i;
         }
-        stats->mean_abs = sum / (double)voxels;
-        stats->rmse = sqrt(sum2 / (double)voxels);
-        stats->mean_signed = sums / (double)voxels;
+        sum += ae;
+        sum2 += e * e;
+        sums += e;
     }
+    stats->mean_abs = sum / (double)voxels;
+    stats->rmse = sqrt(sum2 / (double)voxels);
+    stats->mean_signed = sums / (double)voxels;
+}
+
+obs_status truth_volume_light_error_slices(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                           const vol_light *light, const truth_volume_params *p,
+                                           const vol_light_volume *lv, const unsigned char *slice_mask, float *T,
+                                           float *err)
+{
+    obs_status st = tv_check(ctx, g, tf, light, p, lv);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (!T || !err)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_volume_light_error_slices: NULL output arrays");
+    tv_fill(pool, g, tf, light, p, lv, slice_mask, T, err);
+    return OBS_STATUS_OK;
+}
+
+obs_status truth_volume_light_error(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                    const vol_light *light, const truth_volume_params *p,
+                                    const vol_light_volume *lv, float **T_out, float **err_out,
+                                    truth_volume_error_stats *stats)
+{
+    if (T_out)
+        *T_out = NULL;
+    if (err_out)
+        *err_out = NULL;
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    obs_status st = tv_check(ctx, g, tf, light, p, lv);
+    if (st != OBS_STATUS_OK)
+        return st;
+    size_t voxels = (size_t)lv->nx * lv->ny * lv->nz;
+    float *T = (float *)obs_aligned_alloc(voxels * sizeof(float));
+    float *err = (float *)obs_aligned_alloc(voxels * sizeof(float));
+    if (!T || !err) {
+        obs_aligned_free(T);
+        obs_aligned_free(err);
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth volume: out of memory");
+    }
+    tv_fill(pool, g, tf, light, p, lv, NULL, T, err);
+    if (stats)
+        truth_volume_error_stats_compute(err, (int64_t)voxels, stats);
     if (T_out)
         *T_out = T;
     else
@@ -313,6 +359,7 @@ typedef struct tvi_job {
     const obs_image_f32 *depth_limit; /* MC: per pixel, where the view ray stops (NULL: none) */
     truth_volume_image *out;
     truth_volume_mc_stats *tile_stats;
+    const unsigned char *task_mask; /* NULL: every tile; else only tiles t with task_mask[t] (MPI) */
 } tvi_job;
 
 /* A per-(pixel, sample) stream of uniforms in (0, 1): Philox words, 4 per dimension. */
@@ -610,6 +657,8 @@ static void tvi_tile(void *user, int64_t task, int thread)
     (void)thread;
     tvi_job *J = (tvi_job *)user;
     int x0, y0, x1, y1;
+    if (J->task_mask && !J->task_mask[task])
+        return; /* another rank's tile (truth_volume_mc_render_tasks): its pixels stay 0 */
     obs_tiling_rect(&J->tiling, task, &x0, &y0, &x1, &y1);
     truth_volume_mc_stats *st = &J->tile_stats[task];
     double acc[TRUTH_VOLUME_MC_MAX_REPLICATES][4];
@@ -741,6 +790,11 @@ static obs_status tvi_run(obs_context *ctx, obs_pool *pool, tvi_job *J, int widt
         return st;
     }
     J->out = out;
+    for (int q = 0; q < 4 && J->task_mask; q++) /* the tiles not computed here read 0 */
+        for (int y = 0; y < height; y++) {
+            memset(obs_image_f32_row(&out->rgba[q], y), 0, sizeof(float) * (size_t)width);
+            memset(obs_image_f32_row(&out->std_error[q], y), 0, sizeof(float) * (size_t)width);
+        }
     obs_pool_run(pool, ntiles, tvi_tile, J);
     truth_volume_mc_stats *s = &out->stats;
     memset(s, 0, sizeof *s);
@@ -760,9 +814,47 @@ static obs_status tvi_run(obs_context *ctx, obs_pool *pool, tvi_job *J, int widt
     return OBS_STATUS_OK;
 }
 
+int64_t truth_volume_mc_task_count(int width, int height, int tile)
+{
+    if (width < 1 || height < 1 || tile < 1 || tile > 64)
+        return 0;
+    obs_tiling t = obs_tiling_make(width, height, tile);
+    return obs_tiling_count(&t);
+}
+
+void truth_volume_mc_task_rect(int width, int height, int tile, int64_t task, int *x0, int *y0, int *x1, int *y1)
+{
+    obs_tiling t = obs_tiling_make(width, height, tile);
+    obs_tiling_rect(&t, task, x0, y0, x1, y1);
+}
+
+static obs_status tvi_mc(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf, const vol_light *light,
+                         const obs_camera *camera, int width, int height, const truth_volume_mc_params *p,
+                         const unsigned char *task_mask, truth_volume_image *out);
+
 obs_status truth_volume_mc_render(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
                                   const vol_light *light, const obs_camera *camera, int width, int height,
                                   const truth_volume_mc_params *p, truth_volume_image *out)
+{
+    return tvi_mc(ctx, pool, g, tf, light, camera, width, height, p, NULL, out);
+}
+
+obs_status truth_volume_mc_render_tasks(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                        const vol_light *light, const obs_camera *camera, int width, int height,
+                                        const truth_volume_mc_params *p, const unsigned char *task_mask,
+                                        truth_volume_image *out)
+{
+    if (!task_mask) {
+        if (out)
+            memset(out, 0, sizeof *out);
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_volume_mc_render_tasks: task_mask is NULL");
+    }
+    return tvi_mc(ctx, pool, g, tf, light, camera, width, height, p, task_mask, out);
+}
+
+static obs_status tvi_mc(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf, const vol_light *light,
+                         const obs_camera *camera, int width, int height, const truth_volume_mc_params *p,
+                         const unsigned char *task_mask, truth_volume_image *out)
 {
     if (!out)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "truth_volume_mc_render: out is NULL");
@@ -848,6 +940,7 @@ obs_status truth_volume_mc_render(obs_context *ctx, obs_pool *pool, const vol_gr
     J.seed = p->seed;
     J.step = 0.0;
     J.depth_limit = p->depth_limit;
+    J.task_mask = task_mask;
     obs_status rs = tvi_run(ctx, pool, &J, width, height, p->tile, out);
     free(J.maj);
     return rs;
