@@ -318,6 +318,9 @@ TEST(render_settings_wrong_types_and_ranges_are_errors_naming_the_key)
                     "obscura_render.reference.sss_estimator: \"photon\" is not an estimator"));
     CHECK(rs_expect("{\"reference\":{\"volume_samples\":0}}", &sc, BAD,
                     "obscura_render.reference.volume_samples: must be in [8, 1048576]"));
+    /* strings must be UTF-8 (a Latin-1 byte would not round-trip through the sidecar) */
+    CHECK(rs_expect("{\"volume\":{\"source\":\"caf\xe9.nrrd\"}}", &sc, BAD,
+                    "obscura_render.volume.source: is not valid UTF-8"));
     CHECK(rs_expect("{\"reference\":{\"volume_samples\":12}}", &sc, BAD,
                     "obscura_render.reference.volume_samples: must be a multiple of 8"));
     /* Malformed JSON is a parse error. */

@@ -72,6 +72,9 @@ void io_json_floats(io_json *j, const char *key, const float *v, int n);  /* an 
 /* Insert an already-serialised JSON value (object, array, ...) verbatim. The caller vouches for
  * its validity (used for glTF extras kept from a loaded file, and for nested documents). */
 void io_json_raw(io_json *j, const char *key, const char *raw);
+/* 1 when the NUL-terminated s is well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates,
+ * nothing above U+10FFFF), the only text io_json writes unchanged (other bytes become U+FFFD). */
+int io_json_utf8_valid(const char *s);
 /* Write the document atomically to path (adds a trailing newline). Returns INVALID_ARGUMENT for
  * a document that failed, is empty or is still open; IO_ERROR when the file cannot be written. */
 obs_status io_json_write(obs_context *ctx, const io_json *j, const char *path);

@@ -117,6 +117,22 @@ static size_t utf8_sequence(const unsigned char *p)
     return len;
 }
 
+int io_json_utf8_valid(const char *s)
+{
+    const unsigned char *p = (const unsigned char *)s;
+    while (*p) {
+        if (*p < 0x80) {
+            p++;
+            continue;
+        }
+        size_t n = utf8_sequence(p);
+        if (!n)
+            return 0;
+        p += n;
+    }
+    return 1;
+}
+
 /* A quoted, escaped JSON string (RFC 8259 section 7). Well-formed UTF-8 passes through; any
  * other byte >= 0x80 (e.g. a Latin-1 file name in argv) becomes U+FFFD, because JSON text must
  * be UTF-8 (RFC 8259 section 8.1) and strict readers refuse anything else. */

@@ -227,6 +227,10 @@ static obs_status rs_string(const rs_parse *P, const char *path, const char *key
         return rs_err(P, OBS_STATUS_INVALID_ARGUMENT, path, key, "must be a string (got %s)", rs_type_name(v));
     if (strlen(v->valuestring) >= size)
         return rs_err(P, OBS_STATUS_INVALID_ARGUMENT, path, key, "is longer than %zu bytes", size - 1);
+    /* JSON text is UTF-8 (RFC 8259 section 8.1): other bytes would come back from the sidecar as
+     * U+FFFD, a different (and longer) string (found by fuzz_render_settings) */
+    if (!io_json_utf8_valid(v->valuestring))
+        return rs_err(P, OBS_STATUS_INVALID_ARGUMENT, path, key, "is not valid UTF-8");
     snprintf(out, size, "%s", v->valuestring);
     return OBS_STATUS_OK;
 }
@@ -778,6 +782,14 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
             if (st == OBS_STATUS_OK && P->scene && vs.light >= (int)P->scene->light_count)
                 st = rs_err(P, OBS_STATUS_INVALID_ARGUMENT, path, k, "light %d does not exist in %s (it has %u)",
                             vs.light, P->scene->source[0] ? P->scene->source : "the scene", P->scene->light_count);
+            /* the same rule as render_settings_validate (found by fuzz_render_settings: a spot light
+             * was accepted here and refused there) */
+            if (st == OBS_STATUS_OK && P->scene && vs.light >= 0 &&
+                P->scene->lights[vs.light].type != OBS_LIGHT_DIRECTIONAL &&
+                P->scene->lights[vs.light].type != OBS_LIGHT_POINT)
+                st = rs_err(P, OBS_STATUS_INVALID_ARGUMENT, path, k,
+                            "light %d (%s) is a spot light; the light volume takes directional and point lights",
+                            vs.light, P->scene->lights[vs.light].name);
         } else if (!strcmp(k, "shading")) {
             char name[64];
             st = rs_string(P, path, k, it, sizeof name, name);

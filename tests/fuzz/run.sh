@@ -14,7 +14,7 @@ build="$(cd "${1:?usage: run.sh BUILD_DIR [SECONDS] [TARGET...]}" && pwd)"
 secs="${2:-${FUZZ_SECONDS:-30}}"
 shift $(( $# >= 2 ? 2 : 1 ))
 targets=("$@")
-[ "${#targets[@]}" -gt 0 ] || targets=(gltf exr off cli_args json gbuffer)
+[ "${#targets[@]}" -gt 0 ] || targets=(gltf exr off cli_args json gbuffer render_settings)
 
 sup="$(cd "$here/../sanitizers" && pwd)"
 asan="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}:suppressions=$sup/asan.supp"
