@@ -897,7 +897,9 @@ TEST(truth_avx2_rays_and_seeds_equal_the_sse2_reference)
     uint64_t x = 0x2545F4914F6CDD1Dull;
 #define NEXT() (x = x * 6364136223846793005ull + 1442695040888963407ull, (uint32_t)(x >> 32))
     for (int it = 0; it < 200; it++) {
-        uint64_t pixel = ((uint64_t)NEXT() << 32 | NEXT()) >> (it % 40), seed = (uint64_t)NEXT() << 32 | NEXT();
+        /* one NEXT() per statement: two in one expression modify x unsequenced (clang -Wunsequenced) */
+        const uint64_t p_hi = NEXT(), p_lo = NEXT(), s_hi = NEXT(), s_lo = NEXT();
+        uint64_t pixel = (p_hi << 32 | p_lo) >> (it % 40), seed = s_hi << 32 | s_lo;
         if (it == 0)
             pixel = seed = 0;
         const int R = 2 + it % (TRUTH_AO_MAX_REPLICATES - 1);
