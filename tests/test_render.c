@@ -695,3 +695,71 @@ TEST(render_volume_shadows_the_meshes_through_the_light_volume)
     obs_scene_free(&s);
     obs_context_destroy(ctx);
 }
+
+/* The memory budget: products not used by the current frame are dropped, least recently used
+ * first, once the cache holds more than the budget; what the frame uses is kept; a dropped product
+ * is rebuilt (or read from disk) with the same bytes. */
+TEST(render_memory_cache_stays_within_its_budget_and_rebuilds_what_it_dropped)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    make_scene(&s, 1, NULL);
+    render_settings st = small_settings();
+    use_volume(&st);
+    render_frame a0, a1, b0, a2, big;
+    /* the cold run's footprint: every product of one light */
+    render_session *roomy = session(ctx, 2, NULL);
+    CHECK(render_frame_run(roomy, &s, &st, 0, &big) == OBS_STATUS_OK);
+    render_cache_stats one;
+    render_session_cache_stats(roomy, &one);
+    CHECK(one.entries == 5 && one.evictions == 0 && one.bytes > 0);
+
+    /* a budget of one light's products: the second light's frame must drop the first light's
+     * light-dependent products (maps, light volume, shadow maps) but keep the volume it shares */
+    render_options o = render_options_default();
+    o.threads = 2;
+    o.cache_memory = one.bytes;
+    render_session *tight = render_session_create(ctx, &o);
+    CHECK(tight != NULL);
+    CHECK(render_frame_run(tight, &s, &st, 0, &a0) == OBS_STATUS_OK);
+    CHECK(render_frame_run(tight, &s, &st, 1, &a1) == OBS_STATUS_OK); /* same light: all hits */
+    CHECK(state_of(&a1, "sss_maps") == RENDER_PASS_CACHED_MEMORY);
+    const obs_vec3 d0 = s.lights[0].direction;
+    s.lights[0].direction = obs_v3_normalize(obs_v3(0.3f, -1.0f, -0.2f));
+    CHECK(render_frame_run(tight, &s, &st, 0, &b0) == OBS_STATUS_OK);
+    CHECK(state_of(&b0, "sss_maps") == RENDER_PASS_RAN && state_of(&b0, "volume_load") == RENDER_PASS_CACHED_MEMORY);
+    render_cache_stats cs;
+    render_session_cache_stats(tight, &cs);
+    CHECK_MSG(cs.evictions >= 3, "%lld evictions", (long long)cs.evictions);
+    CHECK_MSG(cs.bytes <= one.bytes, "%llu bytes held over a budget of %llu", (unsigned long long)cs.bytes,
+              (unsigned long long)one.bytes);
+    /* back to the first light: its products were dropped, so they are rebuilt, with the same bytes */
+    s.lights[0].direction = d0;
+    CHECK(render_frame_run(tight, &s, &st, 0, &a2) == OBS_STATUS_OK);
+    CHECK(state_of(&a2, "sss_maps") == RENDER_PASS_RAN && state_of(&a2, "light_volume") == RENDER_PASS_RAN);
+    CHECK(frames_equal(&a0, &a2));
+    CHECK(frames_equal(&big, &a2));
+
+    /* a budget smaller than one product: the frame still completes (what it uses is kept while it
+     * runs), and every later frame rebuilds */
+    o.cache_memory = 1;
+    render_session *tiny = render_session_create(ctx, &o);
+    render_frame t0, t1;
+    CHECK(render_frame_run(tiny, &s, &st, 0, &t0) == OBS_STATUS_OK);
+    CHECK(render_frame_run(tiny, &s, &st, 1, &t1) == OBS_STATUS_OK);
+    CHECK(state_of(&t1, "sss_maps") == RENDER_PASS_RAN);
+    CHECK(frames_equal(&t0, &a0));
+    render_frame_free(&t0);
+    render_frame_free(&t1);
+    render_session_destroy(tiny);
+
+    render_frame_free(&a0);
+    render_frame_free(&a1);
+    render_frame_free(&b0);
+    render_frame_free(&a2);
+    render_frame_free(&big);
+    render_session_destroy(roomy);
+    render_session_destroy(tight);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}

@@ -51,6 +51,8 @@ static const char *render_help =
     "run:\n"
     "  --cache DIR             keep view-independent products (SSS maps, light volumes, shadow maps)\n"
     "                          in DIR as well as in memory, and reuse them across runs\n"
+    "  --cache-memory MB       at most MB megabytes of products kept in memory between views (least\n"
+    "                          recently used dropped first; default: half the machine's memory)\n"
     "  --threads N             worker threads (default: all CPUs); the output is identical for any N\n"
     "\n"
     "A progress bar over the whole batch is drawn on stderr when it is a terminal. Exit codes as every\n"
@@ -222,6 +224,7 @@ int cmd_render(cli_globals *g, int argc, char **argv);
 int cmd_render(cli_globals *g, int argc, char **argv)
 {
     const char *out_dir = "out", *cache_dir = NULL;
+    uint64_t cache_memory = 0;
     int dry_run = 0, threads = g->threads, ao_none = 0, ao_touched = 0;
     const char **scenes = (const char **)calloc((size_t)argc, sizeof *scenes);
     cJSON *over = cJSON_CreateObject(), *cams = NULL;
@@ -255,6 +258,9 @@ int cmd_render(cli_globals *g, int argc, char **argv)
         } else if (!strcmp(a, "--cache")) {
             if (!v || !v[0]) RENDER_USAGE("--cache needs a directory");
             cache_dir = v; i++;
+        } else if (!strcmp(a, "--cache-memory")) {
+            if (!cli_parse_int(v, 1, 1ll << 40, &ll)) RENDER_USAGE("--cache-memory needs megabytes, an integer >= 1");
+            cache_memory = (uint64_t)ll * 1000000u; i++;
         } else if (!strcmp(a, "--dry-run")) {
             dry_run = 1;
         } else if (!strcmp(a, "--threads")) {
@@ -424,6 +430,7 @@ int cmd_render(cli_globals *g, int argc, char **argv)
     render_options opt = render_options_default();
     opt.threads = threads;
     opt.cache_dir = cache_dir;
+    opt.cache_memory = cache_memory;
     bp.views_total = total_views;
     bp.t0 = obs_time_now();
     if (!dry_run && !g->quiet && isatty(fileno(stderr))) {
@@ -505,8 +512,11 @@ int cmd_render(cli_globals *g, int argc, char **argv)
     if (!dry_run && !g->quiet) {
         render_cache_stats cs;
         render_session_cache_stats(session, &cs);
-        fprintf(stderr, "obscura: render: %lld view(s); cache: %lld hit(s) in memory, %lld on disk, %lld miss(es)\n",
-                (long long)total_views, (long long)cs.hits_memory, (long long)cs.hits_disk, (long long)cs.misses);
+        fprintf(stderr,
+                "obscura: render: %lld view(s); cache: %lld hit(s) in memory, %lld on disk, %lld miss(es), "
+                "%lld dropped from memory\n",
+                (long long)total_views, (long long)cs.hits_memory, (long long)cs.hits_disk, (long long)cs.misses,
+                (long long)cs.evictions);
     }
 done:
     render_progress_end(&bp);

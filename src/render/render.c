@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/resource.h>
+#include <unistd.h>
 
 const char *render_pass_state_name(render_pass_state s)
 {
@@ -19,6 +20,16 @@ render_options render_options_default(void)
     render_options o;
     memset(&o, 0, sizeof o);
     return o;
+}
+
+/* The memory cache's default budget (ours): half the machine's physical memory, 1 GiB when
+ * sysconf cannot say. */
+static uint64_t default_cache_memory(void)
+{
+    const long pages = sysconf(_SC_PHYS_PAGES), page = sysconf(_SC_PAGESIZE);
+    if (pages <= 0 || page <= 0)
+        return (uint64_t)1 << 30;
+    return (uint64_t)pages * (uint64_t)page / 2u;
 }
 
 render_session *render_session_create(obs_context *ctx, const render_options *opt)
@@ -45,7 +56,7 @@ render_session *render_session_create(obs_context *ctx, const render_options *op
     }
     s->opt = o;
     s->pool = obs_pool_create(o.threads);
-    s->cache = render_cache_create(o.cache_dir);
+    s->cache = render_cache_create(o.cache_dir, o.cache_memory ? o.cache_memory : default_cache_memory());
     if (!s->pool || !s->cache) {
         render_session_destroy(s);
         obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "render: cannot start the thread pool or the cache");
@@ -513,6 +524,7 @@ obs_status render_frame_run(render_session *s, const obs_scene *scene, const ren
     if (!s || !scene || !st || !out)
         return obs_error(s ? s->ctx : NULL, OBS_STATUS_INVALID_ARGUMENT, "render_frame_run: NULL argument");
     const double t_frame = obs_time_now();
+    render_cache_begin_frame(s->cache, s->ctx);
     render_job j;
     int live[RENDER_MAX_PASSES], order[RENDER_MAX_PASSES], count;
     const render_pass *const *ps = render_passes(&count);

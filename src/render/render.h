@@ -194,6 +194,10 @@ typedef struct render_options {
     const char *cache_dir;         /* NULL: memory only; else view-independent products are also
                                       read from and written to this directory (created if needed),
                                       one file per key, written to a temporary name then renamed */
+    uint64_t cache_memory;         /* bytes the in-memory cache may hold between frames; 0: the default,
+                                      half the machine's physical memory (ours). Least recently used
+                                      products are dropped first (still on disk with cache_dir); a
+                                      product the current frame uses is never dropped */
     render_progress_fn progress;   /* optional */
     void *progress_user;
 } render_options;
@@ -222,6 +226,7 @@ int render_view_count(const obs_scene *scene, const render_settings *st);
 /* Cache counters since the session began. */
 typedef struct render_cache_stats {
     int64_t hits_memory, hits_disk, misses, entries;
+    int64_t evictions;             /* products dropped from memory to stay within the budget */
     uint64_t bytes;                /* held in memory */
 } render_cache_stats;
 void render_session_cache_stats(const render_session *s, render_cache_stats *out);

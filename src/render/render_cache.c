@@ -308,21 +308,67 @@ typedef struct cache_entry {
     const render_product_ops *ops;
     void *p;
     uint64_t bytes;
+    uint64_t used;     /* the frame that last used it (render_cache_begin_frame's counter) */
 } cache_entry;
 
+/* The memory budget (docs/render.md, "The cache"): after an insertion, entries are dropped from the
+ * memory cache, least recently used first, while it holds more than `budget` bytes. An entry used
+ * by the current frame is never dropped (the frame holds pointers to it), so one frame may exceed
+ * the budget; the next frame's insertions make room. Dropped products stay on disk when the cache
+ * has a directory. */
 struct render_cache {
     cache_entry *e;
     int n, cap;
+    uint64_t frame, budget;
     char dir[1024];
     render_cache_stats stats;
 };
 
-render_cache *render_cache_create(const char *dir)
+render_cache *render_cache_create(const char *dir, uint64_t budget)
 {
     render_cache *c = (render_cache *)calloc(1, sizeof *c);
     if (c && dir)
         snprintf(c->dir, sizeof c->dir, "%s", dir);
+    if (c) {
+        c->budget = budget;
+        c->frame = 1;
+    }
     return c;
+}
+
+static void cache_trim(render_cache *c, obs_context *ctx);
+
+void render_cache_begin_frame(render_cache *c, obs_context *ctx)
+{
+    c->frame++;
+    cache_trim(c, ctx); /* between frames nothing is in use: back within the budget */
+}
+
+/* Drop least-recently-used entries not used by this frame while over the budget. */
+static void cache_trim(render_cache *c, obs_context *ctx)
+{
+    while (c->stats.bytes > c->budget) {
+        int victim = -1;
+        for (int i = 0; i < c->n; i++)
+            if (c->e[i].used < c->frame && (victim < 0 || c->e[i].used < c->e[victim].used))
+                victim = i;
+        if (victim < 0)
+            return; /* everything left is in use by this frame */
+        cache_entry *v = &c->e[victim];
+        if (ctx) {
+            char hex[33];
+            render_key_hex(v->key, hex);
+            obs_log(ctx, OBS_LOG_INFO, "render cache: dropped %s %s (%.1f MB) from memory to stay within %.1f MB",
+                    v->ops->kind, hex, (double)v->bytes / 1e6, (double)c->budget / 1e6);
+        }
+        c->stats.bytes -= v->bytes;
+        c->stats.evictions++;
+        v->ops->free_fn(v->p);
+        free(v->p);
+        c->e[victim] = c->e[c->n - 1];
+        c->n--;
+        c->stats.entries = c->n;
+    }
 }
 
 void render_cache_destroy(render_cache *c)
@@ -340,8 +386,10 @@ void render_cache_destroy(render_cache *c)
 void *render_cache_find(render_cache *c, render_key k, const render_product_ops *ops)
 {
     for (int i = 0; i < c->n; i++)
-        if (c->e[i].ops == ops && render_key_eq(c->e[i].key, k))
+        if (c->e[i].ops == ops && render_key_eq(c->e[i].key, k)) {
+            c->e[i].used = c->frame;
             return c->e[i].p;
+        }
     return NULL;
 }
 
@@ -411,7 +459,8 @@ static obs_status cache_write(render_cache *c, obs_context *ctx, render_key k, c
     return io_commit_temp(ctx, tmp, path);
 }
 
-static void *cache_insert(render_cache *c, render_key k, const render_product_ops *ops, void *p, uint64_t bytes)
+static void *cache_insert(render_cache *c, obs_context *ctx, render_key k, const render_product_ops *ops, void *p,
+                          uint64_t bytes)
 {
     if (c->n == c->cap) {
         int cap = c->cap ? 2 * c->cap : 16;
@@ -428,16 +477,18 @@ static void *cache_insert(render_cache *c, render_key k, const render_product_op
     c->e[c->n].ops = ops;
     c->e[c->n].p = p;
     c->e[c->n].bytes = bytes;
+    c->e[c->n].used = c->frame;
     c->n++;
     c->stats.entries = c->n;
     c->stats.bytes += bytes;
+    cache_trim(c, ctx);
     return p;
 }
 
 void *render_cache_put(render_cache *c, obs_context *ctx, render_key k, const render_product_ops *ops, void *p,
                        uint64_t bytes)
 {
-    if (!cache_insert(c, k, ops, p, bytes))
+    if (!cache_insert(c, ctx, k, ops, p, bytes))
         return NULL;
     if (c->dir[0] && ops->save) {
         render_blobs bl;
@@ -512,7 +563,7 @@ void *render_cache_load(render_cache *c, obs_context *ctx, render_key k, const r
     }
     free(b);
     free(data);
-    return cache_insert(c, k, ops, p, ops->bytes(p));
+    return cache_insert(c, ctx, k, ops, p, ops->bytes(p));
 miss:
     obs_log(ctx, OBS_LOG_WARN, "render cache: ignoring %s: %s (rebuilding it)", path, why ? why : "?");
     obs_context_clear_error(ctx);

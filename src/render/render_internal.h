@@ -60,7 +60,11 @@ typedef struct render_product_ops {
 } render_product_ops;
 
 typedef struct render_cache render_cache;
-render_cache *render_cache_create(const char *dir);
+/* budget: bytes the memory cache may hold between frames (least recently used dropped first). */
+render_cache *render_cache_create(const char *dir, uint64_t budget);
+/* A new frame: trims the cache to its budget; entries the frame finds or inserts are then kept
+ * until the next frame begins. */
+void render_cache_begin_frame(render_cache *c, obs_context *ctx);
 void render_cache_destroy(render_cache *c);
 /* Memory lookup: the product or NULL. */
 void *render_cache_find(render_cache *c, render_key k, const render_product_ops *ops);
