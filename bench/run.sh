@@ -19,7 +19,7 @@
 #            obscura_bench_sss --sweep (the maps over K, N and map size, both samplers) and
 #            obscura_bench_volume --growth (the light volume over n^3, the ray cast over n and over the
 #            image size), each point a warm-up and the median of SWEEP_REPS (default 3), a least-squares
-#            line per axis; 2 threads (SWEEP_THREADS); about 3 minutes idle; --quick: 1 repetition and
+#            line per axis; 2 threads (SWEEP_THREADS); about 2.5 minutes idle (estimated); --quick: 1 repetition and
 #            without the largest point of each axis -> bench/results/sweep-<yyyymmdd>.txt;
 #   all:     side, gbuffer, ao and sss (not sweep).
 # gbuffer and ao: REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
