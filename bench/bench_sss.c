@@ -2,7 +2,7 @@
  *
  *   obscura_bench_sss [SCENE] [--K 16] [--N 48] [--map-size 512] [--light-map-size 512]
  *                     [--sampler NAME] [--threads 2] [--reps 7] [--size 1920x1080]
- *                     [--sweep] [--views 8]
+ *                     [--sweep [--no-largest]] [--views 8]
  *
  * SCENE defaults to build/data/bunny_cream.glb (the bunny, 75k triangles, 30 cm, in cream, its
  * key light). After one warm-up, REPS timed repetitions of:
@@ -19,14 +19,20 @@
  *  with cmp (docs/sss/maps.md, "Cost").
  * --warmup 0 skips the warm-up (for callgrind: one build under the tool).
  * --isa scalar|avx2 picks the maps' and kernels' ISA (default auto).
- * --sweep times the maps over K in {4, 8, 16, 32} (N 48, 512^2), N in {16, 48, 128} (K 16, 512^2)
- * and map size in {256, 512, 1024} (K 16, N 48), and prints the least-squares line of each
- * (time = a + b x) with its coefficient of determination: the cost growth, expected linear in K,
- * in N and in the map's texel count. */
+ * --sweep (or --growth) times the maps over K in {4, 8, 16, 32} (N 48, 512^2), N in {16, 48, 128}
+ * (K 16, 512^2) and map size in {256, 512, 1024} (K 16, N 48), for the exponential and the Russian
+ * roulette samplers (only --sampler's if given): each point the light maps (untimed), a warm-up
+ * build, then the median of REPS builds (default 3 with --sweep). One SWEEP line per point, then
+ * per axis a table (median, min, max, ns per texel-sample = ms / (K size^2 N), the fitted time and
+ * the relative residual) and a FIT line: the least-squares line t = a + b x with R^2 (x = K, N or
+ * the texel count size^2): the cost growth, expected linear in K, in N and in the map's area
+ * (docs/results/cost-growth.md). --no-largest drops K 32, N 128 and 1024^2 (a quick check). */
 #include "core/obs.h"
 #include "io/io.h"
 #include "raster/raster.h"
 #include "sss/sss.h"
+
+#include "bench_scene.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -91,58 +97,84 @@ static void free_light_maps(bench *b, sss_light_map *lm)
         sss_light_map_free(&lm[l]);
 }
 
-/* Least squares y = a + b x and R^2. */
-static void fit_line(const double *x, const double *y, int n, double *a, double *b, double *r2)
+/* ---- --sweep: the cost growth of the maps (issue 14, section 8; docs/results/cost-growth.md) ---- */
+typedef struct sweep_done {
+    sss_sampler sampler;
+    int K, N, S;
+    bench_point pt;
+    uint64_t evals;
+} sweep_done;
+
+/* One configuration: the light maps (untimed), a warm-up build (unless --warmup 0), then REPS timed
+ * builds; the median, minimum and maximum in pt, the BSSRDF evaluations of the last build. */
+static void sweep_point(bench *b, const sss_params *p, int reps, int warmup, bench_point *pt, uint64_t *evals)
 {
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    for (int i = 0; i < n; i++) {
-        sx += x[i]; sy += y[i]; sxx += x[i] * x[i]; sxy += x[i] * y[i];
-    }
-    double d = n * sxx - sx * sx;
-    *b = d != 0 ? (n * sxy - sx * sy) / d : 0;
-    *a = (sy - *b * sx) / n;
-    double my = sy / n, ss = 0, sr = 0;
-    for (int i = 0; i < n; i++) {
-        ss += (y[i] - my) * (y[i] - my);
-        double e = y[i] - (*a + *b * x[i]);
-        sr += e * e;
-    }
-    *r2 = ss > 0 ? 1 - sr / ss : 1;
+    sss_light_map lm[8];
+    memset(lm, 0, sizeof lm);
+    render_light_maps(b, p, lm);
+    if (warmup)
+        time_maps(b, p, lm, NULL);
+    double t[64];
+    for (int r = 0; r < reps; r++)
+        t[r] = time_maps(b, p, lm, evals);
+    free_light_maps(b, lm);
+    pt->ms = median(t, reps); /* sorts t */
+    pt->ms_min = t[0];
+    pt->ms_max = t[reps - 1];
 }
 
-static void sweep_axis(bench *b, const sss_params *base, const char *axis, const int *vals, int n, int reps)
+/* One axis (0: K, 1: N, 2: the map side) over VALS, the other two at BASE's; a configuration
+ * already measured on an earlier axis (the base point) is reused, not timed again. Prints one
+ * SWEEP line per point as it is measured, then the table and the fit (bench_growth_print). */
+static void sweep_axis(bench *b, const sss_params *base, int axis, const int *vals, int n, int reps, int warmup,
+                       sweep_done *done, int *ndone)
 {
-    double x[8], y[8];
+    static const char *const names[3] = {"K", "N", "map_size"};
+    bench_point pt[8];
     for (int i = 0; i < n; i++) {
         sss_params p = *base;
-        if (!strcmp(axis, "K")) p.K = vals[i];
-        else if (!strcmp(axis, "N")) p.N = vals[i];
+        if (axis == 0) p.K = vals[i];
+        else if (axis == 1) p.N = vals[i];
         else p.map_size = vals[i];
-        sss_light_map lm[8];
-        memset(lm, 0, sizeof lm);
-        render_light_maps(b, &p, lm);
-        time_maps(b, &p, lm, NULL);   /* warm-up */
-        double t[64];
-        for (int r = 0; r < reps; r++)
-            t[r] = time_maps(b, &p, lm, NULL);
-        free_light_maps(b, lm);
-        x[i] = !strcmp(axis, "map_size") ? (double)vals[i] * vals[i] : vals[i];
-        y[i] = median(t, reps);
-        printf("SWEEP axis=%s value=%d K=%d N=%d map_size=%d maps_median_ms=%.2f\n", axis, vals[i], p.K, p.N, p.map_size,
-               y[i]);
+        const double texels = (double)p.map_size * p.map_size;
+        pt[i].param = vals[i];
+        pt[i].x = axis == 2 ? texels : vals[i];
+        pt[i].units = p.K * texels * p.N; /* texel-samples: K maps of size^2 texels, N samples each */
+        uint64_t evals = 0;
+        int j = 0, reused = 0;
+        for (; j < *ndone; j++)
+            if (done[j].sampler == p.sampler && done[j].K == p.K && done[j].N == p.N && done[j].S == p.map_size)
+                break;
+        if (j < *ndone) {
+            reused = 1;
+            pt[i].ms = done[j].pt.ms;
+            pt[i].ms_min = done[j].pt.ms_min;
+            pt[i].ms_max = done[j].pt.ms_max;
+            evals = done[j].evals;
+        } else {
+            sweep_point(b, &p, reps, warmup, &pt[i], &evals);
+            if (*ndone < 32) {
+                done[*ndone] = (sweep_done){p.sampler, p.K, p.N, p.map_size, pt[i], evals};
+                (*ndone)++;
+            }
+        }
+        printf("SWEEP axis=%s value=%d K=%d N=%d map_size=%d maps_median_ms=%.2f maps_min_ms=%.2f maps_max_ms=%.2f "
+               "sampler=%s bssrdf_evals=%llu ns_per_texel_sample=%.4g%s\n",
+               names[axis], vals[i], p.K, p.N, p.map_size, pt[i].ms, pt[i].ms_min, pt[i].ms_max,
+               sss_sampler_name(p.sampler), (unsigned long long)evals, pt[i].ms * 1e6 / pt[i].units,
+               reused ? " reused=1" : "");
         fflush(stdout);
     }
-    double a, bb, r2;
-    fit_line(x, y, n, &a, &bb, &r2);
-    printf("FIT axis=%s x=%s intercept_ms=%.3f slope_ms=%.6g r2=%.4f\n", axis,
-           !strcmp(axis, "map_size") ? "texels" : axis, a, bb, r2);
+    char tag[128];
+    snprintf(tag, sizeof tag, "sss sampler=%s axis=%s", sss_sampler_name(base->sampler), names[axis]);
+    bench_growth_print(tag, names[axis], axis == 2 ? "texels" : names[axis], "K map_size^2 N texel-samples", pt, n);
 }
 
 int main(int argc, char **argv)
 {
     const char *scene_path = "build/data/bunny_cream.glb";
     sss_params p = sss_params_default();
-    int threads = 2, reps = 7, sweep = 0, views = 0, warmup = 1;
+    int threads = 2, reps = 7, sweep = 0, views = 0, warmup = 1, reps_set = 0, sampler_set = 0, no_largest = 0;
     const char *dump = NULL;
     bench b;
     memset(&b, 0, sizeof b);
@@ -155,9 +187,10 @@ int main(int argc, char **argv)
         else if (!strcmp(a, "--map-size") && v) p.map_size = atoi(argv[++i]);
         else if (!strcmp(a, "--light-map-size") && v) p.light_map_size = atoi(argv[++i]);
         else if (!strcmp(a, "--threads") && v) threads = atoi(argv[++i]);
-        else if (!strcmp(a, "--reps") && v) reps = atoi(argv[++i]);
+        else if (!strcmp(a, "--reps") && v) reps = atoi(argv[++i]), reps_set = 1;
         else if (!strcmp(a, "--views") && v) views = atoi(argv[++i]);
-        else if (!strcmp(a, "--sweep")) sweep = 1;
+        else if (!strcmp(a, "--sweep") || !strcmp(a, "--growth")) sweep = 1;
+        else if (!strcmp(a, "--no-largest")) no_largest = 1;
         else if (!strcmp(a, "--dump") && v) dump = argv[++i];
         else if (!strcmp(a, "--warmup") && v) warmup = atoi(argv[++i]) != 0;
         else if (!strcmp(a, "--isa") && v) {
@@ -171,13 +204,16 @@ int main(int argc, char **argv)
                 fprintf(stderr, "obscura_bench_sss: unknown sampler '%s'\n", argv[i]);
                 return 2;
             }
+            sampler_set = 1;
         } else if (a[0] != '-') scene_path = a;
         else {
             fprintf(stderr, "usage: obscura_bench_sss [SCENE] [--K K] [--N N] [--map-size S] [--light-map-size S] "
-                            "[--sampler NAME] [--threads T] [--reps R] [--size WxH] [--views V] [--sweep]\n");
+                            "[--sampler NAME] [--threads T] [--reps R] [--size WxH] [--views V] [--sweep [--no-largest]]\n");
             return 2;
         }
     }
+    if (sweep && !reps_set)
+        reps = 3; /* the sweep's default R (docs/results/cost-growth.md: about 3 minutes in all, idle) */
     if (reps < 1 || reps > 64 || views < 0 || views > 64) return 2;
     b.ctx = obs_context_create();
     b.pool = obs_pool_create(threads);
@@ -199,10 +235,31 @@ int main(int argc, char **argv)
            (unsigned long long)obs_scene_triangle_count(&b.scene), b.scene.light_count, obs_pool_threads(b.pool), reps,
            sss_model_name(p.model), sss_sampler_name(p.sampler));
     if (sweep) {
+        /* Issue 14, section 8: K in {4, 8, 16, 32} at N 48, 512^2; N in {16, 48, 128} at K 16, 512^2;
+         * map side in {256, 512, 1024} at K 16, N 48 (the fixed values are --K, --N, --map-size);
+         * both samplers unless --sampler names one. --no-largest drops each axis's last value. */
         static const int Ks[] = {4, 8, 16, 32}, Ns[] = {16, 48, 128}, Ss[] = {256, 512, 1024};
-        sweep_axis(&b, &p, "K", Ks, 4, reps);
-        sweep_axis(&b, &p, "N", Ns, 3, reps);
-        sweep_axis(&b, &p, "map_size", Ss, 3, reps);
+        const sss_sampler samplers[2] = {SSS_SAMPLER_EXPONENTIAL, SSS_SAMPLER_RUSSIAN_ROULETTE};
+        const int nsamplers = sampler_set ? 1 : 2, drop = no_largest ? 1 : 0;
+        sweep_done done[32];
+        int ndone = 0;
+        const double t0 = obs_time_now();
+        printf("# sweep: the maps' build (sss_maps_build; light maps untimed), median of %d after %s; K, N, map size; "
+               "fixed K %d, N %d, map %d^2, light map %d^2\n",
+               reps, warmup ? "one warm-up build" : "no warm-up", p.K, p.N, p.map_size, p.light_map_size);
+        for (int s = 0; s < nsamplers; s++) {
+            sss_params q = p;
+            if (!sampler_set)
+                q.sampler = samplers[s];
+            sweep_axis(&b, &q, 0, Ks, 4 - drop, reps, warmup, done, &ndone);
+            sweep_axis(&b, &q, 1, Ns, 3 - drop, reps, warmup, done, &ndone);
+            sweep_axis(&b, &q, 2, Ss, 3 - drop, reps, warmup, done, &ndone);
+        }
+        printf("# sweep: %.1f s in all\n", obs_time_now() - t0);
+        sss_scene_setup_free(&b.setup);
+        obs_scene_free(&b.scene);
+        obs_pool_destroy(b.pool);
+        obs_context_destroy(b.ctx);
         return 0;
     }
     /* ---- One configuration: light maps, maps, camera G-buffer, combination ---- */

@@ -4,6 +4,7 @@
  *                        [--shading ea|phong|lightvolume] [--step 0] [--brick 8] [--et 0.99]
  *                        [--threads 2] [--reps 3] [--size 1920x1080] [--sweep]
  *                        [--lv-only] [--light X,Y,Z] [--blend 0|1] [--scale 1|2|4] [--cone DEG]
+ *                        [--growth [--no-largest]]
  *
  * Ray casts a synthetic volume (vol_synth, n^3, default the bucky at 256^3) with a transfer-function
  * preset (or a file io_volume_load reads, e.g. the head CT as NRRD with --tf ct-skin), from a fixed
@@ -18,11 +19,22 @@
  * default 45-degree cone, 2 threads: <= 25 ms): one warm-up build, then REPS timed builds; the RESULT
  * line gives the median (min, max) in ms and ns per light-volume voxel. --light sets the directional
  * light's travel direction (default -0.4,-0.7,-0.6, normalised; 0,0,1 is the bar's axis-aligned
- * light with its 3x3 cone), --blend, --scale and --cone the vol_lv_params. */
+ * light with its 3x3 cone), --blend, --scale and --cone the vol_lv_params.
+ * --growth times the cost growth (issue 15 item 11; docs/results/cost-growth.md): the light volume's
+ * build for vol_synth volumes at n = 64, 128, 256 (light along +z unless --light, the default cone:
+ * the bar's 3x3 case), the ray cast of those volumes at the fixed image --size (default 960x540
+ * with --growth), and the ray cast of
+ * the n^3 volume (--n, default 256) at 480x270, 960x540 and 1920x1080; each point one warm-up, then
+ * the median of REPS. One SWEEP line per point, then per axis a table and a FIT line: the
+ * least-squares line t = a + b x with R^2 and each point's relative residual, x = light-volume
+ * voxels, n (a ray crosses about n voxels) and pixels. --no-largest drops n 256 and 1920x1080 from
+ * the axes (a quick check). (--sweep is the older brick/early-termination sweep, unchanged.) */
 #include "core/obs.h"
 #include "io/io.h"
 #include "volume/vol.h"
 #include "volume/vol_raycast_internal.h"
+
+#include "bench_scene.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -93,12 +105,192 @@ static void run_one(bench *b, const vol_rc_params *p, const char *label)
     free(ms);
 }
 
+/* The box's centre and half diagonal: for vol_synth (centred on 0, n^3) the camera is at
+ * (1.3, 0.9, 2.6) x n/2. */
+static void frame_camera(bench *b)
+{
+    double lo[3], hi[3];
+    vol_grid_bounds(&b->g, lo, hi);
+    float ctr[3], r = 0.0f;
+    for (int a = 0; a < 3; a++) {
+        ctr[a] = (float)(0.5 * (lo[a] + hi[a]));
+        float e = (float)(0.5 * (hi[a] - lo[a]));
+        r = e > r ? e : r;
+    }
+    b->cam = obs_camera_look_at(obs_v3(ctr[0] + 1.3f * r, ctr[1] + 0.9f * r, ctr[2] + 2.6f * r),
+                                obs_v3(ctr[0], ctr[1], ctr[2]), obs_v3(0, 1, 0), 0.7f, 0.01f * r, 100.0f * r);
+}
+
+/* ---- --growth: the cost growth in volume size and image size (issue 15, section 11;
+ * docs/results/cost-growth.md) ---- */
+
+static void fill_point(bench_point *pt, double *ms, int reps)
+{
+    qsort(ms, (size_t)reps, sizeof(double), cmp_double);
+    pt->ms = reps % 2 ? ms[reps / 2] : 0.5 * (ms[reps / 2 - 1] + ms[reps / 2]);
+    pt->ms_min = ms[0];
+    pt->ms_max = ms[reps - 1];
+}
+
+/* The light volume's build: one warm-up build, then REPS timed builds (each freed). */
+static void growth_time_lv(bench *b, const vol_lv_params *lp, bench_point *pt)
+{
+    double *ms = (double *)malloc(sizeof(double) * (size_t)b->reps);
+    for (int r = -1; r < b->reps; r++) {
+        vol_light_volume lv;
+        double t0 = now_ms();
+        if (vol_light_volume_build(b->ctx, b->pool, &b->g, &b->tf, &b->light, lp, &lv) != OBS_STATUS_OK)
+            die(b);
+        if (r >= 0)
+            ms[r] = now_ms() - t0;
+        vol_light_volume_free(&lv);
+    }
+    fill_point(pt, ms, b->reps);
+    free(ms);
+}
+
+/* The ray cast at b->W x b->H: one warm-up (with the counters), then REPS timed casts (as run_one). */
+static void growth_time_rc(bench *b, const vol_rc_params *p, bench_point *pt, vol_i_rc_stats *st)
+{
+    obs_image_f32 out[4];
+    const vol_light_volume *lv = b->have_lv ? &b->lv : NULL;
+    if (vol_i_rc_raycast_stats(b->ctx, b->pool, &b->g, &b->tf, &b->light, lv, &b->cam, b->W, b->H, NULL, p, out, st) !=
+        OBS_STATUS_OK)
+        die(b);
+    for (int c = 0; c < 4; c++)
+        obs_image_f32_free(&out[c]);
+    double *ms = (double *)malloc(sizeof(double) * (size_t)b->reps);
+    for (int r = 0; r < b->reps; r++) {
+        double t0 = now_ms();
+        if (vol_raycast(b->ctx, b->pool, &b->g, &b->tf, &b->light, lv, &b->cam, b->W, b->H, NULL, p, out) !=
+            OBS_STATUS_OK)
+            die(b);
+        ms[r] = now_ms() - t0;
+        for (int c = 0; c < 4; c++)
+            obs_image_f32_free(&out[c]);
+    }
+    fill_point(pt, ms, b->reps);
+    free(ms);
+}
+
+static void growth_rc_line(const char *axis, const bench *b, const vol_rc_params *p, const bench_point *pt,
+                           const vol_i_rc_stats *st, const char *unit, int reused)
+{
+    printf("SWEEP bench=volume axis=%s n=%d size=%dx%d shading=%s median_ms=%.2f min_ms=%.2f max_ms=%.2f "
+           "ns_per_%s=%.4g rays=%lld samples_read=%lld samples_skipped=%lld ns_per_sample_read=%.4g%s\n",
+           axis, b->g.nx, b->W, b->H, vol_shading_name(p->shading), pt->ms, pt->ms_min, pt->ms_max, unit,
+           pt->ms * 1e6 / pt->units, (long long)st->rays, (long long)st->samples, (long long)st->samples_skipped,
+           st->samples > 0 ? pt->ms * 1e6 / (double)st->samples : 0.0, reused ? " reused=1" : "");
+    fflush(stdout);
+}
+
+/* The three axes: the light volume's build over n in {64, 128, 256} (x = its voxels), the ray cast
+ * over n at the fixed image --size (x = n: a ray crosses about n voxels), and the ray cast of the
+ * n_image^3 volume over the images 480x270, 960x540, 1920x1080 (x = pixels). Each volume is made
+ * once (vol_synth, untimed); with --shading lightvolume its light volume is built (untimed) for the
+ * ray casts. NO_LARGEST drops n 256 from the first two axes and 1920x1080 from the third. */
+static void growth_run(bench *b, const char *synth, int n_image, const vol_lv_params *lp, const vol_rc_params *p,
+                       int no_largest)
+{
+    static const int ns[3] = {64, 128, 256}, images[3][2] = {{480, 270}, {960, 540}, {1920, 1080}};
+    const int nn = no_largest ? 2 : 3, ni = no_largest ? 2 : 3, W = b->W, H = b->H;
+    bench_point lvp[3], rcn[3], rci[3];
+    int todo[4], nt = 0, have_image = 0;
+    for (int i = 0; i < nn; i++) {
+        todo[nt++] = ns[i];
+        have_image |= ns[i] == n_image;
+    }
+    if (!have_image)
+        todo[nt++] = n_image; /* the image axis's volume, made after the swept ones */
+    const double t_start = now_ms();
+    printf("# growth: %s, light (%.3f, %.3f, %.3f), cone %g, scale %d, blend %d; ray cast %s brick %d et %.2f step %.3g; "
+           "median of %d after one warm-up; volume axis at %dx%d, image axis at n %d\n",
+           synth, b->light.direction[0], b->light.direction[1], b->light.direction[2], lp->cone_angle_deg, lp->scale,
+           lp->blend_second, vol_shading_name(p->shading), p->brick, p->early_termination, p->step, b->reps, W, H,
+           n_image);
+    fflush(stdout);
+    for (int t = 0; t < nt; t++) {
+        const int n = todo[t], swept = t < nn;
+        double t0 = now_ms();
+        if (vol_synth(b->ctx, synth, n, &b->g) != OBS_STATUS_OK)
+            die(b);
+        vol_grid_update_range(&b->g);
+        printf("# %s %dx%dx%d made in %.0f ms\n", synth, b->g.nx, b->g.ny, b->g.nz, now_ms() - t0);
+        frame_camera(b);
+        if (swept) {
+            bench_point *q = &lvp[t];
+            const double lvv = (double)((b->g.nx + lp->scale - 1) / lp->scale) * ((b->g.ny + lp->scale - 1) / lp->scale) *
+                               ((b->g.nz + lp->scale - 1) / lp->scale);
+            growth_time_lv(b, lp, q);
+            q->param = n;
+            q->x = lvv;
+            q->units = lvv;
+            printf("SWEEP bench=volume axis=lightvolume n=%d voxels=%.0f median_ms=%.2f min_ms=%.2f max_ms=%.2f "
+                   "ns_per_voxel=%.4g\n", n, lvv, q->ms, q->ms_min, q->ms_max, q->ms * 1e6 / lvv);
+            fflush(stdout);
+        }
+        if (p->shading == VOL_SHADING_LIGHT_VOLUME) {
+            if (vol_light_volume_build(b->ctx, b->pool, &b->g, &b->tf, &b->light, lp, &b->lv) != OBS_STATUS_OK)
+                die(b);
+            b->have_lv = 1;
+        }
+        vol_i_rc_stats st, st_n;
+        memset(&st_n, 0, sizeof st_n);
+        if (swept) {
+            bench_point *q = &rcn[t];
+            b->W = W;
+            b->H = H;
+            growth_time_rc(b, p, q, &st);
+            q->param = n;
+            q->x = n;
+            q->units = (double)W * H * n;
+            growth_rc_line("raycast_n", b, p, q, &st, "pixel_n", 0);
+            st_n = st;
+        }
+        if (n == n_image) {
+            for (int i = 0; i < ni; i++) {
+                bench_point *q = &rci[i];
+                b->W = images[i][0];
+                b->H = images[i][1];
+                const int reuse = swept && b->W == W && b->H == H;
+                if (reuse) {
+                    *q = rcn[t];
+                    st = st_n;
+                } else {
+                    growth_time_rc(b, p, q, &st);
+                }
+                q->param = b->W;
+                q->x = (double)b->W * b->H;
+                q->units = q->x;
+                growth_rc_line("raycast_image", b, p, q, &st, "pixel", reuse);
+            }
+            b->W = W;
+            b->H = H;
+        }
+        if (b->have_lv) {
+            vol_light_volume_free(&b->lv);
+            b->have_lv = 0;
+        }
+        vol_grid_free(&b->g);
+    }
+    char tag[160];
+    snprintf(tag, sizeof tag, "volume lightvolume axis=n synth=%s scale=%d", synth, lp->scale);
+    bench_growth_print(tag, "n", "voxels", "light-volume voxels", lvp, nn);
+    snprintf(tag, sizeof tag, "volume raycast axis=n synth=%s size=%dx%d shading=%s", synth, W, H,
+             vol_shading_name(p->shading));
+    bench_growth_print(tag, "n", "n", "pixels x n", rcn, nn);
+    snprintf(tag, sizeof tag, "volume raycast axis=image synth=%s n=%d shading=%s", synth, n_image,
+             vol_shading_name(p->shading));
+    bench_growth_print(tag, "width", "pixels", "pixels", rci, ni);
+    printf("# growth: %.1f s in all\n", (now_ms() - t_start) * 1e-3);
+}
+
 int main(int argc, char **argv)
 {
     bench b;
     memset(&b, 0, sizeof b);
     const char *synth = "bucky", *tfname = NULL, *file = NULL;
-    int n = 256, threads = 2, sweep = 0, lv_only = 0;
+    int n = 256, threads = 2, sweep = 0, lv_only = 0, growth = 0, no_largest = 0, light_set = 0, size_set = 0;
     double ldir[3] = {-0.4, -0.7, -0.6};
     vol_lv_params lp = vol_lv_params_default();
     b.W = 1920;
@@ -114,6 +306,14 @@ int main(int argc, char **argv)
         }
         if (!strcmp(a, "--lv-only")) {
             lv_only = 1;
+            continue;
+        }
+        if (!strcmp(a, "--growth")) {
+            growth = 1;
+            continue;
+        }
+        if (!strcmp(a, "--no-largest")) {
+            no_largest = 1;
             continue;
         }
         if (!v) {
@@ -145,6 +345,7 @@ int main(int argc, char **argv)
                 fprintf(stderr, "obscura_bench_volume: --light X,Y,Z\n");
                 return 2;
             }
+            light_set = 1;
         } else if (!strcmp(a, "--blend"))
             lp.blend_second = atoi(v);
         else if (!strcmp(a, "--scale"))
@@ -160,6 +361,7 @@ int main(int argc, char **argv)
                 fprintf(stderr, "obscura_bench_volume: --size WxH\n");
                 return 2;
             }
+            size_set = 1;
         } else {
             fprintf(stderr, "obscura_bench_volume: unknown option %s\n", a);
             return 2;
@@ -169,8 +371,24 @@ int main(int argc, char **argv)
     b.pool = obs_pool_create(threads);
     if (!b.ctx || !b.pool)
         return 1;
+    if (growth) {
+        if (file) {
+            fprintf(stderr, "obscura_bench_volume: --growth sweeps vol_synth volumes, not --file\n");
+            return 2;
+        }
+        if (!light_set) { /* issue 15's bar case: a directional light along +z (its 3x3 cone) */
+            ldir[0] = ldir[1] = 0.0;
+            ldir[2] = 1.0;
+        }
+        if (!size_set) { /* the volume axis's fixed image: 960x540 keeps the sweep near 3 minutes idle */
+            b.W = 960;
+            b.H = 540;
+        }
+    }
     double t0 = now_ms();
-    if (file) {
+    if (growth) {
+        /* the volumes are made in growth_run; nothing to load here */
+    } else if (file) {
         io_volume_options vo = io_volume_options_default();
         if (io_volume_load(b.ctx, file, &vo, &b.g) != OBS_STATUS_OK)
             die(&b);
@@ -178,7 +396,8 @@ int main(int argc, char **argv)
     } else if (vol_synth(b.ctx, synth, n, &b.g) != OBS_STATUS_OK) {
         die(&b);
     }
-    vol_grid_update_range(&b.g);
+    if (!growth)
+        vol_grid_update_range(&b.g);
     double t_synth = now_ms() - t0;
     if (!tfname)
         tfname = !strcmp(synth, "bucky") ? "bucky" : NULL;
@@ -198,18 +417,17 @@ int main(int argc, char **argv)
     for (int a = 0; a < 3; a++)
         b.light.direction[a] = ldir[a] / l;
     b.light.color[0] = b.light.color[1] = b.light.color[2] = 1.0f;
-    /* The box's centre and half diagonal: for vol_synth (centred on 0, n^3) the camera is at
-     * (1.3, 0.9, 2.6) x n/2. */
-    double lo[3], hi[3];
-    vol_grid_bounds(&b.g, lo, hi);
-    float ctr[3], r = 0.0f;
-    for (int a = 0; a < 3; a++) {
-        ctr[a] = (float)(0.5 * (lo[a] + hi[a]));
-        float e = (float)(0.5 * (hi[a] - lo[a]));
-        r = e > r ? e : r;
+    if (growth) {
+        printf("# obscura_bench_volume --growth: %s, TF %s, %d threads, %d reps\n", synth, tfname ? tfname : "bench",
+               threads, b.reps);
+        growth_run(&b, synth, n, &lp, &p, no_largest);
+        if (tfname)
+            vol_tf_free(&b.tf);
+        obs_pool_destroy(b.pool);
+        obs_context_destroy(b.ctx);
+        return 0;
     }
-    b.cam = obs_camera_look_at(obs_v3(ctr[0] + 1.3f * r, ctr[1] + 0.9f * r, ctr[2] + 2.6f * r),
-                               obs_v3(ctr[0], ctr[1], ctr[2]), obs_v3(0, 1, 0), 0.7f, 0.01f * r, 100.0f * r);
+    frame_camera(&b);
     printf("# obscura_bench_volume: %s %dx%dx%d (made/loaded in %.0f ms), TF %s, %dx%d, %d threads, %d reps\n",
            file ? file : synth, b.g.nx, b.g.ny, b.g.nz, t_synth,
            tfname ? tfname : "bench", b.W, b.H, threads, b.reps);

@@ -15,11 +15,17 @@
 #            (K 16, N 48, 512^2, 2 threads; <= 150 ms), 8 views reusing one set of maps, then the
 #            cost growth in K, N and map size with a fitted line each, then the GLSL port of the
 #            gather and the combination on llvmpipe alternating with ours -> bench/results/sss.txt;
-#   all:     side, gbuffer, ao and sss.
+#   sweep:   the cost growth (issue 14 section 8, issue 15 item 11; docs/results/cost-growth.md):
+#            obscura_bench_sss --sweep (the maps over K, N and map size, both samplers) and
+#            obscura_bench_volume --growth (the light volume over n^3, the ray cast over n and over the
+#            image size), each point a warm-up and the median of SWEEP_REPS (default 3), a least-squares
+#            line per axis; 2 threads (SWEEP_THREADS); about 2.5 minutes idle (estimated); --quick: 1 repetition and
+#            without the largest point of each axis -> bench/results/sweep-<yyyymmdd>.txt;
+#   all:     side, gbuffer, ao and sss (not sweep).
 # gbuffer and ao: REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
 # repetitions of each run's median, which this script prints at the end.
-# Usage: bench/run.sh [side|gbuffer|ao|sss|all] [--quick]
+# Usage: bench/run.sh [side|gbuffer|ao|sss|sweep|all] [--quick]
 #   (side: PAIRS=5 THREADS=2 SIZE=1920x1080 FRAMES=20 WARMUP=5 PASSES="gbuffer sao sao_blur";
 #    gbuffer/ao: REPS=... THREADS="1 2" SIZES="1920x1080 1280x720" METHODS="sao gtao" override)
 set -euo pipefail
@@ -28,7 +34,7 @@ build="${BUILD:-$here/build}"
 if [ ! -x "$build/obscura_bench" ]; then "$here/scripts/build.sh" "$build"; fi
 what="side"; quick=0
 for a in "$@"; do
-  case "$a" in side|gbuffer|ao|sss|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [side|gbuffer|ao|sss|all] [--quick]" >&2; exit 2 ;; esac
+  case "$a" in side|gbuffer|ao|sss|sweep|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [side|gbuffer|ao|sss|sweep|all] [--quick]" >&2; exit 2 ;; esac
 done
 reps="${REPS:-5}"; threads="${THREADS:-1 2}"; sizes="${SIZES:-1920x1080 1280x720}"; frames=20; aoreps=9
 if [ "$quick" = 1 ]; then reps=1; sizes="640x360"; frames=3; aoreps=3; fi
@@ -160,6 +166,28 @@ if [ "$what" = sss ] || [ "$what" = all ]; then
   } | tee "$here/bench/results/sss.txt"
   if [ "$what" = sss ]; then exit 0; fi
 fi
+# ================================================================================================
+# sweep: the cost growth in K, N, map size (SSS maps) and in volume and image size (light volume,
+# ray caster); each axis's table ends in a FIT line (t = a + b x, R^2, the worst relative residual)
+# ================================================================================================
+if [ "$what" = sweep ]; then
+  sw_reps="${SWEEP_REPS:-3}"; sw_threads="${SWEEP_THREADS:-2}"; sw_extra=()
+  if [ "$quick" = 1 ]; then sw_reps=1; sw_extra=(--no-largest); fi
+  for x in obscura_bench_sss obscura_bench_volume; do
+    [ -x "$build/$x" ] || cmake --build "$build" -j1 --target "$x" >&2
+  done
+  out="$here/bench/results/sweep-$(date -u +%Y%m%d).txt"
+  t_sweep=$(date +%s)
+  { header
+    "$build/obscura_bench_sss" "$build/data/bunny_cream.glb" --threads "$sw_threads" --reps "$sw_reps" --sweep ${sw_extra[@]+"${sw_extra[@]}"}
+    "$build/obscura_bench_volume" --growth --threads "$sw_threads" --reps "$sw_reps" ${sw_extra[@]+"${sw_extra[@]}"}
+    echo "# sweep: $(( $(date +%s) - t_sweep )) s in all; load1 at the end $(cut -d' ' -f1 /proc/loadavg)"
+  } | tee "$out"
+  echo "# the fits (docs/results/cost-growth.md says how to read them):"
+  grep '^FIT' "$out" || true
+  exit 0
+fi
+
 if [ "$what" != ao ]; then
   out="$here/bench/results/gbuffer.txt"
   {
