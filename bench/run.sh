@@ -158,7 +158,7 @@ if [ "$what" = sss ] || [ "$what" = all ]; then
   sreps=7; [ "$quick" = 1 ] && sreps=1
   { header
     "$build/obscura_bench_sss" "$build/data/bunny_cream.glb" --threads 2 --reps "$sreps" --views 8
-    [ "$quick" = 1 ] || "$build/obscura_bench_sss" "$build/data/bunny_cream.glb" --threads 2 --reps 3 --sweep
+    # (the cost growth in K, N and map size is `bench/run.sh sweep`)
     # the GLSL port of the gather and the combination on llvmpipe, alternating with ours (tests/gl/glsl_sss.c)
     if [ -x "$build/obscura_gl_bench_sss" ]; then
       "$build/obscura_gl_bench_sss" "$build/data/bunny_cream.glb" --K 16 --N 48 --map 256 --threads 2
