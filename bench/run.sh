@@ -24,7 +24,7 @@
 #            960x540, 1920x1080 and 3840x2160, EA on the CT down-sampled by 2, Phong at 1920x1080;
 #            prints medians, the median of the per-pair ratios (VTK / obscura), a RATIO line against
 #            the bar (>= 2x), the cost growth, and `obscura compare` of the two images per case;
-#            writes bench/results/vtk-DATE.txt (docs/volume/vtk-peer.md).
+#            writes bench/results/vtk-DATE.txt (--quick: vtk-DATE-quick.txt; docs/volume/vtk-peer.md).
 # gbuffer and ao: REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
 # repetitions of each run's median, which this script prints at the end.
@@ -187,7 +187,7 @@ vtk_run() {
   local work="$build/vtk-peer"; mkdir -p "$work"
   local half="$work/$(basename "${vol%.nrrd}")_half.nrrd"
   if [ ! -f "$half" ] || [ "$vol" -nt "$half" ]; then "$py" "$here/bench/vtk_peer.py" "$vol" --write-half "$half" >&2; fi
-  local out; out="$here/bench/results/vtk-$(date -u +%Y%m%d).txt"
+  local out; out="$here/bench/results/vtk-$(date -u +%Y%m%d)$([ "$quick" = 1 ] && echo -quick).txt"
   {
     header
     echo "# obscura volume against VTK $("$py" -c 'import vtk; print(vtk.vtkVersion.GetVTKVersion())') vtkFixedPointVolumeRayCastMapper: $pairs pairs, $t threads, TF $tf, obscura first in each pair; cases: $cases"
