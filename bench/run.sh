@@ -13,29 +13,40 @@
 #            stage (level 0 only, no blur);
 #   sss:     obscura_bench_sss: the scattering maps of the bunny in cream at the bar's configuration
 #            (K 16, N 48, 512^2, 2 threads; <= 150 ms), 8 views reusing one set of maps, then the
-#            cost growth in K, N and map size with a fitted line each, then the GLSL port of the
-#            gather and the combination on llvmpipe alternating with ours -> bench/results/sss.txt;
+#            GLSL port of the gather and the combination on llvmpipe alternating with ours
+#            -> bench/results/sss.txt (the cost growth in K, N and map size: sweep);
 #   sweep:   the cost growth (issue 14 section 8, issue 15 item 11; docs/results/cost-growth.md):
 #            obscura_bench_sss --sweep (the maps over K, N and map size, both samplers) and
 #            obscura_bench_volume --growth (the light volume over n^3, the ray cast over n and over the
 #            image size), each point a warm-up and the median of SWEEP_REPS (default 3), a least-squares
 #            line per axis; 2 threads (SWEEP_THREADS); about 2.5 minutes idle (estimated); --quick: 1 repetition and
 #            without the largest point of each axis -> bench/results/sweep-<yyyymmdd>.txt;
-#   all:     side, gbuffer, ao and sss (not sweep).
+#   all:     side, gbuffer, ao and sss (not sweep, not vtk).
+#   vtk:     (not in all) the volume ray caster against VTK 9.1's CPU ray caster
+#            (vtkFixedPointVolumeRayCastMapper, Debian python3-vtk9, bench/vtk_peer.py under xvfb-run;
+#            installed here with apt-get when missing), SIDE BY SIDE: `obscura volume` (its sidecar's
+#            seconds_raycast) and the peer (one frame after a warm-up) alternate, PAIRS pairs (default
+#            5), on the head CT with ct-skin, obscura's framing, step and light, 2 threads; cases: EA at
+#            960x540, 1920x1080 and 3840x2160, EA on the CT down-sampled by 2, Phong at 1920x1080;
+#            prints medians, the median of the per-pair ratios (VTK / obscura), a RATIO line against
+#            the bar (>= 2x), the cost growth, and `obscura compare` of the two images per case;
+#            writes bench/results/vtk-DATE.txt (--quick: vtk-DATE-quick.txt; docs/volume/vtk-peer.md).
 # gbuffer and ao: REPS interleaved repetitions (default 5) of each. Prints RESULT lines and writes
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
 # repetitions of each run's median, which this script prints at the end.
-# Usage: bench/run.sh [side|gbuffer|ao|sss|sweep|all] [--quick]
+# Usage: bench/run.sh [side|gbuffer|ao|sss|sweep|vtk|all] [--quick]
+#   (vtk: PAIRS=5 THREADS=2 VTK_CASES="ea:1920x1080:full ..." VTK_REPS=1 VTK_INSTALL=1 override)
 #   (side: PAIRS=5 THREADS=2 SIZE=1920x1080 FRAMES=20 WARMUP=5 PASSES="gbuffer sao sao_blur";
 #    gbuffer/ao: REPS=... THREADS="1 2" SIZES="1920x1080 1280x720" METHODS="sao gtao" override)
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 build="${BUILD:-$here/build}"
-if [ ! -x "$build/obscura_bench" ]; then "$here/scripts/build.sh" "$build"; fi
 what="side"; quick=0
 for a in "$@"; do
-  case "$a" in side|gbuffer|ao|sss|sweep|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [side|gbuffer|ao|sss|sweep|all] [--quick]" >&2; exit 2 ;; esac
+  case "$a" in side|gbuffer|ao|sss|sweep|vtk|all) what="$a" ;; --quick) quick=1 ;; *) echo "usage: bench/run.sh [side|gbuffer|ao|sss|sweep|vtk|all] [--quick]" >&2; exit 2 ;; esac
 done
+# vtk needs only the CLI (built below, one target); everything else the whole Release build
+if [ "$what" != vtk ] && [ ! -x "$build/obscura_bench" ]; then "$here/scripts/build.sh" "$build"; fi
 reps="${REPS:-5}"; threads="${THREADS:-1 2}"; sizes="${SIZES:-1920x1080 1280x720}"; frames=20; aoreps=9
 if [ "$quick" = 1 ]; then reps=1; sizes="640x360"; frames=3; aoreps=3; fi
 mkdir -p "$here/bench/results"
@@ -151,6 +162,91 @@ parse() {
   esac
 }
 
+# ================================================================================================
+# vtk: obscura's volume ray caster against VTK 9.1's CPU ray caster, alternating
+# ================================================================================================
+# Each case is MODE:WxH:VOLUME (VOLUME full = the head CT, half = it down-sampled by 2 per axis by
+# vtk_peer.py --write-half into the build tree). Per pair: `obscura volume` once (one frame; its
+# sidecar's seconds_raycast excludes loading), then the peer once (one timed Render() after one
+# warm-up, loading excluded), with the camera and light read from obscura's sidecar. The images of
+# the last pair are compared with `obscura compare` (linear RGB over black: obscura's EXR against
+# the peer's PFM read back from VTK's 8-bit frame buffer).
+vtk_run() {
+  local pairs="${PAIRS:-5}" t="${THREADS:-2}" vreps="${VTK_REPS:-1}" tf="${VTK_TF:-ct-skin}"
+  local cases="${VTK_CASES:-ea:1920x1080:full ea:960x540:full ea:3840x2160:full ea:1920x1080:half phong:1920x1080:full}"
+  if [ "$quick" = 1 ]; then pairs=1; cases="ea:640x360:full"; fi
+  case "$t" in *" "*) echo "vtk: THREADS must be one number (got '$t')" >&2; exit 2 ;; esac
+  local vol="${VTK_VOLUME:-$here/data/cache/volumes/cranium.nrrd}" py="${VTK_PYTHON:-/usr/bin/python3}"
+  [ -f "$vol" ] || { echo "vtk: $vol missing (scripts/fetch_volumes.sh, run by scripts/setup.sh, extracts it)" >&2; exit 3; }
+  # ---- the CLI (one target, -j1 when it has to be built) and the peer (Debian packages, not in CI's setup) ----
+  if [ ! -x "$build/obscura" ]; then
+    cmake -S "$here" -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null && cmake --build "$build" -j1 --target obscura_cli >&2
+  fi
+  if ! "$py" -c 'import vtk, numpy' 2>/dev/null || ! command -v xvfb-run >/dev/null; then
+    if [ "${VTK_INSTALL:-1}" = 1 ] && command -v apt-get >/dev/null; then
+      local SUDO=""; [ "$(id -u)" = 0 ] || SUDO="sudo"
+      $SUDO apt-get install -y -qq python3-vtk9 xvfb >&2 || { echo "vtk: apt-get install python3-vtk9 xvfb failed" >&2; exit 3; }
+    else
+      echo "vtk: needs python3-vtk9 (for $py) and xvfb-run: apt-get install python3-vtk9 xvfb" >&2; exit 3
+    fi
+  fi
+  local work="$build/vtk-peer"; mkdir -p "$work"
+  local half="$work/$(basename "${vol%.nrrd}")_half.nrrd"
+  if [ ! -f "$half" ] || [ "$vol" -nt "$half" ]; then "$py" "$here/bench/vtk_peer.py" "$vol" --write-half "$half" >&2; fi
+  local out; out="$here/bench/results/vtk-$(date -u +%Y%m%d)$([ "$quick" = 1 ] && echo -quick).txt"
+  {
+    header
+    echo "# obscura volume against VTK $("$py" -c 'import vtk; print(vtk.vtkVersion.GetVTKVersion())') vtkFixedPointVolumeRayCastMapper: $pairs pairs, $t threads, TF $tf, obscura first in each pair; cases: $cases"
+    for c in $cases; do
+      IFS=: read -r mode size which <<<"$c"
+      local v="$vol"; [ "$which" = half ] && v="$half"
+      local tag="${mode}_${size}_$which"
+      for p in $(seq 1 "$pairs"); do
+        "$build/obscura" --quiet --threads "$t" volume "$v" --tf "$tf" --mode "$mode" --size "$size" -o "$work/obs_$tag" >/dev/null 2>&1 ||
+          { echo "# $tag: obscura volume failed"; continue 2; }
+        local o; o=$(awk -F'[:,]' '/"seconds_raycast"/ { gsub(/ /, "", $2); printf "%.1f", $2 * 1000 }' "$work/obs_$tag.json")
+        local r; r=$(xvfb-run -a "$py" "$here/bench/vtk_peer.py" "$v" --tf "$tf" --mode "$mode" --size "$size" --threads "$t" \
+                     --camera-from "$work/obs_$tag.json" --warmup 1 --reps "$vreps" --out "$work/vtk_$tag" 2>/dev/null | grep '^RESULT' || true)
+        local g; g=$(printf '%s\n' "$r" | parse field median_ms)
+        [ "$p" = 1 ] && [ -n "$r" ] && echo "# peer: ${r#RESULT }"
+        echo "PAIR case=$tag pair=$p vtk_ms=${g:-nan} obscura_ms=${o:-nan} load1=$(cut -d' ' -f1 /proc/loadavg)"
+      done
+      echo "# compare $tag: reference obscura ($work/obs_$tag.exr), test VTK ($work/vtk_$tag.pfm), R G B over black"
+      "$build/obscura" compare "$work/obs_$tag.exr" "$work/vtk_$tag.pfm" --channel R --channel G --channel B \
+        --heatmap "$work/heat_$tag.png" --json "$work/cmp_$tag.json" 2>&1 | sed 's/^/COMPARE /' || true
+    done
+    echo "# end $(date -u +%Y-%m-%dT%H:%MZ) load1=$(cut -d' ' -f1 /proc/loadavg)"
+  } | tee "$out"
+  python3 - "$out" <<'PY' || true
+import sys, re, statistics as S, collections
+d = collections.defaultdict(list)
+for line in open(sys.argv[1]):
+    if line.startswith("PAIR"):
+        kv = dict(re.findall(r"(\w+)=(\S+)", line))
+        try: d[kv["case"]].append((float(kv["vtk_ms"]), float(kv["obscura_ms"]), float(kv["load1"])))
+        except ValueError: pass
+print("| case | obscura ms | VTK ms | obscura speed-up = VTK ms / obscura ms (median of pairs) | pairs min-max | load1 | bar |")
+print("|---|---|---|---|---|---|---|")
+med = {}
+for k, v in d.items():
+    r = [g / o for g, o, _ in v if o > 0]
+    med[k] = (S.median(o for _, o, _ in v), S.median(g for g, _, _ in v))
+    print(f"| {k} | {med[k][0]:.1f} | {med[k][1]:.1f} | {S.median(r):.2f}x | {min(r):.2f}-{max(r):.2f} | "
+          f"{S.median(l for _, _, l in v):.1f} | >= 2x {'met' if S.median(r) >= 2 else 'NOT met'} |")
+    if k == "ea_1920x1080_full":
+        print(f"RATIO vtk_over_obscura case={k} median={S.median(r):.2f} bar=2 {'met' if S.median(r) >= 2 else 'NOT_met'}")
+# cost growth: against the 1920x1080 full-volume EA case
+base = med.get("ea_1920x1080_full")
+if base:
+    print("| growth against ea_1920x1080_full | obscura | VTK |")
+    print("|---|---|---|")
+    for k in ("ea_960x540_full", "ea_3840x2160_full", "ea_1920x1080_half", "phong_1920x1080_full"):
+        if k in med:
+            print(f"| {k} | {med[k][0] / base[0]:.2f}x | {med[k][1] / base[1]:.2f}x |")
+PY
+}
+
+if [ "$what" = vtk ]; then vtk_run; exit 0; fi
 if [ "$what" = side ] || [ "$what" = all ]; then side_run; fi
 [ "$what" = side ] && exit 0
 
