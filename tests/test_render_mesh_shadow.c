@@ -175,3 +175,4 @@ TEST(render_mesh_shadows_without_meshes_in_the_box_change_no_pixel)
     obs_scene_free(&s);
     obs_context_destroy(ctx);
 }
+

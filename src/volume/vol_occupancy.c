@@ -101,6 +101,7 @@ typedef struct occ_tri {
     int32_t a0, a1, b0, b1;      /* sub-columns covered by its fixed-point bounds (clamped) */
 } occ_tri;
 
+typedef struct occ_vtx { int64_t X, Y; double z; int ok; } occ_vtx;
 typedef struct occ_cross { int32_t sc; int32_t inst; double z; } occ_cross;
 typedef struct occ_iv { double z0, z1; } occ_iv;
 
@@ -311,15 +312,18 @@ obs_status vol_occupancy_voxelize(obs_context *ctx, obs_pool *pool, const vol_oc
                          (long long)(OCC_CLAMP / OCC_FRAC));
     obs_limits deflim = obs_limits_default();
     const obs_limits *lim = ctx ? obs_context_limits(ctx) : &deflim;
-    int64_t ntri = 0;
+    int64_t ntri = 0, nvmax = 0;
     for (int m = 0; m < count; m++) {
         const obs_mesh *M = meshes[m].mesh;
         if (!M || (M->triangle_count > 0 && (!M->positions || !M->indices)))
             return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_occupancy_voxelize: mesh %d is NULL or has no arrays", m);
         ntri += M->triangle_count;
+        nvmax = (int64_t)M->vertex_count > nvmax ? (int64_t)M->vertex_count : nvmax;
     }
-    /* Refuse absurd sizes before allocating: the prepared triangles and the row lists. */
-    if (ntri * (int64_t)(sizeof(occ_tri) + 2 * sizeof(int32_t)) > lim->max_memory_bytes || ntri > INT32_MAX / 2)
+    /* Refuse absurd sizes before allocating: the prepared triangles, one instance's vertices and
+     * the row lists. */
+    if (ntri * (int64_t)(sizeof(occ_tri) + 2 * sizeof(int32_t)) + nvmax * (int64_t)sizeof(occ_vtx) >
+            lim->max_memory_bytes || ntri > INT32_MAX / 2)
         return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED, "vol_occupancy_voxelize: %lld triangles are over the limits",
                          (long long)ntri);
     const double lo[3] = {occ->origin[0] - 0.5 * occ->spacing[0], occ->origin[1] - 0.5 * occ->spacing[1],
@@ -330,15 +334,31 @@ obs_status vol_occupancy_voxelize(obs_context *ctx, obs_pool *pool, const vol_oc
     int32_t *row_start = (int32_t *)calloc((size_t)occ->ny + 1, sizeof(int32_t));
     int *failed = (int *)calloc((size_t)occ->ny, sizeof(int));
     int32_t *row_tri = NULL;
+    occ_vtx *vx = NULL;
     obs_status st = OBS_STATUS_OK;
     if (!tri || !row_start || !failed) {
         st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_occupancy_voxelize: out of memory");
         goto out;
     }
-    /* Step 1: the triangles whose fixed-point bounds meet a sub-column of the grid. */
+    /* Step 1: the triangles whose fixed-point bounds meet a sub-column of the grid (each
+     * instance's vertices transformed and snapped once). */
     int64_t nt = 0, refs = 0;
     for (int m = 0; m < count; m++) {
         const obs_mesh *M = meshes[m].mesh;
+        free(vx);
+        vx = (occ_vtx *)malloc(sizeof(occ_vtx) * (size_t)(M->vertex_count ? M->vertex_count : 1));
+        if (!vx) {
+            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_occupancy_voxelize: out of memory");
+            goto out;
+        }
+        for (uint32_t v = 0; v < M->vertex_count; v++) {
+            const float *pp = M->positions + 3 * (size_t)v;
+            const obs_vec3 w = obs_mat4_mul_point(meshes[m].world, obs_v3(pp[0], pp[1], pp[2]));
+            vx[v].ok = isfinite(w.x) && isfinite(w.y) && isfinite(w.z);
+            vx[v].X = vx[v].ok ? occ_fix(((double)w.x - lo[0]) / h[0]) : 0;
+            vx[v].Y = vx[v].ok ? occ_fix(((double)w.y - lo[1]) / h[1]) : 0;
+            vx[v].z = (double)w.z;
+        }
         for (uint32_t t = 0; t < M->triangle_count; t++) {
             occ_tri T;
             T.inst = m;
@@ -351,16 +371,14 @@ obs_status vol_occupancy_voxelize(obs_context *ctx, obs_pool *pool, const vol_oc
                                    M->vertex_count);
                     goto out;
                 }
-                const float *pp = M->positions + 3 * (size_t)id;
-                const obs_vec3 w = obs_mat4_mul_point(meshes[m].world, obs_v3(pp[0], pp[1], pp[2]));
-                if (!isfinite(w.x) || !isfinite(w.y) || !isfinite(w.z)) {
+                if (!vx[id].ok) {
                     st = obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
                                    "vol_occupancy_voxelize: mesh %d has a non-finite world position", m);
                     goto out;
                 }
-                T.X[v] = occ_fix(((double)w.x - lo[0]) / h[0]);
-                T.Y[v] = occ_fix(((double)w.y - lo[1]) / h[1]);
-                T.z[v] = (double)w.z;
+                T.X[v] = vx[id].X;
+                T.Y[v] = vx[id].Y;
+                T.z[v] = vx[id].z;
                 xmin = T.X[v] < xmin ? T.X[v] : xmin, xmax = T.X[v] > xmax ? T.X[v] : xmax;
                 ymin = T.Y[v] < ymin ? T.Y[v] : ymin, ymax = T.Y[v] > ymax ? T.Y[v] : ymax;
             }
@@ -423,6 +441,7 @@ obs_status vol_occupancy_voxelize(obs_context *ctx, obs_pool *pool, const vol_oc
             break;
         }
 out:
+    free(vx);
     free(tri);
     free(row_start);
     free(row_tri);
