@@ -110,7 +110,7 @@ TEST(render_mesh_shadows_darken_only_the_volume_layer)
     CHECK(lon && loff);
     if (lon && loff) {
         CHECK(lon->key[0] && strcmp(lon->key, loff->key) != 0);
-        CHECK_MSG(strstr(lon->reason, "shadowed by the meshes") != NULL, "%s", lon->reason);
+        CHECK_MSG(strstr(lon->reason, "with mesh_shadows") != NULL, "%s", lon->reason);
     }
     for (int i = 0; i < on.pass_count; i++) {
         const render_pass_record *b = rec(&off, on.passes[i].name);

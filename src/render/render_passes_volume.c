@@ -188,7 +188,7 @@ static int lv_wanted(const render_job *j, char *r, size_t n)
     }
     snprintf(r, n, "light '%s' through the volume (scale %d, cone %g deg)%s", j->scene->lights[j->volume_light].name,
              j->st->volume.lv.scale, j->st->volume.lv.cone_angle_deg,
-             j->st->volume.mesh_shadows ? ", shadowed by the meshes in its box" : "");
+             j->st->volume.mesh_shadows ? ", with mesh_shadows (the meshes in its box shadow it)" : "");
     return 1;
 }
 
