@@ -77,16 +77,22 @@ static int planes_equal(const obs_image_f32 *a, const obs_image_f32 *b, int n)
     return 1;
 }
 
-static int run(obs_context *ctx, const obs_scene *s, const render_settings *st, render_frame *f)
+static int run_in(obs_context *ctx, const obs_scene *s, const render_settings *st, const char *cache_dir,
+                  render_frame *f)
 {
     render_options o = render_options_default();
     o.threads = 2;
+    o.cache_dir = cache_dir;
     render_session *ses = render_session_create(ctx, &o);
     if (!ses)
         return 0;
     const obs_status r = render_frame_run(ses, s, st, 0, f);
     render_session_destroy(ses);
     return r == OBS_STATUS_OK;
+}
+static int run(obs_context *ctx, const obs_scene *s, const render_settings *st, render_frame *f)
+{
+    return run_in(ctx, s, st, NULL, f);
 }
 
 /* volume.mesh_shadows off against on: the light_volume key differs, every other pass's key is the
@@ -176,3 +182,27 @@ TEST(render_mesh_shadows_without_meshes_in_the_box_change_no_pixel)
     obs_context_destroy(ctx);
 }
 
+
+/* The light_volume product with both light volumes goes through the disk cache: a second session
+ * reads it back (CACHED_DISK) and the volume layer is bit-identical. */
+TEST(render_mesh_shadows_light_volumes_round_trip_through_the_disk_cache)
+{
+    obs_context *ctx = obs_context_create();
+    obs_context_set_log_level(ctx, OBS_LOG_ERROR);
+    obs_scene s;
+    CHECK_MSG(load_hybrid(ctx, &s), "%s", obs_context_last_error(ctx));
+    render_settings st = hybrid_settings(ctx, &s);
+    st.outputs = RENDER_OUT_VOLUME;
+    char dir[1024];
+    snprintf(dir, sizeof dir, "%s", test_path(test_tmpdir(), "cache_mesh_shadow"));
+    render_frame a, b;
+    CHECK_MSG(run_in(ctx, &s, &st, dir, &a), "%s", obs_context_last_error(ctx));
+    CHECK_MSG(run_in(ctx, &s, &st, dir, &b), "%s", obs_context_last_error(ctx));
+    const render_pass_record *r = rec(&b, "light_volume");
+    CHECK(r && r->state == RENDER_PASS_CACHED_DISK);
+    CHECK(planes_equal(a.volume, b.volume, 4));
+    render_frame_free(&a);
+    render_frame_free(&b);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
