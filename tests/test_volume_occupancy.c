@@ -611,3 +611,41 @@ TEST(volume_occupancy_bad_inputs_refused)
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
+
+/* A point light inside the volume (the slices around it are seeded by a march straight to the
+ * light, which samples the occupancy's extinction trilinearly) and an opaque cube between the light
+ * and one corner: the voxels behind the cube are dark, those off its shadow stay lit. */
+TEST(volume_occupancy_point_light_inside_the_volume_is_shadowed_by_a_cube)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    CHECK(zero_grid(ctx, 16, &g));
+    vol_tf tf;
+    CHECK(make_tf(&tf, 0.0f));
+    tmesh t;
+    const double lo[3] = {8.5, 8.5, 8.5}, hi[3] = {11.5, 11.5, 11.5};
+    tm_box(&t, lo, hi, 1);
+    vol_occ_mesh mm = one(&t.m);
+    vol_occupancy o;
+    CHECK_OK(vol_occupancy_alloc(ctx, &g, 1, &o), ctx);
+    CHECK_OK(vol_occupancy_voxelize(ctx, NULL, &mm, 1, VOL_OCC_DEFAULT_SUBCOLUMNS, &o), ctx);
+    const vol_light L = point_light(5.0, 5.0, 5.0);
+    vol_lv_params p = vol_lv_params_default();
+    vol_occluder oc = {&o, 0.0};
+    vol_light_volume lv, plain;
+    CHECK_OK(vol_light_volume_build_ex(ctx, NULL, &g, &tf, &L, &p, &oc, &lv), ctx);
+    CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &plain), ctx);
+    const size_t behind = ((size_t)14 * 16 + 14) * 16 + 14, off = ((size_t)5 * 16 + 2) * 16 + 14,
+                 near = ((size_t)4 * 16 + 4) * 16 + 4;
+    CHECK_MSG(lv.l[behind] < 0.01f, "l behind the cube %g", (double)lv.l[behind]);
+    CHECK_MSG(lv.l[off] == plain.l[off] && lv.l[near] == plain.l[near], "l off the shadow %g / %g, near %g / %g",
+              (double)lv.l[off], (double)plain.l[off], (double)lv.l[near], (double)plain.l[near]);
+    CHECK(plain.l[behind] > 0.99f);
+    vol_light_volume_free(&lv);
+    vol_light_volume_free(&plain);
+    vol_occupancy_free(&o);
+    tm_free(&t);
+    vol_tf_free(&tf);
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
