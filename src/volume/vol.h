@@ -196,7 +196,7 @@ typedef struct vol_occ_mesh {
  * grid at ((a + 1/2)/s, (b + 1/2)/s) of the voxel's x-y cell; along each sub-column the covered
  * length is exact (not s point samples: an exact interval length needs no tie rule along z).
  * s = 4: 16 sub-columns, each integrated exactly along z (ours; docs/volume/light.md). */
-#define VOL_OCC_DEFAULT_SUBCOLUMNS 4 /* [1, 16]; ours: 16 sub-columns, the sphere's volume to 0.1% at 32^3 (test) */
+#define VOL_OCC_DEFAULT_SUBCOLUMNS 4 /* [1, 16]; ours: 16 sub-columns a voxel; a radius-10-voxel sphere's volume to 0.005% (tests/test_volume_occupancy.c) */
 #define VOL_OCC_MAX_SUBCOLUMNS 16
 
 /* Allocate a zeroed occupancy grid with the layout vol_light_volume_build gives the light volume of
