@@ -77,6 +77,9 @@ typedef struct render_volume_settings {
                                       point light (default) */
     vol_lv_params lv;              /* vol_lv_params_default() */
     vol_rc_params rc;              /* vol_rc_params_default() */
+    int mesh_shadows;              /* 1: the meshes inside the volume's box shadow it (their occupancy
+                                      adds extinction to the light volume: vol.h vol_occluder; ours,
+                                      docs/render.md); default 1 */
 } render_volume_settings;
 
 typedef struct render_settings {

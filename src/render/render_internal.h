@@ -126,6 +126,9 @@ typedef struct render_shadow_maps { int count; render_shadow_map *maps; /* one p
 typedef struct render_sss_light_maps { int count; sss_light_map *lm; } render_sss_light_maps;
 typedef struct render_volume_data { vol_grid grid; vol_tf tf; } render_volume_data;
 typedef struct render_truth_scene { truth_scene *ts; } render_truth_scene;
+/* The light_volume product: the volume's own light volume, and (mesh.l != NULL) the one whose
+ * extinction adds the occupancy of the meshes inside the volume's box (vol.h vol_occluder). */
+typedef struct render_light_volumes { vol_light_volume own, mesh; int mesh_instances; double voxelize_ms; } render_light_volumes;
 
 extern const render_product_ops render_ops_shadow_maps, render_ops_sss_light_maps, render_ops_sss_maps,
     render_ops_volume, render_ops_light_volume, render_ops_truth_scene;
@@ -171,7 +174,9 @@ typedef struct render_job {
     render_sss_light_maps *slm;
     sss_maps *maps;
     render_volume_data *vol;
-    vol_light_volume *lv;
+    vol_light_volume *lv;          /* the volume's own light volume: what the meshes sample (direct) */
+    vol_light_volume *lv_rc;       /* what the ray cast samples: with the meshes' shadows
+                                      (volume.mesh_shadows, meshes in the box), else lv */
     render_truth_scene *truth;
     vol_light vlight;
     /* keys */

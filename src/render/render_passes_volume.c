@@ -186,8 +186,9 @@ static int lv_wanted(const render_job *j, char *r, size_t n)
         snprintf(r, n, "no directional or point light for the volume (unlit: emission-absorption)");
         return 0;
     }
-    snprintf(r, n, "light '%s' through the volume (scale %d, cone %g deg)", j->scene->lights[j->volume_light].name,
-             j->st->volume.lv.scale, j->st->volume.lv.cone_angle_deg);
+    snprintf(r, n, "light '%s' through the volume (scale %d, cone %g deg)%s", j->scene->lights[j->volume_light].name,
+             j->st->volume.lv.scale, j->st->volume.lv.cone_angle_deg,
+             j->st->volume.mesh_shadows ? ", with mesh_shadows (the meshes in its box shadow it)" : "");
     return 1;
 }
 
@@ -217,6 +218,49 @@ void render_volume_light(render_job *j)
             s = (float)(s / d2);
     }
     j->vlight.color[0] = L->color.x * s, j->vlight.color[1] = L->color.y * s, j->vlight.color[2] = L->color.z * s;
+}
+
+/* Meshes shadow the volume (ours: docs/render.md "Meshes shadow the volume"): every instance,
+ * opaque or translucent (a translucent mesh's medium is optically thick: it blocks the volume's
+ * light as an opaque one does), whose world bounds meet the volume's bounds; the others cannot
+ * cover a voxel (each instance's parity is its own: vol_occupancy_voxelize). A mask over the
+ * instances (NULL when none is selected); *count the number selected. */
+static unsigned char *lv_mesh_select(const render_job *j, int *count)
+{
+    *count = 0;
+    if (!j->st->volume.mesh_shadows || !j->vol || j->scene->instance_count == 0)
+        return NULL;
+    double lo[3], hi[3];
+    vol_grid_bounds(&j->vol->grid, lo, hi);
+    unsigned char *sel = (unsigned char *)calloc(j->scene->instance_count, 1);
+    if (!sel)
+        return NULL;
+    for (uint32_t i = 0; i < j->scene->instance_count; i++) {
+        const obs_instance *in = &j->scene->instances[i];
+        if (in->mesh >= j->scene->mesh_count)
+            continue;
+        const obs_mesh *m = &j->scene->meshes[in->mesh];
+        double blo[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, bhi[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+        for (uint32_t v = 0; v < m->vertex_count; v++) {
+            const obs_vec3 w =
+                obs_mat4_mul_point(in->world, obs_v3(m->positions[3 * v], m->positions[3 * v + 1], m->positions[3 * v + 2]));
+            const double x[3] = {w.x, w.y, w.z};
+            for (int a = 0; a < 3; a++) {
+                blo[a] = x[a] < blo[a] ? x[a] : blo[a];
+                bhi[a] = x[a] > bhi[a] ? x[a] : bhi[a];
+            }
+        }
+        int meet = m->triangle_count > 0;
+        for (int a = 0; a < 3; a++)
+            meet &= blo[a] <= hi[a] && bhi[a] >= lo[a];
+        sel[i] = (unsigned char)meet;
+        *count += meet;
+    }
+    if (*count == 0) {
+        free(sel);
+        return NULL;
+    }
+    return sel;
 }
 
 /* The grid's content, the transfer function, the light and the params. Needs the grid loaded:
@@ -253,24 +297,53 @@ static int lv_key(render_job *j, render_key *out)
     render_hash_d(&h, p->cone_angle_deg);
     render_hash_i(&h, p->blend_second);
     render_hash_d(&h, p->kappa);
+    /* the meshes it voxelizes: their geometry and transforms (render_hash_geometry's fields) */
+    render_hash_i(&h, j->st->volume.mesh_shadows);
+    if (j->st->volume.mesh_shadows) {
+        render_hash_str(&h, "occupancy parity v1");
+        render_hash_i(&h, VOL_OCC_DEFAULT_SUBCOLUMNS);
+        int count;
+        unsigned char *sel = lv_mesh_select(j, &count);
+        render_hash_i(&h, count);
+        for (uint32_t i = 0; sel && i < j->scene->instance_count; i++) {
+            if (!sel[i])
+                continue;
+            const obs_instance *in = &j->scene->instances[i];
+            const obs_mesh *m = &j->scene->meshes[in->mesh];
+            render_hash_u64(&h, i);
+            render_hash_bytes(&h, in->world.m, sizeof in->world.m);
+            render_hash_u64(&h, m->vertex_count);
+            render_hash_u64(&h, m->triangle_count);
+            render_hash_bytes(&h, m->positions, sizeof(float) * 3 * (size_t)m->vertex_count);
+            render_hash_bytes(&h, m->indices, sizeof(uint32_t) * 3 * (size_t)m->triangle_count);
+        }
+        free(sel);
+    }
     *out = render_hash_final(&h);
     return 1;
 }
 
-static void lv_free(void *p) { vol_light_volume_free((vol_light_volume *)p); }
+static void lv_free(void *p)
+{
+    render_light_volumes *w = (render_light_volumes *)p;
+    vol_light_volume_free(&w->own);
+    vol_light_volume_free(&w->mesh);
+}
 static uint64_t lv_bytes(const void *p)
 {
-    const vol_light_volume *lv = (const vol_light_volume *)p;
-    return 16u * (uint64_t)lv->nx * (uint64_t)lv->ny * (uint64_t)lv->nz;
+    const render_light_volumes *w = (const render_light_volumes *)p;
+    uint64_t b = 16u * (uint64_t)w->own.nx * (uint64_t)w->own.ny * (uint64_t)w->own.nz;
+    if (w->mesh.l)
+        b += 16u * (uint64_t)w->mesh.nx * (uint64_t)w->mesh.ny * (uint64_t)w->mesh.nz;
+    return b;
 }
 typedef struct lv_head {
     int32_t nx, ny, nz, scale, face0, face1;
     float blend_weight, pad;
     double spacing[3], origin[3];
 } lv_head;
-static obs_status lv_save(obs_context *ctx, const void *p, render_blobs *out)
+static int lv_save_one(const vol_light_volume *lv, render_blobs *out)
 {
-    const vol_light_volume *lv = (const vol_light_volume *)p;
     lv_head hd;
     memset(&hd, 0, sizeof hd);
     hd.nx = lv->nx, hd.ny = lv->ny, hd.nz = lv->nz, hd.scale = lv->scale, hd.face0 = lv->face0, hd.face1 = lv->face1;
@@ -281,12 +354,18 @@ static obs_status lv_save(obs_context *ctx, const void *p, render_blobs *out)
     int ok = render_blobs_add_copy(out, &hd, sizeof hd) && render_blobs_add_copy(out, lv->l, 4 * nv);
     for (int c = 0; ok && c < 3; c++)
         ok = render_blobs_add_copy(out, lv->c[c], 4 * nv);
+    return ok;
+}
+/* own, then an int32 (1: the meshes' one follows), then the meshes' one */
+static obs_status lv_save(obs_context *ctx, const void *p, render_blobs *out)
+{
+    const render_light_volumes *w = (const render_light_volumes *)p;
+    const int32_t has = w->mesh.l != NULL;
+    int ok = lv_save_one(&w->own, out) && render_blobs_add_copy(out, &has, sizeof has) && (!has || lv_save_one(&w->mesh, out));
     return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "render cache: out of memory");
 }
-static obs_status lv_load(obs_context *ctx, render_reader *r, void *p)
+static obs_status lv_load_one(render_reader *r, vol_light_volume *lv)
 {
-    (void)ctx;
-    vol_light_volume *lv = (vol_light_volume *)p;
     const lv_head *hd = (const lv_head *)render_reader_take(r, sizeof(lv_head));
     if (!hd || hd->nx < 1 || hd->ny < 1 || hd->nz < 1)
         return OBS_STATUS_PARSE_ERROR;
@@ -309,20 +388,82 @@ static obs_status lv_load(obs_context *ctx, render_reader *r, void *p)
     }
     return OBS_STATUS_OK;
 }
+static obs_status lv_load(obs_context *ctx, render_reader *r, void *p)
+{
+    (void)ctx;
+    render_light_volumes *w = (render_light_volumes *)p;
+    obs_status st = lv_load_one(r, &w->own);
+    if (st != OBS_STATUS_OK)
+        return st;
+    const int32_t *has = (const int32_t *)render_reader_take(r, sizeof(int32_t));
+    if (!has || (*has != 0 && *has != 1))
+        return OBS_STATUS_PARSE_ERROR;
+    return *has ? lv_load_one(r, &w->mesh) : OBS_STATUS_OK;
+}
 const render_product_ops render_ops_light_volume = {"light_volume", lv_free, lv_save, lv_load,
-                                                    sizeof(vol_light_volume), lv_bytes};
+                                                    sizeof(render_light_volumes), lv_bytes};
 
+/* The volume's own light volume, and, when meshes meet the volume's box (volume.mesh_shadows), the
+ * one the meshes shadow: their occupancy (vol_occupancy_voxelize, the light volume's layout) as
+ * extra extinction (vol_light_volume_build_ex; ref_step 0: a voxel of occupancy f transmits about
+ * 1 - f). The meshes sample the own one (direct: mesh-to-mesh shadows are the shadow maps'; a
+ * surface inside the box must not shadow itself); the ray cast samples the meshes' one. */
 static obs_status lv_build(render_job *j, void *p)
 {
+    render_light_volumes *w = (render_light_volumes *)p;
     render_volume_light(j);
     vol_lv_params lp = j->st->volume.lv;
     lp.eye_pass = 0; /* the light's product: the eye pass runs per view, in the raycast pass */
-    return vol_light_volume_build(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp,
-                                  (vol_light_volume *)p);
+    obs_status st = vol_light_volume_build(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp, &w->own);
+    int count = 0;
+    unsigned char *sel = st == OBS_STATUS_OK ? lv_mesh_select(j, &count) : NULL;
+    if (!sel)
+        return st;
+    vol_occ_mesh *meshes = (vol_occ_mesh *)malloc(sizeof(vol_occ_mesh) * (size_t)count);
+    vol_occupancy occ;
+    memset(&occ, 0, sizeof occ);
+    if (!meshes) {
+        free(sel);
+        return obs_error(j->ctx, OBS_STATUS_OUT_OF_MEMORY, "light_volume: out of memory");
+    }
+    int k = 0;
+    for (uint32_t i = 0; i < j->scene->instance_count; i++)
+        if (sel[i]) {
+            meshes[k].mesh = &j->scene->meshes[j->scene->instances[i].mesh];
+            meshes[k].world = j->scene->instances[i].world;
+            k++;
+        }
+    const double t0 = obs_time_now();
+    st = vol_occupancy_alloc(j->ctx, &j->vol->grid, lp.scale, &occ);
+    if (st == OBS_STATUS_OK)
+        st = vol_occupancy_voxelize(j->ctx, j->pool, meshes, count, VOL_OCC_DEFAULT_SUBCOLUMNS, &occ);
+    w->voxelize_ms = 1e3 * (obs_time_now() - t0);
+    w->mesh_instances = count;
+    int any = 0;
+    const size_t nv = (size_t)occ.nx * (size_t)occ.ny * (size_t)occ.nz;
+    for (size_t i = 0; st == OBS_STATUS_OK && i < nv && !any; i++)
+        any = occ.f[i] > 0.0f;
+    if (st == OBS_STATUS_OK && any) { /* no voxel covered: the own one serves the ray cast too */
+        vol_occluder oc;
+        oc.occupancy = &occ;
+        oc.ref_step = 0.0;
+        st = vol_light_volume_build_ex(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp, &oc, &w->mesh);
+    }
+    vol_occupancy_free(&occ);
+    free(meshes);
+    free(sel);
+    return st;
 }
 static obs_status lv_run(render_job *j, render_pass_state *state, uint64_t *bytes)
 {
-    return render_cached(j, RES_LIGHT_VOLUME, &render_ops_light_volume, lv_build, (void **)&j->lv, state, bytes);
+    void *p = NULL;
+    obs_status st = render_cached(j, RES_LIGHT_VOLUME, &render_ops_light_volume, lv_build, &p, state, bytes);
+    if (st != OBS_STATUS_OK)
+        return st;
+    render_light_volumes *w = (render_light_volumes *)p;
+    j->lv = &w->own;
+    j->lv_rc = w->mesh.l ? &w->mesh : &w->own;
+    return OBS_STATUS_OK;
 }
 const render_pass render_pass_light_volume = {"light_volume", RES_LIGHT_VOLUME, 0, 0, lv_reads, lv_wanted, lv_key,
                                               lv_run};
@@ -367,7 +508,7 @@ vol_rc_params render_volume_rc_params(const render_job *j)
  * (the cached product stays the light's alone). */
 static obs_status rc_eye_modulated(render_job *j, vol_light_volume *out)
 {
-    const vol_light_volume *lv = j->lv;
+    const vol_light_volume *lv = j->lv_rc;
     const size_t nv = (size_t)lv->nx * (size_t)lv->ny * (size_t)lv->nz;
     vol_light_volume eye;
     memset(&eye, 0, sizeof eye);
@@ -397,10 +538,10 @@ static obs_status rc_run(render_job *j, render_pass_state *state, uint64_t *byte
 {
     render_volume_light(j);
     vol_rc_params rp = render_volume_rc_params(j);
-    const vol_light_volume *lv = j->lv;
+    const vol_light_volume *lv = j->lv_rc; /* with the meshes' shadows (lv_build) */
     vol_light_volume modulated;
     memset(&modulated, 0, sizeof modulated);
-    const int eye = rp.shading == VOL_SHADING_LIGHT_VOLUME && j->lv && j->st->volume.lv.eye_pass;
+    const int eye = rp.shading == VOL_SHADING_LIGHT_VOLUME && j->lv_rc && j->st->volume.lv.eye_pass;
     obs_status st = OBS_STATUS_OK;
     if (eye) {
         st = rc_eye_modulated(j, &modulated);

@@ -99,6 +99,7 @@ render_settings render_settings_default(void)
     s.volume.light = -1;                       /* the first directional or point light */
     s.volume.lv = vol_lv_params_default();
     s.volume.rc = vol_rc_params_default();
+    s.volume.mesh_shadows = 1;                 /* ours: meshes shadow the volume (docs/render.md) */
     s.seed = 0;
     s.reference = 0;
     s.ref_ao = truth_ao_params_default();
@@ -722,7 +723,7 @@ static obs_status rs_vec3(const rs_parse *P, const char *path, const char *key, 
 
 /* "volume": false | {"enabled", "source", "transfer", "box", "light", "shading", "step",
  *   "early_termination", "brick", "phong_ambient", "specular_exponent", "scale", "cone_angle",
- *   "blend_second", "eye_pass", "kappa"} */
+ *   "blend_second", "eye_pass", "kappa", "mesh_shadows"} */
 static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *s)
 {
     const char *path = "obscura_render.volume";
@@ -735,7 +736,7 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
                       "must be false or an object {\"source\": ..., \"transfer\": ...} (got %s)", rs_type_name(v));
     static const char *const known[] = {"enabled", "source", "transfer", "box", "light", "shading", "step",
                                         "early_termination", "brick", "phong_ambient", "specular_exponent", "scale",
-                                        "cone_angle", "blend_second", "eye_pass", "kappa", NULL};
+                                        "cone_angle", "blend_second", "eye_pass", "kappa", "mesh_shadows", NULL};
     obs_status st = rs_check_keys(P, path, v, known);
     if (st != OBS_STATUS_OK)
         return st;
@@ -816,6 +817,8 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
             st = rs_bool(P, path, k, it, &vs.lv.blend_second);
         } else if (!strcmp(k, "eye_pass")) {
             st = rs_bool(P, path, k, it, &vs.lv.eye_pass);
+        } else if (!strcmp(k, "mesh_shadows")) {
+            st = rs_bool(P, path, k, it, &vs.mesh_shadows);
         } else if (!strcmp(k, "kappa")) {
             st = rs_number(P, path, k, it, -INFINITY, INFINITY, 0, &vs.lv.kappa);
         }
@@ -1230,6 +1233,7 @@ void render_settings_to_json(const render_settings *s, struct io_json *j)
     io_json_bool(j, "blend_second", v->lv.blend_second);
     io_json_bool(j, "eye_pass", v->lv.eye_pass);
     rs_json_double(j, "kappa", v->lv.kappa);
+    io_json_bool(j, "mesh_shadows", v->mesh_shadows);
     io_json_end_object(j);
 
     io_json_begin_object(j, "reference");

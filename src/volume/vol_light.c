@@ -141,6 +141,7 @@ typedef struct lv_pass {
     float *scratch;             /* per thread: the row's values, sigma_t and c_TF (5 rows of nu_pad) */
     size_t nu_pad;
     int rows_per_task;
+    const float *occ_sigma;     /* the meshes' extra extinction (vol_i_occ_sigma), NULL: none */
 } lv_pass;
 
 /* Classification (vol_light_internal.h): the TF at each value, sigma_t by vol.h's convention. */
@@ -235,6 +236,9 @@ static double lv_sigma_world(const lv_pass *P, const double y[3])
                               (y[2] - g->origin[2]) / g->spacing[2]);
     float rgba[4];
     vol_tf_eval(P->tf, s, rgba);
+    if (P->occ_sigma) /* the meshes' occupancy (vol.h vol_occluder) */
+        return P->sigma_scale * vol_sigma_from_alpha(rgba[3], P->ref_step) +
+               vol_i_occ_sigma_at(P->occ_sigma, P->n, P->org, P->sp, y);
     return P->sigma_scale * vol_sigma_from_alpha(rgba[3], P->ref_step);
 }
 
@@ -487,6 +491,13 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
     else
 #endif
         vol_i_lv_classify_scalar(&P->T, s, nu, sig, ctf[0], ctf[1], ctf[2]);
+    if (P->occ_sigma) { /* the meshes' extra extinction (vol.h vol_occluder), both paths alike */
+        const size_t os[3] = {1, (size_t)P->n[0], (size_t)P->n[0] * (size_t)P->n[1]};
+        const float *o = P->occ_sigma + (size_t)P->k * os[a] + (size_t)jv * os[v];
+        for (int iu = 0; iu < nu; iu++)
+            if (o[(size_t)iu * os[u]] != 0.0f)
+                sig[iu] += o[(size_t)iu * os[u]];
+    }
 
     int iu_lo = 0, iu_hi = 0;
     if (P->mode == LV_MODE_PROPAGATE && P->kern && jv + P->kJ0 >= 0 && jv + P->kJ0 + P->kH <= P->nv &&
@@ -909,6 +920,13 @@ static void lv_blend_task(void *user, int64_t task, int thread)
 obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
                                   const vol_light *light, const vol_lv_params *p, vol_light_volume *out)
 {
+    return vol_light_volume_build_ex(ctx, pool, g, tf, light, p, NULL, out);
+}
+
+obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                     const vol_light *light, const vol_lv_params *p, const vol_occluder *occ,
+                                     vol_light_volume *out)
+{
     if (!out)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_light_volume_build: out is NULL");
     memset(out, 0, sizeof *out);
@@ -992,17 +1010,26 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
     float w = p->blend_second ? (float)(1.0 - 2.0 * acos(c0) / OBS_PI) : 1.0f;
     int need_second = p->blend_second && w < 1.0f;
 
+    float *occ_sigma = NULL; /* the meshes' extra extinction: checked against the layout above */
+    st = vol_i_occ_sigma(ctx, occ, P.n, P.sp, P.org, &occ_sigma);
+    if (st != OBS_STATUS_OK)
+        return st;
+    P.occ_sigma = occ_sigma;
     size_t voxels = (size_t)P.n[0] * (size_t)P.n[1] * (size_t)P.n[2];
     obs_limits deflim = obs_limits_default();
     const obs_limits *lim = ctx ? obs_context_limits(ctx) : &deflim;
     size_t bytes = voxels * 4 * sizeof(float) * (need_second ? 2 : 1);
-    if ((int64_t)voxels > lim->max_voxels || (int64_t)bytes > lim->max_memory_bytes)
+    if ((int64_t)voxels > lim->max_voxels || (int64_t)bytes > lim->max_memory_bytes) {
+        obs_aligned_free(occ_sigma);
         return obs_error(ctx, OBS_STATUS_LIMIT_EXCEEDED,
                          "light volume %dx%dx%d needs %.3g bytes, over the limits (raise --max-voxels/--max-memory)",
                          P.n[0], P.n[1], P.n[2], (double)bytes);
+    }
     float *mem = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
-    if (!mem)
+    if (!mem) {
+        obs_aligned_free(occ_sigma);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory (%.3g bytes)", (double)bytes);
+    }
     out->nx = P.n[0], out->ny = P.n[1], out->nz = P.n[2], out->scale = p->scale;
     for (int c = 0; c < 3; c++) {
         out->spacing[c] = P.sp[c];
@@ -1026,6 +1053,7 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
         free(stencils);
         free(tft);
         vol_light_volume_free(out);
+        obs_aligned_free(occ_sigma);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory");
     }
     lv_stencil_init(&P, stencils);
@@ -1078,6 +1106,7 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
     free(stencils);
     free(tft);
     free(P.K);
+    obs_aligned_free(occ_sigma);
     if (st != OBS_STATUS_OK)
         vol_light_volume_free(out);
     return st;

@@ -66,6 +66,17 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1);
  * OBS_ISA is not "scalar" (read at each vol_light_volume_build). */
 int vol_i_lv_avx2_active(void);
 
+/* The meshes' extra extinction (vol_occupancy.c, vol.h vol_occluder): sigma_occ per light-volume
+ * voxel (layout n, x fastest) = vol_sigma_from_alpha(f, ref_step) (ref_step 0: min(sp)). *out NULL
+ * (and OK) when occ is NULL or every f is 0: the build then runs exactly as without it. Checks
+ * that the occupancy has the layout (n, sp, org) bit for bit. Returns OK, INVALID_ARGUMENT,
+ * OUT_OF_MEMORY. Free *out with obs_aligned_free. */
+obs_status vol_i_occ_sigma(obs_context *ctx, const vol_occluder *occ, const int n[3], const double sp[3],
+                           const double org[3], float **out);
+/* sigma_occ trilinear at world x (clamped to the edge), 0 outside the voxel hull + half a voxel. */
+double vol_i_occ_sigma_at(const float *sigma, const int n[3], const double org[3], const double sp[3],
+                          const double x[3]);
+
 #ifdef __cplusplus
 }
 #endif
