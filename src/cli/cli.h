@@ -27,6 +27,8 @@ typedef struct cli_globals {
 int cli_exit_for(obs_status st);
 /* Print "obscura: <msg>" for the context's error and return its exit code. */
 int cli_fail(obs_context *ctx, obs_status st);
+/* A new context with the global limits and the log level of -q / -v; NULL when out of memory. */
+obs_context *cli_context(const cli_globals *g);
 /* Print a usage error and return CLI_EXIT_USAGE. */
 int cli_usage_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
@@ -92,5 +94,49 @@ int cmd_render(cli_globals *g, int argc, char **argv);   /* `obscura render` (cm
 int cmd_truth_sss(cli_globals *g, int argc, char **argv);   /* argv[1] == "sss" */
 /* `obscura volume` (truth 0: argv[0] is "volume") and `obscura truth volume` (truth 1: argv[1] is "volume"). */
 int cmd_volume(cli_globals *g, int argc, char **argv, int truth);
+
+/* ---- the study commands (cmd_study.c, cmd_study_volume.c) ------------------------------------ */
+
+/* 1 when flag stands anywhere in argv[from..argc) (--quick chooses the starting options; the flags
+ * given explicitly override them wherever they stand). */
+int cli_has_flag(int argc, char **argv, int from, const char *flag);
+
+/* A flag whose value is kept as given ("--scenes LIST" into *dst); a table ends at a NULL name. */
+typedef struct cli_string_flag {
+    const char *name;
+    const char **dst;
+} cli_string_flag;
+/* When argv[*i] names an entry and has a value: store the value, advance *i and return 1; else 0
+ * (a flag given without its value falls through to the caller's "unknown option" error). */
+int cli_string_flags(const cli_string_flag *table, int argc, char **argv, int *i);
+
+/* What a study measures (--dry-run, --truth-only, --report-only). */
+typedef struct cli_study_run {
+    int dry_run, truth_only, report_only;
+} cli_study_run;
+/* The flags every study takes: --quick (read with cli_has_flag), --dry-run, --truth-only (when
+ * has_truth), --report-only and --runs N (into *runs). Returns 1 when consumed, 0 when argv[*i] is
+ * not one, -1 after printing a usage error. */
+int cli_study_flag(cli_study_run *run, int has_truth, int *runs, int argc, char **argv, int *i);
+/* After the flags: --report-only needs report_dir, and the three exclude each other. Returns
+ * CLI_EXIT_OK, or CLI_EXIT_USAGE after printing ("<name>: ..."). */
+int cli_study_check(const char *name, int has_truth, const cli_study_run *run, const char *report_dir);
+
+/* A study library's steps, each an adapter of its study_*_ function (the study as void *). */
+typedef struct cli_study_steps {
+    const char *name;   /* "study ao": the messages' prefix */
+    obs_status (*open)(obs_context *ctx, const void *options, void **study);
+    void (*plan)(const void *study, const void *options, const cli_globals *g, obs_pool *pool); /* --dry-run */
+    obs_status (*truth)(obs_context *ctx, obs_pool *pool, void *study);   /* NULL: no --truth-only */
+    obs_status (*sweep)(obs_context *ctx, obs_pool *pool, void *study);
+    obs_status (*report)(obs_context *ctx, obs_pool *pool, void *study);
+    long long (*rows)(const void *study);   /* the table's rows */
+    void (*close)(void *study);
+} cli_study_steps;
+/* Open the study (an INVALID_ARGUMENT, a bad list or size, is a usage error), then the dry run, the
+ * references only, or the sweep and the report; prints the closing line unless -q. Returns the exit
+ * code. out_dir and report_dir are the options' (for the closing line). */
+int cli_study_main(cli_globals *g, const cli_study_steps *steps, const void *options, const cli_study_run *run,
+                   const char *out_dir, const char *report_dir);
 
 #endif

@@ -165,3 +165,106 @@ int cli_size_from_camera(const obs_camera *cam, int size_given, int *W, int *H)
     }
     return CLI_EXIT_OK;
 }
+
+/* ---- the study commands ------------------------------------------------------------------------ */
+
+int cli_has_flag(int argc, char **argv, int from, const char *flag)
+{
+    int found = 0;
+    for (int i = from; i < argc; i++)
+        found |= !strcmp(argv[i], flag);
+    return found;
+}
+
+int cli_string_flags(const cli_string_flag *t, int argc, char **argv, int *i)
+{
+    if (*i + 1 >= argc)
+        return 0;
+    for (; t->name; t++)
+        if (!strcmp(argv[*i], t->name)) {
+            *t->dst = argv[++*i];
+            return 1;
+        }
+    return 0;
+}
+
+int cli_study_flag(cli_study_run *run, int has_truth, int *runs, int argc, char **argv, int *i)
+{
+    const char *a = argv[*i], *v = *i + 1 < argc ? argv[*i + 1] : NULL;
+    long long ll;
+    if (!strcmp(a, "--quick")) {
+        return 1;
+    } else if (!strcmp(a, "--dry-run")) {
+        run->dry_run = 1;
+    } else if (has_truth && !strcmp(a, "--truth-only")) {
+        run->truth_only = 1;
+    } else if (!strcmp(a, "--report-only")) {
+        run->report_only = 1;
+    } else if (!strcmp(a, "--runs")) {
+        if (!cli_parse_int(v, 1, 64, &ll))
+            return cli_usage_error("--runs needs an integer in [1, 64]"), -1;
+        *runs = (int)ll, ++*i;
+    } else {
+        return 0;
+    }
+    return 1;
+}
+
+int cli_study_check(const char *name, int has_truth, const cli_study_run *run, const char *report_dir)
+{
+    if (run->report_only && !report_dir)
+        return cli_usage_error("%s: --report-only needs --report DIR", name);
+    if (run->report_only + run->truth_only + run->dry_run > 1)
+        return cli_usage_error(has_truth ? "%s: --report-only, --truth-only and --dry-run exclude each other"
+                                         : "%s: --report-only and --dry-run exclude each other",
+                               name);
+    return CLI_EXIT_OK;
+}
+
+obs_context *cli_context(const cli_globals *g)
+{
+    obs_context *ctx = obs_context_create();
+    if (!ctx)
+        return NULL;
+    obs_context_set_limits(ctx, &g->limits);
+    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
+    return ctx;
+}
+
+int cli_study_main(cli_globals *g, const cli_study_steps *steps, const void *options, const cli_study_run *run,
+                   const char *out_dir, const char *report_dir)
+{
+    obs_context *ctx = cli_context(g);
+    if (!ctx)
+        return CLI_EXIT_INTERNAL;
+    int code = CLI_EXIT_OK;
+    void *s = NULL;
+    obs_status st = steps->open(ctx, options, &s);
+    if (st == OBS_STATUS_INVALID_ARGUMENT) { /* a bad list, technique, size, ...: a usage error */
+        code = cli_usage_error("%s", obs_context_last_error(ctx));
+        obs_context_destroy(ctx);
+        return code;
+    }
+    obs_pool *pool = st == OBS_STATUS_OK ? obs_pool_create(g->threads) : NULL;
+    if (st == OBS_STATUS_OK && !pool)
+        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "%s: cannot create the thread pool", steps->name);
+    if (st == OBS_STATUS_OK && run->dry_run) {
+        steps->plan(s, options, g, pool);
+    } else if (st == OBS_STATUS_OK) {
+        if (run->truth_only)
+            st = steps->truth(ctx, pool, s);
+        else if (!run->report_only)
+            st = steps->sweep(ctx, pool, s);
+        if (st == OBS_STATUS_OK && report_dir && !run->truth_only)
+            st = steps->report(ctx, pool, s);
+        if (st == OBS_STATUS_OK && !g->quiet)
+            fprintf(stderr, "obscura: %s: %lld points in %s/results.csv%s%s\n", steps->name, steps->rows(s), out_dir,
+                    report_dir ? ", report in " : "", report_dir ? report_dir : "");
+    }
+    if (st != OBS_STATUS_OK)
+        code = cli_fail(ctx, st);
+    steps->close(s);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+    return code;
+}
