@@ -5,6 +5,7 @@
 #include "core/obs.h"
 #include "io/io.h"
 #include "raster/raster.h"
+#include "scale/scale.h"
 
 /* Exit codes (docs/cli.md). */
 enum {
@@ -29,6 +30,11 @@ int cli_exit_for(obs_status st);
 int cli_fail(obs_context *ctx, obs_status st);
 /* A new context with the global limits and the log level of -q / -v; NULL when out of memory. */
 obs_context *cli_context(const cli_globals *g);
+/* Under an MPI launcher (scale_mpi_launched), start MPI into *comm (NULL without a launcher):
+ * truth ao, truth sss and truth volume (docs/scale.md). Returns CLI_EXIT_OK, or when MPI cannot
+ * start, prints the error, destroys ctx and returns the exit code (usage when the MPI library lacks
+ * MPI_THREAD_FUNNELED or MPI is not built, else internal). */
+int cli_mpi_start(obs_context *ctx, int *argc, char ***argv, scale_comm **comm);
 /* Print a usage error and return CLI_EXIT_USAGE. */
 int cli_usage_error(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 

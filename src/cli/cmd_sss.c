@@ -151,11 +151,9 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     if (!(exposure >= 0))
         return cli_usage_error("--exposure needs a number >= 0");
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;

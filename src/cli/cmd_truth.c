@@ -166,28 +166,21 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     if (!scene_path)
         return cli_usage_error("truth ao: no scene given");
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
     /* Under an MPI launcher: every rank loads the scene and draws the G-buffer, renders the tasks
      * dealt to it, and rank 0 gathers and writes (docs/scale.md). */
     scale_comm *comm = NULL;
-    if (scale_mpi_launched()) {
-        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
-        if (sm != OBS_STATUS_OK) {
-            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-            obs_context_destroy(ctx);
-            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
-        }
-    }
+    const int mpi_code = cli_mpi_start(ctx, &argc, &argv, &comm);
+    if (mpi_code != CLI_EXIT_OK)
+        return mpi_code;
     const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
     int *owner = NULL;
     double *task_cost = NULL;
     unsigned char *task_mask = NULL;
     scale_rank_stats *per_rank = NULL;
     int64_t ntasks = 0;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;

@@ -145,21 +145,16 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     runs[0].wanted = strcmp(which, "random-walk") != 0;
     runs[1].wanted = strcmp(which, "brute-force") != 0;
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
     /* Under an MPI launcher: every rank loads the scene, draws the G-buffer and builds the BVH,
      * renders the tasks (tiles) dealt to it for each reference, and rank 0 gathers and writes
      * (docs/scale.md, as truth ao). */
     scale_comm *comm = NULL;
-    if (scale_mpi_launched()) {
-        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
-        if (sm != OBS_STATUS_OK) {
-            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-            obs_context_destroy(ctx);
-            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
-        }
-    }
+    const int mpi_code = cli_mpi_start(ctx, &argc, &argv, &comm);
+    if (mpi_code != CLI_EXIT_OK)
+        return mpi_code;
     const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
     int *owner = NULL;
     double *task_cost = NULL;
@@ -167,8 +162,6 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     scale_rank_stats *per_rank[2] = {NULL, NULL};
     int64_t ntasks = 0;
     double t_wait = 0.0, t_gather = 0.0, seconds_write = 0.0;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;

@@ -197,23 +197,16 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     if (!strncmp(file, "synth:", 6) && (raw || big_endian))
         return cli_usage_error("volume: --raw and --big-endian apply to raw files, not to %s", file);
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     /* truth volume under an MPI launcher: every rank loads the volume and builds the light volume
      * (cheap against the truth), computes the z slices and the MC image's tiles dealt to it, and
      * rank 0 gathers and writes (docs/scale.md, "truth volume"). */
     scale_comm *comm = NULL;
-    if (truth && scale_mpi_launched()) {
-        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
-        if (sm != OBS_STATUS_OK) {
-            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-            obs_context_destroy(ctx);
-            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
-        }
-    }
+    const int mpi_code = truth ? cli_mpi_start(ctx, &argc, &argv, &comm) : CLI_EXIT_OK;
+    if (mpi_code != CLI_EXIT_OK)
+        return mpi_code;
     const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
     int *slice_owner = NULL, *task_owner = NULL;
     unsigned char *slice_mask = NULL, *task_mask = NULL;

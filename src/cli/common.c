@@ -231,6 +231,19 @@ obs_context *cli_context(const cli_globals *g)
     return ctx;
 }
 
+int cli_mpi_start(obs_context *ctx, int *argc, char ***argv, scale_comm **comm)
+{
+    *comm = NULL;
+    if (!scale_mpi_launched())
+        return CLI_EXIT_OK;
+    obs_status sm = scale_mpi_init(ctx, argc, argv, comm);
+    if (sm == OBS_STATUS_OK)
+        return CLI_EXIT_OK;
+    fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
+    obs_context_destroy(ctx);
+    return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
+}
+
 int cli_study_main(cli_globals *g, const cli_study_steps *steps, const void *options, const cli_study_run *run,
                    const char *out_dir, const char *report_dir)
 {
