@@ -44,6 +44,21 @@ int cli_parse_float(const char *s, double *out);
 int cli_parse_size(const char *s, int *w, int *h);   /* "1920x1080" */
 int cli_parse_triple(const char *s, double out[3]);   /* "x,y,z": three finite numbers */
 
+/* The output and view flags of the scene commands (ao, gbuffer, sss, truth ao, truth sss, volume);
+ * a NULL pointer leaves its flag out of the command. */
+typedef struct cli_view_flags {
+    const char **prefix;        /* -o, --output PREFIX: cli_output_prefix into prefix_buf and exr_ext */
+    char *prefix_buf;
+    size_t prefix_size;
+    char *exr_ext;
+    const char *output_needs;   /* what the -o error says it needs: "a path prefix or an .exr path" */
+    const char **camera;        /* --camera NAME|INDEX */
+    int *W, *H, *size_given;    /* --size WxH */
+} cli_view_flags;
+/* Consume argv[*i] when it is one of f's flags. Returns 1 when consumed (its value too), 0 when it is
+ * not one, -1 on a missing or bad value (after printing the error). */
+int cli_view_flag(const cli_view_flags *f, int argc, char **argv, int *i);
+
 /* Try to consume a global limit flag at argv[*i]; returns 1 if consumed, 0 if not a limit
  * flag, -1 on a malformed value (after printing the error). */
 int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i);
@@ -81,6 +96,9 @@ typedef struct cli_progress {
     const char *label;
 } cli_progress;
 void cli_progress_draw(void *user, int64_t done, int64_t total, uint64_t rays);
+
+/* Write the sidecar PREFIX.json. Returns CLI_EXIT_OK, or CLI_EXIT_OUTPUT after printing the error. */
+int cli_write_sidecar(obs_context *ctx, const io_json *j, const char *prefix);
 
 /* Write the common sidecar fields (version, revision, command line). */
 void cli_json_header(io_json *j, const char *command, int argc, char **argv);

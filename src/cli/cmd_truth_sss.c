@@ -73,28 +73,21 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     truth_sss_params p = truth_sss_params_default();
     const double default_patch = p.patch_radius;
     int patch_given = 0;
+    const cli_view_flags view_flags = {&prefix, prefix_buf, sizeof prefix_buf, exr_ext, "a path prefix or an .exr path",
+                                 &camera, &W, &H, &size_given};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         double d;
+        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(truth_sss_help_head, stdout);
             fputs(cli_sss_help_material_light, stdout);
             fputs(truth_sss_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
-            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
-            if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
-        } else if (!strcmp(a, "--camera")) {
-            if (!v) return cli_usage_error("--camera needs a name or index");
-            camera = v; i++;
-        } else if (!strcmp(a, "--size")) {
-            if (!cli_parse_size(v, &W, &H))
-                return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
-            size_given = 1; i++;
+        } else if ((r = cli_view_flag(&view_flags, argc, argv, &i)) != 0) {
+            if (r < 0) return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--reference")) {
             if (!v || (strcmp(v, "both") && strcmp(v, "brute-force") && strcmp(v, "random-walk")))
                 return cli_usage_error("--reference needs both, brute-force or random-walk");
@@ -120,7 +113,7 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
             if (!cli_parse_int(v, 0, INT64_MAX, &ll)) return cli_usage_error("--seed needs an integer >= 0");
             p.seed = (uint64_t)ll; i++;
         } else if (a[0] == '-' && a[1]) {
-            int r = cli_sss_flag(&so, argc, argv, &i);
+            r = cli_sss_flag(&so, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             r = cli_limit_flag(g, argc, argv, &i);
@@ -449,13 +442,9 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     }
     io_json_string(&j, "png", "<PREFIX>_<ref>.png: R, G, B times --exposure, sRGB-encoded, clamped to [0, 1]");
     io_json_end_object(&j);
-    snprintf(path, sizeof path, "%s.json", prefix);
-    st = io_json_write(ctx, &j, path);
-    if (st != OBS_STATUS_OK) {
-        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-        code = CLI_EXIT_OUTPUT;
+    code = cli_write_sidecar(ctx, &j, prefix);
+    if (code != CLI_EXIT_OK)
         goto done;
-    }
     if (!g->quiet)
         fprintf(stderr, "obscura: wrote %s%s, %s%s%s%s%s.json\n", prefix, exr_ext,
                 runs[0].wanted ? prefix : "", runs[0].wanted ? "_brute.png, " : "",

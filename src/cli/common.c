@@ -134,6 +134,40 @@ void cli_progress_draw(void *user, int64_t done, int64_t total, uint64_t rays)
     pr->drawn = 1;
 }
 
+int cli_view_flag(const cli_view_flags *f, int argc, char **argv, int *i)
+{
+    const char *a = argv[*i], *v = *i + 1 < argc ? argv[*i + 1] : NULL;
+    if (f->prefix && (!strcmp(a, "-o") || !strcmp(a, "--output"))) {
+        if (!v)
+            return cli_usage_error("%s needs %s", a, f->output_needs), -1;
+        *f->prefix = cli_output_prefix(v, f->prefix_buf, f->prefix_size, f->exr_ext);
+        if (!*f->prefix)
+            return cli_usage_error("%s: path too long", a), -1;
+    } else if (f->camera && !strcmp(a, "--camera")) {
+        if (!v)
+            return cli_usage_error("--camera needs a name or index"), -1;
+        *f->camera = v;
+    } else if (f->W && !strcmp(a, "--size")) {
+        if (!cli_parse_size(v, f->W, f->H))
+            return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM), -1;
+        *f->size_given = 1;
+    } else {
+        return 0;
+    }
+    ++*i;
+    return 1;
+}
+
+int cli_write_sidecar(obs_context *ctx, const io_json *j, const char *prefix)
+{
+    char path[4200];
+    snprintf(path, sizeof path, "%s.json", prefix);
+    if (io_json_write(ctx, j, path) == OBS_STATUS_OK)
+        return CLI_EXIT_OK;
+    fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
+    return CLI_EXIT_OUTPUT;
+}
+
 int cli_parse_triple(const char *v, double out[3])
 {
     if (!v)
