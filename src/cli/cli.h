@@ -138,10 +138,12 @@ int cli_string_flags(const cli_string_flag *table, int argc, char **argv, int *i
 typedef struct cli_study_run {
     int dry_run, truth_only, report_only;
 } cli_study_run;
-/* The flags every study takes: --quick (read with cli_has_flag), --dry-run, --truth-only (when
- * has_truth), --report-only and --runs N (into *runs). Returns 1 when consumed, 0 when argv[*i] is
- * not one, -1 after printing a usage error. */
-int cli_study_flag(cli_study_run *run, int has_truth, int *runs, int argc, char **argv, int *i);
+/* A study's flags after its own: the ones every study takes (--quick, read with cli_has_flag;
+ * --dry-run; --truth-only when has_truth; --report-only; --runs N into *runs), the strings of the
+ * table, the limit flags; anything else is "<name>: unknown option". Returns 0 when argv[*i] was
+ * consumed (its value too), CLI_EXIT_USAGE after printing the error. */
+int cli_study_flags(cli_globals *g, const char *name, cli_study_run *run, int has_truth, int *runs,
+                    const cli_string_flag *strings, int argc, char **argv, int *i);
 /* After the flags: --report-only needs report_dir, and the three exclude each other. Returns
  * CLI_EXIT_OK, or CLI_EXIT_USAGE after printing ("<name>: ..."). */
 int cli_study_check(const char *name, int has_truth, const cli_study_run *run, const char *report_dir);

@@ -183,7 +183,6 @@ int cmd_study(cli_globals *g, int argc, char **argv)
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
-        int r;
         if (!strcmp(a, "--shard")) {
             if (!study_shard_parse(v, &o.shard, &o.shards))
                 return cli_usage_error("--shard needs K/N with 1 <= K <= N");
@@ -195,16 +194,8 @@ int cmd_study(cli_globals *g, int argc, char **argv)
             if (!cli_parse_int(v, 32, 1 << 20, &ll) || ll % 16 != 0)
                 return cli_usage_error("--gt-max-samples needs a multiple of 16 in [32, 1048576]");
             o.gt_max_samples = ll, i++;
-        } else if ((r = cli_study_flag(&run, 1, &o.runs, argc, argv, &i)) != 0) {
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-        } else if (!cli_string_flags(strings, argc, argv, &i)) {
-            r = cli_limit_flag(g, argc, argv, &i);
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-            if (r > 0)
-                continue;
-            return cli_usage_error("study ao: unknown option '%s' (or a missing value)", a);
+        } else if (cli_study_flags(g, "study ao", &run, 1, &o.runs, strings, argc, argv, &i)) {
+            return CLI_EXIT_USAGE;
         }
     }
     if (cli_study_check("study ao", 1, &run, o.report_dir))
@@ -272,7 +263,6 @@ static int cmd_study_sss(cli_globals *g, int argc, char **argv)
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
-        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_sss_help, stdout);
             return CLI_EXIT_OK;
@@ -282,16 +272,8 @@ static int cmd_study_sss(cli_globals *g, int argc, char **argv)
             if (!cli_parse_int(v, 64, 1 << 20, &ll) || ll % 64 != 0)
                 return cli_usage_error("--ref-samples needs a multiple of 64 in [64, 1048576]");
             o.ref_samples = ll, i++;
-        } else if ((r = cli_study_flag(&run, 1, &o.runs, argc, argv, &i)) != 0) {
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-        } else if (!cli_string_flags(strings, argc, argv, &i)) {
-            r = cli_limit_flag(g, argc, argv, &i);
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-            if (r > 0)
-                continue;
-            return cli_usage_error("study sss: unknown option '%s' (or a missing value)", a);
+        } else if (cli_study_flags(g, "study sss", &run, 1, &o.runs, strings, argc, argv, &i)) {
+            return CLI_EXIT_USAGE;
         }
     }
     if (cli_study_check("study sss", 1, &run, o.report_dir))

@@ -79,7 +79,6 @@ int cmd_study_volume(cli_globals *g, int argc, char **argv)
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
-        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_volume_help, stdout);
             return CLI_EXIT_OK;
@@ -87,16 +86,8 @@ int cmd_study_volume(cli_globals *g, int argc, char **argv)
             if (!cli_parse_int(v, 8, 1 << 20, &ll) || ll % 8 != 0)
                 return cli_usage_error("--ref-samples needs a multiple of 8 in [8, 1048576]");
             o.ref_samples = ll, i++;
-        } else if ((r = cli_study_flag(&run, 0, &o.runs, argc, argv, &i)) != 0) {
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-        } else if (!cli_string_flags(strings, argc, argv, &i)) {
-            r = cli_limit_flag(g, argc, argv, &i);
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-            if (r > 0)
-                continue;
-            return cli_usage_error("study volume: unknown option '%s' (or a missing value)", a);
+        } else if (cli_study_flags(g, "study volume", &run, 0, &o.runs, strings, argc, argv, &i)) {
+            return CLI_EXIT_USAGE;
         }
     }
     if (cli_study_check("study volume", 0, &run, o.report_dir))

@@ -222,7 +222,7 @@ int cli_string_flags(const cli_string_flag *t, int argc, char **argv, int *i)
     return 0;
 }
 
-int cli_study_flag(cli_study_run *run, int has_truth, int *runs, int argc, char **argv, int *i)
+static int study_flag(cli_study_run *run, int has_truth, int *runs, int argc, char **argv, int *i)
 {
     const char *a = argv[*i], *v = *i + 1 < argc ? argv[*i + 1] : NULL;
     long long ll;
@@ -242,6 +242,20 @@ int cli_study_flag(cli_study_run *run, int has_truth, int *runs, int argc, char 
         return 0;
     }
     return 1;
+}
+
+int cli_study_flags(cli_globals *g, const char *name, cli_study_run *run, int has_truth, int *runs,
+                    const cli_string_flag *strings, int argc, char **argv, int *i)
+{
+    const char *a = argv[*i];
+    int r = study_flag(run, has_truth, runs, argc, argv, i);
+    if (r == 0)
+        r = cli_string_flags(strings, argc, argv, i);
+    if (r == 0)
+        r = cli_limit_flag(g, argc, argv, i);
+    if (r > 0)
+        return CLI_EXIT_OK;
+    return r < 0 ? CLI_EXIT_USAGE : cli_usage_error("%s: unknown option '%s' (or a missing value)", name, a);
 }
 
 int cli_study_check(const char *name, int has_truth, const cli_study_run *run, const char *report_dir)
