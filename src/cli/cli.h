@@ -68,6 +68,10 @@ int cli_limit_flag(cli_globals *g, int argc, char **argv, int *i);
 obs_status cli_load_scene(obs_context *ctx, const char *path, obs_scene *scene);
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *scene, const char *which, obs_camera *out);
 
+/* cli_load_scene, cli_require_triangles and cli_pick_camera in turn (the scene commands' start). */
+obs_status cli_scene_and_camera(obs_context *ctx, const char *path, const char *which, obs_scene *scene,
+                                obs_camera *cam);
+
 /* The default image size for a camera when --size was not given: 1920 wide at a perspective
  * camera's aspect (when it has one). Returns CLI_EXIT_OK, or CLI_EXIT_USAGE after printing when the
  * aspect gives an unusable height. */

@@ -343,11 +343,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
 
     /* ---- Input ---- */
     if (scene_path) {
-        st = cli_load_scene(ctx, scene_path, &scene);
-        if (st == OBS_STATUS_OK)
-            st = cli_require_triangles(ctx, &scene);
-        if (st == OBS_STATUS_OK)
-            st = cli_pick_camera(ctx, &scene, camera, &cam);
+        st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
         if (st != OBS_STATUS_OK) {
             code = cli_fail(ctx, st);
             goto done;

@@ -126,12 +126,8 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     io_json j;
     io_json_init(&j);
     int code = CLI_EXIT_OK;
-    obs_status st = cli_load_scene(ctx, scene_path, &scene);
     obs_camera cam;
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+    obs_status st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (st != OBS_STATUS_OK) {
         code = cli_fail(ctx, st);
         goto done;

@@ -180,11 +180,7 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     }
 
     /* ---- Scene, camera, materials, lights ---- */
-    st = cli_load_scene(ctx, scene_path, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+    st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (st == OBS_STATUS_OK)
         st = cli_sss_prepare(ctx, &so, scene_path, &scene, &cam, &setup);
     if (st != OBS_STATUS_OK) {

@@ -188,11 +188,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     int code = CLI_EXIT_OK;
     obs_camera cam;
     double t_load = obs_time_now();
-    obs_status st = cli_load_scene(ctx, scene_path, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+    obs_status st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (comm) /* every rank reads the same files: one that cannot ends the job (docs/scale.md) */
         st = scale_mpi_agree(ctx, comm, st);
     if (st != OBS_STATUS_OK) { /* rank 0 reports an agreed failure; mpirun returns its code */

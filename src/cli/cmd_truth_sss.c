@@ -173,11 +173,7 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
 
     obs_status st = truth_sss_params_validate(ctx, &p);
     if (st == OBS_STATUS_OK)
-        st = cli_load_scene(ctx, scene_path, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+        st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (comm) /* every rank reads the same files: one that cannot ends the job (docs/scale.md) */
         st = scale_mpi_agree(ctx, comm, st);
     if (st != OBS_STATUS_OK) { /* rank 0 reports an agreed failure; mpirun returns its code */

@@ -29,6 +29,17 @@ obs_status cli_require_triangles(obs_context *ctx, const obs_scene *s)
                      s->source, s->mesh_count, s->instance_count);
 }
 
+obs_status cli_scene_and_camera(obs_context *ctx, const char *path, const char *which, obs_scene *scene,
+                                obs_camera *cam)
+{
+    obs_status st = cli_load_scene(ctx, path, scene);
+    if (st == OBS_STATUS_OK)
+        st = cli_require_triangles(ctx, scene);
+    if (st == OBS_STATUS_OK)
+        st = cli_pick_camera(ctx, scene, which, cam);
+    return st;
+}
+
 obs_status cli_pick_camera(obs_context *ctx, const obs_scene *s, const char *which, obs_camera *out)
 {
     if (which && which[0]) {
