@@ -459,74 +459,19 @@ static int run_mpi(int np, const char *out_prefix, const char *tag)
                          "--size", "48x32", "--max-samples", "128", "-o", out_prefix, NULL};
     return run_mpi_args(np, cmd, tag);
 }
-#endif
 
-TEST(scale_mpi_truth_ao_any_rank_count_gives_the_plain_bytes)
+/* cmd, writing to the prefix DIR/x/t, run plainly, then under mpiexec over 1, 2 and 3 ranks: each
+ * file t<ext> (ext ends at NULL) and the sidecar, timings and "scale" aside, equal the plain run's,
+ * and the sidecar holds each of keys. With fault: a failing rank fails the job, named by rank 0,
+ * and nothing is written. */
+static void check_ranks_give_the_plain_bytes(const char **cmd, const char *const *ext, const char *const *keys,
+                                             int fault)
 {
-#ifndef OBS_TEST_MPIEXEC
-    fprintf(stderr, "skipped: a build without MPI (OBS_WITH_MPI off)\n");
-    exit(SKIP_CODE);
-#else
     const char *dir = test_tmpdir();
     char prefix[8400], plain[8400], from[8400], to[8400];
     snprintf(prefix, sizeof prefix, "%s/x/t", dir);
     snprintf(plain, sizeof plain, "%s/plain", dir);
     snprintf(from, sizeof from, "%s/x", dir);
-    const char *args[] = {"--quiet", "--threads", "1", "truth", "ao", test_path(test_data_dir(), "bunny.glb"), "--size",
-                          "48x32", "--max-samples", "128", "-o", prefix, NULL};
-    CHECK_EQ_INT(test_cli_run(args, "plain"), 0);
-    CHECK(rename(from, plain) == 0);
-    for (int np = 1; np <= 3; np++) {
-        char tag[16];
-        snprintf(tag, sizeof tag, "np%d", np);
-        int rc = run_mpi(np, prefix, tag);
-        if (rc != 0) {
-            char e[8400];
-            snprintf(e, sizeof e, "%s/%s.stderr", dir, tag);
-            char *b = test_slurp(e, NULL);
-            fprintf(stderr, "mpiexec -np %d: exit %d: %s\n", np, rc, b ? b : "");
-            free(b);
-        }
-        CHECK_EQ_INT(rc, 0);
-        const char *ext[] = {".exr", ".png"};
-        for (int k = 0; k < 2; k++) {
-            char a[8600], b[8600];
-            snprintf(a, sizeof a, "%s/t%s", plain, ext[k]);
-            snprintf(b, sizeof b, "%s%s", prefix, ext[k]);
-            CHECK_MSG(same_file(a, b), "-np %d: %s differs from the plain run's", np, ext[k]);
-        }
-        char a[8600], b[8600];
-        snprintf(a, sizeof a, "%s/t.json", plain);
-        snprintf(b, sizeof b, "%s.json", prefix);
-        char *ja = sidecar_without_timings(a), *jb = sidecar_without_timings(b), *full = test_slurp(b, NULL);
-        CHECK(ja && jb && full);
-        CHECK_MSG(!strcmp(ja, jb), "-np %d: the sidecars differ beyond timings:\n%s\n---\n%s", np, ja, jb);
-        CHECK(strstr(full, "\"imbalance_rays\"") != NULL);
-        free(ja);
-        free(jb);
-        free(full);
-        snprintf(to, sizeof to, "%s/np%d", dir, np);
-        CHECK(rename(from, to) == 0);
-    }
-#endif
-}
-
-/* truth sss over 1, 2 and 3 ranks: both references (brute force and random walk), tiny and few
- * samples; the EXR, both PNGs and the sidecar (timings and "scale" aside) equal the plain run's. */
-TEST(scale_mpi_truth_sss_any_rank_count_gives_the_plain_bytes)
-{
-#ifndef OBS_TEST_MPIEXEC
-    fprintf(stderr, "skipped: a build without MPI (OBS_WITH_MPI off)\n");
-    exit(SKIP_CODE);
-#else
-    const char *dir = test_tmpdir();
-    char prefix[8400], plain[8400], from[8400], to[8400];
-    snprintf(prefix, sizeof prefix, "%s/x/t", dir);
-    snprintf(plain, sizeof plain, "%s/plain", dir);
-    snprintf(from, sizeof from, "%s/x", dir);
-    const char *cmd[] = {"--quiet", "--threads", "1", "truth", "sss", test_path(test_data_dir(), "sphere_potato.glb"),
-                         "--size", "20x15", "--min-samples", "256", "--max-samples", "256", "--batch", "256",
-                         "-o", prefix, NULL};
     CHECK_EQ_INT(test_cli_run(cmd, "plain"), 0);
     CHECK(rename(from, plain) == 0);
     for (int np = 1; np <= 3; np++) {
@@ -541,8 +486,7 @@ TEST(scale_mpi_truth_sss_any_rank_count_gives_the_plain_bytes)
             free(b);
         }
         CHECK_EQ_INT(rc, 0);
-        const char *ext[] = {".exr", "_brute.png", "_walk.png"};
-        for (int k = 0; k < 3; k++) {
+        for (int k = 0; ext[k]; k++) {
             char a[8600], b[8600];
             snprintf(a, sizeof a, "%s/t%s", plain, ext[k]);
             snprintf(b, sizeof b, "%s%s", prefix, ext[k]);
@@ -554,14 +498,16 @@ TEST(scale_mpi_truth_sss_any_rank_count_gives_the_plain_bytes)
         char *ja = sidecar_without_timings(a), *jb = sidecar_without_timings(b), *full = test_slurp(b, NULL);
         CHECK(ja && jb && full);
         CHECK_MSG(!strcmp(ja, jb), "-np %d: the sidecars differ beyond timings:\n%s\n---\n%s", np, ja, jb);
-        CHECK(strstr(full, "\"imbalance_rays\"") != NULL);
-        CHECK(strstr(full, "translucent surface pixels") != NULL);
+        for (int k = 0; keys[k]; k++)
+            CHECK_MSG(strstr(full, keys[k]) != NULL, "-np %d: the sidecar lacks %s", np, keys[k]);
         free(ja);
         free(jb);
         free(full);
         snprintf(to, sizeof to, "%s/np%d", dir, np);
         CHECK(rename(from, to) == 0);
     }
+    if (!fault)
+        return;
     /* a failing rank fails the job, named by rank 0, and nothing is written */
     setenv("OBS_SCALE_FAULT", "fail:1", 1);
     int rc = run_mpi_args(2, cmd, "failed");
@@ -570,6 +516,40 @@ TEST(scale_mpi_truth_sss_any_rank_count_gives_the_plain_bytes)
     CHECK(test_cli_stderr_has("failed", "rank 1 of 2 failed: injected failure"));
     struct stat sb;
     CHECK_MSG(stat(from, &sb) != 0, "the failed job left %s", from);
+}
+#endif
+
+TEST(scale_mpi_truth_ao_any_rank_count_gives_the_plain_bytes)
+{
+#ifndef OBS_TEST_MPIEXEC
+    fprintf(stderr, "skipped: a build without MPI (OBS_WITH_MPI off)\n");
+    exit(SKIP_CODE);
+#else
+    char prefix[8400];
+    snprintf(prefix, sizeof prefix, "%s/x/t", test_tmpdir());
+    const char *args[] = {"--quiet", "--threads", "1", "truth", "ao", test_path(test_data_dir(), "bunny.glb"), "--size",
+                          "48x32", "--max-samples", "128", "-o", prefix, NULL};
+    const char *ext[] = {".exr", ".png", NULL}, *keys[] = {"\"imbalance_rays\"", NULL};
+    check_ranks_give_the_plain_bytes(args, ext, keys, 0);
+#endif
+}
+
+/* truth sss over 1, 2 and 3 ranks: both references (brute force and random walk), tiny and few
+ * samples; the EXR, both PNGs and the sidecar (timings and "scale" aside) equal the plain run's. */
+TEST(scale_mpi_truth_sss_any_rank_count_gives_the_plain_bytes)
+{
+#ifndef OBS_TEST_MPIEXEC
+    fprintf(stderr, "skipped: a build without MPI (OBS_WITH_MPI off)\n");
+    exit(SKIP_CODE);
+#else
+    char prefix[8400];
+    snprintf(prefix, sizeof prefix, "%s/x/t", test_tmpdir());
+    const char *cmd[] = {"--quiet", "--threads", "1", "truth", "sss", test_path(test_data_dir(), "sphere_potato.glb"),
+                         "--size", "20x15", "--min-samples", "256", "--max-samples", "256", "--batch", "256",
+                         "-o", prefix, NULL};
+    const char *ext[] = {".exr", "_brute.png", "_walk.png", NULL};
+    const char *keys[] = {"\"imbalance_rays\"", "translucent surface pixels", NULL};
+    check_ranks_give_the_plain_bytes(cmd, ext, keys, 1);
 #endif
 }
 
@@ -649,55 +629,12 @@ TEST(scale_mpi_truth_volume_any_rank_count_gives_the_plain_bytes)
     fprintf(stderr, "skipped: a build without MPI (OBS_WITH_MPI off)\n");
     exit(SKIP_CODE);
 #else
-    const char *dir = test_tmpdir();
-    char prefix[8400], plain[8400], from[8400], to[8400];
-    snprintf(prefix, sizeof prefix, "%s/x/t", dir);
-    snprintf(plain, sizeof plain, "%s/plain", dir);
-    snprintf(from, sizeof from, "%s/x", dir);
+    char prefix[8400];
+    snprintf(prefix, sizeof prefix, "%s/x/t", test_tmpdir());
     const char *cmd[] = {"--quiet", "--threads", "1", "truth", "volume", "synth:bucky:16", "--image", "--size", "24x16",
                          "--samples", "16", "--replicates", "4", "-o", prefix, NULL};
-    CHECK_EQ_INT(test_cli_run(cmd, "plain"), 0);
-    CHECK(rename(from, plain) == 0);
-    for (int np = 1; np <= 3; np++) {
-        char tag[16];
-        snprintf(tag, sizeof tag, "np%d", np);
-        int rc = run_mpi_args(np, cmd, tag);
-        if (rc != 0) {
-            char e[8400];
-            snprintf(e, sizeof e, "%s/%s.stderr", dir, tag);
-            char *b = test_slurp(e, NULL);
-            fprintf(stderr, "mpiexec -np %d: exit %d: %s\n", np, rc, b ? b : "");
-            free(b);
-        }
-        CHECK_EQ_INT(rc, 0);
-        const char *ext[] = {"_T.nrrd", "_err.nrrd", "_mc.exr"};
-        for (int k = 0; k < 3; k++) {
-            char a[8600], b[8600];
-            snprintf(a, sizeof a, "%s/t%s", plain, ext[k]);
-            snprintf(b, sizeof b, "%s%s", prefix, ext[k]);
-            CHECK_MSG(same_file(a, b), "-np %d: %s differs from the plain run's", np, ext[k]);
-        }
-        char a[8600], b[8600];
-        snprintf(a, sizeof a, "%s/t.json", plain);
-        snprintf(b, sizeof b, "%s.json", prefix);
-        char *ja = sidecar_without_timings(a), *jb = sidecar_without_timings(b), *full = test_slurp(b, NULL);
-        CHECK(ja && jb && full);
-        CHECK_MSG(!strcmp(ja, jb), "-np %d: the sidecars differ beyond timings:\n%s\n---\n%s", np, ja, jb);
-        CHECK(strstr(full, "\"imbalance_seconds_slices\"") != NULL);
-        CHECK(strstr(full, "\"imbalance_collisions\"") != NULL);
-        free(ja);
-        free(jb);
-        free(full);
-        snprintf(to, sizeof to, "%s/np%d", dir, np);
-        CHECK(rename(from, to) == 0);
-    }
-    /* a failing rank fails the job, named by rank 0, and nothing is written */
-    setenv("OBS_SCALE_FAULT", "fail:1", 1);
-    int rc = run_mpi_args(2, cmd, "failed");
-    unsetenv("OBS_SCALE_FAULT");
-    CHECK_EQ_INT(rc, 6);
-    CHECK(test_cli_stderr_has("failed", "rank 1 of 2 failed: injected failure"));
-    struct stat sb;
-    CHECK_MSG(stat(from, &sb) != 0, "the failed job left %s", from);
+    const char *ext[] = {"_T.nrrd", "_err.nrrd", "_mc.exr", NULL};
+    const char *keys[] = {"\"imbalance_seconds_slices\"", "\"imbalance_collisions\"", NULL};
+    check_ranks_give_the_plain_bytes(cmd, ext, keys, 1);
 #endif
 }

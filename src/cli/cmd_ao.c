@@ -242,10 +242,13 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     if (preset && !m->params_preset(preset, params))
         return cli_usage_error("ao: unknown %s preset '%s' (see 'obscura ao --list')", m->name, preset);
 
+    const cli_view_flags view_flags = {&prefix, prefix_buf, sizeof prefix_buf, exr_ext, "a path prefix or an .exr path",
+                                 &camera, &W, &H, &size_given};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
+        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(ao_help, stdout);
             return CLI_EXIT_OK;
@@ -261,18 +264,8 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
         } else if (!strcmp(a, "--gbuffer")) {
             if (!v) return cli_usage_error("--gbuffer needs an image path");
             gbuffer_path = v; i++;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
-            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
-            if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
-        } else if (!strcmp(a, "--camera")) {
-            if (!v) return cli_usage_error("--camera needs a name or index");
-            camera = v; i++;
-        } else if (!strcmp(a, "--size")) {
-            if (!cli_parse_size(v, &W, &H))
-                return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
-            size_given = 1; i++;
+        } else if ((r = cli_view_flag(&view_flags, argc, argv, &i)) != 0) {
+            if (r < 0) return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--guard")) {
             if (!cli_parse_int(v, 0, RAST_MAX_DIM / 2, &ll)) return cli_usage_error("--guard needs an integer >= 0");
             guard = (int)ll; i++;
@@ -294,7 +287,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
             if (!v) return cli_usage_error("--preset needs a name (see 'obscura ao --list')");
             i++;
         } else {
-            int r = apply_param_flag(m, params, given, argc, argv, &i);
+            r = apply_param_flag(m, params, given, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             r = cli_limit_flag(g, argc, argv, &i);
@@ -312,11 +305,9 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     if (m->params_adjust)
         m->params_adjust(params, given);
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;
@@ -352,11 +343,7 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
 
     /* ---- Input ---- */
     if (scene_path) {
-        st = cli_load_scene(ctx, scene_path, &scene);
-        if (st == OBS_STATUS_OK)
-            st = cli_require_triangles(ctx, &scene);
-        if (st == OBS_STATUS_OK)
-            st = cli_pick_camera(ctx, &scene, camera, &cam);
+        st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
         if (st != OBS_STATUS_OK) {
             code = cli_fail(ctx, st);
             goto done;
@@ -600,13 +587,9 @@ int cmd_ao(cli_globals *g, int argc, char **argv)
     io_json_string(&j, "blend_png", "AO * (0.25 + 0.75 max(0, n.l)), l = normalize(0.35, 0.6, 0.72) view space, "
                                     "sRGB-encoded; background black");
     io_json_end_object(&j);
-    snprintf(path, sizeof path, "%s.json", prefix);
-    st = io_json_write(ctx, &j, path);
-    if (st != OBS_STATUS_OK) {
-        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-        code = CLI_EXIT_OUTPUT;
+    code = cli_write_sidecar(ctx, &j, prefix);
+    if (code != CLI_EXIT_OK)
         goto done;
-    }
     if (!g->quiet)
         fprintf(stderr, "obscura: wrote %s%s, %s.png, %s_blend.png, %s.json\n", prefix, exr_ext, prefix, prefix, prefix);
 done:

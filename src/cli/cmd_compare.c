@@ -271,11 +271,9 @@ int cmd_compare(cli_globals *g, int argc, char **argv)
     int any_threshold = th.has_max_rmse || th.has_max_abs || th.has_max_bias || th.has_min_psnr || th.has_min_ssim ||
                         th.has_max_over;
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     io_image A, B, M;
     memset(&A, 0, sizeof A);
     memset(&B, 0, sizeof B);

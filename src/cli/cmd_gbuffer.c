@@ -62,24 +62,17 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     char prefix_buf[4000], exr_ext[5] = ".exr";
     rast_params p = rast_params_default();
     int size_given = 0, keep_guard = 0, infinite_far = 0;
+    const cli_view_flags view_flags = {&prefix, prefix_buf, sizeof prefix_buf, exr_ext, "a path prefix or an .exr path",
+                                 &camera, &p.width, &p.height, &size_given};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
+        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(gbuffer_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
-            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
-            if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
-        } else if (!strcmp(a, "--camera")) {
-            if (!v) return cli_usage_error("--camera needs a name or index");
-            camera = v; i++;
-        } else if (!strcmp(a, "--size")) {
-            if (!cli_parse_size(v, &p.width, &p.height))
-                return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
-            size_given = 1; i++;
+        } else if ((r = cli_view_flag(&view_flags, argc, argv, &i)) != 0) {
+            if (r < 0) return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--guard")) {
             long long x;
             if (!cli_parse_int(v, 0, RAST_MAX_DIM / 2, &x)) return cli_usage_error("--guard needs an integer >= 0");
@@ -111,7 +104,7 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
                 return cli_usage_error("--outputs needs a comma list of depth,ndc,normal,face,prim,inst,mat,all");
             i++;
         } else {
-            int r = cli_limit_flag(g, argc, argv, &i);
+            r = cli_limit_flag(g, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             if (a[0] == '-') return cli_usage_error("gbuffer: unknown option '%s'", a);
@@ -122,11 +115,9 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     if (!scene_path)
         return cli_usage_error("gbuffer: no scene given");
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;
@@ -135,12 +126,8 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
     io_json j;
     io_json_init(&j);
     int code = CLI_EXIT_OK;
-    obs_status st = cli_load_scene(ctx, scene_path, &scene);
     obs_camera cam;
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+    obs_status st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (st != OBS_STATUS_OK) {
         code = cli_fail(ctx, st);
         goto done;
@@ -334,13 +321,9 @@ int cmd_gbuffer(cli_globals *g, int argc, char **argv)
         io_json_string(&j, NULL, ch[c].name);
     io_json_end_array(&j);
     io_json_end_object(&j);
-    snprintf(path, sizeof path, "%s.json", prefix);
-    st = io_json_write(ctx, &j, path);
-    if (st != OBS_STATUS_OK) {
-        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-        code = CLI_EXIT_OUTPUT;
+    code = cli_write_sidecar(ctx, &j, prefix);
+    if (code != CLI_EXIT_OK)
         goto done;
-    }
     if (!g->quiet)
         fprintf(stderr, "obscura: wrote %s%s, %s_normal.png, %s_depth.png, %s.json\n", prefix, exr_ext, prefix, prefix, prefix);
 done:

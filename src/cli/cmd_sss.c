@@ -73,20 +73,19 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
         print_help(stderr);
         return CLI_EXIT_USAGE;
     }
+    const cli_view_flags view_flags = {&prefix, prefix_buf, sizeof prefix_buf, exr_ext, "a path prefix or an .exr path",
+                                 &camera, &W, &H, &size_given};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         double x;
-        int c;
+        int c, r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             print_help(stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
-            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
-            if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
+        } else if ((r = cli_view_flag(&view_flags, argc, argv, &i)) != 0) {
+            if (r < 0) return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--model")) {
             if (!parse_choice(v, model_from, &c)) return cli_usage_error("--model needs directional or standard");
             p.model = (sss_model)c; i++;
@@ -122,17 +121,10 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
             i++;
         } else if (!strcmp(a, "--specular")) {
             p.specular = 1;
-        } else if (!strcmp(a, "--camera")) {
-            if (!v) return cli_usage_error("--camera needs a name or index");
-            camera = v; i++;
-        } else if (!strcmp(a, "--size")) {
-            if (!cli_parse_size(v, &W, &H))
-                return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
-            size_given = 1; i++;
         } else if (!strcmp(a, "--no-maps")) {
             write_maps = 0;
         } else if (a[0] == '-' && a[1]) {
-            int r = cli_sss_flag(&so, argc, argv, &i);
+            r = cli_sss_flag(&so, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             r = cli_limit_flag(g, argc, argv, &i);
@@ -151,11 +143,9 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     if (!(exposure >= 0))
         return cli_usage_error("--exposure needs a number >= 0");
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;
@@ -190,11 +180,7 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     }
 
     /* ---- Scene, camera, materials, lights ---- */
-    st = cli_load_scene(ctx, scene_path, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+    st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (st == OBS_STATUS_OK)
         st = cli_sss_prepare(ctx, &so, scene_path, &scene, &cam, &setup);
     if (st != OBS_STATUS_OK) {
@@ -349,13 +335,9 @@ int cmd_sss(cli_globals *g, int argc, char **argv)
     io_json_end_object(&j);
     io_json_string(&j, "png", "R, G, B times --exposure, sRGB-encoded, clamped to [0, 1]");
     io_json_end_object(&j);
-    snprintf(path, sizeof path, "%s.json", prefix);
-    st = io_json_write(ctx, &j, path);
-    if (st != OBS_STATUS_OK) {
-        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-        code = CLI_EXIT_OUTPUT;
+    code = cli_write_sidecar(ctx, &j, prefix);
+    if (code != CLI_EXIT_OK)
         goto done;
-    }
     if (!g->quiet)
         fprintf(stderr, "obscura: wrote %s%s, %s.png, %s%s%s.json\n", prefix, exr_ext, prefix,
                 write_maps ? prefix : "", write_maps ? "_maps.exr, " : "", prefix);

@@ -96,6 +96,63 @@ static int cmd_study_merge(cli_globals *g, int argc, char **argv)
     return code;
 }
 
+/* ---- the study libraries' steps for cli_study_main ---------------------------------------------- */
+
+static obs_status ao_open(obs_context *ctx, const void *o, void **s)
+{
+    study_ao *p = NULL;
+    const obs_status st = study_ao_open(ctx, (const study_ao_options *)o, &p);
+    *s = p;
+    return st;
+}
+static void ao_plan(const void *s, const void *o, const cli_globals *g, obs_pool *pool)
+{
+    (void)o;
+    const study_ao_plan p = study_ao_plan_of((const study_ao *)s);
+    if (!g->quiet)
+        fprintf(stderr,
+                "obscura: study ao: %lld points (%d scenes x %d views x %d resolutions x %d methods x %d samples "
+                "x %d radii x %d blur), %d timed runs each, %d threads\n",
+                (long long)p.points, p.scenes, p.views, p.resolutions, p.methods, p.samples, p.radii, p.blurs,
+                p.runs, obs_pool_threads(pool));
+    printf("expected duration: sweep %.0f-%.0f min, ground truth %.0f-%.0f min (first run; cached after)\n",
+           p.sweep_min_lo, p.sweep_min_hi, p.truth_min_lo, p.truth_min_hi);
+}
+static obs_status ao_truth(obs_context *ctx, obs_pool *pool, void *s) { return study_ao_truth(ctx, pool, (study_ao *)s); }
+static obs_status ao_sweep(obs_context *ctx, obs_pool *pool, void *s) { return study_ao_sweep(ctx, pool, (study_ao *)s); }
+static obs_status ao_report(obs_context *ctx, obs_pool *pool, void *s) { return study_ao_report(ctx, pool, (study_ao *)s); }
+static long long ao_rows(const void *s) { return (long long)study_ao_table((const study_ao *)s)->rows; }
+static void ao_close(void *s) { study_ao_close((study_ao *)s); }
+static const cli_study_steps ao_steps = {"study ao", ao_open, ao_plan, ao_truth, ao_sweep, ao_report, ao_rows, ao_close};
+
+static obs_status sss_open(obs_context *ctx, const void *o, void **s)
+{
+    study_sss *p = NULL;
+    const obs_status st = study_sss_open(ctx, (const study_sss_options *)o, &p);
+    *s = p;
+    return st;
+}
+static void sss_plan(const void *s, const void *o, const cli_globals *g, obs_pool *pool)
+{
+    (void)o, (void)g, (void)pool;
+    const study_sss_plan p = study_sss_plan_of((const study_sss *)s);
+    printf("study sss: %lld points (%d scenes x %d lights x %d resolutions; K %d, N %d, map sizes %d values, "
+           "plus the seed's points), %d runs each\n",
+           (long long)p.points, p.scenes, p.lights, p.resolutions, p.Ks, p.Ns, p.map_sizes, p.runs);
+    printf("expected duration on 2 cores: sweep about %.0f min, references about %.0f min (first run; cached after)\n",
+           p.sweep_min, p.ref_min);
+}
+static obs_status sss_truth(obs_context *ctx, obs_pool *pool, void *s) { return study_sss_truth(ctx, pool, (study_sss *)s); }
+static obs_status sss_sweep(obs_context *ctx, obs_pool *pool, void *s) { return study_sss_sweep(ctx, pool, (study_sss *)s); }
+static obs_status sss_report(obs_context *ctx, obs_pool *pool, void *s)
+{
+    return study_sss_report(ctx, pool, (study_sss *)s);
+}
+static long long sss_rows(const void *s) { return (long long)study_sss_table((const study_sss *)s)->rows; }
+static void sss_close(void *s) { study_sss_close((study_sss *)s); }
+static const cli_study_steps sss_steps = {"study sss", sss_open,   sss_plan, sss_truth,
+                                          sss_sweep,   sss_report, sss_rows, sss_close};
+
 int cmd_study(cli_globals *g, int argc, char **argv)
 {
     if (argc >= 2 && !strcmp(argv[1], "sss"))
@@ -113,12 +170,16 @@ int cmd_study(cli_globals *g, int argc, char **argv)
         return argc < 2 ? CLI_EXIT_USAGE : cli_usage_error("study: unknown study '%s' (ao or sss)", argv[1]);
     }
     /* --quick chooses the starting point; flags given explicitly override it wherever they stand */
-    int quick = 0;
-    for (int i = 2; i < argc; i++)
-        quick |= !strcmp(argv[i], "--quick");
-    study_ao_options o = quick ? study_ao_options_quick() : study_ao_options_default();
+    study_ao_options o = cli_has_flag(argc, argv, 2, "--quick") ? study_ao_options_quick() : study_ao_options_default();
     o.data_dir = OBS_STUDY_DATA_DIR;
-    int dry_run = 0, truth_only = 0, report_only = 0, shard_given = 0;
+    cli_study_run run = {0, 0, 0};
+    int shard_given = 0;
+    const cli_string_flag strings[] = {
+        {"--gt-dir", &o.gt_dir},   {"-o", &o.out_dir},        {"--out", &o.out_dir},
+        {"--report", &o.report_dir}, {"--data", &o.data_dir}, {"--scenes", &o.scenes},
+        {"--views", &o.views},     {"--methods", &o.methods}, {"--resolutions", &o.resolutions},
+        {"--samples", &o.samples}, {"--radii", &o.radii},     {"--blur", &o.blurs},
+        {"--budgets", &o.budgets}, {NULL, NULL}};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
@@ -126,62 +187,19 @@ int cmd_study(cli_globals *g, int argc, char **argv)
             if (!study_shard_parse(v, &o.shard, &o.shards))
                 return cli_usage_error("--shard needs K/N with 1 <= K <= N");
             shard_given = 1, i++;
-        } else if (!strcmp(a, "--gt-dir") && v) {
-            o.gt_dir = v, i++;
         } else if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "--quick")) {
-            continue;
-        } else if (!strcmp(a, "--dry-run")) {
-            dry_run = 1;
-        } else if (!strcmp(a, "--truth-only")) {
-            truth_only = 1;
-        } else if (!strcmp(a, "--report-only")) {
-            report_only = 1;
-        } else if ((!strcmp(a, "-o") || !strcmp(a, "--out")) && v) {
-            o.out_dir = v, i++;
-        } else if (!strcmp(a, "--report") && v) {
-            o.report_dir = v, i++;
-        } else if (!strcmp(a, "--data") && v) {
-            o.data_dir = v, i++;
-        } else if (!strcmp(a, "--scenes") && v) {
-            o.scenes = v, i++;
-        } else if (!strcmp(a, "--views") && v) {
-            o.views = v, i++;
-        } else if (!strcmp(a, "--methods") && v) {
-            o.methods = v, i++;
-        } else if (!strcmp(a, "--resolutions") && v) {
-            o.resolutions = v, i++;
-        } else if (!strcmp(a, "--samples") && v) {
-            o.samples = v, i++;
-        } else if (!strcmp(a, "--radii") && v) {
-            o.radii = v, i++;
-        } else if (!strcmp(a, "--blur") && v) {
-            o.blurs = v, i++;
-        } else if (!strcmp(a, "--budgets") && v) {
-            o.budgets = v, i++;
-        } else if (!strcmp(a, "--runs")) {
-            if (!cli_parse_int(v, 1, 64, &ll))
-                return cli_usage_error("--runs needs an integer in [1, 64]");
-            o.runs = (int)ll, i++;
         } else if (!strcmp(a, "--gt-max-samples")) {
             if (!cli_parse_int(v, 32, 1 << 20, &ll) || ll % 16 != 0)
                 return cli_usage_error("--gt-max-samples needs a multiple of 16 in [32, 1048576]");
             o.gt_max_samples = ll, i++;
-        } else {
-            int r = cli_limit_flag(g, argc, argv, &i);
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-            if (r > 0)
-                continue;
-            return cli_usage_error("study ao: unknown option '%s' (or a missing value)", a);
+        } else if (cli_study_flags(g, "study ao", &run, 1, &o.runs, strings, argc, argv, &i)) {
+            return CLI_EXIT_USAGE;
         }
     }
-    if (report_only && !o.report_dir)
-        return cli_usage_error("study ao: --report-only needs --report DIR");
-    if (report_only + truth_only + dry_run > 1)
-        return cli_usage_error("study ao: --report-only, --truth-only and --dry-run exclude each other");
+    if (cli_study_check("study ao", 1, &run, o.report_dir))
+        return CLI_EXIT_USAGE;
     o.log = g->quiet ? NULL : stderr;
     /* A shard (--shard, or a Slurm array task) writes its own table in OUT/shard-K-of-N and shares
      * the ground-truth cache OUT/gt with the other shards (docs/scale.md). */
@@ -198,53 +216,8 @@ int cmd_study(cli_globals *g, int argc, char **argv)
             fprintf(o.log, "obscura: study ao: shard %d of %d into %s (ground truths in %s)\n", o.shard, o.shards,
                     o.out_dir, o.gt_dir);
     }
-
-    obs_context *ctx = obs_context_create();
-    if (!ctx)
-        return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
-    int code = CLI_EXIT_OK;
-    study_ao *s = NULL;
-    obs_status st = study_ao_open(ctx, &o, &s);
-    if (st == OBS_STATUS_INVALID_ARGUMENT) { /* a bad list, technique, size, ...: a usage error */
-        code = cli_usage_error("%s", obs_context_last_error(ctx));
-        obs_context_destroy(ctx);
-        return code;
-    }
-    obs_pool *pool = st == OBS_STATUS_OK ? obs_pool_create(g->threads) : NULL;
-    if (st == OBS_STATUS_OK && !pool)
-        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study ao: cannot create the thread pool");
-    if (st == OBS_STATUS_OK && dry_run) {
-        const study_ao_plan p = study_ao_plan_of(s);
-        if (!g->quiet)
-            fprintf(stderr,
-                    "obscura: study ao: %lld points (%d scenes x %d views x %d resolutions x %d methods x %d samples "
-                    "x %d radii x %d blur), %d timed runs each, %d threads\n",
-                    (long long)p.points, p.scenes, p.views, p.resolutions, p.methods, p.samples, p.radii, p.blurs,
-                    p.runs, obs_pool_threads(pool));
-        printf("expected duration: sweep %.0f-%.0f min, ground truth %.0f-%.0f min (first run; cached after)\n",
-               p.sweep_min_lo, p.sweep_min_hi, p.truth_min_lo, p.truth_min_hi);
-    } else if (st == OBS_STATUS_OK) {
-        if (truth_only)
-            st = study_ao_truth(ctx, pool, s);
-        else if (!report_only)
-            st = study_ao_sweep(ctx, pool, s);
-        if (st == OBS_STATUS_OK && o.report_dir && !truth_only)
-            st = study_ao_report(ctx, pool, s);
-        if (st == OBS_STATUS_OK && !g->quiet)
-            fprintf(stderr, "obscura: study ao: %lld points in %s/results.csv%s%s\n",
-                    (long long)study_ao_table(s)->rows, o.out_dir, o.report_dir ? ", report in " : "",
-                    o.report_dir ? o.report_dir : "");
-    }
-    if (st != OBS_STATUS_OK)
-        code = cli_fail(ctx, st);
-    study_ao_close(s);
-    obs_pool_destroy(pool);
-    obs_context_destroy(ctx);
-    return code;
+    return cli_study_main(g, &ao_steps, &o, &run, o.out_dir, o.report_dir);
 }
-
 
 /* ---- obscura study sss ------------------------------------------------------------------------ */
 
@@ -278,110 +251,33 @@ static int cmd_study_sss(cli_globals *g, int argc, char **argv)
         fputs(study_sss_help, stderr);
         return cli_usage_error("study sss: give -o DIR (the full study takes hours: --dry-run says how long), or --quick");
     }
-    int quick = 0;
-    for (int i = 2; i < argc; i++)
-        quick |= !strcmp(argv[i], "--quick");
-    study_sss_options o = quick ? study_sss_options_quick() : study_sss_options_default();
+    study_sss_options o =
+        cli_has_flag(argc, argv, 2, "--quick") ? study_sss_options_quick() : study_sss_options_default();
     o.data_dir = OBS_STUDY_DATA_DIR;
-    int dry_run = 0, truth_only = 0, report_only = 0;
+    cli_study_run run = {0, 0, 0};
+    const cli_string_flag strings[] = {
+        {"-o", &o.out_dir},          {"--out", &o.out_dir},           {"--report", &o.report_dir},
+        {"--data", &o.data_dir},     {"--scenes", &o.scenes},         {"--lights", &o.lights},
+        {"--resolutions", &o.resolutions}, {"--samplers", &o.samplers}, {"--K", &o.Ks},
+        {"--N", &o.Ns},              {"--map-sizes", &o.map_sizes},   {NULL, NULL}};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_sss_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "--quick")) {
-            continue;
-        } else if (!strcmp(a, "--dry-run")) {
-            dry_run = 1;
-        } else if (!strcmp(a, "--truth-only")) {
-            truth_only = 1;
-        } else if (!strcmp(a, "--report-only")) {
-            report_only = 1;
         } else if (!strcmp(a, "--no-seed-points")) {
             o.seed_points = 0;
-        } else if ((!strcmp(a, "-o") || !strcmp(a, "--out")) && v) {
-            o.out_dir = v, i++;
-        } else if (!strcmp(a, "--report") && v) {
-            o.report_dir = v, i++;
-        } else if (!strcmp(a, "--data") && v) {
-            o.data_dir = v, i++;
-        } else if (!strcmp(a, "--scenes") && v) {
-            o.scenes = v, i++;
-        } else if (!strcmp(a, "--lights") && v) {
-            o.lights = v, i++;
-        } else if (!strcmp(a, "--resolutions") && v) {
-            o.resolutions = v, i++;
-        } else if (!strcmp(a, "--samplers") && v) {
-            o.samplers = v, i++;
-        } else if (!strcmp(a, "--K") && v) {
-            o.Ks = v, i++;
-        } else if (!strcmp(a, "--N") && v) {
-            o.Ns = v, i++;
-        } else if (!strcmp(a, "--map-sizes") && v) {
-            o.map_sizes = v, i++;
-        } else if (!strcmp(a, "--runs")) {
-            if (!cli_parse_int(v, 1, 64, &ll))
-                return cli_usage_error("--runs needs an integer in [1, 64]");
-            o.runs = (int)ll, i++;
         } else if (!strcmp(a, "--ref-samples")) {
             if (!cli_parse_int(v, 64, 1 << 20, &ll) || ll % 64 != 0)
                 return cli_usage_error("--ref-samples needs a multiple of 64 in [64, 1048576]");
             o.ref_samples = ll, i++;
-        } else {
-            int r = cli_limit_flag(g, argc, argv, &i);
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-            if (r > 0)
-                continue;
-            return cli_usage_error("study sss: unknown option '%s' (or a missing value)", a);
+        } else if (cli_study_flags(g, "study sss", &run, 1, &o.runs, strings, argc, argv, &i)) {
+            return CLI_EXIT_USAGE;
         }
     }
-    if (report_only && !o.report_dir)
-        return cli_usage_error("study sss: --report-only needs --report DIR");
-    if (report_only + truth_only + dry_run > 1)
-        return cli_usage_error("study sss: --report-only, --truth-only and --dry-run exclude each other");
+    if (cli_study_check("study sss", 1, &run, o.report_dir))
+        return CLI_EXIT_USAGE;
     o.log = g->quiet ? NULL : stderr;
-
-    obs_context *ctx = obs_context_create();
-    if (!ctx)
-        return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
-    int code = CLI_EXIT_OK;
-    study_sss *s = NULL;
-    obs_status st = study_sss_open(ctx, &o, &s);
-    if (st == OBS_STATUS_INVALID_ARGUMENT) {
-        code = cli_usage_error("%s", obs_context_last_error(ctx));
-        obs_context_destroy(ctx);
-        return code;
-    }
-    obs_pool *pool = st == OBS_STATUS_OK ? obs_pool_create(g->threads) : NULL;
-    if (st == OBS_STATUS_OK && !pool)
-        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study sss: cannot create the thread pool");
-    if (st == OBS_STATUS_OK && dry_run) {
-        const study_sss_plan p = study_sss_plan_of(s);
-        printf("study sss: %lld points (%d scenes x %d lights x %d resolutions; K %d, N %d, map sizes %d values, "
-               "plus the seed's points), %d runs each\n",
-               (long long)p.points, p.scenes, p.lights, p.resolutions, p.Ks, p.Ns, p.map_sizes, p.runs);
-        printf("expected duration on 2 cores: sweep about %.0f min, references about %.0f min (first run; cached after)\n",
-               p.sweep_min, p.ref_min);
-    } else if (st == OBS_STATUS_OK) {
-        if (truth_only)
-            st = study_sss_truth(ctx, pool, s);
-        else if (!report_only)
-            st = study_sss_sweep(ctx, pool, s);
-        if (st == OBS_STATUS_OK && o.report_dir && !truth_only)
-            st = study_sss_report(ctx, pool, s);
-        if (st == OBS_STATUS_OK && !g->quiet)
-            fprintf(stderr, "obscura: study sss: %lld points in %s/results.csv%s%s\n",
-                    (long long)study_sss_table(s)->rows, o.out_dir, o.report_dir ? ", report in " : "",
-                    o.report_dir ? o.report_dir : "");
-    }
-    if (st != OBS_STATUS_OK)
-        code = cli_fail(ctx, st);
-    study_sss_close(s);
-    obs_pool_destroy(pool);
-    obs_context_destroy(ctx);
-    return code;
+    return cli_study_main(g, &sss_steps, &o, &run, o.out_dir, o.report_dir);
 }

@@ -32,68 +32,66 @@ static const char *study_volume_help =
     "  --dry-run              print the number of points, measure nothing\n"
     "  --report-only          write the --report from DIR/results.csv, measure nothing\n";
 
+/* study_volume's steps for cli_study_main (no --truth-only: the references are part of the sweep). */
+static obs_status volume_open(obs_context *ctx, const void *o, void **s)
+{
+    study_volume *p = NULL;
+    const obs_status st = study_volume_open(ctx, (const study_volume_options *)o, &p);
+    *s = p;
+    return st;
+}
+static void volume_plan(const void *s, const void *o, const cli_globals *g, obs_pool *pool)
+{
+    (void)g, (void)pool;
+    int present = 0;
+    long long n = (long long)study_volume_points((const study_volume *)s, &present);
+    printf("study volume: %lld points over %d dataset%s present, %d runs each\n", n, present,
+           present == 1 ? "" : "s", ((const study_volume_options *)o)->runs);
+}
+static obs_status volume_sweep(obs_context *ctx, obs_pool *pool, void *s)
+{
+    return study_volume_sweep(ctx, pool, (study_volume *)s);
+}
+static obs_status volume_report(obs_context *ctx, obs_pool *pool, void *s)
+{
+    (void)pool;
+    return study_volume_report(ctx, (study_volume *)s);
+}
+static long long volume_rows(const void *s) { return (long long)study_volume_table((const study_volume *)s)->rows; }
+static void volume_close(void *s) { study_volume_close((study_volume *)s); }
+static const cli_study_steps volume_steps = {"study volume", volume_open,   volume_plan, NULL,
+                                             volume_sweep,   volume_report, volume_rows, volume_close};
+
 int cmd_study_volume(cli_globals *g, int argc, char **argv)
 {
     if (argc < 3) {
         fputs(study_volume_help, stderr);
         return cli_usage_error("study volume: give -o DIR, or --quick");
     }
-    int quick = 0;
-    for (int i = 2; i < argc; i++)
-        quick |= !strcmp(argv[i], "--quick");
-    study_volume_options o = quick ? study_volume_options_quick() : study_volume_options_default();
-    int dry_run = 0, report_only = 0;
+    study_volume_options o =
+        cli_has_flag(argc, argv, 2, "--quick") ? study_volume_options_quick() : study_volume_options_default();
+    cli_study_run run = {0, 0, 0};
+    const cli_string_flag strings[] = {
+        {"-o", &o.out_dir},        {"--out", &o.out_dir},     {"--report", &o.report_dir},
+        {"--datasets", &o.datasets}, {"--volumes", &o.volume_dir}, {"--scales", &o.scales},
+        {"--cones", &o.cones},     {"--blends", &o.blends},   {"--steps", &o.steps},
+        {"--size", &o.size},       {NULL, NULL}};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_volume_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "--quick")) {
-            continue;
-        } else if (!strcmp(a, "--dry-run")) {
-            dry_run = 1;
-        } else if (!strcmp(a, "--report-only")) {
-            report_only = 1;
-        } else if ((!strcmp(a, "-o") || !strcmp(a, "--out")) && v) {
-            o.out_dir = v, i++;
-        } else if (!strcmp(a, "--report") && v) {
-            o.report_dir = v, i++;
-        } else if (!strcmp(a, "--datasets") && v) {
-            o.datasets = v, i++;
-        } else if (!strcmp(a, "--volumes") && v) {
-            o.volume_dir = v, i++;
-        } else if (!strcmp(a, "--scales") && v) {
-            o.scales = v, i++;
-        } else if (!strcmp(a, "--cones") && v) {
-            o.cones = v, i++;
-        } else if (!strcmp(a, "--blends") && v) {
-            o.blends = v, i++;
-        } else if (!strcmp(a, "--steps") && v) {
-            o.steps = v, i++;
-        } else if (!strcmp(a, "--size") && v) {
-            o.size = v, i++;
-        } else if (!strcmp(a, "--runs")) {
-            if (!cli_parse_int(v, 1, 64, &ll))
-                return cli_usage_error("--runs needs an integer in [1, 64]");
-            o.runs = (int)ll, i++;
         } else if (!strcmp(a, "--ref-samples")) {
             if (!cli_parse_int(v, 8, 1 << 20, &ll) || ll % 8 != 0)
                 return cli_usage_error("--ref-samples needs a multiple of 8 in [8, 1048576]");
             o.ref_samples = ll, i++;
-        } else {
-            int r = cli_limit_flag(g, argc, argv, &i);
-            if (r < 0)
-                return CLI_EXIT_USAGE;
-            if (r > 0)
-                continue;
-            return cli_usage_error("study volume: unknown option '%s' (or a missing value)", a);
+        } else if (cli_study_flags(g, "study volume", &run, 0, &o.runs, strings, argc, argv, &i)) {
+            return CLI_EXIT_USAGE;
         }
     }
-    if (report_only && !o.report_dir)
-        return cli_usage_error("study volume: --report-only needs --report DIR");
-    if (report_only && dry_run)
-        return cli_usage_error("study volume: --report-only and --dry-run exclude each other");
+    if (cli_study_check("study volume", 0, &run, o.report_dir))
+        return CLI_EXIT_USAGE;
     o.log = g->quiet ? NULL : stderr;
     char cmdline[2048];
     {
@@ -102,42 +100,5 @@ int cmd_study_volume(cli_globals *g, int argc, char **argv)
             n += (size_t)snprintf(cmdline + n, sizeof cmdline - n, " %s", argv[i]);
         o.command_line = cmdline;
     }
-
-    obs_context *ctx = obs_context_create();
-    if (!ctx)
-        return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
-    int code = CLI_EXIT_OK;
-    study_volume *s = NULL;
-    obs_status st = study_volume_open(ctx, &o, &s);
-    if (st == OBS_STATUS_INVALID_ARGUMENT) {
-        code = cli_usage_error("%s", obs_context_last_error(ctx));
-        obs_context_destroy(ctx);
-        return code;
-    }
-    obs_pool *pool = st == OBS_STATUS_OK ? obs_pool_create(g->threads) : NULL;
-    if (st == OBS_STATUS_OK && !pool)
-        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "study volume: cannot create the thread pool");
-    if (st == OBS_STATUS_OK && dry_run) {
-        int present = 0;
-        long long n = (long long)study_volume_points(s, &present);
-        printf("study volume: %lld points over %d dataset%s present, %d runs each\n", n, present,
-               present == 1 ? "" : "s", o.runs);
-    } else if (st == OBS_STATUS_OK) {
-        if (!report_only)
-            st = study_volume_sweep(ctx, pool, s);
-        if (st == OBS_STATUS_OK && o.report_dir)
-            st = study_volume_report(ctx, s);
-        if (st == OBS_STATUS_OK && !g->quiet)
-            fprintf(stderr, "obscura: study volume: %lld points in %s/results.csv%s%s\n",
-                    (long long)study_volume_table(s)->rows, o.out_dir, o.report_dir ? ", report in " : "",
-                    o.report_dir ? o.report_dir : "");
-    }
-    if (st != OBS_STATUS_OK)
-        code = cli_fail(ctx, st);
-    study_volume_close(s);
-    obs_pool_destroy(pool);
-    obs_context_destroy(ctx);
-    return code;
+    return cli_study_main(g, &volume_steps, &o, &run, o.out_dir, o.report_dir);
 }

@@ -81,26 +81,19 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     truth_build_quality build = TRUTH_BUILD_MEDIUM;
     truth_scene_layout layout = TRUTH_SCENE_AUTO;
     int W = 1920, H = 1080, size_given = 0;
+    const cli_view_flags view_flags = {&prefix, prefix_buf, sizeof prefix_buf, exr_ext, "a path prefix or an .exr path",
+                                 &camera, &W, &H, &size_given};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         double d;
+        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(truth_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
-            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
-            if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
-        } else if (!strcmp(a, "--camera")) {
-            if (!v) return cli_usage_error("--camera needs a name or index");
-            camera = v; i++;
-        } else if (!strcmp(a, "--size")) {
-            if (!cli_parse_size(v, &W, &H))
-                return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
-            size_given = 1; i++;
+        } else if ((r = cli_view_flag(&view_flags, argc, argv, &i)) != 0) {
+            if (r < 0) return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--estimator")) {
             if (!truth_ao_estimator_from_name(v, &p.estimator))
                 return cli_usage_error("--estimator needs cos, unif, obs-sao, obs-sao-linear, obs-mssao, obs-hbao or vol");
@@ -155,7 +148,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
             else return cli_usage_error("--scene-layout needs auto, flat or instanced");
             i++;
         } else {
-            int r = cli_limit_flag(g, argc, argv, &i);
+            r = cli_limit_flag(g, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             if (a[0] == '-') return cli_usage_error("truth ao: unknown option '%s'", a);
@@ -166,28 +159,21 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     if (!scene_path)
         return cli_usage_error("truth ao: no scene given");
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
     /* Under an MPI launcher: every rank loads the scene and draws the G-buffer, renders the tasks
      * dealt to it, and rank 0 gathers and writes (docs/scale.md). */
     scale_comm *comm = NULL;
-    if (scale_mpi_launched()) {
-        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
-        if (sm != OBS_STATUS_OK) {
-            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-            obs_context_destroy(ctx);
-            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
-        }
-    }
+    const int mpi_code = cli_mpi_start(ctx, &argc, &argv, &comm);
+    if (mpi_code != CLI_EXIT_OK)
+        return mpi_code;
     const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
     int *owner = NULL;
     double *task_cost = NULL;
     unsigned char *task_mask = NULL;
     scale_rank_stats *per_rank = NULL;
     int64_t ntasks = 0;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;
@@ -202,11 +188,7 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     int code = CLI_EXIT_OK;
     obs_camera cam;
     double t_load = obs_time_now();
-    obs_status st = cli_load_scene(ctx, scene_path, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+    obs_status st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (comm) /* every rank reads the same files: one that cannot ends the job (docs/scale.md) */
         st = scale_mpi_agree(ctx, comm, st);
     if (st != OBS_STATUS_OK) { /* rank 0 reports an agreed failure; mpirun returns its code */
@@ -458,13 +440,9 @@ int cmd_truth(cli_globals *g, int argc, char **argv)
     io_json_end_array(&j);
     io_json_string(&j, "preview_png", "AO.mean, linear quantisation, gamma 1.0; background (AO.count = 0) black");
     io_json_end_object(&j);
-    snprintf(path, sizeof path, "%s.json", prefix);
-    st = io_json_write(ctx, &j, path);
-    if (st != OBS_STATUS_OK) {
-        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-        code = CLI_EXIT_OUTPUT;
+    code = cli_write_sidecar(ctx, &j, prefix);
+    if (code != CLI_EXIT_OK)
         goto done;
-    }
     if (!g->quiet)
         fprintf(stderr, "obscura: wrote %s%s, %s.png, %s.json\n", prefix, exr_ext, prefix, prefix);
 done:

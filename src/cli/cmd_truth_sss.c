@@ -73,28 +73,21 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     truth_sss_params p = truth_sss_params_default();
     const double default_patch = p.patch_radius;
     int patch_given = 0;
+    const cli_view_flags view_flags = {&prefix, prefix_buf, sizeof prefix_buf, exr_ext, "a path prefix or an .exr path",
+                                 &camera, &W, &H, &size_given};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i];
         const char *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         double d;
+        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(truth_sss_help_head, stdout);
             fputs(cli_sss_help_material_light, stdout);
             fputs(truth_sss_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix or an .exr path", a);
-            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
-            if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
-        } else if (!strcmp(a, "--camera")) {
-            if (!v) return cli_usage_error("--camera needs a name or index");
-            camera = v; i++;
-        } else if (!strcmp(a, "--size")) {
-            if (!cli_parse_size(v, &W, &H))
-                return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
-            size_given = 1; i++;
+        } else if ((r = cli_view_flag(&view_flags, argc, argv, &i)) != 0) {
+            if (r < 0) return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--reference")) {
             if (!v || (strcmp(v, "both") && strcmp(v, "brute-force") && strcmp(v, "random-walk")))
                 return cli_usage_error("--reference needs both, brute-force or random-walk");
@@ -120,7 +113,7 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
             if (!cli_parse_int(v, 0, INT64_MAX, &ll)) return cli_usage_error("--seed needs an integer >= 0");
             p.seed = (uint64_t)ll; i++;
         } else if (a[0] == '-' && a[1]) {
-            int r = cli_sss_flag(&so, argc, argv, &i);
+            r = cli_sss_flag(&so, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             r = cli_limit_flag(g, argc, argv, &i);
@@ -145,21 +138,16 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     runs[0].wanted = strcmp(which, "random-walk") != 0;
     runs[1].wanted = strcmp(which, "brute-force") != 0;
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
     /* Under an MPI launcher: every rank loads the scene, draws the G-buffer and builds the BVH,
      * renders the tasks (tiles) dealt to it for each reference, and rank 0 gathers and writes
      * (docs/scale.md, as truth ao). */
     scale_comm *comm = NULL;
-    if (scale_mpi_launched()) {
-        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
-        if (sm != OBS_STATUS_OK) {
-            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-            obs_context_destroy(ctx);
-            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
-        }
-    }
+    const int mpi_code = cli_mpi_start(ctx, &argc, &argv, &comm);
+    if (mpi_code != CLI_EXIT_OK)
+        return mpi_code;
     const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
     int *owner = NULL;
     double *task_cost = NULL;
@@ -167,8 +155,6 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     scale_rank_stats *per_rank[2] = {NULL, NULL};
     int64_t ntasks = 0;
     double t_wait = 0.0, t_gather = 0.0, seconds_write = 0.0;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     obs_scene scene;
     obs_scene_init(&scene);
     obs_pool *pool = NULL;
@@ -187,11 +173,7 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
 
     obs_status st = truth_sss_params_validate(ctx, &p);
     if (st == OBS_STATUS_OK)
-        st = cli_load_scene(ctx, scene_path, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_require_triangles(ctx, &scene);
-    if (st == OBS_STATUS_OK)
-        st = cli_pick_camera(ctx, &scene, camera, &cam);
+        st = cli_scene_and_camera(ctx, scene_path, camera, &scene, &cam);
     if (comm) /* every rank reads the same files: one that cannot ends the job (docs/scale.md) */
         st = scale_mpi_agree(ctx, comm, st);
     if (st != OBS_STATUS_OK) { /* rank 0 reports an agreed failure; mpirun returns its code */
@@ -456,13 +438,9 @@ int cmd_truth_sss(cli_globals *g, int argc, char **argv)
     }
     io_json_string(&j, "png", "<PREFIX>_<ref>.png: R, G, B times --exposure, sRGB-encoded, clamped to [0, 1]");
     io_json_end_object(&j);
-    snprintf(path, sizeof path, "%s.json", prefix);
-    st = io_json_write(ctx, &j, path);
-    if (st != OBS_STATUS_OK) {
-        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-        code = CLI_EXIT_OUTPUT;
+    code = cli_write_sidecar(ctx, &j, prefix);
+    if (code != CLI_EXIT_OK)
         goto done;
-    }
     if (!g->quiet)
         fprintf(stderr, "obscura: wrote %s%s, %s%s%s%s%s.json\n", prefix, exr_ext,
                 runs[0].wanted ? prefix : "", runs[0].wanted ? "_brute.png, " : "",

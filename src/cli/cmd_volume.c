@@ -103,18 +103,18 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         fputs(volume_help, stderr);
         return CLI_EXIT_USAGE;
     }
+    const cli_view_flags view_flags = {&prefix, prefix_buf, sizeof prefix_buf, exr_ext, "a path prefix", NULL,
+                                 &W, &H, &size_given};
     for (int i = first; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         double d;
+        int r;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(volume_help, stdout);
             return CLI_EXIT_OK;
-        } else if (!strcmp(a, "-o") || !strcmp(a, "--output")) {
-            if (!v) return cli_usage_error("%s needs a path prefix", a);
-            prefix = cli_output_prefix(v, prefix_buf, sizeof prefix_buf, exr_ext);
-            if (!prefix) return cli_usage_error("%s: path too long", a);
-            i++;
+        } else if ((r = cli_view_flag(&view_flags, argc, argv, &i)) != 0) {
+            if (r < 0) return CLI_EXIT_USAGE;
         } else if (!strcmp(a, "--tf")) {
             if (!v) return cli_usage_error("--tf needs a JSON file or a preset name");
             tf_arg = v; i++;
@@ -158,9 +158,6 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             lp.eye_pass = 1;
         } else if (!strcmp(a, "--write-light-volume")) {
             write_lv = 1;
-        } else if (!strcmp(a, "--size")) {
-            if (!cli_parse_size(v, &W, &H)) return cli_usage_error("--size needs WxH with each side in [1, %d]", RAST_MAX_DIM);
-            size_given = 1; i++;
         } else if (truth && !strcmp(a, "--image")) {
             mc_image = 1;
         } else if (truth && !strcmp(a, "--image-only")) {
@@ -175,7 +172,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
             if (!cli_parse_float(v, &d) || !(d > -1.0 && d < 1.0)) return cli_usage_error("--phase-g needs a number in (-1, 1)");
             mcp.g = d; i++;
         } else if (a[0] == '-' && a[1]) {
-            int r = cli_limit_flag(g, argc, argv, &i);
+            r = cli_limit_flag(g, argc, argv, &i);
             if (r < 0) return CLI_EXIT_USAGE;
             if (r > 0) continue;
             return cli_usage_error("volume: unknown option '%s' (see 'obscura volume --help')", a);
@@ -197,23 +194,16 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     if (!strncmp(file, "synth:", 6) && (raw || big_endian))
         return cli_usage_error("volume: --raw and --big-endian apply to raw files, not to %s", file);
 
-    obs_context *ctx = obs_context_create();
+    obs_context *ctx = cli_context(g);
     if (!ctx)
         return CLI_EXIT_INTERNAL;
-    obs_context_set_limits(ctx, &g->limits);
-    obs_context_set_log_level(ctx, g->quiet ? OBS_LOG_ERROR : g->verbose ? OBS_LOG_DEBUG : OBS_LOG_WARN);
     /* truth volume under an MPI launcher: every rank loads the volume and builds the light volume
      * (cheap against the truth), computes the z slices and the MC image's tiles dealt to it, and
      * rank 0 gathers and writes (docs/scale.md, "truth volume"). */
     scale_comm *comm = NULL;
-    if (truth && scale_mpi_launched()) {
-        obs_status sm = scale_mpi_init(ctx, &argc, &argv, &comm);
-        if (sm != OBS_STATUS_OK) {
-            fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-            obs_context_destroy(ctx);
-            return sm == OBS_STATUS_UNSUPPORTED ? CLI_EXIT_USAGE : CLI_EXIT_INTERNAL;
-        }
-    }
+    const int mpi_code = truth ? cli_mpi_start(ctx, &argc, &argv, &comm) : CLI_EXIT_OK;
+    if (mpi_code != CLI_EXIT_OK)
+        return mpi_code;
     const int rank = scale_comm_rank(comm), ranks = scale_comm_size(comm);
     int *slice_owner = NULL, *task_owner = NULL;
     unsigned char *slice_mask = NULL, *task_mask = NULL;
@@ -662,12 +652,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
     io_json_number(&j, "seconds_load", t_load);
     io_json_int(&j, "threads", obs_pool_threads(pool));
     io_json_end_object(&j);
-    snprintf(path, sizeof path, "%s.json", prefix);
-    st = io_json_write(ctx, &j, path);
-    if (st != OBS_STATUS_OK) {
-        fprintf(stderr, "obscura: error: %s\n", obs_context_last_error(ctx));
-        code = CLI_EXIT_OUTPUT;
-    }
+    code = cli_write_sidecar(ctx, &j, prefix);
 done:
     free(slice_owner);
     free(slice_mask);

@@ -93,28 +93,6 @@ obs_status scale_mpi_agree(obs_context *ctx, scale_comm *c, obs_status local)
     return obs_error(ctx, st, "rank %d of %d failed: %s", first, c->size, msg);
 }
 
-/* Each owned task's rectangle, plane by plane (mean, std_error, count), rows in order. */
-static void pack_unpack(truth_ao_result *res, int tile, const int *owner, int64_t ntasks, int rank, float *buf, int unpack)
-{
-    obs_image_f32 *pl[3] = {&res->mean, &res->std_error, &res->count};
-    size_t at = 0;
-    for (int64_t t = 0; t < ntasks; t++) {
-        if (owner[t] != rank)
-            continue;
-        int x0, y0, x1, y1;
-        truth_ao_task_rect(res->width, res->height, tile, t, &x0, &y0, &x1, &y1);
-        const size_t n = (size_t)(x1 - x0);
-        for (int k = 0; k < 3; k++)
-            for (int y = y0; y < y1; y++, at += n) {
-                float *row = obs_image_f32_row(pl[k], y) + x0;
-                if (unpack)
-                    memcpy(row, buf + at, n * sizeof(float));
-                else
-                    memcpy(buf + at, row, n * sizeof(float));
-            }
-    }
-}
-
 static int xfer(float *buf, int64_t n, int peer, int send)
 {
     for (int64_t at = 0; at < n; at += CHUNK_FLOATS) {
@@ -127,53 +105,121 @@ static int xfer(float *buf, int64_t n, int peer, int send)
     return 1;
 }
 
+/* ---- an image dealt out as tasks (ao, sss, volume image): one layout, one pack and gather ------- */
+
+enum { MAX_PLANES = 8 };
+
+/* A result's image layout: its planes (all width x height) and the task rectangles they are dealt
+ * in (truth_ao_task_rect, truth_sss_task_rect or truth_volume_mc_task_rect of `tile`). */
+typedef struct tiled_image {
+    int width, height, tile, planes;
+    obs_image_f32 *pl[MAX_PLANES];
+    void (*rect)(int width, int height, int tile, int64_t task, int *x0, int *y0, int *x1, int *y1);
+} tiled_image;
+
+/* The floats of the tasks owned by `rank`, over all planes. */
+static int64_t owned_floats(const tiled_image *im, const int *owner, int64_t ntasks, int rank)
+{
+    int64_t n = 0;
+    for (int64_t t = 0; t < ntasks; t++)
+        if (owner[t] == rank) {
+            int x0, y0, x1, y1;
+            im->rect(im->width, im->height, im->tile, t, &x0, &y0, &x1, &y1);
+            n += (int64_t)(x1 - x0) * (y1 - y0);
+        }
+    return im->planes * n;
+}
+
+/* Each owned task's rectangle, plane by plane, rows in order. */
+static void pack_unpack(const tiled_image *im, const int *owner, int64_t ntasks, int rank, float *buf, int unpack)
+{
+    size_t at = 0;
+    for (int64_t t = 0; t < ntasks; t++) {
+        if (owner[t] != rank)
+            continue;
+        int x0, y0, x1, y1;
+        im->rect(im->width, im->height, im->tile, t, &x0, &y0, &x1, &y1);
+        const size_t n = (size_t)(x1 - x0);
+        for (int k = 0; k < im->planes; k++)
+            for (int y = y0; y < y1; y++, at += n) {
+                float *row = obs_image_f32_row(im->pl[k], y) + x0;
+                if (unpack)
+                    memcpy(row, buf + at, n * sizeof(float));
+                else
+                    memcpy(buf + at, row, n * sizeof(float));
+            }
+    }
+}
+
+/* A rank's owned pixels packed into a new buffer of *n floats (the caller frees it). */
+static float *pack_owned(const tiled_image *im, const int *owner, int64_t ntasks, int rank, int64_t *n)
+{
+    *n = owned_floats(im, owner, ntasks, rank);
+    float *buf = (float *)malloc(sizeof(float) * (size_t)(*n > 0 ? *n : 1));
+    if (!buf) /* rank 0 is waiting for this rank's pixels: end the job */
+        MPI_Abort(MPI_COMM_WORLD, 6);
+    pack_unpack(im, owner, ntasks, rank, buf, 0);
+    return buf;
+}
+
+/* On rank 0: receive rank r's owned pixels into im. Returns 0 when MPI_Recv failed. */
+static int recv_owned(const tiled_image *im, const int *owner, int64_t ntasks, int r)
+{
+    const int64_t n = owned_floats(im, owner, ntasks, r);
+    float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
+    if (!buf)
+        MPI_Abort(MPI_COMM_WORLD, 6);
+    if (!xfer(buf, n, r, 0)) {
+        free(buf);
+        return 0;
+    }
+    pack_unpack(im, owner, ntasks, r, buf, 1);
+    free(buf);
+    return 1;
+}
+
+/* per_rank before the gather: zeros, rank 0's own work, and every rank's tasks and estimates. */
+static void per_rank_start(scale_rank_stats *per_rank, int ranks, const int *owner, const double *cost,
+                           int64_t ntasks, uint64_t rays0, double seconds0)
+{
+    if (!per_rank)
+        return;
+    for (int r = 0; r < ranks; r++)
+        memset(&per_rank[r], 0, sizeof per_rank[r]);
+    per_rank[0].rays = rays0;
+    per_rank[0].seconds_work = seconds0;
+    for (int64_t t = 0; t < ntasks; t++) {
+        per_rank[owner[t]].tasks++;
+        per_rank[owner[t]].cost_estimate += cost[t];
+    }
+}
+
 obs_status scale_mpi_gather_ao(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
                                int tile, truth_ao_result *res, scale_rank_stats *per_rank)
 {
     if (!c || !owner || !cost || !res)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_gather_ao: NULL argument");
     truth_ao_stats *S = &res->stats;
+    const tiled_image im = {.width = res->width, .height = res->height, .tile = tile, .planes = 3,
+                            .pl = {&res->mean, &res->std_error, &res->count}, .rect = truth_ao_task_rect};
     /* the counters as doubles: exact up to 2^53 */
     double mine[10] = {(double)S->rays, (double)S->primary_rays, (double)S->pixels_surface,
                        (double)S->pixels_background, (double)S->pixels_invalid, (double)S->pixels_converged,
                        (double)S->pixels_at_max, S->max_std_error, S->max_offset, S->seconds_work};
     if (c->rank != 0) {
-        const int64_t n = 3 * scale_ao_rank_pixels(res->width, res->height, tile, owner, ntasks, c->rank);
-        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
-        if (!buf) /* rank 0 is waiting for this rank's pixels: end the job */
-            MPI_Abort(MPI_COMM_WORLD, 6);
-        pack_unpack(res, tile, owner, ntasks, c->rank, buf, 0);
+        int64_t n;
+        float *buf = pack_owned(&im, owner, ntasks, c->rank, &n);
         int ok = MPI_Send(mine, 10, MPI_DOUBLE, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS && xfer(buf, n, 0, 1);
         free(buf);
         return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
     }
-    if (per_rank)
-        for (int r = 0; r < c->size; r++) {
-            memset(&per_rank[r], 0, sizeof per_rank[r]);
-            if (r == 0) {
-                per_rank[0].rays = S->rays;
-                per_rank[0].seconds_work = S->seconds_work;
-            }
-        }
-    if (per_rank)
-        for (int64_t t = 0; t < ntasks; t++) {
-            per_rank[owner[t]].tasks++;
-            per_rank[owner[t]].cost_estimate += cost[t];
-        }
+    per_rank_start(per_rank, c->size, owner, cost, ntasks, S->rays, S->seconds_work);
     for (int r = 1; r < c->size; r++) {
         double th[10];
         if (MPI_Recv(th, 10, MPI_DOUBLE, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS)
             return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv from rank %d failed", r);
-        const int64_t n = 3 * scale_ao_rank_pixels(res->width, res->height, tile, owner, ntasks, r);
-        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
-        if (!buf)
-            MPI_Abort(MPI_COMM_WORLD, 6);
-        if (!xfer(buf, n, r, 0)) {
-            free(buf);
+        if (!recv_owned(&im, owner, ntasks, r))
             return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv of rank %d's pixels failed", r);
-        }
-        pack_unpack(res, tile, owner, ntasks, r, buf, 1);
-        free(buf);
         /* sums of the counters, maxima of the rest, as truth_ao_render combines its threads' */
         S->rays += (uint64_t)th[0];
         S->primary_rays += (uint64_t)th[1];
@@ -197,101 +243,42 @@ obs_status scale_mpi_gather_ao(obs_context *ctx, scale_comm *c, const int *owner
 
 enum { SSS_PLANES = 7, SSS_COUNTERS = 9 };
 
-static void sss_planes(truth_sss_result *res, obs_image_f32 *pl[SSS_PLANES])
-{
-    for (int c = 0; c < 3; c++) {
-        pl[c] = &res->radiance[c];
-        pl[3 + c] = &res->std_error[c];
-    }
-    pl[6] = &res->count;
-}
-
-/* Pixels of the tasks owned by `rank` (per plane). */
-static int64_t sss_rank_pixels(int W, int H, int tile, const int *owner, int64_t ntasks, int rank)
-{
-    int64_t n = 0;
-    for (int64_t t = 0; t < ntasks; t++)
-        if (owner[t] == rank) {
-            int x0, y0, x1, y1;
-            truth_sss_task_rect(W, H, tile, t, &x0, &y0, &x1, &y1);
-            n += (int64_t)(x1 - x0) * (y1 - y0);
-        }
-    return n;
-}
-
-/* Each owned task's rectangle, plane by plane, rows in order (as pack_unpack). */
-static void sss_pack_unpack(truth_sss_result *res, int tile, const int *owner, int64_t ntasks, int rank, float *buf,
-                            int unpack)
-{
-    obs_image_f32 *pl[SSS_PLANES];
-    sss_planes(res, pl);
-    size_t at = 0;
-    for (int64_t t = 0; t < ntasks; t++) {
-        if (owner[t] != rank)
-            continue;
-        int x0, y0, x1, y1;
-        truth_sss_task_rect(res->width, res->height, tile, t, &x0, &y0, &x1, &y1);
-        const size_t n = (size_t)(x1 - x0);
-        for (int k = 0; k < SSS_PLANES; k++)
-            for (int y = y0; y < y1; y++, at += n) {
-                float *row = obs_image_f32_row(pl[k], y) + x0;
-                if (unpack)
-                    memcpy(row, buf + at, n * sizeof(float));
-                else
-                    memcpy(buf + at, row, n * sizeof(float));
-            }
-    }
-}
-
 obs_status scale_mpi_gather_sss(obs_context *ctx, scale_comm *c, const int *owner, const double *cost, int64_t ntasks,
                                 int tile, truth_sss_result *res, scale_rank_stats *per_rank)
 {
     if (!c || !owner || !cost || !res)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_gather_sss: NULL argument");
     truth_sss_stats *S = &res->stats;
+    tiled_image im = {.width = res->width, .height = res->height, .tile = tile, .planes = SSS_PLANES,
+                      .rect = truth_sss_task_rect};
+    for (int ch = 0; ch < 3; ch++) {
+        im.pl[ch] = &res->radiance[ch];
+        im.pl[3 + ch] = &res->std_error[ch];
+    }
+    im.pl[6] = &res->count;
     /* the counters as 64-bit integers (exact), the seconds apart */
     uint64_t mine[SSS_COUNTERS] = {S->candidates, S->accepted, S->rays, S->walk_events, S->walks_lost,
                                    (uint64_t)S->pixels_surface, (uint64_t)S->pixels_skipped,
                                    (uint64_t)S->pixels_converged, (uint64_t)S->pixels_at_max};
     double my_seconds = S->seconds;
     if (c->rank != 0) {
-        const int64_t n = SSS_PLANES * sss_rank_pixels(res->width, res->height, tile, owner, ntasks, c->rank);
-        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
-        if (!buf) /* rank 0 is waiting for this rank's pixels: end the job */
-            MPI_Abort(MPI_COMM_WORLD, 6);
-        sss_pack_unpack(res, tile, owner, ntasks, c->rank, buf, 0);
+        int64_t n;
+        float *buf = pack_owned(&im, owner, ntasks, c->rank, &n);
         int ok = MPI_Send(mine, SSS_COUNTERS, MPI_UINT64_T, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS &&
                  MPI_Send(&my_seconds, 1, MPI_DOUBLE, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS &&
                  xfer(buf, n, 0, 1);
         free(buf);
         return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
     }
-    if (per_rank) {
-        for (int r = 0; r < c->size; r++)
-            memset(&per_rank[r], 0, sizeof per_rank[r]);
-        per_rank[0].rays = S->rays;
-        per_rank[0].seconds_work = S->seconds;
-        for (int64_t t = 0; t < ntasks; t++) {
-            per_rank[owner[t]].tasks++;
-            per_rank[owner[t]].cost_estimate += cost[t];
-        }
-    }
+    per_rank_start(per_rank, c->size, owner, cost, ntasks, S->rays, S->seconds);
     for (int r = 1; r < c->size; r++) {
         uint64_t th[SSS_COUNTERS];
         double secs = 0.0;
         if (MPI_Recv(th, SSS_COUNTERS, MPI_UINT64_T, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS ||
             MPI_Recv(&secs, 1, MPI_DOUBLE, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS)
             return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv from rank %d failed", r);
-        const int64_t n = SSS_PLANES * sss_rank_pixels(res->width, res->height, tile, owner, ntasks, r);
-        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
-        if (!buf)
-            MPI_Abort(MPI_COMM_WORLD, 6);
-        if (!xfer(buf, n, r, 0)) {
-            free(buf);
+        if (!recv_owned(&im, owner, ntasks, r))
             return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv of rank %d's pixels failed", r);
-        }
-        sss_pack_unpack(res, tile, owner, ntasks, r, buf, 1);
-        free(buf);
         /* every counter is a sum over tasks (truth_sss_render adds its tasks' the same way) */
         S->candidates += th[0];
         S->accepted += th[1];
@@ -352,49 +339,6 @@ obs_status scale_mpi_gather_volume_slices(obs_context *ctx, scale_comm *c, const
 
 enum { VI_PLANES = 8, VI_COUNTERS = 4 };
 
-static void vi_planes(truth_volume_image *im, obs_image_f32 *pl[VI_PLANES])
-{
-    for (int q = 0; q < 4; q++) {
-        pl[q] = &im->rgba[q];
-        pl[4 + q] = &im->std_error[q];
-    }
-}
-
-static int64_t vi_rank_pixels(int W, int H, int tile, const int *owner, int64_t ntasks, int rank)
-{
-    int64_t n = 0;
-    for (int64_t t = 0; t < ntasks; t++)
-        if (owner[t] == rank) {
-            int x0, y0, x1, y1;
-            truth_volume_mc_task_rect(W, H, tile, t, &x0, &y0, &x1, &y1);
-            n += (int64_t)(x1 - x0) * (y1 - y0);
-        }
-    return n;
-}
-
-static void vi_pack_unpack(truth_volume_image *im, int tile, const int *owner, int64_t ntasks, int rank, float *buf,
-                           int unpack)
-{
-    obs_image_f32 *pl[VI_PLANES];
-    vi_planes(im, pl);
-    size_t at = 0;
-    for (int64_t t = 0; t < ntasks; t++) {
-        if (owner[t] != rank)
-            continue;
-        int x0, y0, x1, y1;
-        truth_volume_mc_task_rect(im->width, im->height, tile, t, &x0, &y0, &x1, &y1);
-        const size_t n = (size_t)(x1 - x0);
-        for (int k = 0; k < VI_PLANES; k++)
-            for (int y = y0; y < y1; y++, at += n) {
-                float *row = obs_image_f32_row(pl[k], y) + x0;
-                if (unpack)
-                    memcpy(row, buf + at, n * sizeof(float));
-                else
-                    memcpy(buf + at, row, n * sizeof(float));
-            }
-    }
-}
-
 obs_status scale_mpi_gather_volume_image(obs_context *ctx, scale_comm *c, const int *owner, const double *cost,
                                          int64_t ntasks, int tile, truth_volume_image *im,
                                          scale_rank_stats *per_rank)
@@ -402,46 +346,32 @@ obs_status scale_mpi_gather_volume_image(obs_context *ctx, scale_comm *c, const 
     if (!c || !owner || !cost || !im)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "scale_mpi_gather_volume_image: NULL argument");
     truth_volume_mc_stats *S = &im->stats;
+    tiled_image ti = {.width = im->width, .height = im->height, .tile = tile, .planes = VI_PLANES,
+                      .rect = truth_volume_mc_task_rect};
+    for (int q = 0; q < 4; q++) {
+        ti.pl[q] = &im->rgba[q];
+        ti.pl[4 + q] = &im->std_error[q];
+    }
     /* the counters as 64-bit integers (exact); max_std_error and seconds apart */
     uint64_t mine[VI_COUNTERS] = {S->tentative, S->collisions, S->over_majorant, (uint64_t)S->pixels_hit};
     double mine_d[2] = {S->max_std_error, S->seconds};
     if (c->rank != 0) {
-        const int64_t n = VI_PLANES * vi_rank_pixels(im->width, im->height, tile, owner, ntasks, c->rank);
-        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
-        if (!buf) /* rank 0 is waiting for this rank's pixels: end the job */
-            MPI_Abort(MPI_COMM_WORLD, 6);
-        vi_pack_unpack(im, tile, owner, ntasks, c->rank, buf, 0);
+        int64_t n;
+        float *buf = pack_owned(&ti, owner, ntasks, c->rank, &n);
         int ok = MPI_Send(mine, VI_COUNTERS, MPI_UINT64_T, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS &&
                  MPI_Send(mine_d, 2, MPI_DOUBLE, 0, TAG_STATS, MPI_COMM_WORLD) == MPI_SUCCESS && xfer(buf, n, 0, 1);
         free(buf);
         return ok ? OBS_STATUS_OK : obs_error(ctx, OBS_STATUS_INTERNAL, "rank %d: MPI_Send to rank 0 failed", c->rank);
     }
-    if (per_rank) {
-        for (int r = 0; r < c->size; r++)
-            memset(&per_rank[r], 0, sizeof per_rank[r]);
-        per_rank[0].rays = S->collisions;
-        per_rank[0].seconds_work = S->seconds;
-        for (int64_t t = 0; t < ntasks; t++) {
-            per_rank[owner[t]].tasks++;
-            per_rank[owner[t]].cost_estimate += cost[t];
-        }
-    }
+    per_rank_start(per_rank, c->size, owner, cost, ntasks, S->collisions, S->seconds);
     for (int r = 1; r < c->size; r++) {
         uint64_t th[VI_COUNTERS];
         double td[2];
         if (MPI_Recv(th, VI_COUNTERS, MPI_UINT64_T, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS ||
             MPI_Recv(td, 2, MPI_DOUBLE, r, TAG_STATS, MPI_COMM_WORLD, MPI_STATUS_IGNORE) != MPI_SUCCESS)
             return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv from rank %d failed", r);
-        const int64_t n = VI_PLANES * vi_rank_pixels(im->width, im->height, tile, owner, ntasks, r);
-        float *buf = (float *)malloc(sizeof(float) * (size_t)(n > 0 ? n : 1));
-        if (!buf)
-            MPI_Abort(MPI_COMM_WORLD, 6);
-        if (!xfer(buf, n, r, 0)) {
-            free(buf);
+        if (!recv_owned(&ti, owner, ntasks, r))
             return obs_error(ctx, OBS_STATUS_INTERNAL, "MPI_Recv of rank %d's pixels failed", r);
-        }
-        vi_pack_unpack(im, tile, owner, ntasks, r, buf, 1);
-        free(buf);
         /* sums over tiles and a maximum, as tvi_run combines its tiles' (exact in any order) */
         S->tentative += th[0];
         S->collisions += th[1];
