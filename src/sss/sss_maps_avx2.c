@@ -241,6 +241,61 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
     return n;
 }
 
+int sss_i_exp_block_dir_avx2(const sss_i_fetch_in *in, double wgt, const int32_t *lut, float *xi[3], float *ni[3],
+                             float *wi[3], double *wout, int n)
+{
+    /* lane j: texel (bx + j mod 3, by + j div 3), j = 0..7, the scalar loop's first 8 */
+    const vi dx = _mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), dy = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2);
+    const vi ix = _mm256_add_epi32(_mm256_set1_epi32(in->bx), dx), iy = _mm256_add_epi32(_mm256_set1_epi32(in->by), dy);
+    const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->pst)), ix);
+    const vi oi = _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->ist)), ix);
+    const vf px = _mm256_i32gather_ps(in->P[0], o, 4);
+    const vi id = _mm256_i32gather_epi32((const int *)in->iid, oi, 4);
+    const vf keepv = _mm256_and_ps(_mm256_cmp_ps(px, px, _CMP_ORD_Q),
+                                   _mm256_castsi256_ps(_mm256_cmpeq_epi32(id, _mm256_set1_epi32((int32_t)in->inst))));
+    const int mask = _mm256_movemask_ps(keepv);
+    if (mask) {
+        /* masked gathers: dropped lanes read 0, so the lanes past the count stay finite */
+        const vf zero = VSET(0.0f);
+        const vi perm = _mm256_loadu_si256((const vi *)(lut + 8 * mask));
+        const vf pxk = _mm256_and_ps(px, keepv);
+        const vf py = _mm256_mask_i32gather_ps(zero, in->P[1], o, keepv, 4);
+        const vf pz = _mm256_mask_i32gather_ps(zero, in->P[2], o, keepv, 4);
+        const vf n0 = _mm256_mask_i32gather_ps(zero, in->W[0], o, keepv, 4);
+        const vf n1 = _mm256_mask_i32gather_ps(zero, in->W[1], o, keepv, 4);
+        const vf n2 = _mm256_mask_i32gather_ps(zero, in->W[2], o, keepv, 4);
+        _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(pxk, perm));
+        _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
+        _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
+        _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
+        _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
+        _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
+        _mm256_storeu_ps(wi[0] + n, VSET(in->l[0]));
+        _mm256_storeu_ps(wi[1] + n, VSET(in->l[1]));
+        _mm256_storeu_ps(wi[2] + n, VSET(in->l[2]));
+        _mm256_storeu_pd(wout + n, _mm256_set1_pd(wgt));
+        _mm256_storeu_pd(wout + n + 4, _mm256_set1_pd(wgt));
+        n += __builtin_popcount((unsigned)mask);
+    }
+    /* the ninth texel, (bx + 2, by + 2) */
+    const ptrdiff_t o8 = (ptrdiff_t)(in->by + 2) * in->pst + in->bx + 2;
+    const float p8 = in->P[0][o8];
+    if (p8 == p8 && in->iid[(ptrdiff_t)(in->by + 2) * in->ist + in->bx + 2] == in->inst) {
+        xi[0][n] = p8;
+        xi[1][n] = in->P[1][o8];
+        xi[2][n] = in->P[2][o8];
+        ni[0][n] = in->W[0][o8];
+        ni[1][n] = in->W[1][o8];
+        ni[2][n] = in->W[2][o8];
+        wi[0][n] = in->l[0];
+        wi[1][n] = in->l[1];
+        wi[2][n] = in->l[2];
+        wout[n] = wgt;
+        n++;
+    }
+    return n;
+}
+
 void sss_i_wsum3_avx2(const double *w, const float *const o[3], int n, double out[3])
 {
     const int n4 = n & ~3;
