@@ -298,16 +298,26 @@ int sss_i_exp_block_dir_avx2(const sss_i_fetch_in *in, double wgt, const int32_t
 
 void sss_i_wsum3_avx2(const double *w, const float *const o[3], int n, double out[3])
 {
+    /* the three channels in one pass (w loaded once per 4 samples); each channel's sums are the
+     * same operations in the same order as one pass per channel: lane l of acc_c holds
+     * sum over q = l mod 4 of w_q o_c,q, in q order */
     const int n4 = n & ~3;
+    __m256d acc0 = _mm256_setzero_pd(), acc1 = _mm256_setzero_pd(), acc2 = _mm256_setzero_pd();
+    const float *o0 = o[0], *o1 = o[1], *o2 = o[2];
+    for (int q = 0; q < n4; q += 4) {
+        const __m256d wq = _mm256_loadu_pd(w + q);
+        acc0 = _mm256_add_pd(acc0, _mm256_mul_pd(wq, _mm256_cvtps_pd(_mm_loadu_ps(o0 + q))));
+        acc1 = _mm256_add_pd(acc1, _mm256_mul_pd(wq, _mm256_cvtps_pd(_mm_loadu_ps(o1 + q))));
+        acc2 = _mm256_add_pd(acc2, _mm256_mul_pd(wq, _mm256_cvtps_pd(_mm_loadu_ps(o2 + q))));
+    }
+    double a[3][4];
+    _mm256_storeu_pd(a[0], acc0);
+    _mm256_storeu_pd(a[1], acc1);
+    _mm256_storeu_pd(a[2], acc2);
     for (int c = 0; c < 3; c++) {
-        __m256d acc = _mm256_setzero_pd();
-        for (int q = 0; q < n4; q += 4)
-            acc = _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(w + q), _mm256_cvtps_pd(_mm_loadu_ps(o[c] + q))));
-        double a[4];
-        _mm256_storeu_pd(a, acc);
         for (int q = n4; q < n; q++)
-            a[q - n4] += w[q] * (double)o[c][q];
-        out[c] = (a[0] + a[1]) + (a[2] + a[3]);
+            a[c][q - n4] += w[q] * (double)o[c][q];
+        out[c] = (a[c][0] + a[c][1]) + (a[c][2] + a[c][3]);
     }
 }
 
