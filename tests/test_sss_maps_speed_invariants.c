@@ -128,7 +128,7 @@ TEST(sss_exp_block_avx2_matches_the_scalar_loop)
                         n++;
                     }
                 const sss_i_fetch_in in = {{P[0], P[1], P[2]}, {W[0], W[1], W[2]}, iid, ST, ST, 0.0f, 0.0f, 1.0f,
-                                           (float)S, 3u, {l[0], l[1], l[2]}, bx, by, 1};
+                                           (float)S, 3u, {l[0], l[1], l[2]}, bx, by, 1, NULL, 0};
                 const int n2 = sss_i_exp_block_dir_avx2(&in, wgt, lut, xi[1], ni[1], wi[1], w[1], start);
                 CHECK(n2 == n);
                 for (int q = 0; q < 9; q++)

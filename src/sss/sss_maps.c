@@ -473,6 +473,8 @@ typedef struct light_info {
     double pos[3];        /* point: position */
     double radiance[3];   /* colour x intensity */
     sss_i_view_geo geo;   /* the light map's view constants in double (x_o's projection) */
+    uint32_t *pack;       /* exponential sampler, directional, AVX2: the light map interleaved
+                             (sss_i_fetch_in.pack), or NULL */
 } light_info;
 
 typedef struct mat_info {
@@ -604,7 +606,8 @@ static int gather_light(const build_job *j, const light_info *li, const double x
 #if defined(OBS_HAVE_AVX2)
             if (j->use_avx2) {
                 /* the loop below, 8 samples per vector (gathers, left-packed by a table) */
-                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}, bx, by, block};
+                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}, bx, by, block,
+                                     li->pack, size};
                 n = sss_i_exp_fetch_dir_avx2(&in, N / 8, sox, soy, sw, j->pack_lut, xi, ni, wi, s->w, n);
                 i = N / 8 * 8;
             }
@@ -669,7 +672,8 @@ static int gather_light(const build_job *j, const light_info *li, const double x
             /* the whole block inside the map: the loop below as one gathered, left-packed vector
              * of 8 texels and the ninth alone (sss_maps_avx2.c; the same values, in order) */
             const sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o,
-                                       {(float)li->to_light[0], (float)li->to_light[1], (float)li->to_light[2]}, bx, by, block};
+                                       {(float)li->to_light[0], (float)li->to_light[1], (float)li->to_light[2]}, bx, by, block,
+                                       NULL, 0};
             n = sss_i_exp_block_dir_avx2(&in, wgt0, j->pack_lut, xi, ni, wi, s->w, n);
         } else
 #endif
@@ -1037,6 +1041,33 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         li[l].radiance[0] = (double)L->color.x * L->intensity;
         li[l].radiance[1] = (double)L->color.y * L->intensity;
         li[l].radiance[2] = (double)L->color.z * L->intensity;
+        if (p->sampler == SSS_SAMPLER_EXPONENTIAL && job.use_avx2 && !li[l].point) {
+            /* the light map interleaved for the AVX2 fetch (sss_i_fetch_in.pack): the samples'
+             * gathers of seven planes at random texels were most of the build's L1 misses */
+            const int lw = lights[l].gb.width, lh = lights[l].gb.height;
+            li[l].pack = (uint32_t *)malloc(sizeof(uint32_t) * 8 * (size_t)lw * (size_t)lh);
+            if (!li[l].pack) {
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+                goto done;
+            }
+            for (int y = 0; y < lh; y++) {
+                const float *pr[3], *wr[3];
+                for (int a = 0; a < 3; a++) {
+                    pr[a] = obs_image_f32_row(&lights[l].position[a], y);
+                    wr[a] = obs_image_f32_row(&lights[l].wnormal[a], y);
+                }
+                const uint32_t *ir = obs_image_u32_row(&lights[l].gb.instance_id, y);
+                for (int x = 0; x < lw; x++) {
+                    uint32_t *r = li[l].pack + 8 * ((size_t)y * (size_t)lw + (size_t)x);
+                    for (int a = 0; a < 3; a++) {
+                        memcpy(&r[a], &pr[a][x], sizeof(float));
+                        memcpy(&r[3 + a], &wr[a][x], sizeof(float));
+                    }
+                    r[6] = ir[x];
+                    r[7] = 0u;
+                }
+            }
+        }
     }
     if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) {
         if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
@@ -1143,6 +1174,9 @@ done:
     free(job.hd_sin);
     free(job.rr_zmax);
     free(mi);
+    if (li)
+        for (int l = 0; l < light_count; l++)
+            free(li[l].pack);
     free(li);
     if (st != OBS_STATUS_OK)
         sss_maps_free(out);

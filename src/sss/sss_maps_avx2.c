@@ -208,6 +208,39 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
                 _mm256_and_si256(_mm256_cmpgt_epi32(three, dy), _mm256_cmpgt_epi32(dy, m1)));
             inside = _mm256_andnot_ps(_mm256_castsi256_ps(inb), inside);
         }
+        if (in->pack) {
+            /* the interleaved records: the same values from one cache line per sample */
+            const vi r8 = _mm256_slli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(in->pack_w)), ix), 3);
+            const float *pk = (const float *)in->pack;
+            const vf px = _mm256_mask_i32gather_ps(zero, pk, r8, inside, 4);
+            const vi id = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)in->pack + 6, r8,
+                                                      _mm256_castps_si256(inside), 4);
+            const vf keepv = _mm256_and_ps(_mm256_and_ps(inside, _mm256_cmp_ps(px, px, _CMP_ORD_Q)),
+                                           _mm256_castsi256_ps(_mm256_cmpeq_epi32(id, inst)));
+            const int mask = _mm256_movemask_ps(keepv);
+            if (!mask)
+                continue;
+            const vi perm = _mm256_loadu_si256((const vi *)(lut + 8 * mask));
+            const vf py = _mm256_mask_i32gather_ps(zero, pk + 1, r8, keepv, 4);
+            const vf pz = _mm256_mask_i32gather_ps(zero, pk + 2, r8, keepv, 4);
+            const vf n0 = _mm256_mask_i32gather_ps(zero, pk + 3, r8, keepv, 4);
+            const vf n1 = _mm256_mask_i32gather_ps(zero, pk + 4, r8, keepv, 4);
+            const vf n2 = _mm256_mask_i32gather_ps(zero, pk + 5, r8, keepv, 4);
+            _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(px, perm));
+            _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
+            _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
+            _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
+            _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
+            _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
+            _mm256_storeu_ps(wi[0] + n, l0);
+            _mm256_storeu_ps(wi[1] + n, l1);
+            _mm256_storeu_ps(wi[2] + n, l2);
+            const vf wp = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w + 8 * g), perm);
+            _mm256_storeu_pd(wout + n, _mm256_cvtps_pd(_mm256_castps256_ps128(wp)));
+            _mm256_storeu_pd(wout + n + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(wp, 1)));
+            n += __builtin_popcount((unsigned)mask);
+            continue;
+        }
         const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, pst), ix);
         const vi oi = _mm256_add_epi32(_mm256_mullo_epi32(iy, ist), ix);
         const vf px = _mm256_mask_i32gather_ps(zero, in->P[0], o, inside, 4);

@@ -235,6 +235,12 @@ typedef struct sss_i_fetch_in {
     uint32_t inst;
     float l[3];
     int bx, by, block;          /* block: samples in texels [bx, bx+3) x [by, by+3) are dropped */
+    /* optional (NULL: the planes above): the same texels interleaved, one 32-byte record per
+     * texel (P[0..2], W[0..2], the instance id's bits, 0), pack_w records a row, so that a
+     * sample's seven values share one cache line instead of seven (sss_maps.c builds it once per
+     * light and build; the values, so the bits, are the planes') */
+    const uint32_t *pack;
+    int pack_w;
 } sss_i_fetch_in;
 int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
                              const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
