@@ -63,7 +63,8 @@ TEST(sss_maps_view_geo_matches_the_helpers_bit_for_bit)
     obs_context_destroy(ctx);
 }
 
-/* The near-field block's AVX2 fetch against the scalar loop of sss_maps.c (written out here):
+/* The near-field block's AVX2 fetch (from the planes and from the interleaved records) against
+ * the scalar loop of sss_maps.c (written out here):
  * the same count and the same values in the same order, on a map with empty texels (NaN) and
  * two instances, at every block position inside it. */
 TEST(sss_exp_block_avx2_matches_the_scalar_loop)
@@ -87,10 +88,22 @@ TEST(sss_exp_block_avx2_matches_the_scalar_loop)
             P[0][i] = NAN; /* empty texel */
         iid[i] = u > 0.85 ? 7u : 3u;
     }
+    /* the same map interleaved (sss_i_fetch_in.pack): 8 words per texel, S records a row */
+    static uint32_t pack[S * S * 8];
+    for (int y = 0; y < S; y++)
+        for (int x = 0; x < S; x++) {
+            uint32_t *r = pack + 8 * (y * S + x);
+            for (int a = 0; a < 3; a++) {
+                memcpy(&r[a], &P[a][y * ST + x], 4);
+                memcpy(&r[3 + a], &W[a][y * ST + x], 4);
+            }
+            r[6] = iid[y * ST + x];
+            r[7] = 0u;
+        }
     static int32_t lut[256 * 8];
     sss_i_pack_lut_make(lut);
-    static float buf[2][9][NP];
-    static double w[2][NP];
+    static float buf[3][9][NP];
+    static double w[3][NP];
     const float l[3] = {0.25f, -0.5f, 0.8306624f};
     const double wgt = 1.0 / 3.7;
     int tested = 0, kept = 0;
@@ -98,15 +111,15 @@ TEST(sss_exp_block_avx2_matches_the_scalar_loop)
         for (int bx = 0; bx + 3 <= S; bx++)
             for (int start = 0; start <= NP - 9 - 8; start += 11) {
                 /* earlier contents: finite values the lanes past the count may keep */
-                for (int r = 0; r < 2; r++) {
+                for (int r = 0; r < 3; r++) {
                     for (int q = 0; q < 9; q++)
                         for (int i = 0; i < NP; i++)
                             buf[r][q][i] = (float)q;
                     for (int i = 0; i < NP; i++)
                         w[r][i] = -1.0;
                 }
-                float *xi[2][3], *ni[2][3], *wi[2][3];
-                for (int r = 0; r < 2; r++)
+                float *xi[3][3], *ni[3][3], *wi[3][3];
+                for (int r = 0; r < 3; r++)
                     for (int a = 0; a < 3; a++) {
                         xi[r][a] = buf[r][a];
                         ni[r][a] = buf[r][3 + a];
@@ -131,6 +144,13 @@ TEST(sss_exp_block_avx2_matches_the_scalar_loop)
                                            (float)S, 3u, {l[0], l[1], l[2]}, bx, by, 1, NULL, 0};
                 const int n2 = sss_i_exp_block_dir_avx2(&in, wgt, lut, xi[1], ni[1], wi[1], w[1], start);
                 CHECK(n2 == n);
+                sss_i_fetch_in inp = in;
+                inp.pack = pack;
+                inp.pack_w = S;
+                CHECK(sss_i_exp_block_dir_avx2(&inp, wgt, lut, xi[2], ni[2], wi[2], w[2], start) == n);
+                for (int q = 0; q < 9; q++)
+                    CHECK(memcmp(buf[0][q] + start, buf[2][q] + start, sizeof(float) * (size_t)(n - start)) == 0);
+                CHECK(memcmp(w[0] + start, w[2] + start, sizeof(double) * (size_t)(n - start)) == 0);
                 for (int q = 0; q < 9; q++)
                     CHECK(memcmp(buf[0][q] + start, buf[1][q] + start, sizeof(float) * (size_t)(n - start)) == 0);
                 CHECK(memcmp(w[0] + start, w[1] + start, sizeof(double) * (size_t)(n - start)) == 0);

@@ -673,7 +673,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
              * of 8 texels and the ninth alone (sss_maps_avx2.c; the same values, in order) */
             const sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o,
                                        {(float)li->to_light[0], (float)li->to_light[1], (float)li->to_light[2]}, bx, by, block,
-                                       NULL, 0};
+                                       li->pack, size};
             n = sss_i_exp_block_dir_avx2(&in, wgt0, j->pack_lut, xi, ni, wi, s->w, n);
         } else
 #endif

@@ -280,10 +280,16 @@ int sss_i_exp_block_dir_avx2(const sss_i_fetch_in *in, double wgt, const int32_t
     /* lane j: texel (bx + j mod 3, by + j div 3), j = 0..7, the scalar loop's first 8 */
     const vi dx = _mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), dy = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2);
     const vi ix = _mm256_add_epi32(_mm256_set1_epi32(in->bx), dx), iy = _mm256_add_epi32(_mm256_set1_epi32(in->by), dy);
-    const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->pst)), ix);
-    const vi oi = _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->ist)), ix);
-    const vf px = _mm256_i32gather_ps(in->P[0], o, 4);
-    const vi id = _mm256_i32gather_epi32((const int *)in->iid, oi, 4);
+    /* planes, or the interleaved records (sss_i_fetch_in.pack: record r, field f at 8 r + f) */
+    const int pk = in->pack != NULL;
+    const float *P0 = pk ? (const float *)in->pack : in->P[0], *P1 = pk ? P0 + 1 : in->P[1], *P2 = pk ? P0 + 2 : in->P[2];
+    const float *W0 = pk ? P0 + 3 : in->W[0], *W1 = pk ? P0 + 4 : in->W[1], *W2 = pk ? P0 + 5 : in->W[2];
+    const int *ID = pk ? (const int *)in->pack + 6 : (const int *)in->iid;
+    const vi o = pk ? _mm256_slli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(in->pack_w)), ix), 3)
+                    : _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->pst)), ix);
+    const vi oi = pk ? o : _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->ist)), ix);
+    const vf px = _mm256_i32gather_ps(P0, o, 4);
+    const vi id = _mm256_i32gather_epi32(ID, oi, 4);
     const vf keepv = _mm256_and_ps(_mm256_cmp_ps(px, px, _CMP_ORD_Q),
                                    _mm256_castsi256_ps(_mm256_cmpeq_epi32(id, _mm256_set1_epi32((int32_t)in->inst))));
     const int mask = _mm256_movemask_ps(keepv);
@@ -292,11 +298,11 @@ int sss_i_exp_block_dir_avx2(const sss_i_fetch_in *in, double wgt, const int32_t
         const vf zero = VSET(0.0f);
         const vi perm = _mm256_loadu_si256((const vi *)(lut + 8 * mask));
         const vf pxk = _mm256_and_ps(px, keepv);
-        const vf py = _mm256_mask_i32gather_ps(zero, in->P[1], o, keepv, 4);
-        const vf pz = _mm256_mask_i32gather_ps(zero, in->P[2], o, keepv, 4);
-        const vf n0 = _mm256_mask_i32gather_ps(zero, in->W[0], o, keepv, 4);
-        const vf n1 = _mm256_mask_i32gather_ps(zero, in->W[1], o, keepv, 4);
-        const vf n2 = _mm256_mask_i32gather_ps(zero, in->W[2], o, keepv, 4);
+        const vf py = _mm256_mask_i32gather_ps(zero, P1, o, keepv, 4);
+        const vf pz = _mm256_mask_i32gather_ps(zero, P2, o, keepv, 4);
+        const vf n0 = _mm256_mask_i32gather_ps(zero, W0, o, keepv, 4);
+        const vf n1 = _mm256_mask_i32gather_ps(zero, W1, o, keepv, 4);
+        const vf n2 = _mm256_mask_i32gather_ps(zero, W2, o, keepv, 4);
         _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(pxk, perm));
         _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
         _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
