@@ -229,6 +229,7 @@ void sss_i_exp_samples(uint32_t *state, int n, const sss_i_exp_disk *d, float *o
 }
 
 int sss_i_rr_prefilter_off = 0;
+int sss_i_maps_cull_back = 0;
 
 void sss_i_pack_lut_make(int32_t lut[256 * 8])
 {
@@ -471,6 +472,9 @@ typedef struct light_info {
     double to_light[3];   /* directional: unit, towards the light */
     double pos[3];        /* point: position */
     double radiance[3];   /* colour x intensity */
+    sss_i_view_geo geo;   /* the light map's view constants in double (x_o's projection) */
+    uint32_t *pack;       /* exponential sampler, directional, AVX2: the light map interleaved
+                             (sss_i_fetch_in.pack), or NULL */
 } light_info;
 
 typedef struct mat_info {
@@ -536,7 +540,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     /* the disk's centre: the light-space projection of x_o ([DalCorso14] "circle_center =
      * (L x_o).xy", sss.md 3.2); for a point light the disk lies in the plane perpendicular to
      * the light's axis at x_o's depth, scaled by fx / depth */
-    if (!sss_i_project(&lm->gb.constants, xo, &pcx, &pcy, &dl, &ppu))
+    if (!sss_i_geo_project(&li->geo, xo, &pcx, &pcy, &dl, &ppu)) /* = sss_i_project, same bits */
         return 0;
     int n = 0;
     const double R = j->R;
@@ -602,7 +606,8 @@ static int gather_light(const build_job *j, const light_info *li, const double x
 #if defined(OBS_HAVE_AVX2)
             if (j->use_avx2) {
                 /* the loop below, 8 samples per vector (gathers, left-packed by a table) */
-                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}, bx, by, block};
+                sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o, {l0, l1, l2}, bx, by, block,
+                                     li->pack, size};
                 n = sss_i_exp_fetch_dir_avx2(&in, N / 8, sox, soy, sw, j->pack_lut, xi, ni, wi, s->w, n);
                 i = N / 8 * 8;
             }
@@ -662,32 +667,64 @@ static int gather_light(const build_job *j, const light_info *li, const double x
         const double wgt0 = 1.0 / (ppu * ppu);
         const int ix0 = bx < 0 ? 0 : bx, ix1 = bx + 3 > size ? size : bx + 3;
         const int iy0 = by < 0 ? 0 : by, iy1 = by + 3 > size ? size : by + 3;
-        for (int iy = iy0; block && iy < iy1; iy++)
+#if defined(OBS_HAVE_AVX2)
+        if (block && !li->point && j->use_avx2 && bx >= 0 && by >= 0 && bx + 3 <= size && by + 3 <= size) {
+            /* the whole block inside the map: the loop below as one gathered, left-packed vector
+             * of 8 texels and the ninth alone (sss_maps_avx2.c; the same values, in order) */
+            const sss_i_fetch_in in = {{P0, P1, P2}, {W0, W1, W2}, IID, pst, ist, fcx, fcy, fppu, fsize, inst_o,
+                                       {(float)li->to_light[0], (float)li->to_light[1], (float)li->to_light[2]}, bx, by, block,
+                                       li->pack, size};
+            n = sss_i_exp_block_dir_avx2(&in, wgt0, j->pack_lut, xi, ni, wi, s->w, n);
+        } else
+#endif
+        if (block && !li->point) {
+            /* directional: the loop below with its invariants hoisted (the light's direction as
+             * float once, local output pointers that alias nothing, so nothing is reloaded after
+             * the double store of the weight); the same values appended in the same order */
+            const float l0 = (float)li->to_light[0], l1 = (float)li->to_light[1], l2 = (float)li->to_light[2];
+            float *restrict X0 = xi[0], *restrict X1 = xi[1], *restrict X2 = xi[2];
+            float *restrict N0 = ni[0], *restrict N1 = ni[1], *restrict N2 = ni[2];
+            float *restrict L0 = wi[0], *restrict L1 = wi[1], *restrict L2 = wi[2];
+            double *restrict SW = s->w;
+            for (int iy = iy0; iy < iy1; iy++) {
+                const ptrdiff_t ro = (ptrdiff_t)iy * pst, ri = (ptrdiff_t)iy * ist;
+                for (int ix = ix0; ix < ix1; ix++) {
+                    const ptrdiff_t o = ro + ix;
+                    const float px = P0[o];
+                    if (px != px || IID[ri + ix] != inst_o)
+                        continue;
+                    X0[n] = px;
+                    X1[n] = P1[o];
+                    X2[n] = P2[o];
+                    N0[n] = W0[o];
+                    N1[n] = W1[o];
+                    N2[n] = W2[o];
+                    L0[n] = l0;
+                    L1[n] = l1;
+                    L2[n] = l2;
+                    SW[n] = wgt0;
+                    n++;
+                }
+            }
+        }
+        for (int iy = iy0; block && li->point && iy < iy1; iy++)
             for (int ix = ix0; ix < ix1; ix++) {
                 const ptrdiff_t o = (ptrdiff_t)iy * pst + ix;
                 const float px = P0[o];
                 if (px != px || IID[(ptrdiff_t)iy * ist + ix] != inst_o)
                     continue;
-                double wgt = wgt0;
                 xi[0][n] = px;
                 xi[1][n] = P1[o];
                 xi[2][n] = P2[o];
                 ni[0][n] = W0[o];
                 ni[1][n] = W1[o];
                 ni[2][n] = W2[o];
-                if (li->point) {
-                    double dx = li->pos[0] - px, dy = li->pos[1] - P1[o], dz = li->pos[2] - P2[o];
-                    double d2 = dx * dx + dy * dy + dz * dz, il = 1.0 / sqrt(d2);
-                    wi[0][n] = (float)(dx * il);
-                    wi[1][n] = (float)(dy * il);
-                    wi[2][n] = (float)(dz * il);
-                    wgt /= d2;
-                } else {
-                    wi[0][n] = (float)li->to_light[0];
-                    wi[1][n] = (float)li->to_light[1];
-                    wi[2][n] = (float)li->to_light[2];
-                }
-                s->w[n] = wgt;
+                double dx = li->pos[0] - px, dy = li->pos[1] - P1[o], dz = li->pos[2] - P2[o];
+                double d2 = dx * dx + dy * dy + dz * dz, il = 1.0 / sqrt(d2);
+                wi[0][n] = (float)(dx * il);
+                wi[1][n] = (float)(dy * il);
+                wi[2][n] = (float)(dz * il);
+                s->w[n] = wgt0 / d2;
                 n++;
             }
 #undef SSS_IN_BLOCK
@@ -761,6 +798,8 @@ static void build_task(void *user, int64_t task, int thread)
     int x0, y0, x1, y1;
     obs_tiling_rect(&j->tiling, task % j->tiles, &x0, &y0, &x1, &y1);
     const rast_gbuffer *gb = &m->views[k];
+    sss_i_view_geo vg; /* the view's constants in double, once per task (same bits as the helpers) */
+    sss_i_view_geo_make(&gb->constants, &vg);
     scratch *s = &j->scr[thread];
     uint64_t evaluated = 0, cand = 0;
     /* the streams' seeds of a row, 8 texels per vector (one frame, AVX2): the same values as
@@ -801,8 +840,8 @@ static void build_task(void *user, int64_t task, int thread)
             double xo[3], no[3];
             float nv[3] = {obs_image_f32_row(&gb->normal[0], y)[x], obs_image_f32_row(&gb->normal[1], y)[x],
                            obs_image_f32_row(&gb->normal[2], y)[x]};
-            sss_i_pixel_world(&gb->constants, x + 0.5, y + 0.5, depth, xo);
-            sss_i_normal_world(&gb->constants, nv, no);
+            sss_i_geo_pixel_world(&vg, x + 0.5, y + 0.5, depth, xo);
+            sss_i_geo_normal_world(&vg, nv, no);
             float xof[3] = {(float)xo[0], (float)xo[1], (float)xo[2]};
             float nof[3] = {(float)no[0], (float)no[1], (float)no[2]};
             double acc[3] = {0, 0, 0};
@@ -949,6 +988,8 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     for (int k = 0; k < K; k++)
         views[k].camera = ortho_camera(c, out->dirs + 3 * k, rad);
     rast_params rp = gbuffer_params(size);
+    if (sss_i_maps_cull_back)
+        rp.cull = RAST_CULL_BACK; /* test hook only (sss_maps_internal.h): not bit-identical in general */
     for (int k = 0; k < K; k++)
         if ((st = rast_gbuffer_alloc(ctx, &rp, &out->views[k])) != OBS_STATUS_OK)
             goto done;
@@ -985,6 +1026,7 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     for (int l = 0; l < light_count; l++) {
         const obs_light *L = &lights[l].light;
         li[l].lm = &lights[l];
+        sss_i_view_geo_make(&lights[l].gb.constants, &li[l].geo);
         li[l].point = L->type == OBS_LIGHT_POINT;
         double dl = sqrt((double)L->direction.x * L->direction.x + (double)L->direction.y * L->direction.y +
                          (double)L->direction.z * L->direction.z);
@@ -999,6 +1041,33 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         li[l].radiance[0] = (double)L->color.x * L->intensity;
         li[l].radiance[1] = (double)L->color.y * L->intensity;
         li[l].radiance[2] = (double)L->color.z * L->intensity;
+        if (p->sampler == SSS_SAMPLER_EXPONENTIAL && job.use_avx2 && !li[l].point) {
+            /* the light map interleaved for the AVX2 fetch (sss_i_fetch_in.pack): the samples'
+             * gathers of seven planes at random texels were most of the build's L1 misses */
+            const int lw = lights[l].gb.width, lh = lights[l].gb.height;
+            li[l].pack = (uint32_t *)malloc(sizeof(uint32_t) * 8 * (size_t)lw * (size_t)lh);
+            if (!li[l].pack) {
+                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+                goto done;
+            }
+            for (int y = 0; y < lh; y++) {
+                const float *pr[3], *wr[3];
+                for (int a = 0; a < 3; a++) {
+                    pr[a] = obs_image_f32_row(&lights[l].position[a], y);
+                    wr[a] = obs_image_f32_row(&lights[l].wnormal[a], y);
+                }
+                const uint32_t *ir = obs_image_u32_row(&lights[l].gb.instance_id, y);
+                for (int x = 0; x < lw; x++) {
+                    uint32_t *r = li[l].pack + 8 * ((size_t)y * (size_t)lw + (size_t)x);
+                    for (int a = 0; a < 3; a++) {
+                        memcpy(&r[a], &pr[a][x], sizeof(float));
+                        memcpy(&r[3 + a], &wr[a][x], sizeof(float));
+                    }
+                    r[6] = ir[x];
+                    r[7] = 0u;
+                }
+            }
+        }
     }
     if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) {
         if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
@@ -1105,6 +1174,9 @@ done:
     free(job.hd_sin);
     free(job.rr_zmax);
     free(mi);
+    if (li)
+        for (int l = 0; l < light_count; l++)
+            free(li[l].pack);
     free(li);
     if (st != OBS_STATUS_OK)
         sss_maps_free(out);

@@ -208,6 +208,39 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
                 _mm256_and_si256(_mm256_cmpgt_epi32(three, dy), _mm256_cmpgt_epi32(dy, m1)));
             inside = _mm256_andnot_ps(_mm256_castsi256_ps(inb), inside);
         }
+        if (in->pack) {
+            /* the interleaved records: the same values from one cache line per sample */
+            const vi r8 = _mm256_slli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(in->pack_w)), ix), 3);
+            const float *pk = (const float *)in->pack;
+            const vf px = _mm256_mask_i32gather_ps(zero, pk, r8, inside, 4);
+            const vi id = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), (const int *)in->pack + 6, r8,
+                                                      _mm256_castps_si256(inside), 4);
+            const vf keepv = _mm256_and_ps(_mm256_and_ps(inside, _mm256_cmp_ps(px, px, _CMP_ORD_Q)),
+                                           _mm256_castsi256_ps(_mm256_cmpeq_epi32(id, inst)));
+            const int mask = _mm256_movemask_ps(keepv);
+            if (!mask)
+                continue;
+            const vi perm = _mm256_loadu_si256((const vi *)(lut + 8 * mask));
+            const vf py = _mm256_mask_i32gather_ps(zero, pk + 1, r8, keepv, 4);
+            const vf pz = _mm256_mask_i32gather_ps(zero, pk + 2, r8, keepv, 4);
+            const vf n0 = _mm256_mask_i32gather_ps(zero, pk + 3, r8, keepv, 4);
+            const vf n1 = _mm256_mask_i32gather_ps(zero, pk + 4, r8, keepv, 4);
+            const vf n2 = _mm256_mask_i32gather_ps(zero, pk + 5, r8, keepv, 4);
+            _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(px, perm));
+            _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
+            _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
+            _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
+            _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
+            _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
+            _mm256_storeu_ps(wi[0] + n, l0);
+            _mm256_storeu_ps(wi[1] + n, l1);
+            _mm256_storeu_ps(wi[2] + n, l2);
+            const vf wp = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w + 8 * g), perm);
+            _mm256_storeu_pd(wout + n, _mm256_cvtps_pd(_mm256_castps256_ps128(wp)));
+            _mm256_storeu_pd(wout + n + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(wp, 1)));
+            n += __builtin_popcount((unsigned)mask);
+            continue;
+        }
         const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, pst), ix);
         const vi oi = _mm256_add_epi32(_mm256_mullo_epi32(iy, ist), ix);
         const vf px = _mm256_mask_i32gather_ps(zero, in->P[0], o, inside, 4);
@@ -241,18 +274,89 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
     return n;
 }
 
+int sss_i_exp_block_dir_avx2(const sss_i_fetch_in *in, double wgt, const int32_t *lut, float *xi[3], float *ni[3],
+                             float *wi[3], double *wout, int n)
+{
+    /* lane j: texel (bx + j mod 3, by + j div 3), j = 0..7, the scalar loop's first 8 */
+    const vi dx = _mm256_setr_epi32(0, 1, 2, 0, 1, 2, 0, 1), dy = _mm256_setr_epi32(0, 0, 0, 1, 1, 1, 2, 2);
+    const vi ix = _mm256_add_epi32(_mm256_set1_epi32(in->bx), dx), iy = _mm256_add_epi32(_mm256_set1_epi32(in->by), dy);
+    /* planes, or the interleaved records (sss_i_fetch_in.pack: record r, field f at 8 r + f) */
+    const int pk = in->pack != NULL;
+    const float *P0 = pk ? (const float *)in->pack : in->P[0], *P1 = pk ? P0 + 1 : in->P[1], *P2 = pk ? P0 + 2 : in->P[2];
+    const float *W0 = pk ? P0 + 3 : in->W[0], *W1 = pk ? P0 + 4 : in->W[1], *W2 = pk ? P0 + 5 : in->W[2];
+    const int *ID = pk ? (const int *)in->pack + 6 : (const int *)in->iid;
+    const vi o = pk ? _mm256_slli_epi32(_mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32(in->pack_w)), ix), 3)
+                    : _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->pst)), ix);
+    const vi oi = pk ? o : _mm256_add_epi32(_mm256_mullo_epi32(iy, _mm256_set1_epi32((int32_t)in->ist)), ix);
+    const vf px = _mm256_i32gather_ps(P0, o, 4);
+    const vi id = _mm256_i32gather_epi32(ID, oi, 4);
+    const vf keepv = _mm256_and_ps(_mm256_cmp_ps(px, px, _CMP_ORD_Q),
+                                   _mm256_castsi256_ps(_mm256_cmpeq_epi32(id, _mm256_set1_epi32((int32_t)in->inst))));
+    const int mask = _mm256_movemask_ps(keepv);
+    if (mask) {
+        /* masked gathers: dropped lanes read 0, so the lanes past the count stay finite */
+        const vf zero = VSET(0.0f);
+        const vi perm = _mm256_loadu_si256((const vi *)(lut + 8 * mask));
+        const vf pxk = _mm256_and_ps(px, keepv);
+        const vf py = _mm256_mask_i32gather_ps(zero, P1, o, keepv, 4);
+        const vf pz = _mm256_mask_i32gather_ps(zero, P2, o, keepv, 4);
+        const vf n0 = _mm256_mask_i32gather_ps(zero, W0, o, keepv, 4);
+        const vf n1 = _mm256_mask_i32gather_ps(zero, W1, o, keepv, 4);
+        const vf n2 = _mm256_mask_i32gather_ps(zero, W2, o, keepv, 4);
+        _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(pxk, perm));
+        _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
+        _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
+        _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
+        _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
+        _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
+        _mm256_storeu_ps(wi[0] + n, VSET(in->l[0]));
+        _mm256_storeu_ps(wi[1] + n, VSET(in->l[1]));
+        _mm256_storeu_ps(wi[2] + n, VSET(in->l[2]));
+        _mm256_storeu_pd(wout + n, _mm256_set1_pd(wgt));
+        _mm256_storeu_pd(wout + n + 4, _mm256_set1_pd(wgt));
+        n += __builtin_popcount((unsigned)mask);
+    }
+    /* the ninth texel, (bx + 2, by + 2) */
+    const ptrdiff_t o8 = (ptrdiff_t)(in->by + 2) * in->pst + in->bx + 2;
+    const float p8 = in->P[0][o8];
+    if (p8 == p8 && in->iid[(ptrdiff_t)(in->by + 2) * in->ist + in->bx + 2] == in->inst) {
+        xi[0][n] = p8;
+        xi[1][n] = in->P[1][o8];
+        xi[2][n] = in->P[2][o8];
+        ni[0][n] = in->W[0][o8];
+        ni[1][n] = in->W[1][o8];
+        ni[2][n] = in->W[2][o8];
+        wi[0][n] = in->l[0];
+        wi[1][n] = in->l[1];
+        wi[2][n] = in->l[2];
+        wout[n] = wgt;
+        n++;
+    }
+    return n;
+}
+
 void sss_i_wsum3_avx2(const double *w, const float *const o[3], int n, double out[3])
 {
+    /* the three channels in one pass (w loaded once per 4 samples); each channel's sums are the
+     * same operations in the same order as one pass per channel: lane l of acc_c holds
+     * sum over q = l mod 4 of w_q o_c,q, in q order */
     const int n4 = n & ~3;
+    __m256d acc0 = _mm256_setzero_pd(), acc1 = _mm256_setzero_pd(), acc2 = _mm256_setzero_pd();
+    const float *o0 = o[0], *o1 = o[1], *o2 = o[2];
+    for (int q = 0; q < n4; q += 4) {
+        const __m256d wq = _mm256_loadu_pd(w + q);
+        acc0 = _mm256_add_pd(acc0, _mm256_mul_pd(wq, _mm256_cvtps_pd(_mm_loadu_ps(o0 + q))));
+        acc1 = _mm256_add_pd(acc1, _mm256_mul_pd(wq, _mm256_cvtps_pd(_mm_loadu_ps(o1 + q))));
+        acc2 = _mm256_add_pd(acc2, _mm256_mul_pd(wq, _mm256_cvtps_pd(_mm_loadu_ps(o2 + q))));
+    }
+    double a[3][4];
+    _mm256_storeu_pd(a[0], acc0);
+    _mm256_storeu_pd(a[1], acc1);
+    _mm256_storeu_pd(a[2], acc2);
     for (int c = 0; c < 3; c++) {
-        __m256d acc = _mm256_setzero_pd();
-        for (int q = 0; q < n4; q += 4)
-            acc = _mm256_add_pd(acc, _mm256_mul_pd(_mm256_loadu_pd(w + q), _mm256_cvtps_pd(_mm_loadu_ps(o[c] + q))));
-        double a[4];
-        _mm256_storeu_pd(a, acc);
         for (int q = n4; q < n; q++)
-            a[q - n4] += w[q] * (double)o[c][q];
-        out[c] = (a[0] + a[1]) + (a[2] + a[3]);
+            a[c][q - n4] += w[q] * (double)o[c][q];
+        out[c] = (a[c][0] + a[c][1]) + (a[c][2] + a[c][3]);
     }
 }
 

@@ -70,6 +70,9 @@ static inline void sss_i_rr_candidate(uint32_t *state, double R, double *ox, dou
  * packed into u1, u2, zeta (room for N). */
 /* Test hook: non-zero turns the pre-filter off (test sss_rr_prefilter_changes_no_bit). */
 extern int sss_i_rr_prefilter_off;
+/* Test hook: non-zero renders the K views with back faces culled (RAST_CULL_BACK). Off: culling
+ * is not bit-identical in general, even on closed meshes (docs/sss/maps.md "Not done"). */
+extern int sss_i_maps_cull_back;
 #define SSS_I_RR_BINS 1024
 typedef struct sss_i_rr_filter {
     const uint32_t *zmax;    /* SSS_I_RR_BINS bounds: reject when (s3 >> 8) >= zmax[s1 >> 22] */
@@ -232,10 +235,23 @@ typedef struct sss_i_fetch_in {
     uint32_t inst;
     float l[3];
     int bx, by, block;          /* block: samples in texels [bx, bx+3) x [by, by+3) are dropped */
+    /* optional (NULL: the planes above): the same texels interleaved, one 32-byte record per
+     * texel (P[0..2], W[0..2], the instance id's bits, 0), pack_w records a row, so that a
+     * sample's seven values share one cache line instead of seven (sss_maps.c builds it once per
+     * light and build; the values, so the bits, are the planes') */
+    const uint32_t *pack;
+    int pack_w;
 } sss_i_fetch_in;
 int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
                              const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
                              double *wout, int n);
+/* The exponential sampler's near-field block for a directional light, AVX2: the 3 x 3 light-map
+ * texels from (bx, by), all inside the map, appended in row order as sss_maps.c's scalar loop
+ * does (position not NaN and instance inst; wi = l, weight wgt): the first 8 texels as one
+ * gathered, left-packed vector, the ninth alone. Writes up to 8 lanes from index n (the scratch
+ * holds N + 9 rounded up to 8, so n <= N + 1 leaves room); returns the new n. */
+int sss_i_exp_block_dir_avx2(const sss_i_fetch_in *in, double wgt, const int32_t *lut, float *xi[3], float *ni[3],
+                             float *wi[3], double *wout, int n);
 void sss_i_pack_lut_make(int32_t lut[256 * 8]);
 /* The exponential sampler's weighted sums of one batch, AVX2: for each channel c, four partial sums
  * a_i = sum over q = i (mod 4) of w[q] o_c[q] (in increasing q), then (a0 + a1) + (a2 + a3): the
@@ -313,6 +329,79 @@ int sss_i_project(const rast_view_constants *vc, const double p[3], double *px, 
 void sss_i_pixel_world(const rast_view_constants *vc, double px, double py, double depth, double out[3]);
 /* View-space normal -> world (R^T n), normalised; zero stays zero. */
 void sss_i_normal_world(const rast_view_constants *vc, const float nv[3], double out[3]);
+/* The same three, with a view's constants converted to double once (sss_i_view_geo_make) instead
+ * of per call: the per-texel work of the maps' gather. Every expression is the functions' above,
+ * term for term and in the same order, so the results are their bits (test
+ * sss_maps_view_geo_matches_the_helpers). */
+typedef struct sss_i_view_geo {
+    double m[16];             /* the view matrix (column-major), as doubles */
+    double cx, cy, fx, fy;
+    int perspective;
+} sss_i_view_geo;
+static inline void sss_i_view_geo_make(const rast_view_constants *vc, sss_i_view_geo *g)
+{
+    for (int i = 0; i < 16; i++)
+        g->m[i] = (double)vc->view.m[i];
+    g->cx = vc->cx;
+    g->cy = vc->cy;
+    g->fx = vc->fx;
+    g->fy = vc->fy;
+    g->perspective = vc->projection_type == OBS_PROJECTION_PERSPECTIVE;
+}
+static inline int sss_i_geo_project(const sss_i_view_geo *g, const double p[3], double *px, double *py, double *depth,
+                                    double *px_per_unit)
+{
+    const double *m = g->m;
+    double v[3];
+    for (int r = 0; r < 3; r++)
+        v[r] = m[r] * p[0] + m[4 + r] * p[1] + m[8 + r] * p[2] + m[12 + r];
+    const double d = -v[2];
+    if (g->perspective) {
+        if (!(d > 0.0))
+            return 0;
+        *px = g->cx + g->fx * v[0] / d;
+        *py = g->cy - g->fy * v[1] / d;
+        *px_per_unit = g->fx / d;
+    } else {
+        *px = g->cx + g->fx * v[0];
+        *py = g->cy - g->fy * v[1];
+        *px_per_unit = g->fx;
+    }
+    *depth = d;
+    return 1;
+}
+static inline void sss_i_geo_pixel_world(const sss_i_view_geo *g, double px, double py, double depth, double out[3])
+{
+    const double ax = (px - g->cx) / g->fx, ay = -(py - g->cy) / g->fy;
+    double q[3];
+    if (g->perspective) {
+        q[0] = ax * depth;
+        q[1] = ay * depth;
+    } else {
+        q[0] = ax;
+        q[1] = ay;
+    }
+    q[2] = -depth;
+    const double *m = g->m;
+    for (int r = 0; r < 3; r++)
+        q[r] -= m[12 + r];
+    for (int c = 0; c < 3; c++)
+        out[c] = m[c * 4 + 0] * q[0] + m[c * 4 + 1] * q[1] + m[c * 4 + 2] * q[2];
+}
+static inline void sss_i_geo_normal_world(const sss_i_view_geo *g, const float nv[3], double out[3])
+{
+    const double *m = g->m;
+    double l2 = 0.0;
+    for (int c = 0; c < 3; c++) {
+        out[c] = m[c * 4 + 0] * nv[0] + m[c * 4 + 1] * nv[1] + m[c * 4 + 2] * nv[2];
+        l2 += out[c] * out[c];
+    }
+    if (l2 > 0.0) {
+        const double inv = 1.0 / sqrt(l2);
+        for (int c = 0; c < 3; c++)
+            out[c] *= inv;
+    }
+}
 /* The material constants of a G-buffer material id, or NULL when opaque. */
 const sss_constants *sss_i_material(const sss_scene_materials *mats, uint32_t material_id);
 /* Scene framing: centre and radius of the bounds' bounding sphere. INVALID_ARGUMENT when empty. */
