@@ -52,6 +52,7 @@
 #define VOL_LV_MAX_CONE_DEG 80.0          /* vol.h: (0, 80]; tan 80 = 5.7 slabs of footprint */
 #define VOL_LV_MAX_RINGS 4                /* cone stencil rings; 1 + 8 (1 + 2 + 3 + 4) = 81 taps at most */
 #define VOL_LV_SEED_STEP_FRACTION 0.5     /* seed slices of a light inside: march step, x min data spacing */
+#define LV_TAPS_MAX (8 * (VOL_LV_MAX_RINGS * (VOL_LV_MAX_RINGS + 1) / 2)) /* ring taps of R = 4 */
 
 vol_lv_params vol_lv_params_default(void)
 {
@@ -128,6 +129,14 @@ typedef struct lv_pass {
     int bu, bv, kI0, kJ0, kW, kH;
     float fu, fv, Ksum;
     float *K;
+    /* The per-tap path's per-pass constants for a directional light (lv_taps_init): the same
+     * expressions lv_voxel evaluates per voxel, evaluated once (so the same bits): ds, the offset
+     * ds D_u / sp_u and ds D_v / sp_v of p from x, the rings R and the taps' offsets ru cu[m],
+     * rv cv[m]. taps_dir = 0 for point lights (D varies per voxel). */
+    int taps_dir;
+    double t_ds, t_ou, t_ov;
+    int t_R;
+    double t_du[LV_TAPS_MAX], t_dv[LV_TAPS_MAX];
     /* the slice being computed */
     int k, kprev;
     lv_mode mode;
@@ -403,10 +412,13 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
             cc[c] = tau * (acc[c] / P->Ksum) + (1.0f - tau) * ctf[c];
     } else {
         /* Where the light ray through x meets the previous slice ([Ropinski10] via Voreen /
-         * Inviwo, volume.md 1.4): p = x - t D with t = Delta_a / |D_a| (= ds, |D| = 1). */
-        double ds = P->sp[a] / cos_g;
-        double pu = (double)iu - ds * D[u] / P->sp[u];
-        double pv = (double)jv - ds * D[v] / P->sp[v];
+         * Inviwo, volume.md 1.4): p = x - t D with t = Delta_a / |D_a| (= ds, |D| = 1). A
+         * directional light's ds and offsets are the pass's constants (lv_taps_init: the same
+         * expressions, so the same bits). */
+        const int dir = P->taps_dir;
+        double ds = dir ? P->t_ds : P->sp[a] / cos_g;
+        double pu = (double)iu - (dir ? P->t_ou : ds * D[u] / P->sp[u]);
+        double pv = (double)jv - (dir ? P->t_ov : ds * D[v] / P->sp[v]);
         /* tau = exp(-sigma_t ds), sigma_t the segment's trapezoid mean (deviation: see top). */
         float sigma_p = lv_fetch(P, LV_SIGMA, pu, pv, 0.0f);
         float tau = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds);
@@ -415,22 +427,34 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
         /* Chromaticity: cone of half-angle theta, footprint radius r = ds tan(theta) on slice
          * i-1 (volume.md 1.6 [R]): the centre tap and R rings of 8j bilinear taps at radius
          * r j / R, Gaussian weights exp(-|o|^2 / (2 (r/2)^2)), normalised. */
-        double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
-        double rmax = ru > rv ? ru : rv;
-        int R = (int)ceil(rmax - 1e-9);
-        if (R < 1)
-            R = 1;
-        if (R > VOL_LV_MAX_RINGS)
-            R = VOL_LV_MAX_RINGS;
         float acc[3], q[3];
+        int R;
         lv_fetch3(P, LV_C0, pu, pv, 1.0f, acc);
-        const int cnt = P->st_count[R];
-        const double *cu = P->st_cu[R], *cv = P->st_cv[R];
-        const float *w = P->st_w[R];
-        for (int m = 0; m < cnt; m++) {
-            lv_fetch3(P, LV_C0, pu + ru * cu[m], pv + rv * cv[m], 1.0f, q);
-            for (int c = 0; c < 3; c++)
-                acc[c] += w[m] * q[c];
+        if (dir) {
+            R = P->t_R;
+            const int cnt = P->st_count[R];
+            const float *w = P->st_w[R];
+            for (int m = 0; m < cnt; m++) {
+                lv_fetch3(P, LV_C0, pu + P->t_du[m], pv + P->t_dv[m], 1.0f, q);
+                for (int c = 0; c < 3; c++)
+                    acc[c] += w[m] * q[c];
+            }
+        } else {
+            double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
+            double rmax = ru > rv ? ru : rv;
+            R = (int)ceil(rmax - 1e-9);
+            if (R < 1)
+                R = 1;
+            if (R > VOL_LV_MAX_RINGS)
+                R = VOL_LV_MAX_RINGS;
+            const int cnt = P->st_count[R];
+            const double *cu = P->st_cu[R], *cv = P->st_cv[R];
+            const float *w = P->st_w[R];
+            for (int m = 0; m < cnt; m++) {
+                lv_fetch3(P, LV_C0, pu + ru * cu[m], pv + rv * cv[m], 1.0f, q);
+                for (int c = 0; c < 3; c++)
+                    acc[c] += w[m] * q[c];
+            }
         }
         const float wsum = P->st_wsum[R];
         for (int c = 0; c < 3; c++)
@@ -669,6 +693,36 @@ static int lv_kernel_init(lv_pass *P)
     return 1;
 }
 
+/* The per-tap path's constants for a directional light along axis a (lv_pass taps_dir): the
+ * expressions lv_voxel's per-tap branch evaluates per voxel, in the same form, evaluated once per
+ * pass. Point lights (D per voxel) and a light parallel to the slices (cos_g < 1e-12: lv_voxel's
+ * face branch) keep the per-voxel form. */
+static void lv_taps_init(lv_pass *P)
+{
+    P->taps_dir = 0;
+    const int a = P->a, u = P->u, v = P->v;
+    const double cos_g = fabs(P->D[a]);
+    if (P->point || cos_g < 1e-12)
+        return;
+    const double ds = P->sp[a] / cos_g;
+    P->t_ds = ds;
+    P->t_ou = ds * P->D[u] / P->sp[u];
+    P->t_ov = ds * P->D[v] / P->sp[v];
+    double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
+    double rmax = ru > rv ? ru : rv;
+    int R = (int)ceil(rmax - 1e-9);
+    if (R < 1)
+        R = 1;
+    if (R > VOL_LV_MAX_RINGS)
+        R = VOL_LV_MAX_RINGS;
+    P->t_R = R;
+    for (int m = 0; m < P->st_count[R]; m++) {
+        P->t_du[m] = ru * P->st_cu[R][m];
+        P->t_dv[m] = rv * P->st_cv[R][m];
+    }
+    P->taps_dir = 1;
+}
+
 /* The staged output of a pass along x (lv_propagate) into the x-fastest output: task z moves the
  * plane z, in tiles of 16 x values (16 rows of the stage read, 16 consecutive floats written). */
 typedef struct lv_unstage {
@@ -740,6 +794,7 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
                 b[q] = fill;
             slices[s][c] = b + (size_t)LV_PAD * (size_t)P->W + LV_PAD;
         }
+    lv_taps_init(P);
     if (!lv_kernel_init(P)) {
         obs_aligned_free(stage);
         obs_aligned_free(buf);
