@@ -1172,6 +1172,9 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
             break;
         P.T.zero_upto = tf->points[i].value;
     }
+    P.T.zero_upto_f = (float)P.T.zero_upto; /* rounded to nearest; one float down where that is above */
+    if ((double)P.T.zero_upto_f > P.T.zero_upto)
+        P.T.zero_upto_f = nextafterf(P.T.zero_upto_f, -HUGE_VALF);
     P.T.kappa = P.sigma_scale;
     P.T.ref_step = P.ref_step;
     P.avx2 = vol_i_lv_avx2_active();
