@@ -52,6 +52,7 @@
 #define VOL_LV_MAX_CONE_DEG 80.0          /* vol.h: (0, 80]; tan 80 = 5.7 slabs of footprint */
 #define VOL_LV_MAX_RINGS 4                /* cone stencil rings; 1 + 8 (1 + 2 + 3 + 4) = 81 taps at most */
 #define VOL_LV_SEED_STEP_FRACTION 0.5     /* seed slices of a light inside: march step, x min data spacing */
+#define LV_TAPS_MAX (8 * (VOL_LV_MAX_RINGS * (VOL_LV_MAX_RINGS + 1) / 2)) /* ring taps of R = 4 */
 
 vol_lv_params vol_lv_params_default(void)
 {
@@ -128,6 +129,14 @@ typedef struct lv_pass {
     int bu, bv, kI0, kJ0, kW, kH;
     float fu, fv, Ksum;
     float *K;
+    /* The per-tap path's per-pass constants for a directional light (lv_taps_init): the same
+     * expressions lv_voxel evaluates per voxel, evaluated once (so the same bits): ds, the offset
+     * ds D_u / sp_u and ds D_v / sp_v of p from x, the rings R and the taps' offsets ru cu[m],
+     * rv cv[m]. taps_dir = 0 for point lights (D varies per voxel). */
+    int taps_dir;
+    double t_ds, t_ou, t_ov;
+    int t_R;
+    double t_du[LV_TAPS_MAX], t_dv[LV_TAPS_MAX];
     /* the slice being computed */
     int k, kprev;
     lv_mode mode;
@@ -370,7 +379,8 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
         /* First slice: from the voxel centre back to the face it lies half a slab behind,
          * through constant sigma_t(x) (the edge value); l_{-1} = c_{-1} = 1 beyond. */
         double ds = cos_g > 0.0 ? 0.5 * P->sp[a] / cos_g : 0.0;
-        float tau = (float)exp(-(double)sigma * ds);
+        const double arg = -(double)sigma * ds;
+        float tau = arg == 0.0 ? 1.0f : (float)exp(arg); /* exp(+-0) = 1 exactly (C11 F.10.3.1) */
         l = tau;
         for (int c = 0; c < 3; c++)
             cc[c] = tau + (1.0f - tau) * ctf[c];
@@ -407,34 +417,50 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
             cc[c] = tau * (acc[c] / P->Ksum) + (1.0f - tau) * ctf[c];
     } else {
         /* Where the light ray through x meets the previous slice ([Ropinski10] via Voreen /
-         * Inviwo, volume.md 1.4): p = x - t D with t = Delta_a / |D_a| (= ds, |D| = 1). */
-        double ds = P->sp[a] / cos_g;
-        double pu = (double)iu - ds * D[u] / P->sp[u];
-        double pv = (double)jv - ds * D[v] / P->sp[v];
+         * Inviwo, volume.md 1.4): p = x - t D with t = Delta_a / |D_a| (= ds, |D| = 1). A
+         * directional light's ds and offsets are the pass's constants (lv_taps_init: the same
+         * expressions, so the same bits). */
+        const int dir = P->taps_dir;
+        double ds = dir ? P->t_ds : P->sp[a] / cos_g;
+        double pu = (double)iu - (dir ? P->t_ou : ds * D[u] / P->sp[u]);
+        double pv = (double)jv - (dir ? P->t_ov : ds * D[v] / P->sp[v]);
         /* tau = exp(-sigma_t ds), sigma_t the segment's trapezoid mean (deviation: see top). */
         float sigma_p = lv_fetch(P, LV_SIGMA, pu, pv, 0.0f);
-        float tau = (float)exp(-0.5 * ((double)sigma + (double)sigma_p) * ds);
+        const double arg = -0.5 * ((double)sigma + (double)sigma_p) * ds;
+        float tau = arg == 0.0 ? 1.0f : (float)exp(arg); /* exp(+-0) = 1 exactly: empty space skips libm */
         /* Hard shadow: one bilinear fetch (volume.md 1.5). */
         l = tau * lv_fetch(P, LV_L, pu, pv, 1.0f);
         /* Chromaticity: cone of half-angle theta, footprint radius r = ds tan(theta) on slice
          * i-1 (volume.md 1.6 [R]): the centre tap and R rings of 8j bilinear taps at radius
          * r j / R, Gaussian weights exp(-|o|^2 / (2 (r/2)^2)), normalised. */
-        double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
-        double rmax = ru > rv ? ru : rv;
-        int R = (int)ceil(rmax - 1e-9);
-        if (R < 1)
-            R = 1;
-        if (R > VOL_LV_MAX_RINGS)
-            R = VOL_LV_MAX_RINGS;
         float acc[3], q[3];
+        int R;
         lv_fetch3(P, LV_C0, pu, pv, 1.0f, acc);
-        const int cnt = P->st_count[R];
-        const double *cu = P->st_cu[R], *cv = P->st_cv[R];
-        const float *w = P->st_w[R];
-        for (int m = 0; m < cnt; m++) {
-            lv_fetch3(P, LV_C0, pu + ru * cu[m], pv + rv * cv[m], 1.0f, q);
-            for (int c = 0; c < 3; c++)
-                acc[c] += w[m] * q[c];
+        if (dir) {
+            R = P->t_R;
+            const int cnt = P->st_count[R];
+            const float *w = P->st_w[R];
+            for (int m = 0; m < cnt; m++) {
+                lv_fetch3(P, LV_C0, pu + P->t_du[m], pv + P->t_dv[m], 1.0f, q);
+                for (int c = 0; c < 3; c++)
+                    acc[c] += w[m] * q[c];
+            }
+        } else {
+            double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
+            double rmax = ru > rv ? ru : rv;
+            R = (int)ceil(rmax - 1e-9);
+            if (R < 1)
+                R = 1;
+            if (R > VOL_LV_MAX_RINGS)
+                R = VOL_LV_MAX_RINGS;
+            const int cnt = P->st_count[R];
+            const double *cu = P->st_cu[R], *cv = P->st_cv[R];
+            const float *w = P->st_w[R];
+            for (int m = 0; m < cnt; m++) {
+                lv_fetch3(P, LV_C0, pu + ru * cu[m], pv + rv * cv[m], 1.0f, q);
+                for (int c = 0; c < 3; c++)
+                    acc[c] += w[m] * q[c];
+            }
         }
         const float wsum = P->st_wsum[R];
         for (int c = 0; c < 3; c++)
@@ -565,15 +591,18 @@ static void lv_band_task(void *user, int64_t task, int thread)
 
 /* A chain of slices k0, k0 + dir, ... (count of them), the first in mode `first`, the others
  * propagated from the one before, as ONE pool job: item t is band t % bands of slice t / bands
- * (lv_band_task), and waits until every band of the slice before is done (done[]). The pool hands
- * items out in increasing order, so an item's dependencies were all handed out before it to
- * threads that are running them: no deadlock for any thread count, and no wake-up of the pool per
- * slice. Slice i reads buffer i & 1 and writes buffer (i + 1) & 1: when slice i - 1 is complete,
- * nothing reads slice i - 2's buffer any more. Which thread computes a voxel never changes it. */
+ * (lv_band_task), and waits until the bands b - reach .. b + reach of the slice before are done
+ * (done[], one flag per slice and band; reach = bands, every band, for a point light, whose
+ * fetches are not bounded per pass; lv_band_reach). The pool hands items out in increasing order,
+ * so an item's dependencies were all handed out before it to threads that are running them: no
+ * deadlock for any thread count, and no wake-up of the pool per slice. Slice i reads buffer i & 1
+ * and writes buffer (i + 1) & 1, which holds slice i - 2: band b of slice i overwrites only rows
+ * that the bands of slice i - 1 within `reach` read, and it waits for those. Which thread computes
+ * a voxel, and when, never changes it. */
 typedef struct lv_chain {
     const lv_pass *P;
     float *(*slices)[LV_CH];
-    int k0, dir, count, bands;
+    int k0, dir, count, bands, reach;
     lv_mode first;
     atomic_int *done;
 } lv_chain;
@@ -583,12 +612,16 @@ static void lv_chain_task(void *user, int64_t task, int thread)
     const lv_chain *C = (const lv_chain *)user;
     const int i = (int)(task / C->bands), b = (int)(task % C->bands);
     if (i > 0) {
+        const int b0 = b - C->reach > 0 ? b - C->reach : 0;
+        const int b1 = b + C->reach < C->bands - 1 ? b + C->reach : C->bands - 1;
+        const atomic_int *d = C->done + (size_t)(i - 1) * (size_t)C->bands;
         int spins = 0;
-        while (atomic_load_explicit(&C->done[i - 1], memory_order_acquire) < C->bands)
-            if (++spins > 64) {
-                sched_yield();
-                spins = 0;
-            }
+        for (int q = b0; q <= b1; q++)
+            while (!atomic_load_explicit(&d[q], memory_order_acquire))
+                if (++spins > 64) {
+                    sched_yield();
+                    spins = 0;
+                }
     }
     lv_pass L = *C->P;
     L.k = C->k0 + C->dir * i;
@@ -598,7 +631,26 @@ static void lv_chain_task(void *user, int64_t task, int thread)
         L.cur[c] = C->slices[(i + 1) & 1][c];
     }
     lv_band_task(&L, b, thread);
-    atomic_fetch_add_explicit(&C->done[i], 1, memory_order_release);
+    atomic_store_explicit(&C->done[(size_t)i * (size_t)C->bands + (size_t)b], 1, memory_order_release);
+}
+
+/* The bands of the previous slice a band depends on, either side (lv_chain): a directional
+ * light's fetches (the 2x2 bilinear of l and sigma_t, the kernel, the per-tap cone) read rows
+ * within |ds D_v / sp_v| + max |rv cv[m]| + 1 of the voxel's row (lv_taps_init); a point light's
+ * are not bounded per pass, so it waits for every band. */
+static int lv_band_reach(const lv_pass *P, int bands)
+{
+    if (!P->taps_dir)
+        return bands;
+    double rows = fabs(P->t_ov);
+    double m = 0.0;
+    for (int q = 0; q < P->st_count[P->t_R]; q++)
+        m = fabs(P->t_dv[q]) > m ? fabs(P->t_dv[q]) : m;
+    rows += m + 2.0; /* the bilinear's second row, and a margin for rounding */
+    if (!(rows < (double)P->nv))
+        return bands;
+    const int reach = ((int)ceil(rows) + P->rows_per_task - 1) / P->rows_per_task;
+    return reach < bands ? reach : bands;
 }
 
 static void lv_run_chain(obs_pool *pool, const lv_pass *P, int k0, int dir, int count, lv_mode first,
@@ -611,8 +663,9 @@ static void lv_run_chain(obs_pool *pool, const lv_pass *P, int k0, int dir, int 
     C.slices = slices;
     C.k0 = k0, C.dir = dir, C.count = count, C.first = first;
     C.bands = (P->nv + P->rows_per_task - 1) / P->rows_per_task;
+    C.reach = lv_band_reach(P, C.bands);
     C.done = done;
-    for (int i = 0; i < count; i++)
+    for (size_t i = 0; i < (size_t)count * (size_t)C.bands; i++)
         atomic_init(&done[i], 0);
     obs_pool_run(pool, (int64_t)count * C.bands, lv_chain_task, &C);
 }
@@ -680,6 +733,66 @@ static int lv_kernel_init(lv_pass *P)
     return 1;
 }
 
+/* The per-tap path's constants for a directional light along axis a (lv_pass taps_dir): the
+ * expressions lv_voxel's per-tap branch evaluates per voxel, in the same form, evaluated once per
+ * pass. Point lights (D per voxel) and a light parallel to the slices (cos_g < 1e-12: lv_voxel's
+ * face branch) keep the per-voxel form. */
+static void lv_taps_init(lv_pass *P)
+{
+    P->taps_dir = 0;
+    const int a = P->a, u = P->u, v = P->v;
+    const double cos_g = fabs(P->D[a]);
+    if (P->point || cos_g < 1e-12)
+        return;
+    const double ds = P->sp[a] / cos_g;
+    P->t_ds = ds;
+    P->t_ou = ds * P->D[u] / P->sp[u];
+    P->t_ov = ds * P->D[v] / P->sp[v];
+    double r = ds * P->tan_theta, ru = r / P->sp[u], rv = r / P->sp[v];
+    double rmax = ru > rv ? ru : rv;
+    int R = (int)ceil(rmax - 1e-9);
+    if (R < 1)
+        R = 1;
+    if (R > VOL_LV_MAX_RINGS)
+        R = VOL_LV_MAX_RINGS;
+    P->t_R = R;
+    for (int m = 0; m < P->st_count[R]; m++) {
+        P->t_du[m] = ru * P->st_cu[R][m];
+        P->t_dv[m] = rv * P->st_cv[R][m];
+    }
+    P->taps_dir = 1;
+}
+
+/* First touch of a fresh output block by every thread of the pool, 2 MiB a task (one byte
+ * written per 4 KiB page; every value is written again by the propagation). Touched during the
+ * propagation instead, each huge page (obs_aligned_alloc advises them) holds 8 slices of a
+ * channel at 256^2, so both threads fault on the same page and one waits while the kernel
+ * zeroes it (about 34 ms of system time per 256^3 build on this machine): here the zeroing is
+ * shared between the threads. Nothing with one thread. */
+#define LV_TOUCH_CHUNK ((size_t)2 << 20)
+typedef struct lv_touch {
+    unsigned char *p;
+    size_t bytes;
+} lv_touch;
+
+static void lv_touch_task(void *user, int64_t task, int thread)
+{
+    (void)thread;
+    const lv_touch *T = (const lv_touch *)user;
+    const size_t b0 = (size_t)task * LV_TOUCH_CHUNK;
+    const size_t b1 = b0 + LV_TOUCH_CHUNK < T->bytes ? b0 + LV_TOUCH_CHUNK : T->bytes;
+    for (size_t q = b0; q < b1; q += 4096)
+        ((volatile unsigned char *)T->p)[q] = 0;
+}
+
+static void lv_first_touch(obs_pool *pool, void *p, size_t bytes)
+{
+    if (!p || obs_pool_threads(pool) < 2)
+        return;
+    lv_touch T = {(unsigned char *)p, bytes};
+    obs_pool_run(pool, (int64_t)((bytes + LV_TOUCH_CHUNK - 1) / LV_TOUCH_CHUNK), lv_touch_task, &T);
+}
+
 /* The staged output of a pass along x (lv_propagate) into the x-fastest output: task z moves the
  * plane z, in tiles of 16 x values (16 rows of the stage read, 16 consecutive floats written). */
 typedef struct lv_unstage {
@@ -729,6 +842,7 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     if (a == 0 && P->stage_ok)
         stage = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
     if (stage) {
+        lv_first_touch(pool, stage, voxels * 4 * sizeof(float));
         P->out_l = stage;
         for (int c = 0; c < 3; c++)
             P->out_c[c] = stage + (size_t)(c + 1) * voxels;
@@ -751,6 +865,7 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
                 b[q] = fill;
             slices[s][c] = b + (size_t)LV_PAD * (size_t)P->W + LV_PAD;
         }
+    lv_taps_init(P);
     if (!lv_kernel_init(P)) {
         obs_aligned_free(stage);
         obs_aligned_free(buf);
@@ -761,7 +876,12 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
     const int threads = obs_pool_threads(pool);
     P->nu_pad = ((size_t)P->nu + 15) & ~(size_t)7;
     P->scratch = (float *)obs_aligned_alloc((size_t)threads * 5 * P->nu_pad * sizeof(float));
-    atomic_int *done = (atomic_int *)malloc((size_t)P->n[a] * sizeof(atomic_int)); /* lv_run_chain */
+    {
+        int tasks = 4 * threads < P->nv ? 4 * threads : P->nv;
+        P->rows_per_task = (P->nv + tasks - 1) / tasks;
+    }
+    const size_t bands = (size_t)((P->nv + P->rows_per_task - 1) / P->rows_per_task);
+    atomic_int *done = (atomic_int *)malloc((size_t)P->n[a] * bands * sizeof(atomic_int)); /* lv_run_chain */
     if (!P->scratch || !done) {
         obs_aligned_free(P->scratch);
         P->scratch = NULL;
@@ -769,10 +889,6 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         obs_aligned_free(buf);
         obs_aligned_free(stage);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the row buffers");
-    }
-    {
-        int tasks = 4 * threads < P->nv ? 4 * threads : P->nv;
-        P->rows_per_task = (P->nv + tasks - 1) / tasks;
     }
     const int na = P->n[a];
 
@@ -1030,6 +1146,7 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
         obs_aligned_free(occ_sigma);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory (%.3g bytes)", (double)bytes);
     }
+    lv_first_touch(pool, mem, voxels * 4 * sizeof(float));
     out->nx = P.n[0], out->ny = P.n[1], out->nz = P.n[2], out->scale = p->scale;
     for (int c = 0; c < 3; c++) {
         out->spacing[c] = P.sp[c];
@@ -1083,6 +1200,9 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
             break;
         P.T.zero_upto = tf->points[i].value;
     }
+    P.T.zero_upto_f = (float)P.T.zero_upto; /* rounded to nearest; one float down where that is above */
+    if ((double)P.T.zero_upto_f > P.T.zero_upto)
+        P.T.zero_upto_f = nextafterf(P.T.zero_upto_f, -HUGE_VALF);
     P.T.kappa = P.sigma_scale;
     P.T.ref_step = P.ref_step;
     P.avx2 = vol_i_lv_avx2_active();
@@ -1094,6 +1214,7 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
         if (!tmp) {
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the second face");
         } else {
+            lv_first_touch(pool, tmp, voxels * 4 * sizeof(float));
             float *tc[3] = {tmp + voxels, tmp + 2 * voxels, tmp + 3 * voxels};
             st = lv_propagate(ctx, pool, &P, f1 >> 1, (f1 & 1) == 0, tmp, tc);
             if (st == OBS_STATUS_OK) {

@@ -28,9 +28,24 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
     }
     /* Blocks of 4; the last block overlaps the one before where n is not a multiple of 4
      * (recomputing a value writes the same bits). */
+    const __m256 vzero8 = _mm256_set1_ps(T->zero_upto_f);
     for (int i = 0;; i += 4) {
         if (i > n - 4)
             i = n - 4;
+        /* Empty space 8 at a time (all eight at or below zero_upto: v <= zero_upto_f in float is
+         * the same test): the two blocks of 4 below would store the same +0. */
+        if (i + 8 <= n &&
+            _mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(s + i), vzero8, _CMP_LE_OQ)) == 0xFF) {
+            const __m256 z8 = _mm256_setzero_ps();
+            _mm256_storeu_ps(c0 + i, z8);
+            _mm256_storeu_ps(c1 + i, z8);
+            _mm256_storeu_ps(c2 + i, z8);
+            _mm256_storeu_ps(sigma + i, z8);
+            if (i + 8 >= n)
+                break;
+            i += 4; /* and the loop's 4 */
+            continue;
+        }
         const __m256d v = _mm256_cvtps_pd(_mm_loadu_ps(s + i));
         /* Empty space (all four at or below zero_upto, none NaN): +0 everywhere, exactly. */
         if (_mm256_movemask_pd(_mm256_cmp_pd(v, vzero, _CMP_LE_OQ)) == 0xF) {

@@ -28,6 +28,8 @@ typedef struct vol_i_lv_tf {
     double kappa, ref_step;
     double zero_upto;      /* every value v <= zero_upto classifies to RGBA +0 and sigma_t +0 (the
                               points up to it are all +0 bits); -inf when point 0 is not */
+    float zero_upto_f;     /* the largest float <= zero_upto (-inf with it): for a float v,
+                              v <= zero_upto exactly when v <= zero_upto_f (NaN: neither) */
 } vol_i_lv_tf;
 
 /* Classification of n values s[i] (the data's, trilinear at scale 2 and 4):
