@@ -10,7 +10,7 @@
 #include "io/io.h"
 #include "render/render.h"
 
-static int load_hybrid(obs_context *ctx, obs_scene *s)
+static int load_hybrid_at(obs_context *ctx, obs_scene *s, float slab_z)
 {
     obs_scene_init(s);
     io_gltf_options o = io_gltf_options_default();
@@ -22,7 +22,7 @@ static int load_hybrid(obs_context *ctx, obs_scene *s)
     for (uint32_t i = 0; i < s->instance_count; i++)
         if (!strncmp(s->meshes[s->instances[i].mesh].name, "tall_block", 10)) { /* "tall_block/prim0" */
             const obs_vec4 q = {0, 0, 0, 1};
-            s->instances[i].world = obs_mat4_from_trs(obs_v3(1.1f, 3.55f, -1.05f), q, obs_v3(0.8f, 0.4f, 0.15f));
+            s->instances[i].world = obs_mat4_from_trs(obs_v3(1.1f, 3.55f, slab_z), q, obs_v3(0.8f, 0.4f, 0.15f));
             /* the camera inside the room, right of the volume and looking at it along -x (the
              * scene's own camera, in front, would see the slab rather than the volume) */
             if (s->camera_count < 1)
@@ -37,6 +37,8 @@ static int load_hybrid(obs_context *ctx, obs_scene *s)
         }
     return 0;
 }
+
+static int load_hybrid(obs_context *ctx, obs_scene *s) { return load_hybrid_at(ctx, s, -1.05f); }
 
 static render_settings hybrid_settings(obs_context *ctx, const obs_scene *s)
 {
@@ -203,6 +205,58 @@ TEST(render_mesh_shadows_light_volumes_round_trip_through_the_disk_cache)
     CHECK(planes_equal(a.volume, b.volume, 4));
     render_frame_free(&a);
     render_frame_free(&b);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+}
+
+/* A slab OUTSIDE the volume's box, between the point light and the box (z [-0.62, -0.38]; the box
+ * ends at z = -0.9): the voxelizer selects no mesh, and the light enters the box through the
+ * light's shadow map (vol_occluder.entry), so the volume darkens, nowhere brightens, keeps its
+ * alpha; with the shadow maps off (no entry test) mesh_shadows changes no pixel. */
+TEST(render_mesh_shadows_from_outside_the_box_enter_through_the_shadow_map)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    CHECK_MSG(load_hybrid_at(ctx, &s, -0.5f), "%s", obs_context_last_error(ctx));
+    render_settings st = hybrid_settings(ctx, &s);
+    st.outputs = RENDER_OUT_VOLUME;
+    st.shadow_map_size = 256;
+    render_frame on, off, on_noshadow, off_noshadow;
+    CHECK_MSG(run(ctx, &s, &st, &on), "%s", obs_context_last_error(ctx));
+    const render_pass_record *sm = rec(&on, "shadow_maps");
+    CHECK(sm && sm->state == RENDER_PASS_RAN); /* the volume alone reads them */
+    st.volume.mesh_shadows = 0;
+    CHECK(run(ctx, &s, &st, &off));
+    int darker = 0, brighter = 0;
+    double sum_on = 0, sum_off = 0;
+    for (int c = 0; c < 3 && on.volume[0].data && off.volume[0].data; c++)
+        for (int y = 0; y < on.height; y++) {
+            const float *a = obs_image_f32_row(&on.volume[c], y), *b = obs_image_f32_row(&off.volume[c], y);
+            for (int x = 0; x < on.width; x++) {
+                darker += a[x] < b[x] - 1e-6f;
+                brighter += a[x] > b[x] + 1e-6f;
+                sum_on += a[x];
+                sum_off += b[x];
+            }
+        }
+    if (getenv("OBS_TEST_VERBOSE"))
+        fprintf(stderr, "volume rgb sum %.5g with the slab outside, %.5g without; %d darker\n", sum_on, sum_off, darker);
+    CHECK_MSG(darker > 20, "only %d volume values darker", darker);
+    CHECK_EQ_INT(brighter, 0);
+    CHECK_MSG(sum_on < 0.8 * sum_off, "volume light %.4g with the slab, %.4g without", sum_on, sum_off);
+    CHECK(planes_equal(&on.volume[3], &off.volume[3], 1));
+    /* no shadow maps: nothing to test the entry against */
+    st.shadows = 0;
+    st.volume.mesh_shadows = 1;
+    CHECK(run(ctx, &s, &st, &on_noshadow));
+    st.volume.mesh_shadows = 0;
+    CHECK(run(ctx, &s, &st, &off_noshadow));
+    CHECK(planes_equal(on_noshadow.volume, off_noshadow.volume, 4));
+    CHECK(planes_equal(off_noshadow.volume, off.volume, 4));
+    render_frame_free(&on);
+    render_frame_free(&off);
+    render_frame_free(&on_noshadow);
+    render_frame_free(&off_noshadow);
     obs_scene_free(&s);
     obs_context_destroy(ctx);
 }

@@ -380,7 +380,7 @@ TEST(volume_occupancy_slab_shadows_the_volume_behind_it)
             CHECK_OK(vol_occupancy_voxelize(ctx, NULL, &mm, 1, VOL_OCC_DEFAULT_SUBCOLUMNS, &o), ctx);
             vol_lv_params p = vol_lv_params_default();
             p.scale = scale;
-            vol_occluder oc = {&o, 0.0};
+            vol_occluder oc = {&o, 0.0, NULL, NULL};
             vol_light_volume lv;
             CHECK_OK(vol_light_volume_build_ex(ctx, NULL, &g, &tf, &Ls[li], &p, &oc, &lv), ctx);
             double max_behind = 0, min_front = 1;
@@ -423,7 +423,7 @@ TEST(volume_occupancy_null_and_zero_occluders_are_bit_identical)
             vol_light_volume a, b, c;
             vol_occupancy o;
             CHECK_OK(vol_occupancy_alloc(ctx, &g, scale, &o), ctx);
-            vol_occluder oc = {&o, 0.0};
+            vol_occluder oc = {&o, 0.0, NULL, NULL};
             CHECK_OK(vol_light_volume_build(ctx, pool, &g, &tf, &Ls[li], &p, &a), ctx);
             CHECK_OK(vol_light_volume_build_ex(ctx, pool, &g, &tf, &Ls[li], &p, NULL, &b), ctx);
             CHECK_OK(vol_light_volume_build_ex(ctx, pool, &g, &tf, &Ls[li], &p, &oc, &c), ctx);
@@ -467,7 +467,7 @@ TEST(volume_occupancy_identical_for_1_2_8_threads_and_both_isas)
         CHECK_OK(vol_occupancy_alloc(ctx, &g, 1, &o[q]), ctx);
         CHECK_OK(vol_occupancy_voxelize(ctx, pool, &mm, 1, VOL_OCC_DEFAULT_SUBCOLUMNS, &o[q]), ctx);
         vol_lv_params p = vol_lv_params_default();
-        vol_occluder oc = {&o[q], 0.0};
+        vol_occluder oc = {&o[q], 0.0, NULL, NULL};
         CHECK_OK(vol_light_volume_build_ex(ctx, pool, &g, &tf, &L, &p, &oc, &lv[q]), ctx);
         obs_pool_destroy(pool);
     }
@@ -487,7 +487,7 @@ TEST(volume_occupancy_identical_for_1_2_8_threads_and_both_isas)
     const char *old = getenv("OBS_ISA");
     char *saved = old ? strdup(old) : NULL;
     setenv("OBS_ISA", "scalar", 1);
-    vol_occluder oc = {&o[0], 0.0};
+    vol_occluder oc = {&o[0], 0.0, NULL, NULL};
     CHECK_OK(vol_light_volume_build_ex(ctx, NULL, &g, &tf, &L, &p, &oc, &lv[3]), ctx);
     if (saved) {
         setenv("OBS_ISA", saved, 1);
@@ -584,7 +584,7 @@ TEST(volume_occupancy_bad_inputs_refused)
     /* the build: a layout mismatch, no grid, a bad ref_step, occupancy out of [0, 1] */
     vol_lv_params p = vol_lv_params_default();
     vol_light_volume lv;
-    vol_occluder oc = {&o2, 0.0};
+    vol_occluder oc = {&o2, 0.0, NULL, NULL};
     obs_context_clear_error(ctx);
     CHECK_EQ_INT(vol_light_volume_build_ex(ctx, NULL, &g, &tf, &L, &p, &oc, &lv), OBS_STATUS_INVALID_ARGUMENT);
     CHECK(strstr(obs_context_last_error(ctx), "layout") != NULL);
@@ -631,7 +631,7 @@ TEST(volume_occupancy_point_light_inside_the_volume_is_shadowed_by_a_cube)
     CHECK_OK(vol_occupancy_voxelize(ctx, NULL, &mm, 1, VOL_OCC_DEFAULT_SUBCOLUMNS, &o), ctx);
     const vol_light L = point_light(5.0, 5.0, 5.0);
     vol_lv_params p = vol_lv_params_default();
-    vol_occluder oc = {&o, 0.0};
+    vol_occluder oc = {&o, 0.0, NULL, NULL};
     vol_light_volume lv, plain;
     CHECK_OK(vol_light_volume_build_ex(ctx, NULL, &g, &tf, &L, &p, &oc, &lv), ctx);
     CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &plain), ctx);
@@ -647,5 +647,64 @@ TEST(volume_occupancy_point_light_inside_the_volume_is_shadowed_by_a_cube)
     tm_free(&t);
     vol_tf_free(&tf);
     vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
+/* vol_occluder.entry alone (no occupancy): an empty volume lit along -z with an entry
+ * transmittance of 0 where x < 8 and 0.5 elsewhere propagates those values straight through:
+ * l = 0 over the first half, 0.5 over the second, at every slice (the light is along an axis, so
+ * each voxel's fetch is its own column); the entry points lie on the face the light enters by
+ * (z = n - 1 + 0.5); out-of-range returns are clamped and NaN counts as 1; entry NULL with no
+ * occupancy is refused. */
+static float entry_half(void *user, const double x[3])
+{
+    int *bad = (int *)user;
+    if (fabs(x[2] - 15.5) > 1e-9)
+        __atomic_fetch_add(bad, 1, __ATOMIC_RELAXED);
+    return x[0] < 7.5 ? -3.0f : 0.5f;
+}
+static float entry_nan(void *user, const double x[3])
+{
+    (void)user;
+    (void)x;
+    return NAN;
+}
+TEST(volume_occupancy_entry_transmittance_seeds_the_first_slice)
+{
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    vol_grid g;
+    vol_tf tf;
+    CHECK(zero_grid(ctx, 16, &g));
+    CHECK(make_tf(&tf, 0.0f));
+    const vol_light L = dir_light(0, 0, -1);
+    vol_lv_params p = vol_lv_params_default();
+    p.blend_second = 0;
+    int bad = 0;
+    vol_occluder oc = {NULL, 0.0, entry_half, &bad};
+    vol_light_volume lv;
+    CHECK_OK(vol_light_volume_build_ex(ctx, pool, &g, &tf, &L, &p, &oc, &lv), ctx);
+    CHECK_EQ_INT(bad, 0);
+    int wrong = 0;
+    for (int k = 0; k < lv.nz; k++)
+        for (int j = 0; j < lv.ny; j++)
+            for (int i = 0; i < lv.nx; i++) {
+                const float l = lv.l[((size_t)k * lv.ny + j) * lv.nx + i];
+                wrong += l != (i < 8 ? 0.0f : 0.5f);
+            }
+    CHECK_MSG(wrong == 0, "%d voxels off", wrong);
+    vol_light_volume_free(&lv);
+    vol_light_volume plain, nan_lv;
+    CHECK_OK(vol_light_volume_build(ctx, pool, &g, &tf, &L, &p, &plain), ctx);
+    vol_occluder on = {NULL, 0.0, entry_nan, NULL};
+    CHECK_OK(vol_light_volume_build_ex(ctx, pool, &g, &tf, &L, &p, &on, &nan_lv), ctx);
+    CHECK(lv_equal(&plain, &nan_lv));
+    vol_light_volume_free(&plain);
+    vol_light_volume_free(&nan_lv);
+    vol_occluder none = {NULL, 0.0, NULL, NULL};
+    CHECK_EQ_INT(vol_light_volume_build_ex(ctx, pool, &g, &tf, &L, &p, &none, &lv), OBS_STATUS_INVALID_ARGUMENT);
+    vol_tf_free(&tf);
+    vol_grid_free(&g);
+    obs_pool_destroy(pool);
     obs_context_destroy(ctx);
 }

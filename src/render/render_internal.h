@@ -123,6 +123,9 @@ typedef struct render_shadow_map {
     double texel_world;            /* orthographic: texel side; perspective: texel side at depth 1 */
 } render_shadow_map;
 typedef struct render_shadow_maps { int count; render_shadow_map *maps; /* one per render light */ } render_shadow_maps;
+/* The fraction in [0, 1] of a 3x3 texel neighbourhood of the light's shadow map that sees world
+ * point p, offset along its normal n (n = 0: no offset) (render_passes_surface.c). */
+float render_shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_vec3 p, obs_vec3 n);
 typedef struct render_sss_light_maps { int count; sss_light_map *lm; } render_sss_light_maps;
 typedef struct render_volume_data { vol_grid grid; vol_tf tf; } render_volume_data;
 typedef struct render_truth_scene { truth_scene *ts; } render_truth_scene;

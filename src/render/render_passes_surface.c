@@ -278,7 +278,7 @@ const render_pass render_pass_shadow_maps = {"shadow_maps", RES_SHADOW_MAPS, 0, 
  * [Reeves87]). Acne is kept off by a normal offset [Holbert11]: p is moved 1.5 texels (the texel's
  * world size at p) along its normal n before the lookup, and the comparison has a bias of one
  * texel (our constants, tuned on the Cornell box). */
-static float shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_vec3 p, obs_vec3 n)
+float render_shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_vec3 p, obs_vec3 n)
 {
     int f = 0;
     if (sm->faces == 6) {
@@ -438,7 +438,7 @@ static void direct_row(void *user, int64_t yy, int thread)
                 const float ndl = obs_v3_dot(nw, l);
                 if (!(ndl > 0))
                     continue;
-                float vis = j->shadow ? shadow_lookup(&j->shadow->maps[i], L, p, nw) : 1.0f;
+                float vis = j->shadow ? render_shadow_lookup(&j->shadow->maps[i], L, p, nw) : 1.0f;
                 if (j->lv && j->vol && j->volume_light >= 0 && L->node == j->scene->lights[j->volume_light].node &&
                     vis > 0.0f)
                     vis *= volume_transmittance(j, p, l, dist);

@@ -168,9 +168,38 @@ static int lv_needed(const render_job *j) { return j->st->volume.rc.shading == V
 
 static unsigned lv_reads(const render_job *j, char *t, size_t n)
 {
-    (void)j;
+    if (j->st->volume.mesh_shadows) { /* the meshes outside the box shadow it through the shadow maps */
+        snprintf(t, n, "volume_grid,transfer_function,light,volume.lv,geometry,shadow_maps");
+        return RES_VOLUME_GRID | RES_SHADOW_MAPS;
+    }
     snprintf(t, n, "volume_grid,transfer_function,light,volume.lv");
     return RES_VOLUME_GRID;
+}
+
+/* The render light (j->lights) that lights the volume, -1 when none. */
+static int lv_render_light(const render_job *j)
+{
+    if (j->volume_light < 0)
+        return -1;
+    for (int i = 0; i < j->light_count; i++)
+        if (j->lights[i].node == j->scene->lights[j->volume_light].node)
+            return i;
+    return -1;
+}
+
+/* Meshes outside the volume's box shadow it (ours, docs/render.md "Meshes shadow the volume"):
+ * the light entering the box at x is seen through the light's shadow map (render_shadow_lookup:
+ * 3x3 PCF, one texel of bias, no normal offset: x is on the box, not on a surface). */
+typedef struct lv_entry_ctx { const render_shadow_map *sm; const obs_light *L; } lv_entry_ctx;
+static float lv_entry(void *user, const double x[3])
+{
+    const lv_entry_ctx *e = (const lv_entry_ctx *)user;
+    return render_shadow_lookup(e->sm, e->L, obs_v3((float)x[0], (float)x[1], (float)x[2]), obs_v3(0, 0, 0));
+}
+/* 1 when the volume's light has a shadow map this frame (shadow_maps live: its key is valid). */
+static int lv_has_entry(const render_job *j)
+{
+    return j->st->volume.mesh_shadows && j->key_valid[1] /* RES_SHADOW_MAPS */ && lv_render_light(j) >= 0;
 }
 static int lv_wanted(const render_job *j, char *r, size_t n)
 {
@@ -318,6 +347,14 @@ static int lv_key(render_job *j, render_key *out)
             render_hash_bytes(&h, m->indices, sizeof(uint32_t) * 3 * (size_t)m->triangle_count);
         }
         free(sel);
+        /* and the meshes outside it, through the volume light's shadow map */
+        render_hash_i(&h, lv_has_entry(j));
+        if (lv_has_entry(j)) {
+            render_hash_str(&h, "entry through the shadow map v1");
+            render_hash_u64(&h, j->key[1].k[0]);
+            render_hash_u64(&h, j->key[1].k[1]);
+            render_hash_i(&h, lv_render_light(j));
+        }
     }
     *out = render_hash_final(&h);
     return 1;
@@ -417,8 +454,27 @@ static obs_status lv_build(render_job *j, void *p)
     obs_status st = vol_light_volume_build(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp, &w->own);
     int count = 0;
     unsigned char *sel = st == OBS_STATUS_OK ? lv_mesh_select(j, &count) : NULL;
-    if (!sel)
+    lv_entry_ctx ec = {NULL, NULL};
+    if (st == OBS_STATUS_OK && lv_has_entry(j) && j->shadow) {
+        const int li = lv_render_light(j);
+        if (li < j->shadow->count) {
+            ec.sm = &j->shadow->maps[li];
+            ec.L = &j->lights[li];
+        }
+    }
+    vol_occluder oc;
+    memset(&oc, 0, sizeof oc);
+    oc.ref_step = 0.0;
+    if (ec.sm) {
+        oc.entry = lv_entry;
+        oc.entry_user = &ec;
+    }
+    if (!sel) {
+        if (st == OBS_STATUS_OK && oc.entry) /* the meshes outside the box alone */
+            st = vol_light_volume_build_ex(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp, &oc,
+                                           &w->mesh);
         return st;
+    }
     vol_occ_mesh *meshes = (vol_occ_mesh *)malloc(sizeof(vol_occ_mesh) * (size_t)count);
     vol_occupancy occ;
     memset(&occ, 0, sizeof occ);
@@ -443,10 +499,8 @@ static obs_status lv_build(render_job *j, void *p)
     const size_t nv = (size_t)occ.nx * (size_t)occ.ny * (size_t)occ.nz;
     for (size_t i = 0; st == OBS_STATUS_OK && i < nv && !any; i++)
         any = occ.f[i] > 0.0f;
-    if (st == OBS_STATUS_OK && any) { /* no voxel covered: the own one serves the ray cast too */
-        vol_occluder oc;
-        oc.occupancy = &occ;
-        oc.ref_step = 0.0;
+    if (st == OBS_STATUS_OK && (any || oc.entry)) { /* neither: the own one serves the ray cast too */
+        oc.occupancy = any ? &occ : NULL;
         st = vol_light_volume_build_ex(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &lp, &oc, &w->mesh);
     }
     vol_occupancy_free(&occ);

@@ -230,8 +230,18 @@ obs_status vol_occupancy_voxelize(obs_context *ctx, obs_pool *pool, const vol_oc
  * the data's extinction; a mesh stays opaque). ref_step 0: the light volume's smallest spacing (a
  * voxel with occupancy f transmits about 1 - f across it). */
 typedef struct vol_occluder {
-    const vol_occupancy *occupancy;   /* the light volume's layout exactly */
+    const vol_occupancy *occupancy;   /* the light volume's layout exactly; NULL: none (then entry
+                                         must be set) */
     double ref_step;                  /* >= 0, finite */
+    /* Optional (ours, docs/volume/light.md "Meshes shadow the volume"): the transmittance in
+     * [0, 1] of the light's path OUTSIDE the light volume's box, for light that enters the box at
+     * world point x: each first-slice voxel's l_{-1} = 1 becomes entry(x), x where its light ray
+     * crosses the face the propagation starts from (chromaticity c_{-1} stays 1: an occluder is
+     * grey). So meshes between the light and the box shadow the volume. Called from the pool's
+     * threads: it must be thread-safe and a function of x only. NULL: 1. Values outside [0, 1]
+     * are clamped, NaN is 1. */
+    float (*entry)(void *user, const double x[3]);
+    void *entry_user;
 } vol_occluder;
 
 /* vol_light_volume_build with the meshes' occupancy added to the extinction the propagation sees

@@ -151,6 +151,8 @@ typedef struct lv_pass {
     size_t nu_pad;
     int rows_per_task;
     const float *occ_sigma;     /* the meshes' extra extinction (vol_i_occ_sigma), NULL: none */
+    float (*entry)(void *user, const double x[3]); /* vol_occluder.entry: NULL, l_{-1} = 1 */
+    void *entry_user;
 } lv_pass;
 
 /* Classification (vol_light_internal.h): the TF at each value, sigma_t by vol.h's convention. */
@@ -382,6 +384,14 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
         const double arg = -(double)sigma * ds;
         float tau = arg == 0.0 ? 1.0f : (float)exp(arg); /* exp(+-0) = 1 exactly (C11 F.10.3.1) */
         l = tau;
+        if (P->entry) { /* l_{-1}: the light's path outside the box (vol.h vol_occluder.entry) */
+            double xf[3];
+            for (int c = 0; c < 3; c++)
+                xf[c] = x[c] - D[c] * ds; /* back along the light ray to the face */
+            float e = P->entry(P->entry_user, xf);
+            e = e >= 0.0f ? (e <= 1.0f ? e : 1.0f) : (e < 0.0f ? 0.0f : 1.0f);
+            l = tau * e;
+        }
         for (int c = 0; c < 3; c++)
             cc[c] = tau + (1.0f - tau) * ctf[c];
     } else if (P->kern && iu + P->kI0 >= 0 && iu + P->kI0 + P->kW <= P->nu && jv + P->kJ0 >= 0 &&
@@ -1131,6 +1141,8 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
     if (st != OBS_STATUS_OK)
         return st;
     P.occ_sigma = occ_sigma;
+    P.entry = occ ? occ->entry : NULL;
+    P.entry_user = occ ? occ->entry_user : NULL;
     size_t voxels = (size_t)P.n[0] * (size_t)P.n[1] * (size_t)P.n[2];
     obs_limits deflim = obs_limits_default();
     const obs_limits *lim = ctx ? obs_context_limits(ctx) : &deflim;

@@ -458,6 +458,8 @@ obs_status vol_i_occ_sigma(obs_context *ctx, const vol_occluder *occ, const int 
     if (!occ)
         return OBS_STATUS_OK;
     const vol_occupancy *o = occ->occupancy;
+    if (!o && occ->entry)
+        return OBS_STATUS_OK; /* the entry transmittance alone */
     if (!o || !o->f)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "light volume: the occluder has no occupancy grid");
     if (!isfinite(occ->ref_step) || occ->ref_step < 0.0)
