@@ -79,6 +79,23 @@ static int planes_equal(const obs_image_f32 *a, const obs_image_f32 *b, int n)
     return 1;
 }
 
+/* The volume layers' RGB compared value by value: how many are darker or brighter in `on` than in
+ * `off` (by more than 1e-6), and each side's sum. */
+static void compare_volume(const render_frame *on, const render_frame *off, int *darker, int *brighter, double *sum_on,
+                           double *sum_off)
+{
+    for (int c = 0; c < 3 && on->volume[0].data && off->volume[0].data; c++)
+        for (int y = 0; y < on->height; y++) {
+            const float *a = obs_image_f32_row(&on->volume[c], y), *b = obs_image_f32_row(&off->volume[c], y);
+            for (int x = 0; x < on->width; x++) {
+                *darker += a[x] < b[x] - 1e-6f;
+                *brighter += a[x] > b[x] + 1e-6f;
+                *sum_on += a[x];
+                *sum_off += b[x];
+            }
+        }
+}
+
 static int run_in(obs_context *ctx, const obs_scene *s, const render_settings *st, const char *cache_dir,
                   render_frame *f)
 {
@@ -137,16 +154,7 @@ TEST(render_mesh_shadows_darken_only_the_volume_layer)
     CHECK(planes_equal(&on.volume[3], &off.volume[3], 1));
     int darker = 0, brighter = 0;
     double sum_on = 0, sum_off = 0;
-    for (int c = 0; c < 3 && on.volume[0].data; c++)
-        for (int y = 0; y < on.height; y++) {
-            const float *a = obs_image_f32_row(&on.volume[c], y), *b = obs_image_f32_row(&off.volume[c], y);
-            for (int x = 0; x < on.width; x++) {
-                darker += a[x] < b[x] - 1e-6f;
-                brighter += a[x] > b[x] + 1e-6f;
-                sum_on += a[x];
-                sum_off += b[x];
-            }
-        }
+    compare_volume(&on, &off, &darker, &brighter, &sum_on, &sum_off);
     if (getenv("OBS_TEST_VERBOSE"))
         fprintf(stderr, "volume rgb sum %.5g with the slab, %.5g without; %d values darker\n", sum_on, sum_off, darker);
     CHECK_MSG(darker > 20, "only %d volume values darker", darker);
@@ -229,16 +237,7 @@ TEST(render_mesh_shadows_from_outside_the_box_enter_through_the_shadow_map)
     CHECK(run(ctx, &s, &st, &off));
     int darker = 0, brighter = 0;
     double sum_on = 0, sum_off = 0;
-    for (int c = 0; c < 3 && on.volume[0].data && off.volume[0].data; c++)
-        for (int y = 0; y < on.height; y++) {
-            const float *a = obs_image_f32_row(&on.volume[c], y), *b = obs_image_f32_row(&off.volume[c], y);
-            for (int x = 0; x < on.width; x++) {
-                darker += a[x] < b[x] - 1e-6f;
-                brighter += a[x] > b[x] + 1e-6f;
-                sum_on += a[x];
-                sum_off += b[x];
-            }
-        }
+    compare_volume(&on, &off, &darker, &brighter, &sum_on, &sum_off);
     if (getenv("OBS_TEST_VERBOSE"))
         fprintf(stderr, "volume rgb sum %.5g with the slab outside, %.5g without; %d darker\n", sum_on, sum_off, darker);
     CHECK_MSG(darker > 20, "only %d volume values darker", darker);
