@@ -165,23 +165,24 @@ typedef struct rc_job {
     /* Bricks (brick == 0: none) */
     int brick, nb[3];
     const uint8_t *empty;      /* per brick, x fastest: 1 = the TF's alpha is 0 over its footprint */
+    const int32_t *bidx[3];    /* per axis: base voxel -> brick index (voxel / brick) */
+    double r_h;                /* h / ref_step: the opacity-correction exponent of a full step */
     /* Brick-table build */
     uint8_t *empty_w;
     vol_i_rc_stats *tile_stats;
     int64_t *row_empty;        /* per brick row (z), bricks found empty */
 } rc_job;
 
-/* The voxel a trilinear sample at continuous coordinate c uses as its base (vol_grid_sample's
- * clamping: c <= 0 (or NaN) -> 0, c >= n - 1 -> n - 1, else floor(c)); its footprint is
- * [base, base + 1] clipped to the grid. */
-static inline int rc_base_voxel(double c, int n)
-{
-    if (!(c > 0.0))
-        return 0;
-    if (c >= (double)(n - 1))
-        return n - 1;
-    return (int)c; /* c > 0: truncation is floor */
-}
+/* The prepared state (vol.h, vol_rc_prepare): what depends only on the grid, the TF and the
+ * brick size. */
+struct vol_rc_prepared {
+    const vol_grid *g;
+    const vol_tf *tf;
+    int brick, nb[3];
+    uint8_t *empty;            /* NULL when brick == 0 */
+    int32_t *bidx[3];
+    int64_t bricks, bricks_empty;
+};
 
 /* ---- Trilinear sampling ------------------------------------------------------------------------ */
 
@@ -227,6 +228,83 @@ static inline float rc_sample(const vol_grid *g, double ci, double cj, double ck
 float vol_i_rc_sample(const vol_grid *g, double ci, double cj, double ck)
 {
     return rc_sample(g, ci, cj, ck);
+}
+
+/* rc_sample with the splits already made (the march makes them once for the brick look-up and the
+ * sample): the same loads and lerps in the same order, so the same bits. */
+static inline float rc_sample_split(const vol_grid *g, int x0, int x1, float tx, int y0, int y1, float ty, int z0,
+                                    int z1, float tz)
+{
+    const size_t sy = (size_t)g->nx, sz = (size_t)g->nx * (size_t)g->ny;
+    const float *r00 = g->data + (size_t)y0 * sy + (size_t)z0 * sz, *r10 = g->data + (size_t)y1 * sy + (size_t)z0 * sz;
+    const float *r01 = g->data + (size_t)y0 * sy + (size_t)z1 * sz, *r11 = g->data + (size_t)y1 * sy + (size_t)z1 * sz;
+    float ux = 1.0f - tx, uy = 1.0f - ty, uz = 1.0f - tz;
+    float c00 = r00[x0] * ux + r00[x1] * tx, c10 = r10[x0] * ux + r10[x1] * tx;
+    float c01 = r01[x0] * ux + r01[x1] * tx, c11 = r11[x0] * ux + r11[x1] * tx;
+    float c0 = c00 * uy + c10 * ty, c1 = c01 * uy + c11 * ty;
+    return c0 * uz + c1 * tz;
+}
+
+/* ---- The transfer function, inlined ------------------------------------------------------------ */
+
+/* vol_tf_eval's arithmetic, inlined (bit for bit: tests/test_volume_raycast.c checks it): the same
+ * NaN and end cases, the same segment (p[lo].value <= value < p[lo + 1].value, unique for strictly
+ * increasing values, found by a forward scan for short lists instead of the binary search), the
+ * same double division and lerps. What is saved is the call and the search's branches. */
+static inline void rc_tf_eval(const vol_tf *tf, double value, float rgba[4])
+{
+    const vol_tf_point *p = tf->points;
+    const int n = tf->count;
+    if (isnan(value)) {
+        rgba[0] = rgba[1] = rgba[2] = rgba[3] = 0.0f;
+        return;
+    }
+    if (value <= p[0].value) {
+        memcpy(rgba, p[0].rgba, 4 * sizeof(float));
+        return;
+    }
+    if (value >= p[n - 1].value) {
+        memcpy(rgba, p[n - 1].rgba, 4 * sizeof(float));
+        return;
+    }
+    int lo = 0;
+    if (n <= 16) {
+        while (p[lo + 1].value <= value)
+            lo++;
+    } else {
+        int hi = n - 1;
+        while (hi - lo > 1) {
+            int mid = (lo + hi) / 2;
+            if (p[mid].value <= value)
+                lo = mid;
+            else
+                hi = mid;
+        }
+    }
+    const int hi = lo + 1;
+    double t = (value - p[lo].value) / (p[hi].value - p[lo].value);
+    for (int c = 0; c < 4; c++)
+        rgba[c] = (float)((double)p[lo].rgba[c] * (1.0 - t) + (double)p[hi].rgba[c] * t);
+}
+
+void vol_i_rc_tf_eval(const vol_tf *tf, double value, float rgba[4])
+{
+    rc_tf_eval(tf, value, rgba);
+}
+
+/* vol_tf_alpha_correct(alpha, h, ref_step) for the full step h, with h / ref_step divided once per
+ * call (r_h) instead of per sample; the same branches and the same double expression, so the same
+ * bits (h > 0 and ref_step > 0, finite, are resolved before the march). */
+static inline float rc_alpha_full_step(float alpha, double h, double ref_step, double r_h)
+{
+    if (!(alpha > 0.0f))
+        return 0.0f;
+    if (alpha >= 1.0f)
+        return 1.0f;
+    if (h == ref_step)
+        return alpha;
+    double a = -expm1(r_h * log1p(-(double)alpha));
+    return (float)(a < 0.0 ? 0.0 : a > 1.0 ? 1.0 : a);
 }
 
 /* ---- Brick table ------------------------------------------------------------------------------- */
@@ -418,12 +496,17 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                 xw[a] = o[a] + tm * d[a];
                 c[a] = (xw[a] - g->origin[a]) * J->inv_sp[a];
             }
+            /* The trilinear splits, made once for the brick look-up and the sample (the split's
+             * lower voxel is the sample's base voxel: its brick). */
+            int vx0, vx1, vy0, vy1, vz0, vz1;
+            float ftx, fty, ftz;
+            rc_split(c[0], g->nx, &vx0, &vx1, &ftx);
+            rc_split(c[1], g->ny, &vy0, &vy1, &fty);
+            rc_split(c[2], g->nz, &vz0, &vz1, &ftz);
             /* Empty-space skipping [Kruger03]: in a brick where the TF's alpha is 0 everywhere,
              * jump to the last sample that is surely still inside it (one step of margin). */
             if (B > 0) {
-                int bi[3], nv[3] = {g->nx, g->ny, g->nz};
-                for (int a = 0; a < 3; a++)
-                    bi[a] = rc_base_voxel(c[a], nv[a]) / B;
+                const int bi[3] = {J->bidx[0][vx0], J->bidx[1][vy0], J->bidx[2][vz0]};
                 if (J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
                     /* The brick's region in voxel coordinates: [bi B, (bi+1) B) per axis, open
                      * towards -inf for the first brick and +inf for the last. */
@@ -457,12 +540,13 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
             }
             st->samples++;
             float rgba[4];
-            float s = rc_sample(g, c[0], c[1], c[2]);
-            vol_tf_eval(J->tf, s, rgba);
+            float s = rc_sample_split(g, vx0, vx1, ftx, vy0, vy1, fty, vz0, vz1, ftz);
+            rc_tf_eval(J->tf, s, rgba);
             if (!(rgba[3] > 0.0f))
                 continue; /* contributes exactly nothing: shading skipped */
             st->shaded++;
-            float a = vol_tf_alpha_correct(rgba[3], len, J->ref_step);
+            float a = k + 1 < n ? rc_alpha_full_step(rgba[3], J->h, J->ref_step, J->r_h)
+                                : vol_tf_alpha_correct(rgba[3], len, J->ref_step);
             float rgb[3] = {rgba[0], rgba[1], rgba[2]};
             switch (P->shading) {
             case VOL_SHADING_PHONG:
@@ -557,22 +641,11 @@ static obs_status rc_check_light(obs_context *ctx, const vol_light *light, rc_jo
     return OBS_STATUS_OK;
 }
 
-obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
-                                  const vol_light *light, const vol_light_volume *lv, const obs_camera *camera,
-                                  int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
-                                  obs_image_f32 out[4], vol_i_rc_stats *stats)
+/* The grid and TF checks shared by vol_rc_prepare (and so vol_raycast). */
+static obs_status rc_check_grid_tf(obs_context *ctx, const vol_grid *g, const vol_tf *tf)
 {
-    if (stats)
-        memset(stats, 0, sizeof *stats);
-    if (!out)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: out is NULL");
-    for (int c = 0; c < 4; c++)
-        memset(&out[c], 0, sizeof out[c]);
-    if (!g || !g->data || !tf || !tf->points || tf->count < 1 || !camera)
+    if (!g || !g->data || !tf || !tf->points || tf->count < 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid, transfer function or camera missing");
-    obs_status st = vol_i_rc_params_validate(ctx, p);
-    if (st != OBS_STATUS_OK)
-        return st;
     if (g->nx < 1 || g->ny < 1 || g->nz < 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid %dx%dx%d is empty", g->nx, g->ny, g->nz);
     for (int a = 0; a < 3; a++) {
@@ -582,6 +655,95 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
     if (tf->ref_step < 0.0 || !isfinite(tf->ref_step))
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: TF ref_step %g must be >= 0 and finite",
                          tf->ref_step);
+    return OBS_STATUS_OK;
+}
+
+void vol_rc_prepared_free(vol_rc_prepared *prep)
+{
+    if (!prep)
+        return;
+    free(prep->empty);
+    for (int a = 0; a < 3; a++)
+        free(prep->bidx[a]);
+    free(prep);
+}
+
+obs_status vol_rc_prepare(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                          const vol_rc_params *p, vol_rc_prepared **out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_rc_prepare: out is NULL");
+    *out = NULL;
+    obs_status st = rc_check_grid_tf(ctx, g, tf);
+    if (st != OBS_STATUS_OK)
+        return st;
+    st = vol_i_rc_params_validate(ctx, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+    vol_rc_prepared *P = (vol_rc_prepared *)calloc(1, sizeof *P);
+    if (!P)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_rc_prepare: out of memory");
+    P->g = g;
+    P->tf = tf;
+    if (p->brick > 0) {
+        const int B = p->brick, nv[3] = {g->nx, g->ny, g->nz};
+        P->brick = B;
+        for (int a = 0; a < 3; a++)
+            P->nb[a] = (nv[a] + B - 1) / B;
+        size_t nbricks = (size_t)P->nb[0] * P->nb[1] * P->nb[2];
+        P->empty = (uint8_t *)malloc(nbricks);
+        int64_t *row_empty = (int64_t *)calloc((size_t)P->nb[2], sizeof *row_empty);
+        for (int a = 0; a < 3; a++)
+            P->bidx[a] = (int32_t *)malloc((size_t)nv[a] * sizeof(int32_t));
+        if (!P->empty || !row_empty || !P->bidx[0] || !P->bidx[1] || !P->bidx[2]) {
+            free(row_empty);
+            vol_rc_prepared_free(P);
+            return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (brick table)");
+        }
+        for (int a = 0; a < 3; a++)
+            for (int i = 0; i < nv[a]; i++)
+                P->bidx[a][i] = i / B;
+        rc_job J;
+        memset(&J, 0, sizeof J);
+        J.g = g;
+        J.tf = tf;
+        J.brick = B;
+        for (int a = 0; a < 3; a++)
+            J.nb[a] = P->nb[a];
+        J.empty_w = P->empty;
+        J.row_empty = row_empty;
+        obs_pool_run(pool, P->nb[2], rc_brick_row, &J);
+        P->bricks = (int64_t)nbricks;
+        for (int z = 0; z < P->nb[2]; z++)
+            P->bricks_empty += row_empty[z];
+        free(row_empty);
+    }
+    *out = P;
+    return OBS_STATUS_OK;
+}
+
+static obs_status rc_cast(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep, const vol_light *light,
+                          const vol_light_volume *lv, const obs_camera *camera, int width, int height,
+                          const obs_image_f32 *depth_limit, const vol_rc_params *p, obs_image_f32 out[4],
+                          vol_i_rc_stats *stats)
+{
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: out is NULL");
+    for (int c = 0; c < 4; c++)
+        memset(&out[c], 0, sizeof out[c]);
+    if (!prep || !camera)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid, transfer function or camera missing");
+    obs_status st = vol_i_rc_params_validate(ctx, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (p->brick != prep->brick)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "vol_raycast_prepared: params brick %d, but the prepared table has brick %d", p->brick,
+                         prep->brick);
+    const vol_grid *g = prep->g;
+    const vol_tf *tf = prep->tf;
 
     rc_job J;
     memset(&J, 0, sizeof J);
@@ -637,6 +799,7 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
         J.inv_sp[a] = 1.0 / g->spacing[a];
     J.h = p->step > 0.0 ? p->step : VOL_RC_AUTO_STEP_FRACTION * smin;
     J.ref_step = tf->ref_step > 0.0 ? tf->ref_step : smin; /* vol.h: 0 = one voxel of the smallest spacing */
+    J.r_h = J.h / J.ref_step;                              /* vol_tf_alpha_correct's r for a full step */
     {
         double diag = 0.0;
         for (int a = 0; a < 3; a++)
@@ -651,8 +814,15 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
         double range = (double)g->value_max - (double)g->value_min;
         J.surf_scale = range > 0.0 && isfinite(range) ? VOL_RC_SURFACENESS_GAIN * smin / range : 0.0;
     }
+    /* The prepared brick table */
+    J.brick = prep->brick;
+    for (int a = 0; a < 3; a++) {
+        J.nb[a] = prep->nb[a];
+        J.bidx[a] = prep->bidx[a];
+    }
+    J.empty = prep->empty;
 
-    /* Allocations: the output, the per-tile counters, the brick table. */
+    /* Allocations: the output, the per-tile counters. */
     J.tiling = obs_tiling_make(width, height, VOL_RC_TILE);
     int64_t ntiles = obs_tiling_count(&J.tiling);
     J.tile_stats = (vol_i_rc_stats *)calloc((size_t)ntiles, sizeof *J.tile_stats);
@@ -660,30 +830,12 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (tile counters)");
     for (int c = 0; c < 4 && st == OBS_STATUS_OK; c++)
         st = obs_image_f32_alloc(ctx, width, height, &out[c]);
-    if (st == OBS_STATUS_OK && p->brick > 0) {
-        J.brick = p->brick;
-        J.nb[0] = (g->nx + p->brick - 1) / p->brick;
-        J.nb[1] = (g->ny + p->brick - 1) / p->brick;
-        J.nb[2] = (g->nz + p->brick - 1) / p->brick;
-        size_t nbricks = (size_t)J.nb[0] * J.nb[1] * J.nb[2];
-        J.empty_w = (uint8_t *)malloc(nbricks);
-        J.row_empty = (int64_t *)calloc((size_t)J.nb[2], sizeof *J.row_empty);
-        if (!J.empty_w || !J.row_empty) {
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (brick table)");
-        } else {
-            obs_pool_run(pool, J.nb[2], rc_brick_row, &J);
-            J.empty = J.empty_w;
-            if (stats) {
-                stats->bricks = (int64_t)nbricks;
-                for (int z = 0; z < J.nb[2]; z++)
-                    stats->bricks_empty += J.row_empty[z];
-            }
-        }
-    }
     if (st == OBS_STATUS_OK) {
         J.out = out;
         obs_pool_run(pool, ntiles, rc_tile, &J);
         if (stats) {
+            stats->bricks = prep->bricks;
+            stats->bricks_empty = prep->bricks_empty;
             for (int64_t t = 0; t < ntiles; t++) {
                 stats->rays += J.tile_stats[t].rays;
                 stats->samples += J.tile_stats[t].samples;
@@ -697,8 +849,45 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
             obs_image_f32_free(&out[c]);
     }
     free(J.tile_stats);
-    free(J.empty_w);
-    free(J.row_empty);
+    return st;
+}
+
+obs_status vol_i_rc_raycast_prepared_stats(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep,
+                                           const vol_light *light, const vol_light_volume *lv,
+                                           const obs_camera *camera, int width, int height,
+                                           const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                           obs_image_f32 out[4], vol_i_rc_stats *stats)
+{
+    return rc_cast(ctx, pool, prep, light, lv, camera, width, height, depth_limit, p, out, stats);
+}
+
+obs_status vol_raycast_prepared(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep,
+                                const vol_light *light, const vol_light_volume *lv, const obs_camera *camera,
+                                int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                obs_image_f32 out[4])
+{
+    return rc_cast(ctx, pool, prep, light, lv, camera, width, height, depth_limit, p, out, NULL);
+}
+
+obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                  const vol_light *light, const vol_light_volume *lv, const obs_camera *camera,
+                                  int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                  obs_image_f32 out[4], vol_i_rc_stats *stats)
+{
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: out is NULL");
+    for (int c = 0; c < 4; c++)
+        memset(&out[c], 0, sizeof out[c]);
+    if (!camera)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid, transfer function or camera missing");
+    vol_rc_prepared *prep = NULL;
+    obs_status st = vol_rc_prepare(ctx, pool, g, tf, p, &prep);
+    if (st != OBS_STATUS_OK)
+        return st;
+    st = rc_cast(ctx, pool, prep, light, lv, camera, width, height, depth_limit, p, out, stats);
+    vol_rc_prepared_free(prep);
     return st;
 }
 

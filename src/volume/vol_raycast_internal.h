@@ -29,6 +29,16 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
                                   int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
                                   obs_image_f32 out[4], vol_i_rc_stats *stats);
 
+/* vol_raycast_prepared with its counters (stats may be NULL; bricks come from the handle). */
+obs_status vol_i_rc_raycast_prepared_stats(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep,
+                                           const vol_light *light, const vol_light_volume *lv,
+                                           const obs_camera *camera, int width, int height,
+                                           const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                           obs_image_f32 out[4], vol_i_rc_stats *stats);
+
+/* The ray caster's inlined transfer function: bit for bit vol_tf_eval. */
+void vol_i_rc_tf_eval(const vol_tf *tf, double value, float rgba[4]);
+
 /* Validate ray-caster parameters: step >= 0 and finite (0 = the default), early_termination in
  * (0, 1], brick >= 0, ambient in [0, 1], specular_exponent >= 0, all finite, shading known.
  * Returns OK or INVALID_ARGUMENT. */
