@@ -36,6 +36,14 @@
  * resolution- and range-independent: s = 1 from a central difference of 1/4 of the data range per
  * voxel (half the sharpest possible step). Ours, not from a paper. */
 #define VOL_RC_SURFACENESS_GAIN 4.0
+/* Empty-space skipping's safety margin, in steps: a skip stops this far before the brick's exit
+ * (ours: 1e-6 step is ~5e-7 voxel at the default step, 10^6 times the double rounding of the
+ * sample positions). */
+#define VOL_RC_SKIP_MARGIN 1e-6
+/* The half-step opacity correction's rounding guard (rc_alpha_full_step): 2^-40 relative, ~2000
+ * times the two evaluations' combined error bound (~6 ulp of double, 7e-16), far below a float's
+ * half ulp (3e-8), so the fallback to libm is taken about once in 2^16 samples. Ours. */
+#define VOL_RC_ALPHA_TIE 0x1p-40
 /* Image tile side (pool tasks): a fixed decomposition independent of the thread count. */
 #define VOL_RC_TILE 32
 /* Most steps one ray may take (2^24): refuses a step so small against the volume that a call would
@@ -303,8 +311,32 @@ static inline float rc_alpha_full_step(float alpha, double h, double ref_step, d
         return 1.0f;
     if (h == ref_step)
         return alpha;
+    if (r_h == 0.5) {
+        /* The default step (half the smallest spacing) against the default ref_step (one
+         * spacing): 1 - (1 - a)^(1/2) = a / (1 + sqrt(1 - a)) (no cancellation; 1 - a is exact in
+         * double for a float a, sqrt correctly rounded: relative error <= 3 ulp of double). The
+         * libm form -expm1(log1p(-a)/2) is within ~3 ulp of double of the same real number too
+         * (glibc's log1p and expm1 are < 1 ulp; |x e^x / (e^x - 1)| <= 1 for x <= 0 bounds the
+         * propagation). Both therefore round to the same float unless the real value lies within
+         * ~1e-15 (relative) of a midpoint between two floats; we take this quotient when it lies
+         * further than VOL_RC_ALPHA_TIE (relative) from the midpoints around its float, and
+         * otherwise the libm form: the float is the libm form's in every case (tests check it on
+         * 2^24 alphas). */
+        const double a = (double)alpha;
+        const double q = a / (1.0 + sqrt(1.0 - a));
+        const float f = (float)q;
+        const double up = 0.5 * ((double)f + (double)nextafterf(f, 2.0f));
+        const double dn = 0.5 * ((double)f + (double)nextafterf(f, 0.0f));
+        if (up - q > VOL_RC_ALPHA_TIE * q && q - dn > VOL_RC_ALPHA_TIE * q)
+            return f;
+    }
     double a = -expm1(r_h * log1p(-(double)alpha));
     return (float)(a < 0.0 ? 0.0 : a > 1.0 ? 1.0 : a);
+}
+
+float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step)
+{
+    return rc_alpha_full_step(alpha, h, ref_step, h / ref_step);
 }
 
 /* ---- Brick table ------------------------------------------------------------------------------- */
@@ -374,6 +406,37 @@ void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3])
     }
 }
 
+/* vol_i_rc_gradient with the centre's splits given (the march made them): the sample one voxel
+ * along axis a shares the other two axes' splits with the centre (the same coordinates), so only
+ * the six shifted splits are made; the shifted coordinates (c +- 1, in double), the loads, the lerps
+ * and the difference quotient are vol_i_rc_gradient's, so the same bits (a test checks it). */
+typedef struct rc_split3 {
+    int i0[3], i1[3];
+    float t[3];
+} rc_split3;
+
+static inline void rc_gradient_split(const vol_grid *g, const double c[3], const rc_split3 *S, double grad[3])
+{
+    const int nv[3] = {g->nx, g->ny, g->nz};
+    for (int a = 0; a < 3; a++) {
+        rc_split3 P = *S, M = *S;
+        rc_split(c[a] + 1.0, nv[a], &P.i0[a], &P.i1[a], &P.t[a]);
+        rc_split(c[a] - 1.0, nv[a], &M.i0[a], &M.i1[a], &M.t[a]);
+        double sp = rc_sample_split(g, P.i0[0], P.i1[0], P.t[0], P.i0[1], P.i1[1], P.t[1], P.i0[2], P.i1[2], P.t[2]);
+        double sm = rc_sample_split(g, M.i0[0], M.i1[0], M.t[0], M.i0[1], M.i1[1], M.t[1], M.i0[2], M.i1[2], M.t[2]);
+        grad[a] = (sp - sm) / (2.0 * g->spacing[a]); /* as vol_i_rc_gradient: [Levoy88] eq. 4 */
+    }
+}
+
+void vol_i_rc_gradient_fast(const vol_grid *g, const double c[3], double grad[3])
+{
+    rc_split3 S;
+    rc_split(c[0], g->nx, &S.i0[0], &S.i1[0], &S.t[0]);
+    rc_split(c[1], g->ny, &S.i0[1], &S.i1[1], &S.t[1]);
+    rc_split(c[2], g->nz, &S.i0[2], &S.i1[2], &S.t[2]);
+    rc_gradient_split(g, c, &S, grad);
+}
+
 /* Gradient Phong at world point x (voxel coordinates c) with TF colour rgb; V = unit vector towards
  * the eye. Our formula (docs/volume/raycast.md, "Phong"):
  *   g    = central differences of s, one voxel each way, in world units ([Levoy88] eq. 4 with
@@ -384,10 +447,11 @@ void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3])
  *   diff = max(0, n.L);  spec = (n.L > 0) ? max(0, R.V)^e, R = 2 (n.L) n - L   [Phong75];
  *   out  = ka c + (1 - ka) Lc (c ((1 - s) + s diff) + s spec).
  * Where the gradient is weak the sample is lit unshaded (as Voreen's (1 - surf) l term). */
-static void rc_shade_phong(const rc_job *J, const double x[3], const double c[3], const double V[3], float rgb[3])
+static void rc_shade_phong(const rc_job *J, const double x[3], const double c[3], const rc_split3 *S,
+                           const double V[3], float rgb[3])
 {
     double gr[3];
-    vol_i_rc_gradient(J->g, c, gr);
+    rc_gradient_split(J->g, c, S, gr);
     double gm = sqrt(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]);
     double s = 0.0, diff = 0.0, spec = 0.0;
     if (gm > 0.0 && isfinite(gm)) {
@@ -430,6 +494,19 @@ static void rc_shade_phong(const rc_job *J, const double x[3], const double c[3]
 typedef struct rc_ray_stats {
     int64_t rays, samples, skipped, shaded, terminated;
 } rc_ray_stats;
+
+/* The ray parameter at which the ray (o, d) leaves brick index cb along axis a: the brick's upper
+ * face for d > 0, its lower face for d < 0; +inf for the last brick in the direction of travel
+ * (its region is open that way) and for d = 0. */
+static inline double rc_brick_exit(const rc_job *J, const double o[3], const double d[3], int a, int cb)
+{
+    const vol_grid *g = J->g;
+    if (d[a] > 0.0 && cb < J->nb[a] - 1)
+        return (g->origin[a] + (double)((cb + 1) * J->brick) * g->spacing[a] - o[a]) / d[a];
+    if (d[a] < 0.0 && cb > 0)
+        return (g->origin[a] + (double)(cb * J->brick) * g->spacing[a] - o[a]) / d[a];
+    return INFINITY;
+}
 
 /* Composite the ray of pixel (x, y) (full-image pixel centre) into rgba (premultiplied). */
 static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_stats *st)
@@ -509,26 +586,36 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                 const int bi[3] = {J->bidx[0][vx0], J->bidx[1][vy0], J->bidx[2][vz0]};
                 if (J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
                     /* The brick's region in voxel coordinates: [bi B, (bi+1) B) per axis, open
-                     * towards -inf for the first brick and +inf for the last. */
-                    double texit = INFINITY;
-                    for (int a = 0; a < 3; a++) {
-                        if (d[a] > 0.0 && bi[a] < J->nb[a] - 1) {
-                            double wb = g->origin[a] + (double)((bi[a] + 1) * B) * g->spacing[a];
-                            double tb = (wb - o[a]) / d[a];
-                            if (tb < texit)
-                                texit = tb;
-                        } else if (d[a] < 0.0 && bi[a] > 0) {
-                            double wb = g->origin[a] + (double)(bi[a] * B) * g->spacing[a];
-                            double tb = (wb - o[a]) / d[a];
-                            if (tb < texit)
-                                texit = tb;
-                        }
+                     * towards -inf for the first brick and +inf for the last. From it we walk
+                     * brick by brick along the ray (a 3D DDA over the brick grid, as [Amanatides87]
+                     * walks voxels) while the bricks are empty: texit is where the ray leaves the
+                     * last empty brick of the run (before: one brick per skip, each skip costing a
+                     * sample position and a look-up; the image is the same). Each crossing is
+                     * computed from the brick's world boundary, not accumulated. */
+                    int cb[3] = {bi[0], bi[1], bi[2]};
+                    double tn[3];
+                    for (int a = 0; a < 3; a++)
+                        tn[a] = rc_brick_exit(J, o, d, a, cb[a]);
+                    double texit;
+                    for (;;) {
+                        int ax = tn[0] <= tn[1] ? (tn[0] <= tn[2] ? 0 : 2) : (tn[1] <= tn[2] ? 1 : 2);
+                        texit = tn[ax];
+                        if (!(texit < t1))
+                            break;
+                        cb[ax] += d[ax] > 0.0 ? 1 : -1;
+                        if (!J->empty[((size_t)cb[2] * J->nb[1] + cb[1]) * J->nb[0] + cb[0]])
+                            break;
+                        tn[ax] = rc_brick_exit(J, o, d, ax, cb[ax]);
                     }
                     int64_t knew = n;
                     if (texit < t1) {
-                        /* Samples k' < ceil(u - 0.5) - 1, u = (texit - t0)/dt, lie before
-                         * texit - dt: inside this brick's region. */
-                        double u = ceil((texit - t0) / dt - 0.5) - 1.0;
+                        /* Sample k' (at t0 + (k' + 1/2) dt) lies before texit when
+                         * k' < u = (texit - t0)/dt - 1/2; we skip those with
+                         * k' < u - VOL_RC_SKIP_MARGIN (in steps), a margin far above the double
+                         * rounding of t, c and texit (~1e-13 voxel), so every skipped sample's base
+                         * voxel is in one of the walked empty bricks. (Before: a margin of one whole
+                         * step; the image is the same, the counters count the same way.) */
+                        double u = ceil((texit - t0) / dt - 0.5 - VOL_RC_SKIP_MARGIN);
                         knew = u < (double)n ? (int64_t)u : n;
                     }
                     if (knew < k + 1)
@@ -549,9 +636,11 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                                 : vol_tf_alpha_correct(rgba[3], len, J->ref_step);
             float rgb[3] = {rgba[0], rgba[1], rgba[2]};
             switch (P->shading) {
-            case VOL_SHADING_PHONG:
-                rc_shade_phong(J, xw, c, V, rgb);
+            case VOL_SHADING_PHONG: {
+                const rc_split3 S = {{vx0, vy0, vz0}, {vx1, vy1, vz1}, {ftx, fty, ftz}};
+                rc_shade_phong(J, xw, c, &S, V, rgb);
                 break;
+            }
             case VOL_SHADING_LIGHT_VOLUME: {
                 float l, cc[3];
                 vol_light_volume_sample(J->lv, xw, &l, cc);

@@ -55,6 +55,14 @@ float vol_i_rc_sample(const vol_grid *g, double ci, double cj, double ck);
  * central differences one voxel each way along each axis, divided by 2 x that axis' spacing. */
 void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3]);
 
+/* The march's gradient (the centre's splits shared with the six shifted samples): bit for bit
+ * vol_i_rc_gradient. */
+void vol_i_rc_gradient_fast(const vol_grid *g, const double c[3], double grad[3]);
+
+/* The march's opacity correction for a full step h (h, ref_step > 0): bit for bit
+ * vol_tf_alpha_correct(alpha, h, ref_step). */
+float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step);
+
 #ifdef __cplusplus
 }
 #endif
