@@ -325,8 +325,16 @@ static inline float rc_alpha_full_step(float alpha, double h, double ref_step, d
         const double a = (double)alpha;
         const double q = a / (1.0 + sqrt(1.0 - a));
         const float f = (float)q;
-        const double up = 0.5 * ((double)f + (double)nextafterf(f, 2.0f));
-        const double dn = 0.5 * ((double)f + (double)nextafterf(f, 0.0f));
+        /* f's float neighbours from its bits (f >= 0 finite; f = 0 gives a NaN neighbour, so
+         * the comparisons fail and libm decides) */
+        uint32_t fb;
+        memcpy(&fb, &f, sizeof fb);
+        const uint32_t ub = fb + 1u, db = fb - 1u;
+        float fu, fd;
+        memcpy(&fu, &ub, sizeof fu);
+        memcpy(&fd, &db, sizeof fd);
+        const double up = 0.5 * ((double)f + (double)fu);
+        const double dn = 0.5 * ((double)f + (double)fd);
         if (up - q > VOL_RC_ALPHA_TIE * q && q - dn > VOL_RC_ALPHA_TIE * q)
             return f;
     }
