@@ -195,7 +195,7 @@ vtk_run() {
   local work="$build/vtk-peer"; mkdir -p "$work"
   local half="$work/$(basename "${vol%.nrrd}")_half.nrrd"
   if [ ! -f "$half" ] || [ "$vol" -nt "$half" ]; then "$py" "$here/bench/vtk_peer.py" "$vol" --write-half "$half" >&2; fi
-  local out; out="$here/bench/results/vtk-$(date -u +%Y%m%d)$([ "$quick" = 1 ] && echo -quick).txt"
+  local out; out="$here/bench/results/vtk-$(date -u +%Y%m%d)$([ "$quick" = 1 ] && echo -quick || true).txt"
   {
     header
     echo "# obscura volume against VTK $("$py" -c 'import vtk; print(vtk.vtkVersion.GetVTKVersion())') vtkFixedPointVolumeRayCastMapper: $pairs pairs, $t threads, TF $tf, obscura first in each pair; cases: $cases"

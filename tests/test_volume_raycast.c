@@ -1005,6 +1005,21 @@ TEST(volume_raycast_inlined_tf_is_vol_tf_eval_bit_for_bit)
             }
         }
         CHECK(n > 200000);
+        /* The march's shortcut: at or below vol_i_rc_zero_below the alpha is exactly 0. */
+        double z = vol_i_rc_zero_below(&tf);
+        CHECK((tf.points[0].rgba[3] == 0.0f) == (z > -INFINITY));
+        if (z > -INFINITY) {
+            for (int i = 0; i <= 100000; i++) {
+                float f = (float)(z - (z - lo + 10.0) * (i / 100000.0)), a[4];
+                if ((double)f > z)
+                    continue;
+                vol_tf_eval(&tf, f, a);
+                CHECK_MSG(a[3] == 0.0f, "TF %d: alpha %g at %g <= %g", t, a[3], (double)f, z);
+            }
+            float a[4], zf = nextafterf((float)z, INFINITY);
+            vol_tf_eval(&tf, (double)zf, a); /* just above: the first non-zero segment */
+            CHECK(a[3] > 0.0f);
+        }
         if (t < 4)
             vol_tf_free(&tf);
     }

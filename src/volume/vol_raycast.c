@@ -175,6 +175,7 @@ typedef struct rc_job {
     const uint8_t *empty;      /* per brick, x fastest: 1 = the TF's alpha is 0 over its footprint */
     const int32_t *bidx[3];    /* per axis: base voxel -> brick index (voxel / brick) */
     double r_h;                /* h / ref_step: the opacity-correction exponent of a full step */
+    double zero_below;         /* values <= this have TF alpha exactly 0 (-inf: none) */
     /* Brick-table build */
     uint8_t *empty_w;
     vol_i_rc_stats *tile_stats;
@@ -298,6 +299,23 @@ static inline void rc_tf_eval(const vol_tf *tf, double value, float rgba[4])
 void vol_i_rc_tf_eval(const vol_tf *tf, double value, float rgba[4])
 {
     rc_tf_eval(tf, value, rgba);
+}
+
+/* The largest value below which vol_tf_eval's alpha is exactly 0: the last point of the leading
+ * run of points with alpha 0 (at or below p[0] the alpha is p[0]'s; inside a segment whose two
+ * alphas are 0 the lerp 0 (1 - t) + 0 t is 0 for any t in [0, 1)); -inf when p[0]'s alpha is not 0.
+ * NaN compares false, so it still goes through the TF (which returns 0 for it). */
+static double rc_zero_below(const vol_tf *tf)
+{
+    double z = -INFINITY;
+    for (int i = 0; i < tf->count && tf->points[i].rgba[3] == 0.0f; i++)
+        z = tf->points[i].value;
+    return z;
+}
+
+double vol_i_rc_zero_below(const vol_tf *tf)
+{
+    return rc_zero_below(tf);
 }
 
 /* vol_tf_alpha_correct(alpha, h, ref_step) for the full step h, with h / ref_step divided once per
@@ -636,6 +654,8 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
             st->samples++;
             float rgba[4];
             float s = rc_sample_split(g, vx0, vx1, ftx, vy0, vy1, fty, vz0, vz1, ftz);
+            if ((double)s <= J->zero_below)
+                continue; /* alpha exactly 0 (rc_zero_below): the TF need not be evaluated */
             rc_tf_eval(J->tf, s, rgba);
             if (!(rgba[3] > 0.0f))
                 continue; /* contributes exactly nothing: shading skipped */
@@ -897,6 +917,7 @@ static obs_status rc_cast(obs_context *ctx, obs_pool *pool, const vol_rc_prepare
     J.h = p->step > 0.0 ? p->step : VOL_RC_AUTO_STEP_FRACTION * smin;
     J.ref_step = tf->ref_step > 0.0 ? tf->ref_step : smin; /* vol.h: 0 = one voxel of the smallest spacing */
     J.r_h = J.h / J.ref_step;                              /* vol_tf_alpha_correct's r for a full step */
+    J.zero_below = rc_zero_below(tf);
     {
         double diag = 0.0;
         for (int a = 0; a < 3; a++)

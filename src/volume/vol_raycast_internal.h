@@ -63,6 +63,10 @@ void vol_i_rc_gradient_fast(const vol_grid *g, const double c[3], double grad[3]
  * vol_tf_alpha_correct(alpha, h, ref_step). */
 float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step);
 
+/* The value at or below which the TF's alpha is exactly 0 (the march reads no TF there);
+ * -inf when the first point's alpha is not 0. */
+double vol_i_rc_zero_below(const vol_tf *tf);
+
 #ifdef __cplusplus
 }
 #endif
