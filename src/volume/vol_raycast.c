@@ -582,6 +582,13 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
         const int64_t n = (int64_t)ceil((t1 - t0) / dt);
         const double V[3] = {-d[0] / dl, -d[1] / dl, -d[2] / dl};
         const int B = J->brick;
+        /* Loop invariants in locals (the stores to st and the image could otherwise alias them);
+         * the counters are summed locally and added once. */
+        const int nx = g->nx, ny = g->ny, nz = g->nz;
+        int64_t n_samples = 0, n_skipped = 0, n_shaded = 0;
+        /* The base-voxel range of the last brick found non-empty: samples inside it need no
+         * look-up (lo > hi: none yet). */
+        int nel[3] = {1, 1, 1}, neh[3] = {0, 0, 0};
         for (int64_t k = 0; k < n; k++) {
             double tm, len;
             if (k + 1 < n) {
@@ -603,14 +610,20 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
              * lower voxel is the sample's base voxel: its brick). */
             int vx0, vx1, vy0, vy1, vz0, vz1;
             float ftx, fty, ftz;
-            rc_split(c[0], g->nx, &vx0, &vx1, &ftx);
-            rc_split(c[1], g->ny, &vy0, &vy1, &fty);
-            rc_split(c[2], g->nz, &vz0, &vz1, &ftz);
+            rc_split(c[0], nx, &vx0, &vx1, &ftx);
+            rc_split(c[1], ny, &vy0, &vy1, &fty);
+            rc_split(c[2], nz, &vz0, &vz1, &ftz);
             /* Empty-space skipping [Kruger03]: in a brick where the TF's alpha is 0 everywhere,
-             * jump to the last sample that is surely still inside it (one step of margin). */
-            if (B > 0) {
+             * jump past the run of empty bricks the ray crosses from here. */
+            if (B > 0 && !(vx0 >= nel[0] && vx0 <= neh[0] && vy0 >= nel[1] && vy0 <= neh[1] && vz0 >= nel[2] &&
+                           vz0 <= neh[2])) {
                 const int bi[3] = {J->bidx[0][vx0], J->bidx[1][vy0], J->bidx[2][vz0]};
-                if (J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
+                if (!J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
+                    for (int a = 0; a < 3; a++) {
+                        nel[a] = bi[a] * B;
+                        neh[a] = bi[a] * B + B - 1;
+                    }
+                } else {
                     /* The brick's region in voxel coordinates: [bi B, (bi+1) B) per axis, open
                      * towards -inf for the first brick and +inf for the last. From it we walk
                      * brick by brick along the ray (a 3D DDA over the brick grid, as [Amanatides87]
@@ -646,12 +659,12 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                     }
                     if (knew < k + 1)
                         knew = k + 1;
-                    st->skipped += knew - k;
+                    n_skipped += knew - k;
                     k = knew - 1;
                     continue;
                 }
             }
-            st->samples++;
+            n_samples++;
             float rgba[4];
             float s = rc_sample_split(g, vx0, vx1, ftx, vy0, vy1, fty, vz0, vz1, ftz);
             if ((double)s <= J->zero_below)
@@ -659,7 +672,7 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
             rc_tf_eval(J->tf, s, rgba);
             if (!(rgba[3] > 0.0f))
                 continue; /* contributes exactly nothing: shading skipped */
-            st->shaded++;
+            n_shaded++;
             float a = k + 1 < n ? rc_alpha_full_step(rgba[3], J->h, J->ref_step, J->r_h)
                                 : vol_tf_alpha_correct(rgba[3], len, J->ref_step);
             float rgb[3] = {rgba[0], rgba[1], rgba[2]};
@@ -690,6 +703,9 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                 break;
             }
         }
+        st->samples += n_samples;
+        st->skipped += n_skipped;
+        st->shaded += n_shaded;
     }
     /* The background behind what the ray saw (premultiplied). */
     for (int q = 0; q < 3; q++)
