@@ -35,7 +35,7 @@
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
 # repetitions of each run's median, which this script prints at the end.
 # Usage: bench/run.sh [side|gbuffer|ao|sss|sweep|vtk|all] [--quick]
-#   (vtk: PAIRS=5 THREADS=2 VTK_CASES="ea:1920x1080:full ..." VTK_REPS=1 VTK_INSTALL=1 override)
+#   (vtk: PAIRS=5 THREADS=2 VTK_CASES="ea:1920x1080:full ..." VTK_REPS=1 OBS_REPS=1 VTK_INSTALL=1 override)
 #   (side: PAIRS=5 THREADS=2 SIZE=1920x1080 FRAMES=20 WARMUP=5 PASSES="gbuffer sao sao_blur";
 #    gbuffer/ao: REPS=... THREADS="1 2" SIZES="1920x1080 1280x720" METHODS="sao gtao" override)
 set -euo pipefail
@@ -166,13 +166,15 @@ parse() {
 # vtk: obscura's volume ray caster against VTK 9.1's CPU ray caster, alternating
 # ================================================================================================
 # Each case is MODE:WxH:VOLUME (VOLUME full = the head CT, half = it down-sampled by 2 per axis by
-# vtk_peer.py --write-half into the build tree). Per pair: `obscura volume` once (one frame; its
-# sidecar's seconds_raycast excludes loading), then the peer once (one timed Render() after one
+# vtk_peer.py --write-half into the build tree). Per pair: `obscura volume --reps OBS_REPS` once
+# (default 1: its first ray cast, then one warm-up and OBS_REPS warm casts with the brick table
+# prepared once; obscura_ms is the warm median, seconds_raycast_warm, like the peer's warm Render();
+# obscura_cold_ms is the first cast, brick table included; loading excluded from both), then the peer once (one timed Render() after one
 # warm-up, loading excluded), with the camera and light read from obscura's sidecar. The images of
 # the last pair are compared with `obscura compare` (linear RGB over black: obscura's EXR against
 # the peer's PFM read back from VTK's 8-bit frame buffer).
 vtk_run() {
-  local pairs="${PAIRS:-5}" t="${THREADS:-2}" vreps="${VTK_REPS:-1}" tf="${VTK_TF:-ct-skin}"
+  local pairs="${PAIRS:-5}" t="${THREADS:-2}" vreps="${VTK_REPS:-1}" tf="${VTK_TF:-ct-skin}" oreps="${OBS_REPS:-1}"
   local cases="${VTK_CASES:-ea:1920x1080:full ea:960x540:full ea:3840x2160:full ea:1920x1080:half phong:1920x1080:full}"
   if [ "$quick" = 1 ]; then pairs=1; cases="ea:640x360:full"; fi
   case "$t" in *" "*) echo "vtk: THREADS must be one number (got '$t')" >&2; exit 2 ;; esac
@@ -193,7 +195,7 @@ vtk_run() {
   local work="$build/vtk-peer"; mkdir -p "$work"
   local half="$work/$(basename "${vol%.nrrd}")_half.nrrd"
   if [ ! -f "$half" ] || [ "$vol" -nt "$half" ]; then "$py" "$here/bench/vtk_peer.py" "$vol" --write-half "$half" >&2; fi
-  local out; out="$here/bench/results/vtk-$(date -u +%Y%m%d)$([ "$quick" = 1 ] && echo -quick).txt"
+  local out; out="$here/bench/results/vtk-$(date -u +%Y%m%d)$([ "$quick" = 1 ] && echo -quick || true).txt"
   {
     header
     echo "# obscura volume against VTK $("$py" -c 'import vtk; print(vtk.vtkVersion.GetVTKVersion())') vtkFixedPointVolumeRayCastMapper: $pairs pairs, $t threads, TF $tf, obscura first in each pair; cases: $cases"
@@ -202,14 +204,15 @@ vtk_run() {
       local v="$vol"; [ "$which" = half ] && v="$half"
       local tag="${mode}_${size}_$which"
       for p in $(seq 1 "$pairs"); do
-        "$build/obscura" --quiet --threads "$t" volume "$v" --tf "$tf" --mode "$mode" --size "$size" -o "$work/obs_$tag" >/dev/null 2>&1 ||
+        "$build/obscura" --quiet --threads "$t" volume "$v" --tf "$tf" --mode "$mode" --size "$size" --reps "$oreps" -o "$work/obs_$tag" >/dev/null 2>&1 ||
           { echo "# $tag: obscura volume failed"; continue 2; }
-        local o; o=$(awk -F'[:,]' '/"seconds_raycast"/ { gsub(/ /, "", $2); printf "%.1f", $2 * 1000 }' "$work/obs_$tag.json")
+        local o; o=$(awk -F'[:,]' '/"seconds_raycast_warm"/ { gsub(/ /, "", $2); printf "%.1f", $2 * 1000 }' "$work/obs_$tag.json")
+        local oc; oc=$(awk -F'[:,]' '/"seconds_raycast"/ { gsub(/ /, "", $2); printf "%.1f", $2 * 1000 }' "$work/obs_$tag.json")
         local r; r=$(xvfb-run -a "$py" "$here/bench/vtk_peer.py" "$v" --tf "$tf" --mode "$mode" --size "$size" --threads "$t" \
                      --camera-from "$work/obs_$tag.json" --warmup 1 --reps "$vreps" --out "$work/vtk_$tag" 2>/dev/null | grep '^RESULT' || true)
         local g; g=$(printf '%s\n' "$r" | parse field median_ms)
         [ "$p" = 1 ] && [ -n "$r" ] && echo "# peer: ${r#RESULT }"
-        echo "PAIR case=$tag pair=$p vtk_ms=${g:-nan} obscura_ms=${o:-nan} load1=$(cut -d' ' -f1 /proc/loadavg)"
+        echo "PAIR case=$tag pair=$p vtk_ms=${g:-nan} obscura_ms=${o:-nan} obscura_cold_ms=${oc:-nan} load1=$(cut -d' ' -f1 /proc/loadavg)"
       done
       echo "# compare $tag: reference obscura ($work/obs_$tag.exr), test VTK ($work/vtk_$tag.pfm), R G B over black"
       "$build/obscura" compare "$work/obs_$tag.exr" "$work/vtk_$tag.pfm" --channel R --channel G --channel B \

@@ -946,3 +946,249 @@ TEST(volume_raycast_light_volume_sphere_lit_side_brighter)
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
+
+/* ---- the fast path's pieces, against the library's own functions ------------------------------- */
+
+/* The ray caster's inlined TF (a forward segment scan for short lists, the binary search for long
+ * ones) gives vol_tf_eval's bits: the presets and a 40-point TF, at the control points, next to
+ * them (one ulp either side), beyond the ends, NaN and a dense sweep. */
+TEST(volume_raycast_inlined_tf_is_vol_tf_eval_bit_for_bit)
+{
+    obs_context *ctx = obs_context_create();
+    const char *names[] = {"ct-skin", "ct-bone", "mri", "bucky"};
+    vol_tf_point many[40];
+    for (int i = 0; i < 40; i++) {
+        many[i].value = -3.0 + 0.37 * i + 0.01 * (i % 3);
+        for (int c = 0; c < 4; c++)
+            many[i].rgba[c] = (float)((i * (c + 3)) % 11) / 10.0f;
+    }
+    for (int t = 0; t < 5; t++) {
+        vol_tf tf;
+        if (t < 4) {
+            CHECK_OK(vol_tf_preset(ctx, names[t], &tf), ctx);
+        } else {
+            tf = mk_tf(many, 40, 1.0);
+        }
+        double lo = tf.points[0].value, hi = tf.points[tf.count - 1].value;
+        int bad = 0;
+        long n = 0;
+        for (int i = -1; i <= 200001 && !bad; i++) {
+            double v[4];
+            int nv = 1;
+            if (i == -1) {
+                v[0] = NAN;
+            } else if (i == 200001) {
+                v[0] = lo - 1e9;
+                v[1] = hi + 1e9;
+                nv = 2;
+            } else {
+                v[0] = (double)(float)(lo - 0.1 * (hi - lo) + 1.2 * (hi - lo) * i / 200000.0);
+            }
+            if (i >= 0 && i < tf.count) { /* the control points and their float neighbours */
+                float f = (float)tf.points[i].value;
+                v[0] = tf.points[i].value;
+                v[1] = nextafterf(f, -INFINITY);
+                v[2] = nextafterf(f, INFINITY);
+                v[3] = f;
+                nv = 4;
+            }
+            for (int k = 0; k < nv; k++, n++) {
+                float a[4], b[4];
+                vol_tf_eval(&tf, v[k], a);
+                vol_i_rc_tf_eval(&tf, v[k], b);
+                if (memcmp(a, b, sizeof a) != 0) {
+                    CHECK_MSG(0, "TF %d: value %.17g: vol_tf_eval (%g %g %g %g) != inlined (%g %g %g %g)", t, v[k],
+                              a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]);
+                    bad = 1;
+                    break;
+                }
+            }
+        }
+        CHECK(n > 200000);
+        /* The march's shortcut: at or below vol_i_rc_zero_below the alpha is exactly 0. */
+        double z = vol_i_rc_zero_below(&tf);
+        CHECK((tf.points[0].rgba[3] == 0.0f) == (z > -INFINITY));
+        if (z > -INFINITY) {
+            for (int i = 0; i <= 100000; i++) {
+                float f = (float)(z - (z - lo + 10.0) * (i / 100000.0)), a[4];
+                if ((double)f > z)
+                    continue;
+                vol_tf_eval(&tf, f, a);
+                CHECK_MSG(a[3] == 0.0f, "TF %d: alpha %g at %g <= %g", t, a[3], (double)f, z);
+            }
+            float a[4], zf = nextafterf((float)z, INFINITY);
+            vol_tf_eval(&tf, (double)zf, a); /* just above: the first non-zero segment */
+            CHECK(a[3] > 0.0f);
+        }
+        if (t < 4)
+            vol_tf_free(&tf);
+    }
+    obs_context_destroy(ctx);
+}
+
+/* A prepared handle (the brick table made once) gives vol_raycast's bits for every shading, for two
+ * cameras and a depth limit, reused across calls; its counters are vol_raycast's; a brick size
+ * other than the prepared one is refused; bad arguments are refused. */
+TEST(volume_raycast_prepared_handle_matches_vol_raycast_bit_for_bit)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    const double sp[3] = {1, 1, 1.2};
+    int n = 32;
+    CHECK_OK(mk_grid(ctx, 32, 32, 32, sp, fill_blobs, &n, &g), ctx);
+    vol_tf_point bp[4] = {{30.0, {0, 0, 0, 0}},
+                          {120.0, {1, 0.3f, 0.1f, 0.3f}},
+                          {200.0, {0.5f, 0.6f, 0.2f, 0.5f}},
+                          {255.0, {0.9f, 0.9f, 1, 0.8f}}};
+    vol_tf tf = mk_tf(bp, 4, 0.0);
+    vol_light light = {OBS_LIGHT_DIRECTIONAL, {-0.3, -0.8, -0.5}, {0, 0, 0}, {1, 0.9f, 0.8f}};
+    vol_lv_params lp = vol_lv_params_default();
+    vol_light_volume lv;
+    CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &light, &lp, &lv), ctx);
+    obs_camera cams[2] = {
+        obs_camera_look_at(obs_v3(-20, 45, 50), obs_v3(15.5, 15.5, 18), obs_v3(0, 1, 0), 0.8f, 0.1f, 300.0f),
+        ortho_down(15.5, 15.5, 100, 20, 15)};
+    obs_image_f32 depth;
+    CHECK_OK(obs_image_f32_alloc(ctx, 64, 48, &depth), ctx);
+    for (int y = 0; y < 48; y++)
+        for (int x = 0; x < 64; x++)
+            obs_image_f32_row(&depth, y)[x] = x < 32 ? INFINITY : 70.0f + 0.2f * y;
+    obs_pool *pool = obs_pool_create(2);
+    vol_rc_params p = vol_rc_params_default();
+    vol_rc_prepared *prep = NULL;
+    CHECK_OK(vol_rc_prepare(ctx, pool, &g, &tf, &p, &prep), ctx);
+    CHECK(prep != NULL);
+    for (int rep = 0; rep < 2; rep++) {
+        for (int c = 0; c < 2; c++) {
+            for (int mode = 0; mode < VOL_SHADING_COUNT; mode++) {
+                p.shading = (vol_shading)mode;
+                p.step = rep ? 0.7 : 0.0; /* the step may change per call */
+                const obs_image_f32 *dl = c ? NULL : &depth;
+                obs_image_f32 ref[4], out[4];
+                vol_i_rc_stats sr, sp2;
+                CHECK_OK(vol_i_rc_raycast_stats(ctx, pool, &g, &tf, &light, &lv, &cams[c], 64, 48, dl, &p, ref, &sr),
+                         ctx);
+                CHECK_OK(vol_i_rc_raycast_prepared_stats(ctx, pool, prep, &light, &lv, &cams[c], 64, 48, dl, &p, out,
+                                                         &sp2),
+                         ctx);
+                CHECK_MSG(same4(ref, out), "%s camera %d rep %d: prepared differs", vol_shading_name(p.shading), c,
+                          rep);
+                CHECK(memcmp(&sr, &sp2, sizeof sr) == 0);
+                CHECK(sr.samples > 0 && sr.bricks > 0);
+                free4(out);
+                CHECK_OK(vol_raycast_prepared(ctx, pool, prep, &light, &lv, &cams[c], 64, 48, dl, &p, out), ctx);
+                CHECK(same4(ref, out));
+                free4(out);
+                free4(ref);
+            }
+        }
+    }
+    /* refusals */
+    obs_image_f32 out[4];
+    p = vol_rc_params_default();
+    p.shading = VOL_SHADING_EMISSION_ABSORPTION;
+    p.brick = 4;
+    CHECK(vol_raycast_prepared(ctx, pool, prep, &light, &lv, &cams[0], 64, 48, NULL, &p, out) ==
+          OBS_STATUS_INVALID_ARGUMENT);
+    CHECK(out[0].data == NULL);
+    p.brick = 8;
+    CHECK(vol_raycast_prepared(ctx, pool, NULL, &light, &lv, &cams[0], 64, 48, NULL, &p, out) ==
+          OBS_STATUS_INVALID_ARGUMENT);
+    CHECK(vol_raycast_prepared(ctx, pool, prep, &light, &lv, NULL, 64, 48, NULL, &p, out) ==
+          OBS_STATUS_INVALID_ARGUMENT);
+    vol_rc_prepared *bad = (vol_rc_prepared *)&p;
+    CHECK(vol_rc_prepare(ctx, pool, NULL, &tf, &p, &bad) == OBS_STATUS_INVALID_ARGUMENT);
+    CHECK(bad == NULL);
+    CHECK(vol_rc_prepare(ctx, pool, &g, &tf, &p, NULL) == OBS_STATUS_INVALID_ARGUMENT);
+    p.brick = -1;
+    CHECK(vol_rc_prepare(ctx, pool, &g, &tf, &p, &bad) == OBS_STATUS_INVALID_ARGUMENT);
+    /* brick 0: no table; still the same bits */
+    p.brick = 0;
+    vol_rc_prepared *p0 = NULL;
+    CHECK_OK(vol_rc_prepare(ctx, pool, &g, &tf, &p, &p0), ctx);
+    obs_image_f32 ref[4];
+    CHECK_OK(vol_raycast(ctx, pool, &g, &tf, &light, &lv, &cams[0], 64, 48, NULL, &p, ref), ctx);
+    CHECK_OK(vol_raycast_prepared(ctx, pool, p0, &light, &lv, &cams[0], 64, 48, NULL, &p, out), ctx);
+    CHECK(same4(ref, out));
+    free4(ref);
+    free4(out);
+    vol_rc_prepared_free(p0);
+    vol_rc_prepared_free(prep);
+    vol_rc_prepared_free(NULL);
+    obs_pool_destroy(pool);
+    obs_image_f32_free(&depth);
+    vol_light_volume_free(&lv);
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
+/* The march's gradient (the centre's splits shared with the shifted samples) is vol_i_rc_gradient
+ * bit for bit, inside, at the edges (clamping) and beyond them. */
+TEST(volume_raycast_fast_gradient_is_the_reference_gradient_bit_for_bit)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    const double sp[3] = {0.7, 1.0, 1.3};
+    CHECK_OK(vol_grid_alloc(ctx, 7, 5, 6, sp, &g), ctx);
+    uint32_t r = 777u;
+    for (int i = 0; i < 7 * 5 * 6; i++) {
+        r = r * 1664525u + 1013904223u;
+        g.data[i] = (float)((r >> 8) * (1.0 / 16777216.0) * 2000.0 - 1000.0);
+    }
+    const double special[] = {-3.0, -1.0, -0.5, 0.0, 0.25, 1.0, 1.5, 3.5, 4.0, 4.999999, 5.0, 5.5, 6.0, 7.0, 100.0};
+    const int ns = (int)(sizeof special / sizeof special[0]);
+    for (int i = 0; i < ns * ns * ns + 200000; i++) {
+        double q[3];
+        if (i < ns * ns * ns) {
+            q[0] = special[i % ns];
+            q[1] = special[(i / ns) % ns];
+            q[2] = special[i / (ns * ns)];
+        } else {
+            for (int a = 0; a < 3; a++) {
+                r = r * 1664525u + 1013904223u;
+                q[a] = (r >> 8) * (1.0 / 16777216.0) * 10.0 - 2.0;
+            }
+        }
+        double u[3], v[3];
+        vol_i_rc_gradient(&g, q, u);
+        vol_i_rc_gradient_fast(&g, q, v);
+        if (memcmp(u, v, sizeof u) != 0) {
+            CHECK_MSG(0, "at (%.17g, %.17g, %.17g): (%g %g %g) vs (%g %g %g)", q[0], q[1], q[2], u[0], u[1], u[2],
+                      v[0], v[1], v[2]);
+            break;
+        }
+    }
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}
+
+/* The march's full-step opacity correction is vol_tf_alpha_correct bit for bit: the half step (its
+ * own quotient with the rounding guard) on 2^24 alphas spread over every binade of (0, 1) plus the
+ * edges, and other step ratios (the libm form). */
+TEST(volume_raycast_full_step_alpha_correction_is_vol_tf_alpha_correct_bit_for_bit)
+{
+    const double steps[][2] = {{0.5, 1.0}, {0.478515595, 0.95703119}, {0.25, 1.0}, {1.0, 1.0}, {0.7, 0.3}};
+    uint32_t r = 4242u;
+    for (int s = 0; s < 5; s++) {
+        const double h = steps[s][0], ref = steps[s][1];
+        const long count = s < 2 ? (1L << 24) : (1L << 18);
+        long bad = 0;
+        for (long i = 0; i < count + 8 && !bad; i++) {
+            float a;
+            if (i < 8) {
+                const float edge[8] = {0.0f, -0.0f, 1.0f, 0x1p-149f, 0x1p-126f, 1.0f - 0x1p-24f, 0.5f, NAN};
+                a = edge[i];
+            } else {
+                /* uniform in the bits of (0, 1): every binade gets its share */
+                r = r * 1664525u + 1013904223u;
+                uint32_t bits = r % 0x3f800000u;
+                memcpy(&a, &bits, sizeof a);
+            }
+            float x = vol_tf_alpha_correct(a, h, ref), y = vol_i_rc_alpha_full_step(a, h, ref);
+            if (memcmp(&x, &y, sizeof x) != 0) {
+                CHECK_MSG(0, "h %g ref %g alpha %.9g: %.9g vs %.9g", h, ref, (double)a, (double)x, (double)y);
+                bad = 1;
+            }
+        }
+    }
+}

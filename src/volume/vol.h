@@ -299,6 +299,22 @@ obs_status vol_raycast(obs_context *ctx, obs_pool *pool, const vol_grid *g, cons
                        const vol_light *light, const vol_light_volume *lv, const obs_camera *camera, int width,
                        int height, const obs_image_f32 *depth_limit, const vol_rc_params *p, obs_image_f32 out[4]);
 
+/* The part of a ray cast that depends only on the grid, the TF and p->brick (the empty-space brick
+ * table [Kruger03]), made once and kept across calls: vol_raycast is vol_rc_prepare +
+ * vol_raycast_prepared + vol_rc_prepared_free, with the same output bits. The handle keeps
+ * pointers to g and tf: they must outlive it and not change (a changed TF or data needs a new
+ * handle). vol_raycast_prepared refuses (INVALID_ARGUMENT) params whose brick differs from the
+ * prepared one; the other params (shading, step, early termination, ...) may change per call.
+ * vol_rc_prepare returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY; vol_rc_prepared_free is NULL-safe. */
+typedef struct vol_rc_prepared vol_rc_prepared;
+obs_status vol_rc_prepare(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                          const vol_rc_params *p, vol_rc_prepared **out);
+obs_status vol_raycast_prepared(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep,
+                                const vol_light *light, const vol_light_volume *lv, const obs_camera *camera,
+                                int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                obs_image_f32 out[4]);
+void vol_rc_prepared_free(vol_rc_prepared *prep);
+
 #ifdef __cplusplus
 }
 #endif

@@ -36,6 +36,14 @@
  * resolution- and range-independent: s = 1 from a central difference of 1/4 of the data range per
  * voxel (half the sharpest possible step). Ours, not from a paper. */
 #define VOL_RC_SURFACENESS_GAIN 4.0
+/* Empty-space skipping's safety margin, in steps: a skip stops this far before the brick's exit
+ * (ours: 1e-6 step is ~5e-7 voxel at the default step, 10^6 times the double rounding of the
+ * sample positions). */
+#define VOL_RC_SKIP_MARGIN 1e-6
+/* The half-step opacity correction's rounding guard (rc_alpha_full_step): 2^-40 relative, ~2000
+ * times the two evaluations' combined error bound (~6 ulp of double, 7e-16), far below a float's
+ * half ulp (3e-8), so the fallback to libm is taken about once in 2^16 samples. Ours. */
+#define VOL_RC_ALPHA_TIE 0x1p-40
 /* Image tile side (pool tasks): a fixed decomposition independent of the thread count. */
 #define VOL_RC_TILE 32
 /* Most steps one ray may take (2^24): refuses a step so small against the volume that a call would
@@ -165,23 +173,25 @@ typedef struct rc_job {
     /* Bricks (brick == 0: none) */
     int brick, nb[3];
     const uint8_t *empty;      /* per brick, x fastest: 1 = the TF's alpha is 0 over its footprint */
+    const int32_t *bidx[3];    /* per axis: base voxel -> brick index (voxel / brick) */
+    double r_h;                /* h / ref_step: the opacity-correction exponent of a full step */
+    double zero_below;         /* values <= this have TF alpha exactly 0 (-inf: none) */
     /* Brick-table build */
     uint8_t *empty_w;
     vol_i_rc_stats *tile_stats;
     int64_t *row_empty;        /* per brick row (z), bricks found empty */
 } rc_job;
 
-/* The voxel a trilinear sample at continuous coordinate c uses as its base (vol_grid_sample's
- * clamping: c <= 0 (or NaN) -> 0, c >= n - 1 -> n - 1, else floor(c)); its footprint is
- * [base, base + 1] clipped to the grid. */
-static inline int rc_base_voxel(double c, int n)
-{
-    if (!(c > 0.0))
-        return 0;
-    if (c >= (double)(n - 1))
-        return n - 1;
-    return (int)c; /* c > 0: truncation is floor */
-}
+/* The prepared state (vol.h, vol_rc_prepare): what depends only on the grid, the TF and the
+ * brick size. */
+struct vol_rc_prepared {
+    const vol_grid *g;
+    const vol_tf *tf;
+    int brick, nb[3];
+    uint8_t *empty;            /* NULL when brick == 0 */
+    int32_t *bidx[3];
+    int64_t bricks, bricks_empty;
+};
 
 /* ---- Trilinear sampling ------------------------------------------------------------------------ */
 
@@ -227,6 +237,132 @@ static inline float rc_sample(const vol_grid *g, double ci, double cj, double ck
 float vol_i_rc_sample(const vol_grid *g, double ci, double cj, double ck)
 {
     return rc_sample(g, ci, cj, ck);
+}
+
+/* rc_sample with the splits already made (the march makes them once for the brick look-up and the
+ * sample): the same loads and lerps in the same order, so the same bits. */
+static inline float rc_sample_split(const vol_grid *g, int x0, int x1, float tx, int y0, int y1, float ty, int z0,
+                                    int z1, float tz)
+{
+    const size_t sy = (size_t)g->nx, sz = (size_t)g->nx * (size_t)g->ny;
+    const float *r00 = g->data + (size_t)y0 * sy + (size_t)z0 * sz, *r10 = g->data + (size_t)y1 * sy + (size_t)z0 * sz;
+    const float *r01 = g->data + (size_t)y0 * sy + (size_t)z1 * sz, *r11 = g->data + (size_t)y1 * sy + (size_t)z1 * sz;
+    float ux = 1.0f - tx, uy = 1.0f - ty, uz = 1.0f - tz;
+    float c00 = r00[x0] * ux + r00[x1] * tx, c10 = r10[x0] * ux + r10[x1] * tx;
+    float c01 = r01[x0] * ux + r01[x1] * tx, c11 = r11[x0] * ux + r11[x1] * tx;
+    float c0 = c00 * uy + c10 * ty, c1 = c01 * uy + c11 * ty;
+    return c0 * uz + c1 * tz;
+}
+
+/* ---- The transfer function, inlined ------------------------------------------------------------ */
+
+/* vol_tf_eval's arithmetic, inlined (bit for bit: tests/test_volume_raycast.c checks it): the same
+ * NaN and end cases, the same segment (p[lo].value <= value < p[lo + 1].value, unique for strictly
+ * increasing values, found by a forward scan for short lists instead of the binary search), the
+ * same double division and lerps. What is saved is the call and the search's branches. */
+static inline void rc_tf_eval(const vol_tf *tf, double value, float rgba[4])
+{
+    const vol_tf_point *p = tf->points;
+    const int n = tf->count;
+    if (isnan(value)) {
+        rgba[0] = rgba[1] = rgba[2] = rgba[3] = 0.0f;
+        return;
+    }
+    if (value <= p[0].value) {
+        memcpy(rgba, p[0].rgba, 4 * sizeof(float));
+        return;
+    }
+    if (value >= p[n - 1].value) {
+        memcpy(rgba, p[n - 1].rgba, 4 * sizeof(float));
+        return;
+    }
+    int lo = 0;
+    if (n <= 16) {
+        while (p[lo + 1].value <= value)
+            lo++;
+    } else {
+        int hi = n - 1;
+        while (hi - lo > 1) {
+            int mid = (lo + hi) / 2;
+            if (p[mid].value <= value)
+                lo = mid;
+            else
+                hi = mid;
+        }
+    }
+    const int hi = lo + 1;
+    double t = (value - p[lo].value) / (p[hi].value - p[lo].value);
+    for (int c = 0; c < 4; c++)
+        rgba[c] = (float)((double)p[lo].rgba[c] * (1.0 - t) + (double)p[hi].rgba[c] * t);
+}
+
+void vol_i_rc_tf_eval(const vol_tf *tf, double value, float rgba[4])
+{
+    rc_tf_eval(tf, value, rgba);
+}
+
+/* The largest value below which vol_tf_eval's alpha is exactly 0: the last point of the leading
+ * run of points with alpha 0 (at or below p[0] the alpha is p[0]'s; inside a segment whose two
+ * alphas are 0 the lerp 0 (1 - t) + 0 t is 0 for any t in [0, 1)); -inf when p[0]'s alpha is not 0.
+ * NaN compares false, so it still goes through the TF (which returns 0 for it). */
+static double rc_zero_below(const vol_tf *tf)
+{
+    double z = -INFINITY;
+    for (int i = 0; i < tf->count && tf->points[i].rgba[3] == 0.0f; i++)
+        z = tf->points[i].value;
+    return z;
+}
+
+double vol_i_rc_zero_below(const vol_tf *tf)
+{
+    return rc_zero_below(tf);
+}
+
+/* vol_tf_alpha_correct(alpha, h, ref_step) for the full step h, with h / ref_step divided once per
+ * call (r_h) instead of per sample; the same branches and the same double expression, so the same
+ * bits (h > 0 and ref_step > 0, finite, are resolved before the march). */
+static inline float rc_alpha_full_step(float alpha, double h, double ref_step, double r_h)
+{
+    if (!(alpha > 0.0f))
+        return 0.0f;
+    if (alpha >= 1.0f)
+        return 1.0f;
+    if (h == ref_step)
+        return alpha;
+    if (r_h == 0.5) {
+        /* The default step (half the smallest spacing) against the default ref_step (one
+         * spacing): 1 - (1 - a)^(1/2) = a / (1 + sqrt(1 - a)) (no cancellation; 1 - a is exact in
+         * double for a float a, sqrt correctly rounded: relative error <= 3 ulp of double). The
+         * libm form -expm1(log1p(-a)/2) is within ~3 ulp of double of the same real number too
+         * (glibc's log1p and expm1 are < 1 ulp; |x e^x / (e^x - 1)| <= 1 for x <= 0 bounds the
+         * propagation). Both therefore round to the same float unless the real value lies within
+         * ~1e-15 (relative) of a midpoint between two floats; we take this quotient when it lies
+         * further than VOL_RC_ALPHA_TIE (relative) from the midpoints around its float, and
+         * otherwise the libm form: the float is the libm form's in every case (tests check it on
+         * 2^24 alphas). */
+        const double a = (double)alpha;
+        const double q = a / (1.0 + sqrt(1.0 - a));
+        const float f = (float)q;
+        /* f's float neighbours from its bits (f >= 0 finite; f = 0 gives a NaN neighbour, so
+         * the comparisons fail and libm decides) */
+        uint32_t fb;
+        memcpy(&fb, &f, sizeof fb);
+        const uint32_t ub = fb + 1u, db = fb - 1u;
+        float fu, fd;
+        memcpy(&fu, &ub, sizeof fu);
+        memcpy(&fd, &db, sizeof fd);
+        const double up = 0.5 * ((double)f + (double)fu);
+        const double dn = 0.5 * ((double)f + (double)fd);
+        if (up - q > VOL_RC_ALPHA_TIE * q && q - dn > VOL_RC_ALPHA_TIE * q)
+            return f;
+    }
+    double a = -expm1(r_h * log1p(-(double)alpha));
+    return (float)(a < 0.0 ? 0.0 : a > 1.0 ? 1.0 : a);
+}
+
+float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step)
+{
+    return rc_alpha_full_step(alpha, h, ref_step, h / ref_step);
 }
 
 /* ---- Brick table ------------------------------------------------------------------------------- */
@@ -296,6 +432,37 @@ void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3])
     }
 }
 
+/* vol_i_rc_gradient with the centre's splits given (the march made them): the sample one voxel
+ * along axis a shares the other two axes' splits with the centre (the same coordinates), so only
+ * the six shifted splits are made; the shifted coordinates (c +- 1, in double), the loads, the lerps
+ * and the difference quotient are vol_i_rc_gradient's, so the same bits (a test checks it). */
+typedef struct rc_split3 {
+    int i0[3], i1[3];
+    float t[3];
+} rc_split3;
+
+static inline void rc_gradient_split(const vol_grid *g, const double c[3], const rc_split3 *S, double grad[3])
+{
+    const int nv[3] = {g->nx, g->ny, g->nz};
+    for (int a = 0; a < 3; a++) {
+        rc_split3 P = *S, M = *S;
+        rc_split(c[a] + 1.0, nv[a], &P.i0[a], &P.i1[a], &P.t[a]);
+        rc_split(c[a] - 1.0, nv[a], &M.i0[a], &M.i1[a], &M.t[a]);
+        double sp = rc_sample_split(g, P.i0[0], P.i1[0], P.t[0], P.i0[1], P.i1[1], P.t[1], P.i0[2], P.i1[2], P.t[2]);
+        double sm = rc_sample_split(g, M.i0[0], M.i1[0], M.t[0], M.i0[1], M.i1[1], M.t[1], M.i0[2], M.i1[2], M.t[2]);
+        grad[a] = (sp - sm) / (2.0 * g->spacing[a]); /* as vol_i_rc_gradient: [Levoy88] eq. 4 */
+    }
+}
+
+void vol_i_rc_gradient_fast(const vol_grid *g, const double c[3], double grad[3])
+{
+    rc_split3 S;
+    rc_split(c[0], g->nx, &S.i0[0], &S.i1[0], &S.t[0]);
+    rc_split(c[1], g->ny, &S.i0[1], &S.i1[1], &S.t[1]);
+    rc_split(c[2], g->nz, &S.i0[2], &S.i1[2], &S.t[2]);
+    rc_gradient_split(g, c, &S, grad);
+}
+
 /* Gradient Phong at world point x (voxel coordinates c) with TF colour rgb; V = unit vector towards
  * the eye. Our formula (docs/volume/raycast.md, "Phong"):
  *   g    = central differences of s, one voxel each way, in world units ([Levoy88] eq. 4 with
@@ -306,10 +473,11 @@ void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3])
  *   diff = max(0, n.L);  spec = (n.L > 0) ? max(0, R.V)^e, R = 2 (n.L) n - L   [Phong75];
  *   out  = ka c + (1 - ka) Lc (c ((1 - s) + s diff) + s spec).
  * Where the gradient is weak the sample is lit unshaded (as Voreen's (1 - surf) l term). */
-static void rc_shade_phong(const rc_job *J, const double x[3], const double c[3], const double V[3], float rgb[3])
+static void rc_shade_phong(const rc_job *J, const double x[3], const double c[3], const rc_split3 *S,
+                           const double V[3], float rgb[3])
 {
     double gr[3];
-    vol_i_rc_gradient(J->g, c, gr);
+    rc_gradient_split(J->g, c, S, gr);
     double gm = sqrt(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]);
     double s = 0.0, diff = 0.0, spec = 0.0;
     if (gm > 0.0 && isfinite(gm)) {
@@ -352,6 +520,19 @@ static void rc_shade_phong(const rc_job *J, const double x[3], const double c[3]
 typedef struct rc_ray_stats {
     int64_t rays, samples, skipped, shaded, terminated;
 } rc_ray_stats;
+
+/* The ray parameter at which the ray (o, d) leaves brick index cb along axis a: the brick's upper
+ * face for d > 0, its lower face for d < 0; +inf for the last brick in the direction of travel
+ * (its region is open that way) and for d = 0. */
+static inline double rc_brick_exit(const rc_job *J, const double o[3], const double d[3], int a, int cb)
+{
+    const vol_grid *g = J->g;
+    if (d[a] > 0.0 && cb < J->nb[a] - 1)
+        return (g->origin[a] + (double)((cb + 1) * J->brick) * g->spacing[a] - o[a]) / d[a];
+    if (d[a] < 0.0 && cb > 0)
+        return (g->origin[a] + (double)(cb * J->brick) * g->spacing[a] - o[a]) / d[a];
+    return INFINITY;
+}
 
 /* Composite the ray of pixel (x, y) (full-image pixel centre) into rgba (premultiplied). */
 static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_stats *st)
@@ -401,6 +582,13 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
         const int64_t n = (int64_t)ceil((t1 - t0) / dt);
         const double V[3] = {-d[0] / dl, -d[1] / dl, -d[2] / dl};
         const int B = J->brick;
+        /* Loop invariants in locals (the stores to st and the image could otherwise alias them);
+         * the counters are summed locally and added once. */
+        const int nx = g->nx, ny = g->ny, nz = g->nz;
+        int64_t n_samples = 0, n_skipped = 0, n_shaded = 0;
+        /* The base-voxel range of the last brick found non-empty: samples inside it need no
+         * look-up (lo > hi: none yet). */
+        int nel[3] = {1, 1, 1}, neh[3] = {0, 0, 0};
         for (int64_t k = 0; k < n; k++) {
             double tm, len;
             if (k + 1 < n) {
@@ -418,56 +606,82 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                 xw[a] = o[a] + tm * d[a];
                 c[a] = (xw[a] - g->origin[a]) * J->inv_sp[a];
             }
+            /* The trilinear splits, made once for the brick look-up and the sample (the split's
+             * lower voxel is the sample's base voxel: its brick). */
+            int vx0, vx1, vy0, vy1, vz0, vz1;
+            float ftx, fty, ftz;
+            rc_split(c[0], nx, &vx0, &vx1, &ftx);
+            rc_split(c[1], ny, &vy0, &vy1, &fty);
+            rc_split(c[2], nz, &vz0, &vz1, &ftz);
             /* Empty-space skipping [Kruger03]: in a brick where the TF's alpha is 0 everywhere,
-             * jump to the last sample that is surely still inside it (one step of margin). */
-            if (B > 0) {
-                int bi[3], nv[3] = {g->nx, g->ny, g->nz};
-                for (int a = 0; a < 3; a++)
-                    bi[a] = rc_base_voxel(c[a], nv[a]) / B;
-                if (J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
-                    /* The brick's region in voxel coordinates: [bi B, (bi+1) B) per axis, open
-                     * towards -inf for the first brick and +inf for the last. */
-                    double texit = INFINITY;
+             * jump past the run of empty bricks the ray crosses from here. */
+            if (B > 0 && !(vx0 >= nel[0] && vx0 <= neh[0] && vy0 >= nel[1] && vy0 <= neh[1] && vz0 >= nel[2] &&
+                           vz0 <= neh[2])) {
+                const int bi[3] = {J->bidx[0][vx0], J->bidx[1][vy0], J->bidx[2][vz0]};
+                if (!J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
                     for (int a = 0; a < 3; a++) {
-                        if (d[a] > 0.0 && bi[a] < J->nb[a] - 1) {
-                            double wb = g->origin[a] + (double)((bi[a] + 1) * B) * g->spacing[a];
-                            double tb = (wb - o[a]) / d[a];
-                            if (tb < texit)
-                                texit = tb;
-                        } else if (d[a] < 0.0 && bi[a] > 0) {
-                            double wb = g->origin[a] + (double)(bi[a] * B) * g->spacing[a];
-                            double tb = (wb - o[a]) / d[a];
-                            if (tb < texit)
-                                texit = tb;
-                        }
+                        nel[a] = bi[a] * B;
+                        neh[a] = bi[a] * B + B - 1;
+                    }
+                } else {
+                    /* The brick's region in voxel coordinates: [bi B, (bi+1) B) per axis, open
+                     * towards -inf for the first brick and +inf for the last. From it we walk
+                     * brick by brick along the ray (a 3D DDA over the brick grid, as [Amanatides87]
+                     * walks voxels) while the bricks are empty: texit is where the ray leaves the
+                     * last empty brick of the run (before: one brick per skip, each skip costing a
+                     * sample position and a look-up; the image is the same). Each crossing is
+                     * computed from the brick's world boundary, not accumulated. */
+                    int cb[3] = {bi[0], bi[1], bi[2]};
+                    double tn[3];
+                    for (int a = 0; a < 3; a++)
+                        tn[a] = rc_brick_exit(J, o, d, a, cb[a]);
+                    double texit;
+                    for (;;) {
+                        int ax = tn[0] <= tn[1] ? (tn[0] <= tn[2] ? 0 : 2) : (tn[1] <= tn[2] ? 1 : 2);
+                        texit = tn[ax];
+                        if (!(texit < t1))
+                            break;
+                        cb[ax] += d[ax] > 0.0 ? 1 : -1;
+                        if (!J->empty[((size_t)cb[2] * J->nb[1] + cb[1]) * J->nb[0] + cb[0]])
+                            break;
+                        tn[ax] = rc_brick_exit(J, o, d, ax, cb[ax]);
                     }
                     int64_t knew = n;
                     if (texit < t1) {
-                        /* Samples k' < ceil(u - 0.5) - 1, u = (texit - t0)/dt, lie before
-                         * texit - dt: inside this brick's region. */
-                        double u = ceil((texit - t0) / dt - 0.5) - 1.0;
+                        /* Sample k' (at t0 + (k' + 1/2) dt) lies before texit when
+                         * k' < u = (texit - t0)/dt - 1/2; we skip those with
+                         * k' < u - VOL_RC_SKIP_MARGIN (in steps), a margin far above the double
+                         * rounding of t, c and texit (~1e-13 voxel), so every skipped sample's base
+                         * voxel is in one of the walked empty bricks. (Before: a margin of one whole
+                         * step; the image is the same, the counters count the same way.) */
+                        double u = ceil((texit - t0) / dt - 0.5 - VOL_RC_SKIP_MARGIN);
                         knew = u < (double)n ? (int64_t)u : n;
                     }
                     if (knew < k + 1)
                         knew = k + 1;
-                    st->skipped += knew - k;
+                    n_skipped += knew - k;
                     k = knew - 1;
                     continue;
                 }
             }
-            st->samples++;
+            n_samples++;
             float rgba[4];
-            float s = rc_sample(g, c[0], c[1], c[2]);
-            vol_tf_eval(J->tf, s, rgba);
+            float s = rc_sample_split(g, vx0, vx1, ftx, vy0, vy1, fty, vz0, vz1, ftz);
+            if ((double)s <= J->zero_below)
+                continue; /* alpha exactly 0 (rc_zero_below): the TF need not be evaluated */
+            rc_tf_eval(J->tf, s, rgba);
             if (!(rgba[3] > 0.0f))
                 continue; /* contributes exactly nothing: shading skipped */
-            st->shaded++;
-            float a = vol_tf_alpha_correct(rgba[3], len, J->ref_step);
+            n_shaded++;
+            float a = k + 1 < n ? rc_alpha_full_step(rgba[3], J->h, J->ref_step, J->r_h)
+                                : vol_tf_alpha_correct(rgba[3], len, J->ref_step);
             float rgb[3] = {rgba[0], rgba[1], rgba[2]};
             switch (P->shading) {
-            case VOL_SHADING_PHONG:
-                rc_shade_phong(J, xw, c, V, rgb);
+            case VOL_SHADING_PHONG: {
+                const rc_split3 S = {{vx0, vy0, vz0}, {vx1, vy1, vz1}, {ftx, fty, ftz}};
+                rc_shade_phong(J, xw, c, &S, V, rgb);
                 break;
+            }
             case VOL_SHADING_LIGHT_VOLUME: {
                 float l, cc[3];
                 vol_light_volume_sample(J->lv, xw, &l, cc);
@@ -489,6 +703,9 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                 break;
             }
         }
+        st->samples += n_samples;
+        st->skipped += n_skipped;
+        st->shaded += n_shaded;
     }
     /* The background behind what the ray saw (premultiplied). */
     for (int q = 0; q < 3; q++)
@@ -557,22 +774,11 @@ static obs_status rc_check_light(obs_context *ctx, const vol_light *light, rc_jo
     return OBS_STATUS_OK;
 }
 
-obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
-                                  const vol_light *light, const vol_light_volume *lv, const obs_camera *camera,
-                                  int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
-                                  obs_image_f32 out[4], vol_i_rc_stats *stats)
+/* The grid and TF checks shared by vol_rc_prepare (and so vol_raycast). */
+static obs_status rc_check_grid_tf(obs_context *ctx, const vol_grid *g, const vol_tf *tf)
 {
-    if (stats)
-        memset(stats, 0, sizeof *stats);
-    if (!out)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: out is NULL");
-    for (int c = 0; c < 4; c++)
-        memset(&out[c], 0, sizeof out[c]);
-    if (!g || !g->data || !tf || !tf->points || tf->count < 1 || !camera)
+    if (!g || !g->data || !tf || !tf->points || tf->count < 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid, transfer function or camera missing");
-    obs_status st = vol_i_rc_params_validate(ctx, p);
-    if (st != OBS_STATUS_OK)
-        return st;
     if (g->nx < 1 || g->ny < 1 || g->nz < 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid %dx%dx%d is empty", g->nx, g->ny, g->nz);
     for (int a = 0; a < 3; a++) {
@@ -582,6 +788,95 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
     if (tf->ref_step < 0.0 || !isfinite(tf->ref_step))
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: TF ref_step %g must be >= 0 and finite",
                          tf->ref_step);
+    return OBS_STATUS_OK;
+}
+
+void vol_rc_prepared_free(vol_rc_prepared *prep)
+{
+    if (!prep)
+        return;
+    free(prep->empty);
+    for (int a = 0; a < 3; a++)
+        free(prep->bidx[a]);
+    free(prep);
+}
+
+obs_status vol_rc_prepare(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                          const vol_rc_params *p, vol_rc_prepared **out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_rc_prepare: out is NULL");
+    *out = NULL;
+    obs_status st = rc_check_grid_tf(ctx, g, tf);
+    if (st != OBS_STATUS_OK)
+        return st;
+    st = vol_i_rc_params_validate(ctx, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+    vol_rc_prepared *P = (vol_rc_prepared *)calloc(1, sizeof *P);
+    if (!P)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_rc_prepare: out of memory");
+    P->g = g;
+    P->tf = tf;
+    if (p->brick > 0) {
+        const int B = p->brick, nv[3] = {g->nx, g->ny, g->nz};
+        P->brick = B;
+        for (int a = 0; a < 3; a++)
+            P->nb[a] = (nv[a] + B - 1) / B;
+        size_t nbricks = (size_t)P->nb[0] * P->nb[1] * P->nb[2];
+        P->empty = (uint8_t *)malloc(nbricks);
+        int64_t *row_empty = (int64_t *)calloc((size_t)P->nb[2], sizeof *row_empty);
+        for (int a = 0; a < 3; a++)
+            P->bidx[a] = (int32_t *)malloc((size_t)nv[a] * sizeof(int32_t));
+        if (!P->empty || !row_empty || !P->bidx[0] || !P->bidx[1] || !P->bidx[2]) {
+            free(row_empty);
+            vol_rc_prepared_free(P);
+            return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (brick table)");
+        }
+        for (int a = 0; a < 3; a++)
+            for (int i = 0; i < nv[a]; i++)
+                P->bidx[a][i] = i / B;
+        rc_job J;
+        memset(&J, 0, sizeof J);
+        J.g = g;
+        J.tf = tf;
+        J.brick = B;
+        for (int a = 0; a < 3; a++)
+            J.nb[a] = P->nb[a];
+        J.empty_w = P->empty;
+        J.row_empty = row_empty;
+        obs_pool_run(pool, P->nb[2], rc_brick_row, &J);
+        P->bricks = (int64_t)nbricks;
+        for (int z = 0; z < P->nb[2]; z++)
+            P->bricks_empty += row_empty[z];
+        free(row_empty);
+    }
+    *out = P;
+    return OBS_STATUS_OK;
+}
+
+static obs_status rc_cast(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep, const vol_light *light,
+                          const vol_light_volume *lv, const obs_camera *camera, int width, int height,
+                          const obs_image_f32 *depth_limit, const vol_rc_params *p, obs_image_f32 out[4],
+                          vol_i_rc_stats *stats)
+{
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: out is NULL");
+    for (int c = 0; c < 4; c++)
+        memset(&out[c], 0, sizeof out[c]);
+    if (!prep || !camera)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid, transfer function or camera missing");
+    obs_status st = vol_i_rc_params_validate(ctx, p);
+    if (st != OBS_STATUS_OK)
+        return st;
+    if (p->brick != prep->brick)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                         "vol_raycast_prepared: params brick %d, but the prepared table has brick %d", p->brick,
+                         prep->brick);
+    const vol_grid *g = prep->g;
+    const vol_tf *tf = prep->tf;
 
     rc_job J;
     memset(&J, 0, sizeof J);
@@ -637,6 +932,8 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
         J.inv_sp[a] = 1.0 / g->spacing[a];
     J.h = p->step > 0.0 ? p->step : VOL_RC_AUTO_STEP_FRACTION * smin;
     J.ref_step = tf->ref_step > 0.0 ? tf->ref_step : smin; /* vol.h: 0 = one voxel of the smallest spacing */
+    J.r_h = J.h / J.ref_step;                              /* vol_tf_alpha_correct's r for a full step */
+    J.zero_below = rc_zero_below(tf);
     {
         double diag = 0.0;
         for (int a = 0; a < 3; a++)
@@ -651,8 +948,15 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
         double range = (double)g->value_max - (double)g->value_min;
         J.surf_scale = range > 0.0 && isfinite(range) ? VOL_RC_SURFACENESS_GAIN * smin / range : 0.0;
     }
+    /* The prepared brick table */
+    J.brick = prep->brick;
+    for (int a = 0; a < 3; a++) {
+        J.nb[a] = prep->nb[a];
+        J.bidx[a] = prep->bidx[a];
+    }
+    J.empty = prep->empty;
 
-    /* Allocations: the output, the per-tile counters, the brick table. */
+    /* Allocations: the output, the per-tile counters. */
     J.tiling = obs_tiling_make(width, height, VOL_RC_TILE);
     int64_t ntiles = obs_tiling_count(&J.tiling);
     J.tile_stats = (vol_i_rc_stats *)calloc((size_t)ntiles, sizeof *J.tile_stats);
@@ -660,30 +964,12 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (tile counters)");
     for (int c = 0; c < 4 && st == OBS_STATUS_OK; c++)
         st = obs_image_f32_alloc(ctx, width, height, &out[c]);
-    if (st == OBS_STATUS_OK && p->brick > 0) {
-        J.brick = p->brick;
-        J.nb[0] = (g->nx + p->brick - 1) / p->brick;
-        J.nb[1] = (g->ny + p->brick - 1) / p->brick;
-        J.nb[2] = (g->nz + p->brick - 1) / p->brick;
-        size_t nbricks = (size_t)J.nb[0] * J.nb[1] * J.nb[2];
-        J.empty_w = (uint8_t *)malloc(nbricks);
-        J.row_empty = (int64_t *)calloc((size_t)J.nb[2], sizeof *J.row_empty);
-        if (!J.empty_w || !J.row_empty) {
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (brick table)");
-        } else {
-            obs_pool_run(pool, J.nb[2], rc_brick_row, &J);
-            J.empty = J.empty_w;
-            if (stats) {
-                stats->bricks = (int64_t)nbricks;
-                for (int z = 0; z < J.nb[2]; z++)
-                    stats->bricks_empty += J.row_empty[z];
-            }
-        }
-    }
     if (st == OBS_STATUS_OK) {
         J.out = out;
         obs_pool_run(pool, ntiles, rc_tile, &J);
         if (stats) {
+            stats->bricks = prep->bricks;
+            stats->bricks_empty = prep->bricks_empty;
             for (int64_t t = 0; t < ntiles; t++) {
                 stats->rays += J.tile_stats[t].rays;
                 stats->samples += J.tile_stats[t].samples;
@@ -697,8 +983,45 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
             obs_image_f32_free(&out[c]);
     }
     free(J.tile_stats);
-    free(J.empty_w);
-    free(J.row_empty);
+    return st;
+}
+
+obs_status vol_i_rc_raycast_prepared_stats(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep,
+                                           const vol_light *light, const vol_light_volume *lv,
+                                           const obs_camera *camera, int width, int height,
+                                           const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                           obs_image_f32 out[4], vol_i_rc_stats *stats)
+{
+    return rc_cast(ctx, pool, prep, light, lv, camera, width, height, depth_limit, p, out, stats);
+}
+
+obs_status vol_raycast_prepared(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep,
+                                const vol_light *light, const vol_light_volume *lv, const obs_camera *camera,
+                                int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                obs_image_f32 out[4])
+{
+    return rc_cast(ctx, pool, prep, light, lv, camera, width, height, depth_limit, p, out, NULL);
+}
+
+obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                  const vol_light *light, const vol_light_volume *lv, const obs_camera *camera,
+                                  int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                  obs_image_f32 out[4], vol_i_rc_stats *stats)
+{
+    if (stats)
+        memset(stats, 0, sizeof *stats);
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: out is NULL");
+    for (int c = 0; c < 4; c++)
+        memset(&out[c], 0, sizeof out[c]);
+    if (!camera)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: grid, transfer function or camera missing");
+    vol_rc_prepared *prep = NULL;
+    obs_status st = vol_rc_prepare(ctx, pool, g, tf, p, &prep);
+    if (st != OBS_STATUS_OK)
+        return st;
+    st = rc_cast(ctx, pool, prep, light, lv, camera, width, height, depth_limit, p, out, stats);
+    vol_rc_prepared_free(prep);
     return st;
 }
 

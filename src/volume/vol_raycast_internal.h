@@ -29,6 +29,16 @@ obs_status vol_i_rc_raycast_stats(obs_context *ctx, obs_pool *pool, const vol_gr
                                   int width, int height, const obs_image_f32 *depth_limit, const vol_rc_params *p,
                                   obs_image_f32 out[4], vol_i_rc_stats *stats);
 
+/* vol_raycast_prepared with its counters (stats may be NULL; bricks come from the handle). */
+obs_status vol_i_rc_raycast_prepared_stats(obs_context *ctx, obs_pool *pool, const vol_rc_prepared *prep,
+                                           const vol_light *light, const vol_light_volume *lv,
+                                           const obs_camera *camera, int width, int height,
+                                           const obs_image_f32 *depth_limit, const vol_rc_params *p,
+                                           obs_image_f32 out[4], vol_i_rc_stats *stats);
+
+/* The ray caster's inlined transfer function: bit for bit vol_tf_eval. */
+void vol_i_rc_tf_eval(const vol_tf *tf, double value, float rgba[4]);
+
 /* Validate ray-caster parameters: step >= 0 and finite (0 = the default), early_termination in
  * (0, 1], brick >= 0, ambient in [0, 1], specular_exponent >= 0, all finite, shading known.
  * Returns OK or INVALID_ARGUMENT. */
@@ -44,6 +54,18 @@ float vol_i_rc_sample(const vol_grid *g, double ci, double cj, double ck);
 /* The gradient of the trilinear field at continuous voxel coordinate c, in value per world unit:
  * central differences one voxel each way along each axis, divided by 2 x that axis' spacing. */
 void vol_i_rc_gradient(const vol_grid *g, const double c[3], double grad[3]);
+
+/* The march's gradient (the centre's splits shared with the six shifted samples): bit for bit
+ * vol_i_rc_gradient. */
+void vol_i_rc_gradient_fast(const vol_grid *g, const double c[3], double grad[3]);
+
+/* The march's opacity correction for a full step h (h, ref_step > 0): bit for bit
+ * vol_tf_alpha_correct(alpha, h, ref_step). */
+float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step);
+
+/* The value at or below which the TF's alpha is exactly 0 (the march reads no TF there);
+ * -inf when the first point's alpha is not 0. */
+double vol_i_rc_zero_below(const vol_tf *tf);
 
 #ifdef __cplusplus
 }
