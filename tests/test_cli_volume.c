@@ -143,3 +143,26 @@ TEST(cli_volume_eye_pass_modulates_the_image_and_is_recorded)
     CHECK_EQ_INT(test_cli_run(a3, "eye3"), 2);
     CHECK(!vol_exists("never_eye.exr") && !vol_exists("never_eye.json"));
 }
+
+/* --reps N: N warm ray casts through the prepared handle after the first; the image is the same
+ * bytes as without it, and the sidecar records the count and the warm median. */
+TEST(cli_volume_reps_times_warm_casts_and_keeps_the_image)
+{
+    char p1[4200], p2[4200];
+    snprintf(p1, sizeof p1, "%s/once", test_tmpdir());
+    snprintf(p2, sizeof p2, "%s/reps", test_tmpdir());
+    const char *a[] = {"volume", "synth:bucky:24", "--size", "64x48", "--mode", "phong", "-o", p1, NULL};
+    const char *b[] = {"volume", "synth:bucky:24", "--size", "64x48", "--mode", "phong", "--reps", "3", "-o", p2, NULL};
+    CHECK_EQ_INT(test_cli_run(a, "once"), 0);
+    CHECK_EQ_INT(test_cli_run(b, "reps"), 0);
+    size_t la = 0, lb = 0;
+    char *ea = test_slurp(test_path(test_tmpdir(), "once.exr"), &la), *eb = test_slurp(test_path(test_tmpdir(), "reps.exr"), &lb);
+    CHECK(ea && eb && la == lb && la > 0 && memcmp(ea, eb, la) == 0);
+    free(ea);
+    free(eb);
+    char *js = test_slurp(test_path(test_tmpdir(), "reps.json"), NULL);
+    CHECK(js && strstr(js, "\"raycast_reps\": 3") && strstr(js, "seconds_raycast_warm"));
+    free(js);
+    const char *bad[] = {"volume", "synth:bucky:24", "--reps", "0", "-o", p2, NULL};
+    CHECK_EQ_INT(test_cli_run(bad, "bad"), 2);
+}

@@ -127,7 +127,10 @@ typedef struct render_shadow_maps { int count; render_shadow_map *maps; /* one p
  * point p, offset along its normal n (n = 0: no offset) (render_passes_surface.c). */
 float render_shadow_lookup(const render_shadow_map *sm, const obs_light *L, obs_vec3 p, obs_vec3 n);
 typedef struct render_sss_light_maps { int count; sss_light_map *lm; } render_sss_light_maps;
-typedef struct render_volume_data { vol_grid grid; vol_tf tf; } render_volume_data;
+/* The loaded volume; rc is the ray caster's prepared handle (vol_rc_prepare: the brick table),
+ * made by the first raycast that needs it with brick rc_brick and kept with the volume, so that
+ * later views skip it (the same output bits as vol_raycast). */
+typedef struct render_volume_data { vol_grid grid; vol_tf tf; vol_rc_prepared *rc; int rc_brick; } render_volume_data;
 typedef struct render_truth_scene { truth_scene *ts; } render_truth_scene;
 /* The light_volume product: the volume's own light volume, and (mesh.l != NULL) the one whose
  * extinction adds the occupancy of the meshes inside the volume's box (vol.h vol_occluder). */

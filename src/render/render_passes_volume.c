@@ -76,6 +76,8 @@ static int load_key(render_job *j, render_key *out)
 static void vol_free(void *p)
 {
     render_volume_data *v = (render_volume_data *)p;
+    vol_rc_prepared_free(v->rc); /* before the grid and TF it points to */
+    v->rc = NULL;
     vol_grid_free(&v->grid);
     vol_tf_free(&v->tf);
 }
@@ -601,9 +603,16 @@ static obs_status rc_run(render_job *j, render_pass_state *state, uint64_t *byte
         st = rc_eye_modulated(j, &modulated);
         lv = &modulated;
     }
+    render_volume_data *v = j->vol;
+    if (st == OBS_STATUS_OK && (!v->rc || v->rc_brick != rp.brick)) { /* once per volume (and brick) */
+        vol_rc_prepared_free(v->rc);
+        v->rc = NULL;
+        st = vol_rc_prepare(j->ctx, j->pool, &v->grid, &v->tf, &rp, &v->rc);
+        v->rc_brick = rp.brick;
+    }
     if (st == OBS_STATUS_OK)
-        st = vol_raycast(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, lv, &j->cam, j->W, j->H,
-                         &j->gb.depth, &rp, j->f->volume);
+        st = vol_raycast_prepared(j->ctx, j->pool, v->rc, &j->vlight, lv, &j->cam, j->W, j->H, &j->gb.depth, &rp,
+                                  j->f->volume);
     if (eye)
         vol_light_volume_free(&modulated);
     *state = RENDER_PASS_RAN;
