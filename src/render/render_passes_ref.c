@@ -35,11 +35,12 @@ static unsigned scene_reads(const render_job *j, char *t, size_t n)
 }
 static int scene_wanted(const render_job *j, char *r, size_t n)
 {
-    if (!(j->st->ao && j->any_opaque) && !ref_has_sss(j)) {
-        snprintf(r, n, "no reference traces rays (no AO and no SSS)");
+    const int vol = ref_has_volume(j) && j->st->volume.mesh_shadows && j->scene->instance_count > 0;
+    if (!(j->st->ao && j->any_opaque) && !ref_has_sss(j) && !vol) {
+        snprintf(r, n, "no reference traces rays (no AO, no SSS, no mesh-shadowed volume)");
         return 0;
     }
-    snprintf(r, n, "the Embree scene the AO and SSS references trace");
+    snprintf(r, n, "the Embree scene the AO, SSS and volume references trace");
     return 1;
 }
 static int scene_key(render_job *j, render_key *out)
@@ -190,9 +191,24 @@ const render_pass render_pass_ref_sss = {"ref_sss", RES_REF_SSS, 1, 1, rsss_read
 
 static unsigned rvol_reads(const render_job *j, char *t, size_t n)
 {
-    (void)j;
+    if (j->st->volume.mesh_shadows) { /* the meshes on the shadow rays, as the light volume sees them */
+        snprintf(t, n, "volume_grid,gbuffer,light,camera,ref_scene");
+        return RES_VOLUME_GRID | RES_GBUFFER | RES_REF_SCENE;
+    }
     snprintf(t, n, "volume_grid,gbuffer,light,camera");
     return RES_VOLUME_GRID | RES_GBUFFER;
+}
+
+/* volume.mesh_shadows in the reference: a shadow ray from a scattering point towards the light is
+ * blocked by any mesh (the exact counterpart of the light volume's occupancy and entry test;
+ * docs/render.md "Meshes shadow the volume"): one Embree ray, hit or not. */
+static double rvol_visibility(void *user, const double x[3], const double w[3], double dist)
+{
+    const truth_scene *ts = (const truth_scene *)user;
+    truth_hit h;
+    truth_intersect1(ts, obs_v3((float)x[0], (float)x[1], (float)x[2]), obs_v3((float)w[0], (float)w[1], (float)w[2]),
+                     0.0f, isinf(dist) ? INFINITY : (float)dist, &h);
+    return h.instance == 0xFFFFFFFFu ? 1.0 : 0.0;
 }
 static int rvol_wanted(const render_job *j, char *r, size_t n)
 {
@@ -216,6 +232,10 @@ static obs_status rvol_run(render_job *j, render_pass_state *state, uint64_t *by
     mp.kappa = j->st->volume.lv.kappa;
     mp.seed = j->st->seed;
     mp.depth_limit = &j->gb.depth; /* the ray stops at the meshes, as the ray cast does */
+    if (j->st->volume.mesh_shadows && j->truth && j->truth->ts) {
+        mp.visibility = rvol_visibility;
+        mp.visibility_user = j->truth->ts;
+    }
     truth_volume_image im;
     memset(&im, 0, sizeof im);
     obs_status st = truth_volume_mc_render(j->ctx, j->pool, &j->vol->grid, &j->vol->tf, &j->vlight, &j->cam, j->W,

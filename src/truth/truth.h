@@ -534,6 +534,12 @@ typedef struct truth_volume_mc_params {
                                        where the view ray stops (the hybrid scene's rasterized mesh
                                        depth, as vol_raycast's depth_limit; +inf or NaN: none);
                                        width x height */
+    /* Optional (default NULL): the visibility in [0, 1] of the segment from x towards the light
+     * (unit direction w; length dist, +inf for a directional light) through what the volume does
+     * not hold (the hybrid scene's meshes): every shadow ray's transmittance is multiplied by it.
+     * Called from the pool's threads: thread-safe and a function of its arguments only. */
+    double (*visibility)(void *user, const double x[3], const double w[3], double dist);
+    void *visibility_user;
 } truth_volume_mc_params;
 #define TRUTH_VOLUME_MC_MAX_REPLICATES 32
 truth_volume_mc_params truth_volume_mc_params_default(void);

@@ -357,6 +357,8 @@ typedef struct tvi_job {
     uint64_t seed;
     double step;                   /* the march's step (world units); 0 = MC */
     const obs_image_f32 *depth_limit; /* MC: per pixel, where the view ray stops (NULL: none) */
+    double (*visibility)(void *user, const double x[3], const double w[3], double dist); /* MC: or NULL */
+    void *visibility_user;
     truth_volume_image *out;
     truth_volume_mc_stats *tile_stats;
     const unsigned char *task_mask; /* NULL: every tile; else only tiles t with task_mask[t] (MPI) */
@@ -605,6 +607,11 @@ static void tvi_mc_pixel(const tvi_job *J, int x, int y, double (*acc)[4], truth
         if (tvi_light_dir(&J->tc, xs, w_in, &dist)) {
             f = tvi_phase(J->g_hg, w_in, w_out);
             T = tvi_ratio_track(J, xs, w_in, dist, &rng, st);
+            if (J->visibility && T > 0.0) { /* the meshes on the shadow ray (truth.h) */
+                const double wl[3] = {-w_in[0], -w_in[1], -w_in[2]};
+                const double v = J->visibility(J->visibility_user, xs, wl, dist);
+                T *= v >= 0.0 ? (v <= 1.0 ? v : 1.0) : (v < 0.0 ? 0.0 : 1.0);
+            }
         } /* else at the point light: no direction, unshadowed (as truth_volume_transmittance_at) */
         for (int q = 0; q < 3; q++)
             a[q] += (double)rho[q] * (double)J->light_color[q] * f * T;
@@ -940,6 +947,8 @@ static obs_status tvi_mc(obs_context *ctx, obs_pool *pool, const vol_grid *g, co
     J.seed = p->seed;
     J.step = 0.0;
     J.depth_limit = p->depth_limit;
+    J.visibility = p->visibility;
+    J.visibility_user = p->visibility_user;
     J.task_mask = task_mask;
     obs_status rs = tvi_run(ctx, pool, &J, width, height, p->tile, out);
     free(J.maj);
