@@ -654,12 +654,15 @@ TEST(volume_occupancy_point_light_inside_the_volume_is_shadowed_by_a_cube)
  * transmittance of 0 where x < 8 and 0.5 elsewhere propagates those values straight through:
  * l = 0 over the first half, 0.5 over the second, at every slice (the light is along an axis, so
  * each voxel's fetch is its own column); the entry points lie on the face the light enters by
- * (z = n - 1 + 0.5); out-of-range returns are clamped and NaN counts as 1; entry NULL with no
+ * (z = n - 1 + 0.5) or beside a slice, outside the box (a texel a slice's edge fetch reads with
+ * weight 0 here); out-of-range returns are clamped and NaN counts as 1; entry NULL with no
  * occupancy is refused. */
 static float entry_half(void *user, const double x[3])
 {
     int *bad = (int *)user;
-    if (fabs(x[2] - 15.5) > 1e-9)
+    /* on the face the light enters by, or a texel beside a slice (outside the box in x or y) */
+    const int on_face = fabs(x[2] - 15.5) <= 1e-9, beside = x[0] < 0.0 || x[0] > 15.0 || x[1] < 0.0 || x[1] > 15.0;
+    if (!on_face && !beside)
         __atomic_fetch_add(bad, 1, __ATOMIC_RELAXED);
     return x[0] < 7.5 ? -3.0f : 0.5f;
 }
@@ -703,6 +706,57 @@ TEST(volume_occupancy_entry_transmittance_seeds_the_first_slice)
     vol_light_volume_free(&nan_lv);
     vol_occluder none = {NULL, 0.0, NULL, NULL};
     CHECK_EQ_INT(vol_light_volume_build_ex(ctx, pool, &g, &tf, &L, &p, &none, &lv), OBS_STATUS_INVALID_ARGUMENT);
+    vol_tf_free(&tf);
+    vol_grid_free(&g);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}
+
+/* Light that enters the box through a side face is seen through the entry too: an empty volume lit
+ * by an oblique directional light (and by a point light outside, above a corner) with an entry
+ * transmittance of 0 everywhere is dark at every voxel (before, the propagation's fetches outside a
+ * slice read the border l = 1, so the voxels near the side faces were lit); with entry 1 it is
+ * lit everywhere, as without an occluder. Blend on and off. */
+static float entry_zero(void *user, const double x[3])
+{
+    (void)user;
+    (void)x;
+    return 0.0f;
+}
+static float entry_one(void *user, const double x[3])
+{
+    (void)user;
+    (void)x;
+    return 1.0f;
+}
+TEST(volume_occupancy_entry_covers_light_entering_by_the_side_faces)
+{
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    vol_grid g;
+    vol_tf tf;
+    CHECK(zero_grid(ctx, 16, &g));
+    CHECK(make_tf(&tf, 0.0f));
+    const vol_light lights[2] = {dir_light(0.5, -0.3, -0.8), point_light(-6, 24, 30)};
+    for (int li = 0; li < 2; li++)
+        for (int blend = 0; blend < 2; blend++) {
+            vol_lv_params p = vol_lv_params_default();
+            p.blend_second = blend;
+            vol_occluder z = {NULL, 0.0, entry_zero, NULL}, o = {NULL, 0.0, entry_one, NULL};
+            vol_light_volume dark, lit, plain;
+            CHECK_OK(vol_light_volume_build_ex(ctx, pool, &g, &tf, &lights[li], &p, &z, &dark), ctx);
+            CHECK_OK(vol_light_volume_build_ex(ctx, pool, &g, &tf, &lights[li], &p, &o, &lit), ctx);
+            CHECK_OK(vol_light_volume_build(ctx, pool, &g, &tf, &lights[li], &p, &plain), ctx);
+            size_t lit_dark = 0, n = (size_t)dark.nx * dark.ny * dark.nz;
+            for (size_t i = 0; i < n; i++)
+                lit_dark += dark.l[i] != 0.0f;
+            CHECK_MSG(lit_dark == 0, "light %d blend %d: %zu of %zu voxels lit through an entry of 0", li, blend,
+                      lit_dark, n);
+            CHECK(lv_equal(&lit, &plain));
+            vol_light_volume_free(&dark);
+            vol_light_volume_free(&lit);
+            vol_light_volume_free(&plain);
+        }
     vol_tf_free(&tf);
     vol_grid_free(&g);
     obs_pool_destroy(pool);

@@ -313,6 +313,36 @@ static inline float lv_fetch(const lv_pass *P, int ch, double pu, double pv, flo
     return a + (b - a) * tv;
 }
 
+/* lv_fetch of l with an entry transmittance (vol.h vol_occluder.entry): a texel outside the
+ * previous slice is the light entering the box there, so instead of the border value l = 1 it is
+ * entry() at that texel's world position (on the previous slice's plane, outside the box: the
+ * light's path from it is outside the box). Texels inside read the slice; the lerps are
+ * lv_fetch's. Only called with entry set (without it the build keeps lv_fetch's bits). */
+static float lv_fetch_l_entry(const lv_pass *P, double pu, double pv)
+{
+    const int nu = P->nu, nv = P->nv;
+    if (pu >= 0.0 && pv >= 0.0 && pu < (double)(nu - 1) && pv < (double)(nv - 1))
+        return lv_fetch(P, LV_L, pu, pv, 1.0f);
+    const double fu = lv_floor(pu), fv = lv_floor(pv);
+    const float tu = (float)(pu - fu), tv = (float)(pv - fv);
+    float t[4];
+    for (int q = 0; q < 4; q++) {
+        const double iu = fu + (q & 1), jv = fv + (q >> 1);
+        if (iu >= 0.0 && jv >= 0.0 && iu <= (double)(nu - 1) && jv <= (double)(nv - 1)) {
+            t[q] = P->prev[LV_L][(ptrdiff_t)jv * P->W + (ptrdiff_t)iu];
+        } else {
+            double x[3];
+            x[P->a] = P->org[P->a] + (double)P->kprev * P->sp[P->a];
+            x[P->u] = P->org[P->u] + iu * P->sp[P->u];
+            x[P->v] = P->org[P->v] + jv * P->sp[P->v];
+            const float e = P->entry(P->entry_user, x);
+            t[q] = e >= 0.0f ? (e <= 1.0f ? e : 1.0f) : (e < 0.0f ? 0.0f : 1.0f);
+        }
+    }
+    const float a = t[0] + (t[1] - t[0]) * tu, b = t[2] + (t[3] - t[2]) * tu;
+    return a + (b - a) * tv;
+}
+
 /* The same bilinear fetch of three channels (the chromaticity) sharing the index arithmetic. */
 static inline void lv_fetch3(const lv_pass *P, int ch0, double pu, double pv, float border, float out[3])
 {
@@ -439,7 +469,7 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
         const double arg = -0.5 * ((double)sigma + (double)sigma_p) * ds;
         float tau = arg == 0.0 ? 1.0f : (float)exp(arg); /* exp(+-0) = 1 exactly: empty space skips libm */
         /* Hard shadow: one bilinear fetch (volume.md 1.5). */
-        l = tau * lv_fetch(P, LV_L, pu, pv, 1.0f);
+        l = tau * (P->entry ? lv_fetch_l_entry(P, pu, pv) : lv_fetch(P, LV_L, pu, pv, 1.0f));
         /* Chromaticity: cone of half-angle theta, footprint radius r = ds tan(theta) on slice
          * i-1 (volume.md 1.6 [R]): the centre tap and R rings of 8j bilinear taps at radius
          * r j / R, Gaussian weights exp(-|o|^2 / (2 (r/2)^2)), normalised. */
@@ -635,6 +665,7 @@ static void lv_chain_task(void *user, int64_t task, int thread)
     }
     lv_pass L = *C->P;
     L.k = C->k0 + C->dir * i;
+    L.kprev = L.k - C->dir; /* the slice prev holds (lv_fetch_l_entry's texel positions) */
     L.mode = i == 0 ? C->first : LV_MODE_PROPAGATE;
     for (int c = 0; c < LV_CH; c++) {
         L.prev[c] = C->slices[i & 1][c];
