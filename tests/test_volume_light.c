@@ -6,6 +6,7 @@
  * so the light volume's trapezoid is exact only where sigma_t is constant along the step
  * (homogeneous media); across a one-voxel ramp it carries a discretisation error, measured here. */
 #include "test.h"
+#include "volume_test_util.h"
 
 #include "core/obs.h"
 #include "truth/truth.h"
@@ -33,27 +34,6 @@ static int make_tf(vol_tf *tf, float alpha0, float alpha1, const float rgb[3])
     tf->points[0].rgba[3] = alpha0;
     tf->points[1].rgba[3] = alpha1;
     return 1;
-}
-
-static vol_light dir_light(double x, double y, double z)
-{
-    vol_light L;
-    memset(&L, 0, sizeof L);
-    L.type = OBS_LIGHT_DIRECTIONAL;
-    double n = sqrt(x * x + y * y + z * z);
-    L.direction[0] = x / n, L.direction[1] = y / n, L.direction[2] = z / n;
-    L.color[0] = L.color[1] = L.color[2] = 1.0f;
-    return L;
-}
-
-static vol_light point_light(double x, double y, double z)
-{
-    vol_light L;
-    memset(&L, 0, sizeof L);
-    L.type = OBS_LIGHT_POINT;
-    L.position[0] = x, L.position[1] = y, L.position[2] = z;
-    L.color[0] = L.color[1] = L.color[2] = 1.0f;
-    return L;
 }
 
 static int lv_all_finite_unit(const vol_light_volume *lv)
@@ -112,7 +92,7 @@ TEST(volume_light_homogeneous_slab_is_exact)
     CHECK(make_tf(&tf, 0.3f, 0.3f, white));
     const double s1 = -log1p(-(double)0.3f); /* per voxel (ref_step 0: one voxel) */
     const int n = 32;
-    vol_light Ls[3] = {dir_light(0, 0, 1), dir_light(0, 0, -1), dir_light(0.6, 0.0, 0.8)};
+    vol_light Ls[3] = {vtu_dir_light(0, 0, 1), vtu_dir_light(0, 0, -1), vtu_dir_light(0.6, 0.0, 0.8)};
     for (int t = 0; t < 3; t++) {
         vol_lv_params p = vol_lv_params_default();
         p.blend_second = 0; /* the F1 pass of the diagonal reads the border where rays leave by z */
@@ -172,7 +152,7 @@ TEST(volume_light_truth_march_matches_slab_analytic)
     const double a = (double)0.3f, s1 = -log1p(-a);
     truth_volume_params tp = truth_volume_params_default();
     const int n = 32, k0 = n / 4, k1 = 3 * n / 4 - 1;
-    vol_light L = dir_light(0.6, 0.0, 0.8);
+    vol_light L = vtu_dir_light(0.6, 0.0, 0.8);
     /* Homogeneous (TF constant): exact at every voxel of a plane, the path ending at the -z face
      * or at the -x face, whichever comes first. */
     vol_tf tf;
@@ -241,7 +221,7 @@ TEST(volume_light_ramped_slab_within_bound)
     printf("ramped slab: the trapezoid's ramp error, analytic: max %.4g\n", disc);
     for (int sgn = -1; sgn <= 1; sgn += 2) {
         vol_lv_params p = vol_lv_params_default();
-        vol_light L = dir_light(0, 0, sgn);
+        vol_light L = vtu_dir_light(0, 0, sgn);
         vol_light_volume lv;
         CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
         CHECK_EQ_INT(lv.face0, sgn > 0 ? 4 : 5);
@@ -271,7 +251,7 @@ TEST(volume_light_ramped_slab_within_bound)
         CHECK(st.mean_signed < 0.0);           /* darker: the trapezoid of a convex sigma_t(v) */
         vol_light_volume_free(&lv);
     }
-    vol_light L = dir_light(0.6, 0.0, 0.8);
+    vol_light L = vtu_dir_light(0.6, 0.0, 0.8);
     for (int blend = 0; blend <= 1; blend++) {
         vol_lv_params p = vol_lv_params_default();
         p.blend_second = blend;
@@ -359,40 +339,40 @@ TEST(volume_light_sphere_error_within_bound)
     /* Along +z the only error is the post-classification ramp error: the sphere's one-voxel edge
      * (value linear in r) through sigma_t(v) = -ln(1 - 0.25 v), convex, so the trapezoid over an
      * edge cell overestimates the extinction (bias < 0); the rest adds the bilinear diffusion. */
-    error_on("sphere", 40, NULL, dir_light(0, 0, 1), 1, 0.006, 2e-4);
+    error_on("sphere", 40, NULL, vtu_dir_light(0, 0, 1), 1, 0.006, 2e-4);
     if (test_failed())
         return;
-    error_on("sphere", 40, NULL, dir_light(0.3, -0.5, 0.8), 0, 0.4, 0.02);
+    error_on("sphere", 40, NULL, vtu_dir_light(0.3, -0.5, 0.8), 0, 0.4, 0.02);
     if (test_failed())
         return;
-    error_on("sphere", 40, NULL, dir_light(0.3, -0.5, 0.8), 1, 0.38, 0.016);
+    error_on("sphere", 40, NULL, vtu_dir_light(0.3, -0.5, 0.8), 1, 0.38, 0.016);
     if (test_failed())
         return;
-    error_on("sphere", 40, NULL, point_light(-30.0, 20.0, 70.0), 1, 0.28, 0.013);
+    error_on("sphere", 40, NULL, vtu_point_light(-30.0, 20.0, 70.0), 1, 0.28, 0.013);
 }
 
 TEST(volume_light_bucky_error_within_bound)
 {
-    error_on("bucky", 32, "bucky", dir_light(0, 0, 1), 1, 0.09, 0.007);
+    error_on("bucky", 32, "bucky", vtu_dir_light(0, 0, 1), 1, 0.09, 0.007);
     if (test_failed())
         return;
-    error_on("bucky", 32, "bucky", dir_light(0.3, -0.5, 0.8), 0, 0.65, 0.075);
+    error_on("bucky", 32, "bucky", vtu_dir_light(0.3, -0.5, 0.8), 0, 0.65, 0.075);
     if (test_failed())
         return;
-    error_on("bucky", 32, "bucky", dir_light(0.3, -0.5, 0.8), 1, 0.58, 0.064);
+    error_on("bucky", 32, "bucky", vtu_dir_light(0.3, -0.5, 0.8), 1, 0.58, 0.064);
 }
 
 TEST(volume_light_point_light_inside_is_finite_and_near_exact)
 {
     /* Near the sphere's centre (the grid is centred on the origin), and off-centre exactly on a slice plane
      * (x = -5.5 is a voxel centre plane). */
-    error_on("sphere", 32, NULL, point_light(0.25, -0.4, 0.1), 1, 0.13, 0.0065);
+    error_on("sphere", 32, NULL, vtu_point_light(0.25, -0.4, 0.1), 1, 0.13, 0.0065);
     if (test_failed())
         return;
-    error_on("sphere", 32, NULL, point_light(-5.5, 4.25, -3.0), 1, 0.17, 0.0075);
+    error_on("sphere", 32, NULL, vtu_point_light(-5.5, 4.25, -3.0), 1, 0.17, 0.0075);
     if (test_failed())
         return;
-    error_on("sphere", 32, NULL, point_light(-5.5, 4.25, -3.0), 0, 0.19, 0.0098);
+    error_on("sphere", 32, NULL, vtu_point_light(-5.5, 4.25, -3.0), 0, 0.19, 0.0098);
 }
 
 TEST(volume_light_one_voxel_thick_volume)
@@ -410,7 +390,7 @@ TEST(volume_light_one_voxel_thick_volume)
     vol_lv_params p = vol_lv_params_default();
     /* Along z: half a voxel of sigma_t = -ln(1 - 0.4) (a homogeneous medium) between the centre and
      * the face: l = (1 - 0.4)^(1/2). */
-    vol_light L = dir_light(0, 0, 1);
+    vol_light L = vtu_dir_light(0, 0, 1);
     vol_light_volume lv;
     CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
     CHECK(lv_all_finite_unit(&lv));
@@ -418,7 +398,7 @@ TEST(volume_light_one_voxel_thick_volume)
         CHECK_NEAR(lv.l[i], exp(0.5 * log1p(-(double)0.4f)), 1e-6);
     vol_light_volume_free(&lv);
     /* Diagonal and in-plane lights, a point light in the plane: finite, in [0, 1]. */
-    vol_light Ls[3] = {dir_light(0.5, 0.3, 0.8), dir_light(1, 0.2, 0.01), point_light(7.0, 5.0, 0.0)};
+    vol_light Ls[3] = {vtu_dir_light(0.5, 0.3, 0.8), vtu_dir_light(1, 0.2, 0.01), vtu_point_light(7.0, 5.0, 0.0)};
     for (int t = 0; t < 3; t++) {
         CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[t], &p, &lv), ctx);
         CHECK(lv_all_finite_unit(&lv));
@@ -443,7 +423,7 @@ TEST(volume_light_empty_tf_lights_everything)
     const float rgb[3] = {0.2f, 0.7f, 0.4f};
     vol_tf tf;
     CHECK(make_tf(&tf, 0.0f, 0.0f, rgb));
-    vol_light Ls[3] = {dir_light(0.3, -0.5, 0.8), point_light(40, -5, 3), point_light(-0.7, 0.0, 2.3)};
+    vol_light Ls[3] = {vtu_dir_light(0.3, -0.5, 0.8), vtu_point_light(40, -5, 3), vtu_point_light(-0.7, 0.0, 2.3)};
     for (int t = 0; t < 3; t++) {
         vol_lv_params p = vol_lv_params_default();
         p.scale = t == 1 ? 2 : 1;
@@ -489,7 +469,7 @@ TEST(volume_light_opaque_volume_is_dark_beyond_first_slice)
     vol_lv_params p = vol_lv_params_default();
     CHECK(p.kappa == 1.0);
     const double t1 = ldexp(1.0, -24);
-    vol_light Ls[2] = {dir_light(0, -1, 0), dir_light(0.2, 0.9, -0.3)};
+    vol_light Ls[2] = {vtu_dir_light(0, -1, 0), vtu_dir_light(0.2, 0.9, -0.3)};
     for (int t = 0; t < 2; t++) {
         vol_light_volume lv;
         CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[t], &p, &lv), ctx);
@@ -565,7 +545,7 @@ TEST(volume_light_blend_continuous_across_face_switch)
         p.blend_second = blend;
         for (int s = 0; s < N; s++) {
             double a = deg[s] * OBS_PI / 180.0;
-            vol_light L = dir_light(cos(a), 0.0, sin(a));
+            vol_light L = vtu_dir_light(cos(a), 0.0, sin(a));
             CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv[s]), ctx);
             if (blend) {
                 double w = lv[s].blend_weight;
@@ -613,7 +593,7 @@ TEST(volume_light_scales_agree_on_smooth_data)
     const float rgb[3] = {0.9f, 0.5f, 0.2f};
     vol_tf tf;
     CHECK(make_tf(&tf, 0.0f, 0.15f, rgb));
-    vol_light L = dir_light(0.3, -0.5, 0.8);
+    vol_light L = vtu_dir_light(0.3, -0.5, 0.8);
     vol_light_volume lv[3];
     const int scales[3] = {1, 2, 4};
     for (int s = 0; s < 3; s++) {
@@ -659,7 +639,7 @@ TEST(volume_light_identical_for_1_2_8_threads)
     CHECK_OK(vol_synth(ctx, "bucky", 32, &g), ctx);
     vol_tf tf;
     CHECK_OK(vol_tf_preset(ctx, "bucky", &tf), ctx);
-    vol_light Ls[2] = {dir_light(0.3, -0.5, 0.8), point_light(-3.8, 1.0, 4.4)};
+    vol_light Ls[2] = {vtu_dir_light(0.3, -0.5, 0.8), vtu_point_light(-3.8, 1.0, 4.4)};
     const int threads[3] = {1, 2, 8};
     for (int t = 0; t < 2; t++) {
         vol_light_volume lv[3];
@@ -691,7 +671,7 @@ TEST(volume_light_bad_params_refused)
     CHECK_OK(vol_synth(ctx, "sphere", 8, &g), ctx);
     vol_tf tf;
     CHECK_OK(vol_tf_preset(ctx, "bucky", &tf), ctx);
-    vol_light L = dir_light(0, 0, 1);
+    vol_light L = vtu_dir_light(0, 0, 1);
     vol_light_volume lv;
     vol_lv_params p = vol_lv_params_default();
     CHECK_EQ_INT(vol_lv_params_validate(ctx, &p), OBS_STATUS_OK);
@@ -720,7 +700,7 @@ TEST(volume_light_bad_params_refused)
     vol_light Z = L;
     Z.direction[0] = Z.direction[1] = Z.direction[2] = 0.0;
     CHECK_EQ_INT(vol_light_volume_build(ctx, NULL, &g, &tf, &Z, &p, &lv), OBS_STATUS_INVALID_ARGUMENT);
-    vol_light Pn = point_light(NAN, 0, 0);
+    vol_light Pn = vtu_point_light(NAN, 0, 0);
     CHECK_EQ_INT(vol_light_volume_build(ctx, NULL, &g, &tf, &Pn, &p, &lv), OBS_STATUS_INVALID_ARGUMENT);
     CHECK_EQ_INT(vol_light_volume_build(ctx, NULL, NULL, &tf, &L, &p, &lv), OBS_STATUS_INVALID_ARGUMENT);
     truth_volume_params tp = truth_volume_params_default();
@@ -744,7 +724,7 @@ TEST(volume_light_sample_is_trilinear)
     vol_tf tf;
     const float rgb[3] = {0.9f, 0.6f, 0.3f};
     CHECK(make_tf(&tf, 0.0f, 0.3f, rgb));
-    vol_light L = dir_light(0.2, 0.3, 0.9);
+    vol_light L = vtu_dir_light(0.2, 0.3, 0.9);
     vol_lv_params p = vol_lv_params_default();
     vol_light_volume lv;
     CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &L, &p, &lv), ctx);
@@ -774,7 +754,7 @@ TEST(volume_light_kernel_path_matches_per_tap_path)
     CHECK_OK(vol_synth(ctx, "bucky", 32, &g), ctx);
     vol_tf tf;
     CHECK_OK(vol_tf_preset(ctx, "bucky", &tf), ctx);
-    vol_light Ls[3] = {dir_light(0, 0, 1), dir_light(0.3, -0.5, 0.8), dir_light(-0.7, 0.2, 0.1)};
+    vol_light Ls[3] = {vtu_dir_light(0, 0, 1), vtu_dir_light(0.3, -0.5, 0.8), vtu_dir_light(-0.7, 0.2, 0.1)};
     const double cones[3] = {45.0, 20.0, 70.0};
     for (int t = 0; t < 3; t++) {
         vol_lv_params p = vol_lv_params_default();
@@ -809,10 +789,10 @@ TEST(volume_light_avx2_matches_scalar_bit_for_bit)
     CHECK(pool);
     const char *names[3] = {"bucky", "sphere", "box"};
     const int sizes[3] = {26, 21, 17};
-    vol_light Ls[10] = {dir_light(0, 0, 1),         dir_light(0, 0, -1),        dir_light(1, 0, 0),
-                        dir_light(0, -1, 0),        dir_light(0.3, -0.5, 0.8),  dir_light(-0.7, 0.2, 0.1),
-                        dir_light(-0.4, -0.7, -0.6), point_light(-40.0, 15.0, 50.0), point_light(1.0, -2.0, 0.5),
-                        dir_light(0.02, 0.05, -1)};
+    vol_light Ls[10] = {vtu_dir_light(0, 0, 1),         vtu_dir_light(0, 0, -1),        vtu_dir_light(1, 0, 0),
+                        vtu_dir_light(0, -1, 0),        vtu_dir_light(0.3, -0.5, 0.8),  vtu_dir_light(-0.7, 0.2, 0.1),
+                        vtu_dir_light(-0.4, -0.7, -0.6), vtu_point_light(-40.0, 15.0, 50.0), vtu_point_light(1.0, -2.0, 0.5),
+                        vtu_dir_light(0.02, 0.05, -1)};
     const float rgb[3] = {0.9f, 0.6f, 0.3f};
     int cases = 0;
     for (int v = 0; v < 3; v++) {
@@ -869,7 +849,7 @@ TEST(volume_light_kernel_span_bounds_on_thin_slices_and_small_cones)
     obs_context *ctx = obs_context_create();
     const int dims[3][3] = {{19, 14, 21}, {3, 2, 9}, {1, 12, 16}};
     const double sps[3][3] = {{1, 1, 1}, {1, 2.5, 0.4}, {0.3, 1, 1}};
-    const vol_light Ls[3] = {dir_light(0.8, 0, 0.6), dir_light(0.7, 0.7, 0.1), dir_light(0.1, -0.9, 0.42)};
+    const vol_light Ls[3] = {vtu_dir_light(0.8, 0, 0.6), vtu_dir_light(0.7, 0.7, 0.1), vtu_dir_light(0.1, -0.9, 0.42)};
     const float rgb[3] = {0.2f, 0.5f, 0.9f};
     vol_tf tf;
     CHECK(make_tf(&tf, 0.05f, 0.6f, rgb));

@@ -3,6 +3,7 @@
  * sub-columns), the light volume's extra extinction (a slab's shadow; bit-identical output without
  * it), threads, refusals. docs/volume/light.md "Meshes shadow the volume". */
 #include "test.h"
+#include "volume_test_util.h"
 
 #include "core/obs.h"
 #include "scene_util.h"
@@ -328,25 +329,6 @@ static int make_tf(vol_tf *tf, float alpha)
     }
     return 1;
 }
-static vol_light dir_light(double x, double y, double z)
-{
-    vol_light L;
-    memset(&L, 0, sizeof L);
-    L.type = OBS_LIGHT_DIRECTIONAL;
-    const double n = sqrt(x * x + y * y + z * z);
-    L.direction[0] = x / n, L.direction[1] = y / n, L.direction[2] = z / n;
-    L.color[0] = L.color[1] = L.color[2] = 1.0f;
-    return L;
-}
-static vol_light point_light(double x, double y, double z)
-{
-    vol_light L;
-    memset(&L, 0, sizeof L);
-    L.type = OBS_LIGHT_POINT;
-    L.position[0] = x, L.position[1] = y, L.position[2] = z;
-    L.color[0] = L.color[1] = L.color[2] = 1.0f;
-    return L;
-}
 static int lv_equal(const vol_light_volume *a, const vol_light_volume *b)
 {
     if (a->nx != b->nx || a->ny != b->ny || a->nz != b->nz)
@@ -372,7 +354,7 @@ TEST(volume_occupancy_slab_shadows_the_volume_behind_it)
     const double lo[3] = {-3, -3, 9.5}, hi[3] = {19, 19, 11.5};
     tm_box(&t, lo, hi, 1);
     vol_occ_mesh mm = one(&t.m);
-    const vol_light Ls[2] = {dir_light(0, 0, -1), point_light(7.5, 7.5, 4000.0)};
+    const vol_light Ls[2] = {vtu_dir_light(0, 0, -1), vtu_point_light(7.5, 7.5, 4000.0)};
     for (int li = 0; li < 2; li++)
         for (int scale = 1; scale <= 2; scale++) {
             vol_occupancy o;
@@ -414,7 +396,7 @@ TEST(volume_occupancy_null_and_zero_occluders_are_bit_identical)
     CHECK_OK(vol_synth(ctx, "bucky", 24, &g), ctx);
     vol_tf tf;
     CHECK_OK(vol_tf_preset(ctx, "bucky", &tf), ctx);
-    const vol_light Ls[2] = {dir_light(0.3, -0.5, 0.8), point_light(-3.8, 1.0, 4.4)};
+    const vol_light Ls[2] = {vtu_dir_light(0.3, -0.5, 0.8), vtu_point_light(-3.8, 1.0, 4.4)};
     obs_pool *pool = obs_pool_create(2);
     for (int li = 0; li < 2; li++)
         for (int scale = 1; scale <= 2; scale++) {
@@ -458,7 +440,7 @@ TEST(volume_occupancy_identical_for_1_2_8_threads_and_both_isas)
                      (float)(blo[2] + 0.6 * (bhi[2] - blo[2]))),
               0.1f);
     vol_occ_mesh mm = one(&s.meshes[0]);
-    const vol_light L = dir_light(-0.3, -0.5, -0.8);
+    const vol_light L = vtu_dir_light(-0.3, -0.5, -0.8);
     const int threads[3] = {1, 2, 8};
     vol_occupancy o[3];
     vol_light_volume lv[4];
@@ -517,7 +499,7 @@ TEST(volume_occupancy_layout_is_the_light_volumes)
     g.origin[0] = -2.1, g.origin[1] = 0.37, g.origin[2] = 5.0;
     vol_tf tf;
     CHECK(make_tf(&tf, 0.1f));
-    const vol_light L = dir_light(0.2, 0.3, -1);
+    const vol_light L = vtu_dir_light(0.2, 0.3, -1);
     for (int scale = 1; scale <= 4; scale *= 2) {
         vol_occupancy o;
         CHECK_OK(vol_occupancy_alloc(ctx, &g, scale, &o), ctx);
@@ -542,7 +524,7 @@ TEST(volume_occupancy_bad_inputs_refused)
     CHECK(zero_grid(ctx, 16, &g));
     vol_tf tf;
     CHECK(make_tf(&tf, 0.1f));
-    const vol_light L = dir_light(0, 0, -1);
+    const vol_light L = vtu_dir_light(0, 0, -1);
     vol_occupancy o, o2;
     CHECK_EQ_INT(vol_occupancy_alloc(ctx, NULL, 1, &o), OBS_STATUS_INVALID_ARGUMENT);
     CHECK_EQ_INT(vol_occupancy_alloc(ctx, &g, 3, &o), OBS_STATUS_INVALID_ARGUMENT);
@@ -629,7 +611,7 @@ TEST(volume_occupancy_point_light_inside_the_volume_is_shadowed_by_a_cube)
     vol_occupancy o;
     CHECK_OK(vol_occupancy_alloc(ctx, &g, 1, &o), ctx);
     CHECK_OK(vol_occupancy_voxelize(ctx, NULL, &mm, 1, VOL_OCC_DEFAULT_SUBCOLUMNS, &o), ctx);
-    const vol_light L = point_light(5.0, 5.0, 5.0);
+    const vol_light L = vtu_point_light(5.0, 5.0, 5.0);
     vol_lv_params p = vol_lv_params_default();
     vol_occluder oc = {&o, 0.0, NULL, NULL};
     vol_light_volume lv, plain;
@@ -680,7 +662,7 @@ TEST(volume_occupancy_entry_transmittance_seeds_the_first_slice)
     vol_tf tf;
     CHECK(zero_grid(ctx, 16, &g));
     CHECK(make_tf(&tf, 0.0f));
-    const vol_light L = dir_light(0, 0, -1);
+    const vol_light L = vtu_dir_light(0, 0, -1);
     vol_lv_params p = vol_lv_params_default();
     p.blend_second = 0;
     int bad = 0;
@@ -737,7 +719,7 @@ TEST(volume_occupancy_entry_covers_light_entering_by_the_side_faces)
     vol_tf tf;
     CHECK(zero_grid(ctx, 16, &g));
     CHECK(make_tf(&tf, 0.0f));
-    const vol_light lights[2] = {dir_light(0.5, -0.3, -0.8), point_light(-6, 24, 30)};
+    const vol_light lights[2] = {vtu_dir_light(0.5, -0.3, -0.8), vtu_point_light(-6, 24, 30)};
     for (int li = 0; li < 2; li++)
         for (int blend = 0; blend < 2; blend++) {
             vol_lv_params p = vol_lv_params_default();
