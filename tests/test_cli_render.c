@@ -155,9 +155,9 @@ TEST(cli_render_bad_flags_are_usage_errors_that_name_the_problem)
     const char *a6[] = {"render", rc_scene("sphere_on_plane.glb"), "--frobnicate", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a6, "a6"), 2);
     CHECK(test_cli_stderr_has("a6", "--frobnicate"));
-    const char *a10[] = {"render", rc_scene("sphere_on_plane.glb"), "--cache-memory", "0", "-o", dir, NULL};
-    CHECK_EQ_INT(test_cli_run(a10, "a10"), 2);
-    CHECK(test_cli_stderr_has("a10", "--cache-memory"));
+    const char *a11[] = {"render", rc_scene("sphere_on_plane.glb"), "--cache-memory", "0", "-o", dir, NULL};
+    CHECK_EQ_INT(test_cli_run(a11, "a11"), 2);
+    CHECK(test_cli_stderr_has("a11", "--cache-memory"));
     const char *a7[] = {"render", "-o", dir, NULL};
     CHECK_EQ_INT(test_cli_run(a7, "a7"), 2);
     const char *a8[] = {"render", rc_scene("sphere_on_plane.glb"), "--ao", "none", "--ao-param", "radius=1", "-o", dir, NULL};
