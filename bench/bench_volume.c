@@ -3,7 +3,7 @@
  *   obscura_bench_volume [--synth bucky|sphere|slab|box] [--n 256] [--file PATH] [--tf bucky]
  *                        [--shading ea|phong|lightvolume] [--step 0] [--brick 8] [--et 0.99]
  *                        [--threads 2] [--reps 3] [--size 1920x1080] [--sweep]
- *                        [--lv-only] [--light X,Y,Z] [--blend 0|1] [--scale 1|2|4] [--cone DEG]
+ *                        [--lv-only [--rebuild]] [--light X,Y,Z] [--blend 0|1] [--scale 1|2|4] [--cone DEG]
  *                        [--growth [--no-largest]]
  *
  * Ray casts a synthetic volume (vol_synth, n^3, default the bucky at 256^3) with a transfer-function
@@ -19,7 +19,11 @@
  * default 45-degree cone, 2 threads: <= 25 ms): one warm-up build, then REPS timed builds; the RESULT
  * line gives the median (min, max) in ms and ns per light-volume voxel. --light sets the directional
  * light's travel direction (default -0.4,-0.7,-0.6, normalised; 0,0,1 is the bar's axis-aligned
- * light with its 3x3 cone), --blend, --scale and --cone the vol_lv_params.
+ * light with its 3x3 cone), --blend, --scale and --cone the vol_lv_params. --rebuild (with --lv-only)
+ * then times REPS vol_light_volume_rebuild into a warm volume with a workspace (no allocation, no page
+ * fault), alternating the light and its mirror (-dx, -dy, dz) (the same work; for 0,0,1 the same
+ * light): a RESULT lightvolume-rebuild line (the rebuild median, then the fresh one) and the minor
+ * page faults and system CPU time per build of each (getrusage).
  * --growth times the cost growth (issue 15 item 11; docs/results/cost-growth.md): the light volume's
  * build for vol_synth volumes at n = 64, 128, 256 (light along +z unless --light, the default cone:
  * the bar's 3x3 case), the ray cast of those volumes at the fixed image --size (default 960x540
@@ -41,6 +45,21 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <sys/resource.h>
+
+/* Minor page faults of this process so far (getrusage): a fresh light volume's first touch. */
+static long minor_faults(void)
+{
+    struct rusage ru;
+    return getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_minflt : -1;
+}
+
+/* System CPU time of this process so far, ms (getrusage, all threads): the kernel's zeroing. */
+static double system_ms(void)
+{
+    struct rusage ru;
+    return getrusage(RUSAGE_SELF, &ru) == 0 ? ru.ru_stime.tv_sec * 1e3 + ru.ru_stime.tv_usec * 1e-3 : -1.0;
+}
 
 static double now_ms(void)
 {
@@ -290,6 +309,7 @@ int main(int argc, char **argv)
     bench b;
     memset(&b, 0, sizeof b);
     const char *synth = "bucky", *tfname = NULL, *file = NULL;
+    int rebuild = 0; /* --lv-only --rebuild: also REPS vol_light_volume_rebuild into the warm volume */
     int n = 256, threads = 2, sweep = 0, lv_only = 0, growth = 0, no_largest = 0, light_set = 0, size_set = 0;
     double ldir[3] = {-0.4, -0.7, -0.6};
     vol_lv_params lp = vol_lv_params_default();
@@ -306,6 +326,10 @@ int main(int argc, char **argv)
         }
         if (!strcmp(a, "--lv-only")) {
             lv_only = 1;
+            continue;
+        }
+        if (!strcmp(a, "--rebuild")) {
+            rebuild = 1;
             continue;
         }
         if (!strcmp(a, "--growth")) {
@@ -433,7 +457,11 @@ int main(int argc, char **argv)
            tfname ? tfname : "bench", b.W, b.H, threads, b.reps);
     if (lv_only) {
         double *ms = (double *)malloc(sizeof(double) * (size_t)(b.reps + 1));
+        long flt0 = 0;
+        double sys0 = 0.0;
         for (int r = 0; r <= b.reps; r++) { /* r = 0: the warm-up */
+            if (r == 1)
+                flt0 = minor_faults(), sys0 = system_ms();
             double tl = now_ms();
             if (vol_light_volume_build(b.ctx, b.pool, &b.g, &b.tf, &b.light, &lp, &b.lv) != OBS_STATUS_OK)
                 die(&b);
@@ -448,8 +476,43 @@ int main(int argc, char **argv)
         double med = b.reps % 2 ? ms[1 + b.reps / 2] : 0.5 * (ms[b.reps / 2] + ms[1 + b.reps / 2]);
         double vox = (double)((b.g.nx + lp.scale - 1) / lp.scale) * ((b.g.ny + lp.scale - 1) / lp.scale) *
                      ((b.g.nz + lp.scale - 1) / lp.scale);
+        const long flt_fresh = minor_faults() - flt0;
+        const double sys_fresh = system_ms() - sys0;
         printf("RESULT lightvolume %s%d threads %d: %9.1f ms (min %.1f, max %.1f); %.1f ns per voxel (median)\n", synth,
                b.g.nx, threads, med, ms[1], ms[b.reps], med * 1e6 / vox);
+        if (rebuild) {
+            /* The rebuilds: one build to warm the volume and the workspace, then REPS rebuilds into
+             * it, alternating the light and its mirror (-dx, -dy, dz): the same faces' axes and blend
+             * weight, so the same work (for the bar's +z light the two are the same light). */
+            vol_light lights[2] = {b.light, b.light};
+            lights[1].direction[0] = -b.light.direction[0];
+            lights[1].direction[1] = -b.light.direction[1];
+            vol_lv_workspace *ws = vol_lv_workspace_create();
+            vol_light_volume lv;
+            memset(&lv, 0, sizeof lv);
+            if (!ws || vol_light_volume_rebuild(b.ctx, b.pool, &b.g, &b.tf, &lights[1], &lp, NULL, ws, &lv) != OBS_STATUS_OK)
+                die(&b);
+            long f0 = minor_faults();
+            double s0 = system_ms();
+            for (int r = 1; r <= b.reps; r++) {
+                double tl = now_ms();
+                if (vol_light_volume_rebuild(b.ctx, b.pool, &b.g, &b.tf, &lights[r & 1 ? 0 : 1], &lp, NULL, ws, &lv) !=
+                    OBS_STATUS_OK)
+                    die(&b);
+                ms[r] = now_ms() - tl;
+            }
+            const long flt_re = minor_faults() - f0;
+            const double sys_re = system_ms() - s0;
+            vol_light_volume_free(&lv);
+            vol_lv_workspace_free(ws);
+            qsort(ms + 1, (size_t)b.reps, sizeof(double), cmp_double);
+            double medr = b.reps % 2 ? ms[1 + b.reps / 2] : 0.5 * (ms[b.reps / 2] + ms[1 + b.reps / 2]);
+            printf("RESULT lightvolume-rebuild %s%d threads %d: %9.1f ms (min %.1f, max %.1f); %.1f ns per voxel "
+                   "(median); fresh median %.1f ms\n", synth, b.g.nx, threads, medr, ms[1], ms[b.reps], medr * 1e6 / vox, med);
+            printf("# per build: minor page faults fresh %.0f, rebuild %.0f; system CPU time fresh %.1f ms, rebuild %.1f ms "
+                   "(light and its mirror alternating)\n", (double)flt_fresh / b.reps, (double)flt_re / b.reps,
+                   sys_fresh / b.reps, sys_re / b.reps);
+        }
         free(ms);
         if (tfname)
             vol_tf_free(&b.tf);

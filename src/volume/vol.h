@@ -253,6 +253,30 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
                                      const vol_light *light, const vol_lv_params *p, const vol_occluder *occ,
                                      vol_light_volume *out);
 
+/* ---- Rebuilding into the same memory (docs/volume/light.md "Cost"). A GPU implementation keeps its
+ * 3D textures from frame to frame; the CPU's equivalent: a fresh 256^3 light volume is 256 MiB the
+ * kernel must zero on first touch (page faults, about a third of a 2-thread build), so a caller that
+ * rebuilds for a new light writes into the old volume instead. */
+
+/* The temporary volumes a build allocates (the second face's propagation when blending, the staged
+ * output of a pass along x, the slice buffers), kept between rebuilds. Opaque; one per light volume
+ * being rebuilt (not shared by concurrent builds). Holds up to two more 4-channel volumes. */
+typedef struct vol_lv_workspace vol_lv_workspace;
+vol_lv_workspace *vol_lv_workspace_create(void);       /* NULL: out of memory */
+void vol_lv_workspace_free(vol_lv_workspace *ws);        /* NULL-safe */
+
+/* vol_light_volume_build_ex into lv, reusing its memory: lv must be zeroed or hold a light volume
+ * (from any build, rebuild, or the same layout: one obs_aligned_alloc block l, c[0..2] at 1, 2, 3
+ * times nx ny nz floats). When lv's nx, ny, nz are the new volume's, the new one is written into
+ * that block (no allocation, no page fault); otherwise lv is freed and built fresh. ws NULL: the
+ * temporaries are allocated and freed as in a build; else they are ws's (allocated on first use,
+ * kept). The output is the same bits as vol_light_volume_build_ex's into a zeroed lv
+ * (volume_light_rebuild_* tests). On any error lv is freed (zeroed), as a build leaves out.
+ * Returns vol_light_volume_build_ex's. */
+obs_status vol_light_volume_rebuild(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                    const vol_light *light, const vol_lv_params *p, const vol_occluder *occ,
+                                    vol_lv_workspace *ws, vol_light_volume *lv);
+
 /* The eye-direction pass (vol_eye.c), a RECONSTRUCTION (volume.md 1.8: how [Ropinski10] combines
  * its second pass is unverified; docs/volume/light.md "Eye pass" says what we do): the same
  * slice-by-slice propagation run a second time, seeded from the volume face that most faces the

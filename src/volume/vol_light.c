@@ -144,6 +144,7 @@ typedef struct lv_pass {
     float *out_l, *out_c[3];
     size_t ostr[3];             /* out_* elements per step along x, y, z (lv_propagate) */
     int stage_ok;               /* a pass along x may stage its output slice-major (lv_propagate) */
+    vol_lv_workspace *ws;       /* the rebuild's kept blocks (vol_light_volume_rebuild); NULL: none */
     /* the row kernels (vol_light_internal.h) */
     int avx2;                   /* vol_i_lv_avx2_active() at the build's start */
     vol_i_lv_tf T;              /* the TF prepared for row classification */
@@ -834,6 +835,66 @@ static void lv_first_touch(obs_pool *pool, void *p, size_t bytes)
     obs_pool_run(pool, (int64_t)((bytes + LV_TOUCH_CHUNK - 1) / LV_TOUCH_CHUNK), lv_touch_task, &T);
 }
 
+/* ---- The rebuild's workspace (vol.h vol_lv_workspace) ------------------------------------------ */
+
+/* One kept block: obs_aligned_alloc'd, `bytes` long (0: none). */
+typedef struct lv_block {
+    void *p;
+    size_t bytes;
+} lv_block;
+
+struct vol_lv_workspace {
+    lv_block stage; /* a pass along x's staged output (lv_propagate): 4 channels */
+    lv_block tmp;   /* the second face's propagation (blend): 4 channels */
+    lv_block buf;   /* the two slice buffers of lv_propagate */
+};
+
+vol_lv_workspace *vol_lv_workspace_create(void)
+{
+    return (vol_lv_workspace *)calloc(1, sizeof(vol_lv_workspace));
+}
+
+void vol_lv_workspace_free(vol_lv_workspace *ws)
+{
+    if (!ws)
+        return;
+    obs_aligned_free(ws->stage.p);
+    obs_aligned_free(ws->tmp.p);
+    obs_aligned_free(ws->buf.p);
+    free(ws);
+}
+
+/* A block of `bytes` bytes: without a workspace (b NULL) a fresh one (the caller frees it), first
+ * touched by the pool when `touch`; with one, b's block when it has that size up to twice it (kept
+ * from a previous build: its pages are already there, nothing to touch), else b's block replaced by a fresh
+ * one (b keeps it; the caller does not free it). Every value is written before it is read, so the
+ * old contents never matter. */
+static void *lv_block_take(obs_pool *pool, lv_block *b, size_t bytes, int touch)
+{
+    if (b && b->p && b->bytes >= bytes && b->bytes / 2 <= bytes) /* not over twice what is needed */
+        return b->p;
+    if (b) {
+        obs_aligned_free(b->p);
+        b->p = NULL;
+        b->bytes = 0;
+    }
+    void *p = obs_aligned_alloc(bytes);
+    if (p && touch)
+        lv_first_touch(pool, p, bytes);
+    if (b && p) {
+        b->p = p;
+        b->bytes = bytes;
+    }
+    return p;
+}
+
+/* Give back a block lv_block_take returned: freed unless the workspace keeps it. */
+static void lv_block_give(lv_block *b, void *p)
+{
+    if (!b)
+        obs_aligned_free(p);
+}
+
 /* The staged output of a pass along x (lv_propagate) into the x-fastest output: task z moves the
  * plane z, in tiles of 16 x values (16 rows of the stage read, 16 consecutive floats written). */
 typedef struct lv_unstage {
@@ -879,11 +940,11 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
      * fastest): stage it slice-major (x slowest, then z, then y: the slices' own order) and
      * transpose it into out_* at the end (lv_unstage_task). The values are the same. */
     const size_t voxels = (size_t)P->n[0] * (size_t)P->n[1] * (size_t)P->n[2];
+    lv_block *ws_stage = P->ws ? &P->ws->stage : NULL, *ws_buf = P->ws ? &P->ws->buf : NULL;
     float *stage = NULL;
     if (a == 0 && P->stage_ok)
-        stage = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
+        stage = (float *)lv_block_take(pool, ws_stage, voxels * 4 * sizeof(float), 1);
     if (stage) {
-        lv_first_touch(pool, stage, voxels * 4 * sizeof(float));
         P->out_l = stage;
         for (int c = 0; c < 3; c++)
             P->out_c[c] = stage + (size_t)(c + 1) * voxels;
@@ -893,9 +954,9 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
      * sigma_t: 0) around the slice that no voxel overwrites (lv_fetch). */
     P->W = P->nu + 2 * LV_PAD;
     size_t plane = (size_t)P->W * (size_t)(P->nv + 2 * LV_PAD);
-    float *buf = (float *)obs_aligned_alloc(plane * 2 * LV_CH * sizeof(float));
+    float *buf = (float *)lv_block_take(pool, ws_buf, plane * 2 * LV_CH * sizeof(float), 0);
     if (!buf) {
-        obs_aligned_free(stage);
+        lv_block_give(ws_stage, stage);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the slice buffers");
     }
     float *slices[2][LV_CH];
@@ -908,8 +969,8 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         }
     lv_taps_init(P);
     if (!lv_kernel_init(P)) {
-        obs_aligned_free(stage);
-        obs_aligned_free(buf);
+        lv_block_give(ws_stage, stage);
+        lv_block_give(ws_buf, buf);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the cone kernel");
     }
     /* Per thread: one row's values, sigma_t and c_TF (lv_row). Tasks are bands of rows, about four
@@ -927,8 +988,8 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         obs_aligned_free(P->scratch);
         P->scratch = NULL;
         free(done);
-        obs_aligned_free(buf);
-        obs_aligned_free(stage);
+        lv_block_give(ws_buf, buf);
+        lv_block_give(ws_stage, stage);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the row buffers");
     }
     const int na = P->n[a];
@@ -961,7 +1022,7 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
             lv_run_chain(pool, P, kdn, -1, kdn + 1, LV_MODE_SEED, slices, done);
         }
     }
-    obs_aligned_free(buf);
+    lv_block_give(ws_buf, buf);
     free(done);
     obs_aligned_free(P->scratch);
     P->scratch = NULL;
@@ -974,7 +1035,7 @@ static obs_status lv_propagate(obs_context *ctx, obs_pool *pool, lv_pass *P, int
         U.nx = P->n[0], U.ny = P->n[1], U.nz = P->n[2];
         U.voxels = voxels;
         obs_pool_run(pool, P->n[2], lv_unstage_task, &U);
-        obs_aligned_free(stage);
+        lv_block_give(ws_stage, stage);
         P->out_l = out_l;
         for (int c = 0; c < 3; c++)
             P->out_c[c] = out_c[c];
@@ -1080,12 +1141,12 @@ obs_status vol_light_volume_build(obs_context *ctx, obs_pool *pool, const vol_gr
     return vol_light_volume_build_ex(ctx, pool, g, tf, light, p, NULL, out);
 }
 
-obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
-                                     const vol_light *light, const vol_lv_params *p, const vol_occluder *occ,
-                                     vol_light_volume *out)
+/* old: NULL (a fresh build), or the light volume a rebuild may write into (vol_light_volume_rebuild):
+ * its block is adopted by out when the layout matches (old->l then NULL), else left to the caller. */
+static obs_status lv_build(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                           const vol_light *light, const vol_lv_params *p, const vol_occluder *occ,
+                           vol_lv_workspace *ws, vol_light_volume *old, vol_light_volume *out)
 {
-    if (!out)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_light_volume_build: out is NULL");
     memset(out, 0, sizeof *out);
     if (!g || !tf || !light)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_light_volume_build: grid, tf or light is NULL");
@@ -1184,12 +1245,23 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
                          "light volume %dx%dx%d needs %.3g bytes, over the limits (raise --max-voxels/--max-memory)",
                          P.n[0], P.n[1], P.n[2], (double)bytes);
     }
-    float *mem = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
-    if (!mem) {
-        obs_aligned_free(occ_sigma);
-        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory (%.3g bytes)", (double)bytes);
+    /* A rebuild writes into old's block when it is one block of exactly these 4 channels (as below:
+     * l, then c[0..2]); every voxel is written again by the propagation (and the blend), so the
+     * old values never reach the output. Otherwise old is freed first (the peak stays one volume). */
+    float *mem = NULL;
+    if (old && old->l && old->nx == P.n[0] && old->ny == P.n[1] && old->nz == P.n[2] &&
+        old->c[0] == old->l + voxels && old->c[1] == old->l + 2 * voxels && old->c[2] == old->l + 3 * voxels) {
+        mem = old->l;
+        memset(old, 0, sizeof *old);
+    } else {
+        vol_light_volume_free(old);
+        mem = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
+        if (!mem) {
+            obs_aligned_free(occ_sigma);
+            return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory (%.3g bytes)", (double)bytes);
+        }
+        lv_first_touch(pool, mem, voxels * 4 * sizeof(float));
     }
-    lv_first_touch(pool, mem, voxels * 4 * sizeof(float));
     out->nx = P.n[0], out->ny = P.n[1], out->nz = P.n[2], out->scale = p->scale;
     for (int c = 0; c < 3; c++) {
         out->spacing[c] = P.sp[c];
@@ -1200,6 +1272,7 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
     /* Staging a pass along x (lv_propagate) costs one more volume of 4 channels: only within the
      * limits. */
     P.stage_ok = (int64_t)(bytes + voxels * 4 * sizeof(float)) <= lim->max_memory_bytes;
+    P.ws = ws;
     out->face0 = f0;
     out->face1 = p->blend_second ? f1 : -1;
     out->blend_weight = w;
@@ -1253,18 +1326,18 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
     /* F0: light enters by face f0 (dir_max = -n_F0): from the low side when f0 is a minus face. */
     st = lv_propagate(ctx, pool, &P, f0 >> 1, (f0 & 1) == 0, out->l, out->c);
     if (st == OBS_STATUS_OK && need_second) {
-        float *tmp = (float *)obs_aligned_alloc(voxels * 4 * sizeof(float));
+        lv_block *ws_tmp = ws ? &ws->tmp : NULL;
+        float *tmp = (float *)lv_block_take(pool, ws_tmp, voxels * 4 * sizeof(float), 1);
         if (!tmp) {
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "light volume: out of memory for the second face");
         } else {
-            lv_first_touch(pool, tmp, voxels * 4 * sizeof(float));
             float *tc[3] = {tmp + voxels, tmp + 2 * voxels, tmp + 3 * voxels};
             st = lv_propagate(ctx, pool, &P, f1 >> 1, (f1 & 1) == 0, tmp, tc);
             if (st == OBS_STATUS_OK) {
                 void *args[3] = {out, tmp, &voxels};
                 obs_pool_run(pool, (int64_t)((voxels + (1 << 16) - 1) >> 16), lv_blend_task, args);
             }
-            obs_aligned_free(tmp);
+            lv_block_give(ws_tmp, tmp);
         }
     }
     free(stencils);
@@ -1273,6 +1346,27 @@ obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol
     obs_aligned_free(occ_sigma);
     if (st != OBS_STATUS_OK)
         vol_light_volume_free(out);
+    return st;
+}
+
+obs_status vol_light_volume_build_ex(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                     const vol_light *light, const vol_lv_params *p, const vol_occluder *occ,
+                                     vol_light_volume *out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_light_volume_build: out is NULL");
+    return lv_build(ctx, pool, g, tf, light, p, occ, NULL, NULL, out);
+}
+
+obs_status vol_light_volume_rebuild(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
+                                    const vol_light *light, const vol_lv_params *p, const vol_occluder *occ,
+                                    vol_lv_workspace *ws, vol_light_volume *lv)
+{
+    if (!lv)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_light_volume_rebuild: lv is NULL");
+    vol_light_volume old = *lv;
+    obs_status st = lv_build(ctx, pool, g, tf, light, p, occ, ws, &old, lv);
+    vol_light_volume_free(&old); /* NULL-safe: nothing when lv adopted its block */
     return st;
 }
 
