@@ -223,6 +223,15 @@ static inline void rc_split(double c, int n, int *i0, int *i1, float *t)
     *t = (float)(c - (double)f);
 }
 
+/* rc_split for 0 < c < n - 1 (the caller knows it): the same arithmetic without the clamps. */
+static inline void rc_split_inside(double c, int *i0, int *i1, float *t)
+{
+    int f = (int)c;
+    *i0 = f;
+    *i1 = f + 1;
+    *t = (float)(c - (double)f);
+}
+
 static inline float rc_sample(const vol_grid *g, double ci, double cj, double ck)
 {
     int x0, x1, y0, y1, z0, z1;
@@ -637,6 +646,24 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
         /* The base-voxel range of the last brick found non-empty: samples inside it need no
          * look-up (lo > hi: none yet). */
         int nel[3] = {1, 1, 1}, neh[3] = {0, 0, 0};
+        /* Clamp-free splits: c is a monotone function of t on the ray (o + t d and (x - origin) /
+         * spacing round monotonically, and the sample parameters increase with k), so when the
+         * first and the last sample lie strictly inside (0, n - 1) on every axis, every sample
+         * does, and rc_split's clamping branches never fire: rc_split_inside is then its
+         * arithmetic, the same bits. */
+        int inside = 1;
+        {
+            const double tfirst = n > 1 ? t0 + 0.5 * dt : 0.5 * (t0 + t1);
+            const double tlast = 0.5 * ((t0 + (double)(n - 1) * dt) + t1);
+            const int na[3] = {nx, ny, nz};
+            for (int a = 0; a < 3; a++) {
+                const double cf = ((o[a] + tfirst * d[a]) - g->origin[a]) * J->inv_sp[a];
+                const double cl = ((o[a] + tlast * d[a]) - g->origin[a]) * J->inv_sp[a];
+                const double top = (double)(na[a] - 1);
+                if (!(cf > 0.0 && cf < top && cl > 0.0 && cl < top))
+                    inside = 0;
+            }
+        }
         for (int64_t k = 0; k < n; k++) {
             double tm, len;
             if (k + 1 < n) {
@@ -658,9 +685,15 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
              * lower voxel is the sample's base voxel: its brick). */
             int vx0, vx1, vy0, vy1, vz0, vz1;
             float ftx, fty, ftz;
-            rc_split(c[0], nx, &vx0, &vx1, &ftx);
-            rc_split(c[1], ny, &vy0, &vy1, &fty);
-            rc_split(c[2], nz, &vz0, &vz1, &ftz);
+            if (inside) {
+                rc_split_inside(c[0], &vx0, &vx1, &ftx);
+                rc_split_inside(c[1], &vy0, &vy1, &fty);
+                rc_split_inside(c[2], &vz0, &vz1, &ftz);
+            } else {
+                rc_split(c[0], nx, &vx0, &vx1, &ftx);
+                rc_split(c[1], ny, &vy0, &vy1, &fty);
+                rc_split(c[2], nz, &vz0, &vz1, &ftz);
+            }
             /* Empty-space skipping [Kruger03]: in a brick where the TF's alpha is 0 everywhere,
              * jump past the run of empty bricks the ray crosses from here. */
             if (B > 0 && !(vx0 >= nel[0] && vx0 <= neh[0] && vy0 >= nel[1] && vy0 <= neh[1] && vz0 >= nel[2] &&
