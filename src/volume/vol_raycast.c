@@ -643,25 +643,52 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
          * the counters are summed locally and added once. */
         const int nx = g->nx, ny = g->ny, nz = g->nz;
         int64_t n_samples = 0, n_skipped = 0, n_shaded = 0;
-        /* The base-voxel range of the last brick found non-empty: samples inside it need no
-         * look-up (lo > hi: none yet). */
-        int nel[3] = {1, 1, 1}, neh[3] = {0, 0, 0};
-        /* Clamp-free splits: c is a monotone function of t on the ray (o + t d and (x - origin) /
-         * spacing round monotonically, and the sample parameters increase with k), so when the
-         * first and the last sample lie strictly inside (0, n - 1) on every axis, every sample
-         * does, and rc_split's clamping branches never fire: rc_split_inside is then its
-         * arithmetic, the same bits. */
-        int inside = 1;
+        /* The base-voxel range [nel, nel + B) of the last brick found non-empty: samples inside it
+         * need no look-up. One test per axis: v is in it iff v - nel < B in unsigned arithmetic;
+         * nel = -B: none yet (v - nel = v + B >= B for 0 <= v, B < 2^31). */
+        int nel[3] = {-B, -B, -B};
+        const unsigned UB = (unsigned)B;
+        /* Clamp-free splits: along the full steps, c is a monotone function of k (the parameter
+         * t0 + (k + 1/2) dt, o + t d and (x - origin) / spacing all round monotonically), so when
+         * samples ka and kb lie strictly inside (0, n - 1) on every axis, every sample between them
+         * does, and rc_split's clamping branches cannot fire there: rc_split_inside is then its
+         * arithmetic, the same bits. [ka, kb] is estimated from the box planes with one step of
+         * margin and then checked with the march's own expressions (empty if the check fails). */
+        int64_t ka = 0, kb = n - 2; /* the last sample (a shorter step) always takes rc_split */
         {
-            const double tfirst = n > 1 ? t0 + 0.5 * dt : 0.5 * (t0 + t1);
-            const double tlast = 0.5 * ((t0 + (double)(n - 1) * dt) + t1);
             const int na[3] = {nx, ny, nz};
-            for (int a = 0; a < 3; a++) {
-                const double cf = ((o[a] + tfirst * d[a]) - g->origin[a]) * J->inv_sp[a];
-                const double cl = ((o[a] + tlast * d[a]) - g->origin[a]) * J->inv_sp[a];
-                const double top = (double)(na[a] - 1);
-                if (!(cf > 0.0 && cf < top && cl > 0.0 && cl < top))
-                    inside = 0;
+            for (int a = 0; a < 3 && ka <= kb; a++) {
+                if (d[a] == 0.0)
+                    continue; /* c constant: the check below decides */
+                double ta = (g->origin[a] - o[a]) / d[a];
+                double tb = (g->origin[a] + (double)(na[a] - 1) * g->spacing[a] - o[a]) / d[a];
+                if (ta > tb) {
+                    double tmp = ta;
+                    ta = tb;
+                    tb = tmp;
+                }
+                const double klo = ceil((ta - t0) / dt - 0.5) + 1.0, khi = floor((tb - t0) / dt - 0.5) - 1.0;
+                if (!(klo <= khi)) {
+                    ka = 1;
+                    kb = 0;
+                    break;
+                }
+                if (klo > (double)ka)
+                    ka = klo < (double)n ? (int64_t)klo : n;
+                if (khi < (double)kb)
+                    kb = khi >= 0.0 ? (int64_t)khi : -1;
+            }
+            for (int e = 0; e < 2 && ka <= kb; e++) {
+                const double tm = t0 + ((double)(e ? kb : ka) + 0.5) * dt;
+                for (int a = 0; a < 3; a++) {
+                    const double xa = o[a] + tm * d[a];
+                    const double ca = (xa - g->origin[a]) * J->inv_sp[a];
+                    if (!(ca > 0.0 && ca < (double)(na[a] - 1))) {
+                        ka = 1;
+                        kb = 0;
+                        break;
+                    }
+                }
             }
         }
         for (int64_t k = 0; k < n; k++) {
@@ -685,7 +712,7 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
              * lower voxel is the sample's base voxel: its brick). */
             int vx0, vx1, vy0, vy1, vz0, vz1;
             float ftx, fty, ftz;
-            if (inside) {
+            if (k >= ka && k <= kb) {
                 rc_split_inside(c[0], &vx0, &vx1, &ftx);
                 rc_split_inside(c[1], &vy0, &vy1, &fty);
                 rc_split_inside(c[2], &vz0, &vz1, &ftz);
@@ -696,14 +723,12 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
             }
             /* Empty-space skipping [Kruger03]: in a brick where the TF's alpha is 0 everywhere,
              * jump past the run of empty bricks the ray crosses from here. */
-            if (B > 0 && !(vx0 >= nel[0] && vx0 <= neh[0] && vy0 >= nel[1] && vy0 <= neh[1] && vz0 >= nel[2] &&
-                           vz0 <= neh[2])) {
+            if (B > 0 && !((unsigned)vx0 - (unsigned)nel[0] < UB && (unsigned)vy0 - (unsigned)nel[1] < UB &&
+                           (unsigned)vz0 - (unsigned)nel[2] < UB)) {
                 const int bi[3] = {J->bidx[0][vx0], J->bidx[1][vy0], J->bidx[2][vz0]};
                 if (!J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
-                    for (int a = 0; a < 3; a++) {
+                    for (int a = 0; a < 3; a++)
                         nel[a] = bi[a] * B;
-                        neh[a] = bi[a] * B + B - 1;
-                    }
                 } else {
                     /* The brick's region in voxel coordinates: [bi B, (bi+1) B) per axis, open
                      * towards -inf for the first brick and +inf for the last. From it we walk
