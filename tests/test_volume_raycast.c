@@ -1192,3 +1192,69 @@ TEST(volume_raycast_full_step_alpha_correction_is_vol_tf_alpha_correct_bit_for_b
         }
     }
 }
+
+/* ---- the fast mode (VOL_RC_FAST) --------------------------------------------------------------- */
+
+/* The fast mode (the pre-corrected TF table) stays within VOL_RC_TEST_FAST_MAX of the exact mode on
+ * the blobs (EA and Phong, perspective, every pixel and channel; the bound is the measured maximum
+ * with a margin, docs/volume/raycast.md "Fast mode"), differs from it (it is a different path), is
+ * the same byte for byte for 1, 2 and 8 threads, and an unknown precision is refused. */
+#define VOL_RC_TEST_FAST_MAX 1e-4 /* measured 9.1e-6 (EA and Phong), 2026-12-02 */
+TEST(volume_raycast_fast_mode_close_to_exact_and_same_for_1_2_and_8_threads)
+{
+    obs_context *ctx = obs_context_create();
+    vol_grid g;
+    const double sp[3] = {1, 1, 1};
+    int n = 48;
+    CHECK_OK(mk_grid(ctx, 48, 48, 48, sp, fill_blobs, &n, &g), ctx);
+    vol_tf_point bp[4] = {{30.0, {0, 0, 0, 0}},
+                          {77.3, {0.8f, 0.4f, 0.2f, 0.05f}},
+                          {120.0, {1, 0.3f, 0.1f, 0.3f}},
+                          {255.0, {0.9f, 0.9f, 1, 0.8f}}};
+    vol_tf tf = mk_tf(bp, 4, 1.0);
+    vol_light light = {OBS_LIGHT_POINT, {0, 0, 0}, {60, 70, 50}, {1, 1, 1}};
+    obs_camera pc = obs_camera_look_at(obs_v3(-30, 65, 75), obs_v3(23.5f, 23.5f, 23.5f), obs_v3(0, 1, 0), 0.8f, 0.1f,
+                                       400.0f);
+    const vol_shading modes[2] = {VOL_SHADING_EMISSION_ABSORPTION, VOL_SHADING_PHONG};
+    for (int m = 0; m < 2; m++) {
+        vol_rc_params pe = vol_rc_params_default();
+        pe.shading = modes[m];
+        vol_rc_params pf = pe;
+        pf.precision = VOL_RC_FAST;
+        obs_image_f32 ex[4], fa[4], out[4];
+        obs_pool *p1 = obs_pool_create(1);
+        CHECK_OK(vol_raycast(ctx, p1, &g, &tf, &light, NULL, &pc, 96, 64, NULL, &pe, ex), ctx);
+        CHECK_OK(vol_raycast(ctx, p1, &g, &tf, &light, NULL, &pc, 96, 64, NULL, &pf, fa), ctx);
+        obs_pool_destroy(p1);
+        double md = maxdiff4(ex, fa), se = 0.0, cnt = 0.0;
+        for (int c = 0; c < 4; c++)
+            for (int y = 0; y < 64; y++)
+                for (int x = 0; x < 96; x++) {
+                    double d = (double)obs_image_f32_row(&ex[c], y)[x] - (double)obs_image_f32_row(&fa[c], y)[x];
+                    se += d * d;
+                    cnt += 1.0;
+                }
+        printf("  fast vs exact, %s: max %.3g, rmse %.3g\n", vol_shading_name(pe.shading), md, sqrt(se / cnt));
+        CHECK_MSG(md <= VOL_RC_TEST_FAST_MAX, "%s: fast mode max diff %g > %g", vol_shading_name(pe.shading), md,
+                  VOL_RC_TEST_FAST_MAX);
+        CHECK_MSG(md > 0.0, "%s: the fast mode gave the exact image (is it in use?)", vol_shading_name(pe.shading));
+        const int threads[] = {2, 8};
+        for (int i = 0; i < 2; i++) {
+            obs_pool *pool = obs_pool_create(threads[i]);
+            CHECK(pool != NULL);
+            CHECK_OK(vol_raycast(ctx, pool, &g, &tf, &light, NULL, &pc, 96, 64, NULL, &pf, out), ctx);
+            obs_pool_destroy(pool);
+            CHECK_MSG(same4(fa, out), "fast %s: %d threads differ from 1", vol_shading_name(pe.shading), threads[i]);
+            free4(out);
+        }
+        free4(ex);
+        free4(fa);
+    }
+    vol_rc_params bad = vol_rc_params_default();
+    bad.shading = VOL_SHADING_EMISSION_ABSORPTION;
+    bad.precision = (vol_rc_precision)7;
+    obs_image_f32 o[4];
+    CHECK(vol_raycast(ctx, NULL, &g, &tf, &light, NULL, &pc, 8, 8, NULL, &bad, o) == OBS_STATUS_INVALID_ARGUMENT);
+    vol_grid_free(&g);
+    obs_context_destroy(ctx);
+}

@@ -36,6 +36,8 @@ static const char *volume_help =
     "ray casting:\n"
     "  --step H              world units (default half the smallest spacing)\n"
     "  --brick B             empty-space skipping brick side (0 = off; default 8)\n"
+    "  --fast                classify through a pre-corrected 4096-entry TF table (changes bits;\n"
+    "                        docs/volume/raycast.md \"Fast mode\"; default: exact)\n"
     "  --camera-dir X,Y,Z    look along X,Y,Z at the volume's centre, framing it (default -0.3,-0.4,-1)\n"
     "  --size WxH            image size (default 1280x720)\n"
     "  --reps N              also time N warm ray casts (brick table prepared once, after one\n"
@@ -158,6 +160,8 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         } else if (!strcmp(a, "--brick")) {
             if (!cli_parse_int(v, 0, 1024, &ll)) return cli_usage_error("--brick needs an integer in [0, 1024]");
             rp.brick = (int)ll; i++;
+        } else if (!strcmp(a, "--fast")) {
+            rp.precision = VOL_RC_FAST;
         } else if (!strcmp(a, "--no-blend")) {
             lp.blend_second = 0;
         } else if (!strcmp(a, "--eye-pass")) {
@@ -668,6 +672,7 @@ int cmd_volume(cli_globals *g, int argc, char **argv, int truth)
         io_json_string(&j, "mode", vol_shading_name(rp.shading));
         io_json_number(&j, "step", rp.step);
         io_json_int(&j, "brick", rp.brick);
+        io_json_string(&j, "precision", rp.precision == VOL_RC_FAST ? "fast" : "exact");
         io_json_number(&j, "seconds_raycast", t_rc);
         if (rc_reps > 0) {
             io_json_int(&j, "raycast_reps", rc_reps);

@@ -304,6 +304,14 @@ typedef enum vol_shading {
 const char *vol_shading_name(vol_shading s);                 /* "ea", "phong", "lightvolume" */
 int vol_shading_from_name(const char *name, vol_shading *out);
 
+/* The ray caster's arithmetic. VOL_RC_EXACT (default): the TF through vol_tf_eval's arithmetic and
+ * vol_tf_alpha_correct per sample, bit for bit. VOL_RC_FAST: full steps classify through a 1D
+ * table of the TF with the opacity correction for the step already applied (VOL_RC_FAST_TF_SIZE
+ * nodes evenly over the TF's value range, linear interpolation in float), as VTK's CPU and the GPU
+ * ray casters classify; changes bits (docs/volume/raycast.md "Fast mode": its measured error). */
+typedef enum vol_rc_precision { VOL_RC_EXACT = 0, VOL_RC_FAST = 1 } vol_rc_precision;
+#define VOL_RC_FAST_TF_SIZE 4096
+
 typedef struct vol_rc_params {
     vol_shading shading;       /* default VOL_SHADING_LIGHT_VOLUME */
     double step;               /* world units; 0 = half the smallest spacing (default) */
@@ -312,6 +320,7 @@ typedef struct vol_rc_params {
     float ambient;             /* Phong ambient; default 0.2 */
     float specular_exponent;   /* default 32 */
     float background[4];       /* composited behind the volume; default transparent black */
+    vol_rc_precision precision; /* default VOL_RC_EXACT */
 } vol_rc_params;
 vol_rc_params vol_rc_params_default(void);
 

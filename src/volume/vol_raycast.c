@@ -105,6 +105,9 @@ obs_status vol_i_rc_params_validate(obs_context *ctx, const vol_rc_params *p)
     if ((int)p->shading < 0 || p->shading >= VOL_SHADING_COUNT)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: unknown shading %d (ea, phong, lightvolume)",
                          (int)p->shading);
+    if (p->precision != VOL_RC_EXACT && p->precision != VOL_RC_FAST)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "vol_raycast: unknown precision %d (exact, fast)",
+                         (int)p->precision);
     if (!isfinite(p->step) || p->step < 0.0)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
                          "vol_raycast: step %g must be finite and > 0 (0 = half the smallest spacing)", p->step);
@@ -176,6 +179,9 @@ typedef struct rc_job {
     const int32_t *bidx[3];    /* per axis: base voxel -> brick index (voxel / brick) */
     double r_h;                /* h / ref_step: the opacity-correction exponent of a full step */
     double zero_below;         /* values <= this have TF alpha exactly 0 (-inf: none) */
+    /* VOL_RC_FAST: the pre-corrected TF table (NULL in the exact mode) */
+    float *tft;                /* VOL_RC_FAST_TF_SIZE nodes x rgba, alpha corrected for a full step */
+    float tft_lo, tft_scale;   /* node index u = (value - tft_lo) x tft_scale */
     /* Brick-table build */
     uint8_t *empty_w;
     vol_i_rc_stats *tile_stats;
@@ -211,6 +217,15 @@ static inline void rc_split(double c, int n, int *i0, int *i1, float *t)
         *t = 0.0f;
         return;
     }
+    int f = (int)c;
+    *i0 = f;
+    *i1 = f + 1;
+    *t = (float)(c - (double)f);
+}
+
+/* rc_split for 0 < c < n - 1 (the caller knows it): the same arithmetic without the clamps. */
+static inline void rc_split_inside(double c, int *i0, int *i1, float *t)
+{
     int f = (int)c;
     *i0 = f;
     *i1 = f + 1;
@@ -363,6 +378,48 @@ static inline float rc_alpha_full_step(float alpha, double h, double ref_step, d
 float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step)
 {
     return rc_alpha_full_step(alpha, h, ref_step, h / ref_step);
+}
+
+/* ---- The fast mode's TF table (VOL_RC_FAST) ---------------------------------------------------- */
+
+/* N = VOL_RC_FAST_TF_SIZE nodes v_i = lo + i (hi - lo) / (N - 1) over the TF's points [lo, hi], each
+ * the exact TF (rc_tf_eval) with its alpha corrected for the full step (rc_alpha_full_step): the
+ * pre-classified table of VTK's CPU ray caster and of the GPU ray casters' 1D TF texture [Engel06],
+ * read with linear interpolation. Outside [lo, hi] the TF is constant, so clamping the index is
+ * exact there. Interpolating the corrected alpha is not correcting the interpolated alpha (the
+ * correction is concave): one source of the mode's error, with the nodes missing the TF's points. */
+static void rc_tf_table_fill(const vol_tf *tf, double h, double ref_step, double r_h, float *tab, float *lo_out,
+                             float *scale_out)
+{
+    const int N = VOL_RC_FAST_TF_SIZE;
+    const double lo = tf->points[0].value, hi = tf->points[tf->count - 1].value;
+    const double span = hi - lo;
+    for (int i = 0; i < N; i++) {
+        double v = span > 0.0 ? lo + span * (double)i / (double)(N - 1) : lo;
+        float rgba[4];
+        rc_tf_eval(tf, v, rgba);
+        rgba[3] = rc_alpha_full_step(rgba[3], h, ref_step, r_h);
+        memcpy(tab + 4 * i, rgba, sizeof rgba);
+    }
+    *lo_out = (float)lo;
+    *scale_out = span > 0.0 ? (float)((double)(N - 1) / span) : 0.0f;
+}
+
+/* The table's linear interpolation at value s (float): the node index clamped to [0, N - 1]. */
+static inline void rc_tf_table(const float *tab, float lo, float scale, float s, float rgba[4])
+{
+    float u = (s - lo) * scale;
+    if (!(u > 0.0f))
+        u = 0.0f;
+    if (u > (float)(VOL_RC_FAST_TF_SIZE - 1))
+        u = (float)(VOL_RC_FAST_TF_SIZE - 1);
+    int i = (int)u;
+    if (i > VOL_RC_FAST_TF_SIZE - 2)
+        i = VOL_RC_FAST_TF_SIZE - 2;
+    const float f = u - (float)i, e = 1.0f - f;
+    const float *a = tab + 4 * i;
+    for (int c = 0; c < 4; c++)
+        rgba[c] = a[c] * e + a[c + 4] * f;
 }
 
 /* ---- Brick table ------------------------------------------------------------------------------- */
@@ -586,9 +643,54 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
          * the counters are summed locally and added once. */
         const int nx = g->nx, ny = g->ny, nz = g->nz;
         int64_t n_samples = 0, n_skipped = 0, n_shaded = 0;
-        /* The base-voxel range of the last brick found non-empty: samples inside it need no
-         * look-up (lo > hi: none yet). */
-        int nel[3] = {1, 1, 1}, neh[3] = {0, 0, 0};
+        /* The base-voxel range [nel, nel + B) of the last brick found non-empty: samples inside it
+         * need no look-up. One test per axis: v is in it iff v - nel < B in unsigned arithmetic;
+         * nel = -B: none yet (v - nel = v + B >= B for 0 <= v, B < 2^31). */
+        int nel[3] = {-B, -B, -B};
+        const unsigned UB = (unsigned)B;
+        /* Clamp-free splits: along the full steps, c is a monotone function of k (the parameter
+         * t0 + (k + 1/2) dt, o + t d and (x - origin) / spacing all round monotonically), so when
+         * samples ka and kb lie strictly inside (0, n - 1) on every axis, every sample between them
+         * does, and rc_split's clamping branches cannot fire there: rc_split_inside is then its
+         * arithmetic, the same bits. [ka, kb] is estimated from the box planes with one step of
+         * margin and then checked with the march's own expressions (empty if the check fails). */
+        int64_t ka = 0, kb = n - 2; /* the last sample (a shorter step) always takes rc_split */
+        {
+            const int na[3] = {nx, ny, nz};
+            for (int a = 0; a < 3 && ka <= kb; a++) {
+                if (d[a] == 0.0)
+                    continue; /* c constant: the check below decides */
+                double ta = (g->origin[a] - o[a]) / d[a];
+                double tb = (g->origin[a] + (double)(na[a] - 1) * g->spacing[a] - o[a]) / d[a];
+                if (ta > tb) {
+                    double tmp = ta;
+                    ta = tb;
+                    tb = tmp;
+                }
+                const double klo = ceil((ta - t0) / dt - 0.5) + 1.0, khi = floor((tb - t0) / dt - 0.5) - 1.0;
+                if (!(klo <= khi)) {
+                    ka = 1;
+                    kb = 0;
+                    break;
+                }
+                if (klo > (double)ka)
+                    ka = klo < (double)n ? (int64_t)klo : n;
+                if (khi < (double)kb)
+                    kb = khi >= 0.0 ? (int64_t)khi : -1;
+            }
+            for (int e = 0; e < 2 && ka <= kb; e++) {
+                const double tm = t0 + ((double)(e ? kb : ka) + 0.5) * dt;
+                for (int a = 0; a < 3; a++) {
+                    const double xa = o[a] + tm * d[a];
+                    const double ca = (xa - g->origin[a]) * J->inv_sp[a];
+                    if (!(ca > 0.0 && ca < (double)(na[a] - 1))) {
+                        ka = 1;
+                        kb = 0;
+                        break;
+                    }
+                }
+            }
+        }
         for (int64_t k = 0; k < n; k++) {
             double tm, len;
             if (k + 1 < n) {
@@ -610,19 +712,23 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
              * lower voxel is the sample's base voxel: its brick). */
             int vx0, vx1, vy0, vy1, vz0, vz1;
             float ftx, fty, ftz;
-            rc_split(c[0], nx, &vx0, &vx1, &ftx);
-            rc_split(c[1], ny, &vy0, &vy1, &fty);
-            rc_split(c[2], nz, &vz0, &vz1, &ftz);
+            if (k >= ka && k <= kb) {
+                rc_split_inside(c[0], &vx0, &vx1, &ftx);
+                rc_split_inside(c[1], &vy0, &vy1, &fty);
+                rc_split_inside(c[2], &vz0, &vz1, &ftz);
+            } else {
+                rc_split(c[0], nx, &vx0, &vx1, &ftx);
+                rc_split(c[1], ny, &vy0, &vy1, &fty);
+                rc_split(c[2], nz, &vz0, &vz1, &ftz);
+            }
             /* Empty-space skipping [Kruger03]: in a brick where the TF's alpha is 0 everywhere,
              * jump past the run of empty bricks the ray crosses from here. */
-            if (B > 0 && !(vx0 >= nel[0] && vx0 <= neh[0] && vy0 >= nel[1] && vy0 <= neh[1] && vz0 >= nel[2] &&
-                           vz0 <= neh[2])) {
+            if (B > 0 && !((unsigned)vx0 - (unsigned)nel[0] < UB && (unsigned)vy0 - (unsigned)nel[1] < UB &&
+                           (unsigned)vz0 - (unsigned)nel[2] < UB)) {
                 const int bi[3] = {J->bidx[0][vx0], J->bidx[1][vy0], J->bidx[2][vz0]};
                 if (!J->empty[((size_t)bi[2] * J->nb[1] + bi[1]) * J->nb[0] + bi[0]]) {
-                    for (int a = 0; a < 3; a++) {
+                    for (int a = 0; a < 3; a++)
                         nel[a] = bi[a] * B;
-                        neh[a] = bi[a] * B + B - 1;
-                    }
                 } else {
                     /* The brick's region in voxel coordinates: [bi B, (bi+1) B) per axis, open
                      * towards -inf for the first brick and +inf for the last. From it we walk
@@ -665,16 +771,27 @@ static void rc_trace(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_st
                 }
             }
             n_samples++;
-            float rgba[4];
+            float rgba[4], a;
             float s = rc_sample_split(g, vx0, vx1, ftx, vy0, vy1, fty, vz0, vz1, ftz);
             if ((double)s <= J->zero_below)
                 continue; /* alpha exactly 0 (rc_zero_below): the TF need not be evaluated */
-            rc_tf_eval(J->tf, s, rgba);
-            if (!(rgba[3] > 0.0f))
-                continue; /* contributes exactly nothing: shading skipped */
-            n_shaded++;
-            float a = k + 1 < n ? rc_alpha_full_step(rgba[3], J->h, J->ref_step, J->r_h)
-                                : vol_tf_alpha_correct(rgba[3], len, J->ref_step);
+            if (J->tft && k + 1 < n) {
+                /* VOL_RC_FAST, a full step: the pre-corrected table (NaN: alpha 0, as the TF) */
+                if (s != s)
+                    continue;
+                rc_tf_table(J->tft, J->tft_lo, J->tft_scale, s, rgba);
+                if (!(rgba[3] > 0.0f))
+                    continue;
+                n_shaded++;
+                a = rgba[3];
+            } else {
+                rc_tf_eval(J->tf, s, rgba);
+                if (!(rgba[3] > 0.0f))
+                    continue; /* contributes exactly nothing: shading skipped */
+                n_shaded++;
+                a = k + 1 < n ? rc_alpha_full_step(rgba[3], J->h, J->ref_step, J->r_h)
+                              : vol_tf_alpha_correct(rgba[3], len, J->ref_step);
+            }
             float rgb[3] = {rgba[0], rgba[1], rgba[2]};
             switch (P->shading) {
             case VOL_SHADING_PHONG: {
@@ -956,12 +1073,21 @@ static obs_status rc_cast(obs_context *ctx, obs_pool *pool, const vol_rc_prepare
     }
     J.empty = prep->empty;
 
+    /* The fast mode's pre-corrected TF table (depends on the step: made per call, 64 KiB) */
+    if (p->precision == VOL_RC_FAST) {
+        J.tft = (float *)malloc((size_t)VOL_RC_FAST_TF_SIZE * 4 * sizeof(float));
+        if (!J.tft)
+            return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (TF table)");
+        rc_tf_table_fill(tf, J.h, J.ref_step, J.r_h, J.tft, &J.tft_lo, &J.tft_scale);
+    }
     /* Allocations: the output, the per-tile counters. */
     J.tiling = obs_tiling_make(width, height, VOL_RC_TILE);
     int64_t ntiles = obs_tiling_count(&J.tiling);
     J.tile_stats = (vol_i_rc_stats *)calloc((size_t)ntiles, sizeof *J.tile_stats);
-    if (!J.tile_stats)
+    if (!J.tile_stats) {
+        free(J.tft);
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "vol_raycast: out of memory (tile counters)");
+    }
     for (int c = 0; c < 4 && st == OBS_STATUS_OK; c++)
         st = obs_image_f32_alloc(ctx, width, height, &out[c]);
     if (st == OBS_STATUS_OK) {
@@ -983,6 +1109,7 @@ static obs_status rc_cast(obs_context *ctx, obs_pool *pool, const vol_rc_prepare
             obs_image_f32_free(&out[c]);
     }
     free(J.tile_stats);
+    free(J.tft);
     return st;
 }
 
