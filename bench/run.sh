@@ -35,7 +35,8 @@
 # bench/results/{gbuffer,ao}.txt; the tables in docs/performance.md are the medians over
 # repetitions of each run's median, which this script prints at the end.
 # Usage: bench/run.sh [side|gbuffer|ao|sss|sweep|vtk|all] [--quick]
-#   (vtk: PAIRS=5 THREADS=2 VTK_CASES="ea:1920x1080:full ..." VTK_REPS=1 OBS_REPS=1 VTK_INSTALL=1 override)
+#   (vtk: PAIRS=5 THREADS=2 VTK_CASES="ea:1920x1080:full ..." VTK_REPS=1 OBS_REPS=1 VTK_INSTALL=1 override;
+#    OBS_FLAGS="--fast" passes flags to obscura volume)
 #   (side: PAIRS=5 THREADS=2 SIZE=1920x1080 FRAMES=20 WARMUP=5 PASSES="gbuffer sao sao_blur";
 #    gbuffer/ao: REPS=... THREADS="1 2" SIZES="1920x1080 1280x720" METHODS="sao gtao" override)
 set -euo pipefail
@@ -204,7 +205,7 @@ vtk_run() {
       local v="$vol"; [ "$which" = half ] && v="$half"
       local tag="${mode}_${size}_$which"
       for p in $(seq 1 "$pairs"); do
-        "$build/obscura" --quiet --threads "$t" volume "$v" --tf "$tf" --mode "$mode" --size "$size" --reps "$oreps" -o "$work/obs_$tag" >/dev/null 2>&1 ||
+        "$build/obscura" --quiet --threads "$t" volume "$v" --tf "$tf" --mode "$mode" --size "$size" --reps "$oreps" ${OBS_FLAGS:-} -o "$work/obs_$tag" >/dev/null 2>&1 ||
           { echo "# $tag: obscura volume failed"; continue 2; }
         local o; o=$(awk -F'[:,]' '/"seconds_raycast_warm"/ { gsub(/ /, "", $2); printf "%.1f", $2 * 1000 }' "$work/obs_$tag.json")
         local oc; oc=$(awk -F'[:,]' '/"seconds_raycast"/ { gsub(/ /, "", $2); printf "%.1f", $2 * 1000 }' "$work/obs_$tag.json")
