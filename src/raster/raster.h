@@ -156,6 +156,11 @@ typedef struct rast_gbuffer {
 /* Allocate the planes that params->outputs asks for, at full size.
  * Returns OK, INVALID_ARGUMENT, LIMIT_EXCEEDED, OUT_OF_MEMORY. */
 obs_status rast_gbuffer_alloc(obs_context *ctx, const rast_params *p, rast_gbuffer *out);
+/* As rast_gbuffer_alloc, but the planes are not zeroed (obs_image_f32_alloc_uninit): for a layer
+ * that goes straight to rast_render / rast_render_ws, which writes every element of every
+ * requested plane, background and guard band included. After a failed render its contents are
+ * undefined: free it. Saves the zeroing pass (docs/raster.md). */
+obs_status rast_gbuffer_alloc_uninit(obs_context *ctx, const rast_params *p, rast_gbuffer *out);
 void rast_gbuffer_free(rast_gbuffer *gb);   /* NULL-safe */
 
 /* Counters of one render (summed over views). */
