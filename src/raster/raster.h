@@ -188,7 +188,8 @@ obs_status rast_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene,
 
 /* A workspace keeps the rasterizer's scratch memory between renders, so that repeated renders
  * (benchmarks, studies, animation) allocate nothing and take no page faults. Not thread-safe:
- * one render at a time per workspace. rast_render uses a temporary one. */
+ * one render at a time per workspace. rast_render parks one in ctx (obs_context_scratch_take/put),
+ * so its calls with one context reuse it; with ctx NULL it uses a temporary one. */
 typedef struct rast_workspace rast_workspace;
 rast_workspace *rast_workspace_create(void);   /* NULL when out of memory */
 void rast_workspace_destroy(rast_workspace *ws);
