@@ -34,8 +34,22 @@ void *obs_aligned_alloc(size_t bytes)
 
 void obs_aligned_free(void *p) { free(p); }
 
-/* Shared by both element types (4 bytes each): checks sizes and limits, returns zeroed memory. */
-static obs_status plane_alloc(obs_context *ctx, int width, int height, void **data, ptrdiff_t *stride)
+/* The fill of OBS_POISON_UNINIT=1 (read once): a quiet-bit-clear NaN (signalling) for float planes,
+ * the same bits for uint32 planes, so a pixel the producer missed shows up in any byte compare. */
+#define OBS_POISON_BITS 0x7FA5A5A5u
+
+static int poison_uninit(void)
+{
+    /* read at every allocation (a plane allocation dwarfs a getenv), so a test can switch it */
+    const char *e = getenv("OBS_POISON_UNINIT");
+    return e && e[0] == '1';
+}
+
+/* Shared by both element types (4 bytes each): checks sizes and limits. zero: return zeroed
+ * memory; otherwise only the row padding (elements width..stride-1) is zeroed, so that a routine
+ * reading or hashing whole rows stays deterministic, and the width x height elements are left to
+ * the caller (filled with OBS_POISON_BITS when OBS_POISON_UNINIT=1). */
+static obs_status plane_alloc(obs_context *ctx, int width, int height, int zero, void **data, ptrdiff_t *stride)
 {
     if (width < 1 || height < 1)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "image size %dx%d: both sides must be >= 1",
@@ -58,20 +72,31 @@ static obs_status plane_alloc(obs_context *ctx, int width, int height, void **da
     if (!p)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "cannot allocate %zu bytes for a %dx%d image", bytes,
                          width, height);
-    memset(p, 0, bytes);
+    if (zero) {
+        memset(p, 0, bytes);
+    } else {
+        const int poison = poison_uninit();
+        for (int y = 0; y < height; y++) {
+            uint32_t *r = (uint32_t *)p + (size_t)y * row;
+            if (poison)
+                for (int x = 0; x < width; x++)
+                    r[x] = OBS_POISON_BITS;
+            memset(r + width, 0, (row - (size_t)width) * 4);
+        }
+    }
     *data = p;
     *stride = (ptrdiff_t)row;
     return OBS_STATUS_OK;
 }
 
-obs_status obs_image_f32_alloc(obs_context *ctx, int width, int height, obs_image_f32 *out)
+static obs_status image_f32_alloc(obs_context *ctx, int width, int height, int zero, obs_image_f32 *out)
 {
     if (!out)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "obs_image_f32_alloc: out is NULL");
     memset(out, 0, sizeof *out);
-    void *p;
-    ptrdiff_t stride;
-    obs_status st = plane_alloc(ctx, width, height, &p, &stride);
+    void *p = NULL;
+    ptrdiff_t stride = 0;
+    obs_status st = plane_alloc(ctx, width, height, zero, &p, &stride);
     if (st != OBS_STATUS_OK)
         return st;
     out->data = (float *)p;
@@ -81,14 +106,24 @@ obs_status obs_image_f32_alloc(obs_context *ctx, int width, int height, obs_imag
     return OBS_STATUS_OK;
 }
 
-obs_status obs_image_u32_alloc(obs_context *ctx, int width, int height, obs_image_u32 *out)
+obs_status obs_image_f32_alloc(obs_context *ctx, int width, int height, obs_image_f32 *out)
+{
+    return image_f32_alloc(ctx, width, height, 1, out);
+}
+
+obs_status obs_image_f32_alloc_uninit(obs_context *ctx, int width, int height, obs_image_f32 *out)
+{
+    return image_f32_alloc(ctx, width, height, 0, out);
+}
+
+static obs_status image_u32_alloc(obs_context *ctx, int width, int height, int zero, obs_image_u32 *out)
 {
     if (!out)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "obs_image_u32_alloc: out is NULL");
     memset(out, 0, sizeof *out);
-    void *p;
-    ptrdiff_t stride;
-    obs_status st = plane_alloc(ctx, width, height, &p, &stride);
+    void *p = NULL;
+    ptrdiff_t stride = 0;
+    obs_status st = plane_alloc(ctx, width, height, zero, &p, &stride);
     if (st != OBS_STATUS_OK)
         return st;
     out->data = (uint32_t *)p;
@@ -96,6 +131,16 @@ obs_status obs_image_u32_alloc(obs_context *ctx, int width, int height, obs_imag
     out->height = height;
     out->stride = stride;
     return OBS_STATUS_OK;
+}
+
+obs_status obs_image_u32_alloc(obs_context *ctx, int width, int height, obs_image_u32 *out)
+{
+    return image_u32_alloc(ctx, width, height, 1, out);
+}
+
+obs_status obs_image_u32_alloc_uninit(obs_context *ctx, int width, int height, obs_image_u32 *out)
+{
+    return image_u32_alloc(ctx, width, height, 0, out);
 }
 
 void obs_image_f32_free(obs_image_f32 *im)

@@ -215,6 +215,14 @@ static inline uint32_t *obs_image_u32_row(const obs_image_u32 *im, int y) { retu
  * Returns: OK; INVALID_ARGUMENT (w or h < 1, NULL out); LIMIT_EXCEEDED; OUT_OF_MEMORY. */
 obs_status obs_image_f32_alloc(obs_context *ctx, int width, int height, obs_image_f32 *out);
 obs_status obs_image_u32_alloc(obs_context *ctx, int width, int height, obs_image_u32 *out);
+/* As above, but the width x height elements are NOT zeroed: the caller writes every element
+ * before anything reads it (only the row padding past width is zeroed). For planes whose producer
+ * is proven to write every pixel (the rasterizer's G-buffer, docs/raster.md); it saves the
+ * zeroing pass and its cache misses. With the environment variable OBS_POISON_UNINIT=1 the
+ * elements are filled with the signalling-NaN bits 0x7FA5A5A5 instead, so a test comparing the
+ * output with and without it catches a missed element. */
+obs_status obs_image_f32_alloc_uninit(obs_context *ctx, int width, int height, obs_image_f32 *out);
+obs_status obs_image_u32_alloc_uninit(obs_context *ctx, int width, int height, obs_image_u32 *out);
 void obs_image_f32_free(obs_image_f32 *im);   /* NULL-safe; zeroes the view */
 void obs_image_u32_free(obs_image_u32 *im);
 void obs_image_f32_fill(obs_image_f32 *im, float v);

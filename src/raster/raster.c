@@ -271,10 +271,20 @@ double rast_linear_from_ndc_depth(const rast_view_constants *vc, rast_depth_conv
  * G-buffer allocation
  * ---------------------------------------------------------------------------------------------- */
 
-obs_status rast_gbuffer_alloc(obs_context *ctx, const rast_params *p, rast_gbuffer *out)
+/* zero: zeroed planes (rast_gbuffer_alloc); otherwise uninitialised ones (rast_gbuffer_alloc_uninit):
+ * rast_render writes every element of every requested plane of a layer it renders (tile_task
+ * visits every tile of the full (W+2g) x (H+2g) image, and each tile row goes either to
+ * background_row, which fills the row, or to resolve_row, which writes every output of every
+ * pixel: background pixels in its first branch, covered ones by the scalar resolve or by
+ * resolve4, which writes all outputs but the NDC depth, written after it). */
+static obs_status gbuffer_alloc(obs_context *ctx, const rast_params *p, rast_gbuffer *out, int zero)
 {
     if (!p || !out)
         return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "rast_gbuffer_alloc: NULL argument");
+    obs_status (*alloc_f)(obs_context *, int, int, obs_image_f32 *) =
+        zero ? obs_image_f32_alloc : obs_image_f32_alloc_uninit;
+    obs_status (*alloc_u)(obs_context *, int, int, obs_image_u32 *) =
+        zero ? obs_image_u32_alloc : obs_image_u32_alloc_uninit;
     memset(out, 0, sizeof *out);
     if (p->width < 1 || p->height < 1 || p->guard < 0 || p->width + 2 * (int64_t)p->guard > RAST_MAX_DIM ||
         p->height + 2 * (int64_t)p->guard > RAST_MAX_DIM)
@@ -300,9 +310,9 @@ obs_status rast_gbuffer_alloc(obs_context *ctx, const rast_params *p, rast_gbuff
     out->depth_convention = p->depth_convention;
     obs_status st = OBS_STATUS_OK;
 #define ALLOC_F(bit, plane) \
-    if (st == OBS_STATUS_OK && (p->outputs & (bit))) st = obs_image_f32_alloc(ctx, W, H, &(plane))
+    if (st == OBS_STATUS_OK && (p->outputs & (bit))) st = alloc_f(ctx, W, H, &(plane))
 #define ALLOC_U(bit, plane) \
-    if (st == OBS_STATUS_OK && (p->outputs & (bit))) st = obs_image_u32_alloc(ctx, W, H, &(plane))
+    if (st == OBS_STATUS_OK && (p->outputs & (bit))) st = alloc_u(ctx, W, H, &(plane))
     ALLOC_F(RAST_OUT_DEPTH, out->depth);
     ALLOC_F(RAST_OUT_NDC_DEPTH, out->ndc_depth);
     for (int c = 0; c < 3; c++) {
@@ -317,6 +327,16 @@ obs_status rast_gbuffer_alloc(obs_context *ctx, const rast_params *p, rast_gbuff
     if (st != OBS_STATUS_OK)
         rast_gbuffer_free(out);
     return st;
+}
+
+obs_status rast_gbuffer_alloc(obs_context *ctx, const rast_params *p, rast_gbuffer *out)
+{
+    return gbuffer_alloc(ctx, p, out, 1);
+}
+
+obs_status rast_gbuffer_alloc_uninit(obs_context *ctx, const rast_params *p, rast_gbuffer *out)
+{
+    return gbuffer_alloc(ctx, p, out, 0);
 }
 
 void rast_gbuffer_free(rast_gbuffer *gb)
@@ -1278,13 +1298,22 @@ obs_status rast_render_ws(obs_context *ctx, obs_pool *pool, rast_workspace *ws, 
     return OBS_STATUS_OK;
 }
 
+static const char rast_workspace_scratch_key = 0; /* its address keys the context's scratch slot */
+static void workspace_destroy_cb(void *ws) { rast_workspace_destroy((rast_workspace *)ws); }
+
 obs_status rast_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const rast_view *views,
                        int view_count, const rast_params *params, rast_gbuffer *layers, rast_stats *stats)
 {
-    rast_workspace *ws = rast_workspace_create();
+    /* The workspace is parked in the context between calls (obs_context_scratch_*), so that the
+     * renders of one context (the SSS light maps, the K map views and the camera G-buffer of one
+     * build; repeated builds) reuse its buffers instead of page-faulting fresh ones: in the SSS
+     * bench a fresh workspace per call cost ~10k page faults of ~56k (docs/raster.md). */
+    rast_workspace *ws = (rast_workspace *)obs_context_scratch_take(ctx, &rast_workspace_scratch_key);
+    if (!ws)
+        ws = rast_workspace_create();
     if (!ws)
         return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "rast_render: out of memory");
     obs_status s = rast_render_ws(ctx, pool, ws, scene, views, view_count, params, layers, stats);
-    rast_workspace_destroy(ws);
+    obs_context_scratch_put(ctx, &rast_workspace_scratch_key, ws, workspace_destroy_cb);
     return s;
 }

@@ -156,6 +156,11 @@ typedef struct rast_gbuffer {
 /* Allocate the planes that params->outputs asks for, at full size.
  * Returns OK, INVALID_ARGUMENT, LIMIT_EXCEEDED, OUT_OF_MEMORY. */
 obs_status rast_gbuffer_alloc(obs_context *ctx, const rast_params *p, rast_gbuffer *out);
+/* As rast_gbuffer_alloc, but the planes are not zeroed (obs_image_f32_alloc_uninit): for a layer
+ * that goes straight to rast_render / rast_render_ws, which writes every element of every
+ * requested plane, background and guard band included. After a failed render its contents are
+ * undefined: free it. Saves the zeroing pass (docs/raster.md). */
+obs_status rast_gbuffer_alloc_uninit(obs_context *ctx, const rast_params *p, rast_gbuffer *out);
 void rast_gbuffer_free(rast_gbuffer *gb);   /* NULL-safe */
 
 /* Counters of one render (summed over views). */
@@ -183,7 +188,8 @@ obs_status rast_render(obs_context *ctx, obs_pool *pool, const obs_scene *scene,
 
 /* A workspace keeps the rasterizer's scratch memory between renders, so that repeated renders
  * (benchmarks, studies, animation) allocate nothing and take no page faults. Not thread-safe:
- * one render at a time per workspace. rast_render uses a temporary one. */
+ * one render at a time per workspace. rast_render parks one in ctx (obs_context_scratch_take/put),
+ * so its calls with one context reuse it; with ctx NULL it uses a temporary one. */
 typedef struct rast_workspace rast_workspace;
 rast_workspace *rast_workspace_create(void);   /* NULL when out of memory */
 void rast_workspace_destroy(rast_workspace *ws);

@@ -410,15 +410,17 @@ obs_status sss_light_map_render(obs_context *ctx, obs_pool *pool, const obs_scen
                          light->name);
     }
     rast_params rp = gbuffer_params(size);
-    if ((st = rast_gbuffer_alloc(ctx, &rp, &out->gb)) != OBS_STATUS_OK)
+    /* not zeroed: rast_render writes every element (rast_gbuffer_alloc_uninit) */
+    if ((st = rast_gbuffer_alloc_uninit(ctx, &rp, &out->gb)) != OBS_STATUS_OK)
         goto fail;
     rast_view view;
     view.camera = cam;
     if ((st = rast_render(ctx, pool, scene, &view, 1, &rp, &out->gb, NULL)) != OBS_STATUS_OK)
         goto fail;
     for (int a = 0; a < 3; a++) {
-        if ((st = obs_image_f32_alloc(ctx, size, size, &out->position[a])) != OBS_STATUS_OK ||
-            (st = obs_image_f32_alloc(ctx, size, size, &out->wnormal[a])) != OBS_STATUS_OK)
+        /* not zeroed: the loop below writes every texel of both */
+        if ((st = obs_image_f32_alloc_uninit(ctx, size, size, &out->position[a])) != OBS_STATUS_OK ||
+            (st = obs_image_f32_alloc_uninit(ctx, size, size, &out->wnormal[a])) != OBS_STATUS_OK)
             goto fail;
     }
     const rast_view_constants *vc = &out->gb.constants;
@@ -991,7 +993,7 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     if (sss_i_maps_cull_back)
         rp.cull = RAST_CULL_BACK; /* test hook only (sss_maps_internal.h): not bit-identical in general */
     for (int k = 0; k < K; k++)
-        if ((st = rast_gbuffer_alloc(ctx, &rp, &out->views[k])) != OBS_STATUS_OK)
+        if ((st = rast_gbuffer_alloc_uninit(ctx, &rp, &out->views[k])) != OBS_STATUS_OK) /* rast_render writes it all */
             goto done;
     /* one layered render, as the thesis' geometry shader with gl_Layer */
     if ((st = rast_render(ctx, pool, scene, views, K, &rp, out->views, NULL)) != OBS_STATUS_OK)
