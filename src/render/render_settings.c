@@ -21,6 +21,7 @@
 
 #include <cjson/cJSON.h>
 #include <ctype.h>
+#include <float.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -396,7 +397,8 @@ static obs_status rs_rgb(const rs_parse *P, const char *path, const char *key, c
 {
     double x;
     if (cJSON_IsNumber(v)) {
-        obs_status st = rs_number(P, path, key, v, 0.0, INFINITY, 0, &x);
+        /* FLT_MAX: the value is stored as a float (a larger finite double would become +inf) */
+        obs_status st = rs_number(P, path, key, v, 0.0, FLT_MAX, 0, &x);
         if (st != OBS_STATUS_OK)
             return st;
         out[0] = out[1] = out[2] = (float)x;
@@ -409,7 +411,7 @@ static obs_status rs_rgb(const rs_parse *P, const char *path, const char *key, c
     for (int c = 0; c < 3; c++) {
         char k[64];
         snprintf(k, sizeof k, "%s[%d]", key, c);
-        obs_status st = rs_number(P, path, k, cJSON_GetArrayItem(v, c), 0.0, INFINITY, 0, &x);
+        obs_status st = rs_number(P, path, k, cJSON_GetArrayItem(v, c), 0.0, FLT_MAX, 0, &x);
         if (st != OBS_STATUS_OK)
             return st;
         t[c] = (float)x;
@@ -807,7 +809,7 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
             st = rs_number(P, path, k, it, 0.0, 1.0, 0, &x);
             vs.rc.ambient = (float)x;
         } else if (!strcmp(k, "specular_exponent")) {
-            st = rs_number(P, path, k, it, 0.0, INFINITY, 0, &x);
+            st = rs_number(P, path, k, it, 0.0, FLT_MAX, 0, &x); /* stored as a float */
             vs.rc.specular_exponent = (float)x;
         } else if (!strcmp(k, "scale")) {
             st = rs_int(P, path, k, it, 0, 0x7fffffff, &vs.lv.scale);
