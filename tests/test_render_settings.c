@@ -278,6 +278,8 @@ TEST(render_settings_wrong_types_and_ranges_are_errors_naming_the_key)
     CHECK(rs_expect("{\"outputs\":[\"beauty\",\"bloom\"]}", &sc, BAD, "obscura_render.outputs[1]: \"bloom\" is not a layer"));
     CHECK(rs_expect("{\"outputs\":[]}", &sc, BAD, "obscura_render.outputs: asks for no layer"));
     CHECK(rs_expect("{\"ambient\":-1}", &sc, BAD, "obscura_render.ambient: must be >= 0"));
+    /* finite as a double, +inf as the float it is stored in (found by fuzz_render_settings) */
+    CHECK(rs_expect("{\"ambient\":[1e300,0,0]}", &sc, BAD, "obscura_render.ambient[0]: must be at most"));
     CHECK(rs_expect("{\"ambient\":[1,2]}", &sc, BAD, "obscura_render.ambient: must be a number or [r, g, b]"));
     CHECK(rs_expect("{\"seed\":-3}", &sc, BAD, "obscura_render.seed: must be in [0,"));
     CHECK(rs_expect("{\"ao\":\"sao\"}", &sc, BAD, "obscura_render.ao: must be false, true or an object"));

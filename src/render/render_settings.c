@@ -393,12 +393,22 @@ static obs_status rs_outputs(const rs_parse *P, const cJSON *v, render_settings 
     return OBS_STATUS_OK;
 }
 
+/* A number stored as a float: a finite double above FLT_MAX would become +inf (found by
+ * fuzz_render_settings), so it is refused here. st is rs_number's status for x. */
+static obs_status rs_float_range(const rs_parse *P, const char *path, const char *key, obs_status st, double x)
+{
+    if (st == OBS_STATUS_OK && fabs(x) > FLT_MAX)
+        return rs_err(P, OBS_STATUS_INVALID_ARGUMENT, path, key, "must be at most %g (it is stored as a float; got %g)",
+                      (double)FLT_MAX, x);
+    return st;
+}
+
 static obs_status rs_rgb(const rs_parse *P, const char *path, const char *key, const cJSON *v, float out[3])
 {
-    double x;
+    double x = 0.0;
     if (cJSON_IsNumber(v)) {
-        /* FLT_MAX: the value is stored as a float (a larger finite double would become +inf) */
-        obs_status st = rs_number(P, path, key, v, 0.0, FLT_MAX, 0, &x);
+        obs_status st = rs_number(P, path, key, v, 0.0, INFINITY, 0, &x);
+        st = rs_float_range(P, path, key, st, x);
         if (st != OBS_STATUS_OK)
             return st;
         out[0] = out[1] = out[2] = (float)x;
@@ -411,7 +421,8 @@ static obs_status rs_rgb(const rs_parse *P, const char *path, const char *key, c
     for (int c = 0; c < 3; c++) {
         char k[64];
         snprintf(k, sizeof k, "%s[%d]", key, c);
-        obs_status st = rs_number(P, path, k, cJSON_GetArrayItem(v, c), 0.0, FLT_MAX, 0, &x);
+        obs_status st = rs_number(P, path, k, cJSON_GetArrayItem(v, c), 0.0, INFINITY, 0, &x);
+        st = rs_float_range(P, path, k, st, x);
         if (st != OBS_STATUS_OK)
             return st;
         t[c] = (float)x;
@@ -746,7 +757,7 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
     vs.enabled = 1;
     for (const cJSON *it = v->child; it && st == OBS_STATUS_OK; it = it->next) {
         const char *k = it->string;
-        double x;
+        double x = 0.0;
         if (!strcmp(k, "enabled")) {
             st = rs_bool(P, path, k, it, &vs.enabled);
         } else if (!strcmp(k, "source")) {
@@ -809,7 +820,8 @@ static obs_status rs_volume(const rs_parse *P, const cJSON *v, render_settings *
             st = rs_number(P, path, k, it, 0.0, 1.0, 0, &x);
             vs.rc.ambient = (float)x;
         } else if (!strcmp(k, "specular_exponent")) {
-            st = rs_number(P, path, k, it, 0.0, FLT_MAX, 0, &x); /* stored as a float */
+            st = rs_number(P, path, k, it, 0.0, INFINITY, 0, &x);
+            st = rs_float_range(P, path, k, st, x);
             vs.rc.specular_exponent = (float)x;
         } else if (!strcmp(k, "scale")) {
             st = rs_int(P, path, k, it, 0, 0x7fffffff, &vs.lv.scale);
