@@ -2,6 +2,7 @@
  * disk), thread-count independence, the reference, bad settings. Scenes are built in code or
  * loaded from the generated data (build/data); settings are built in code (no JSON). */
 #include "test.h"
+#include "render_test_util.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -128,28 +129,13 @@ static render_session *session(obs_context *ctx, int threads, const char *dir)
     return render_session_create(ctx, &o);
 }
 
-static int planes_equal(const obs_image_f32 *a, const obs_image_f32 *b, int n)
-{
-    for (int c = 0; c < n; c++) {
-        if ((a[c].data == NULL) != (b[c].data == NULL))
-            return 0;
-        if (!a[c].data)
-            continue;
-        if (a[c].width != b[c].width || a[c].height != b[c].height)
-            return 0;
-        for (int y = 0; y < a[c].height; y++)
-            if (memcmp(obs_image_f32_row(&a[c], y), obs_image_f32_row(&b[c], y), sizeof(float) * (size_t)a[c].width))
-                return 0;
-    }
-    return 1;
-}
 static int frames_equal(const render_frame *a, const render_frame *b)
 {
-    return a->outputs == b->outputs && planes_equal(a->beauty, b->beauty, 3) && planes_equal(a->direct, b->direct, 3) &&
-           planes_equal(a->ambient, b->ambient, 3) && planes_equal(&a->ao, &b->ao, 1) &&
-           planes_equal(a->sss, b->sss, 3) && planes_equal(a->volume, b->volume, 4) &&
-           planes_equal(&a->depth, &b->depth, 1) && planes_equal(a->normal, b->normal, 3) &&
-           planes_equal(a->albedo, b->albedo, 3);
+    return a->outputs == b->outputs && rtu_planes_equal(a->beauty, b->beauty, 3) && rtu_planes_equal(a->direct, b->direct, 3) &&
+           rtu_planes_equal(a->ambient, b->ambient, 3) && rtu_planes_equal(&a->ao, &b->ao, 1) &&
+           rtu_planes_equal(a->sss, b->sss, 3) && rtu_planes_equal(a->volume, b->volume, 4) &&
+           rtu_planes_equal(&a->depth, &b->depth, 1) && rtu_planes_equal(a->normal, b->normal, 3) &&
+           rtu_planes_equal(a->albedo, b->albedo, 3);
 }
 
 static int load(obs_context *ctx, const char *name, obs_scene *s)
@@ -688,7 +674,7 @@ TEST(render_volume_shadows_the_meshes_through_the_light_volume)
         }
     CHECK_MSG(darker > 0, "the volume darkened no pixel of the direct layer");
     CHECK_EQ_INT(brighter, 0);
-    CHECK(planes_equal(plain.direct, ea.direct, 3));
+    CHECK(rtu_planes_equal(plain.direct, ea.direct, 3));
     render_frame_free(&plain);
     render_frame_free(&shadowed);
     render_frame_free(&ea);

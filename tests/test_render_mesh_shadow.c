@@ -3,6 +3,7 @@
  * (cornell_hybrid, mkdata) with its tall block moved into the volume's box, between the point
  * light and the buckyball, as a slab, seen from the side. */
 #include "test.h"
+#include "render_test_util.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -61,22 +62,6 @@ static const render_pass_record *rec(const render_frame *f, const char *name)
         if (!strcmp(f->passes[i].name, name))
             return &f->passes[i];
     return NULL;
-}
-
-static int planes_equal(const obs_image_f32 *a, const obs_image_f32 *b, int n)
-{
-    for (int c = 0; c < n; c++) {
-        if ((a[c].data == NULL) != (b[c].data == NULL))
-            return 0;
-        if (!a[c].data)
-            continue;
-        if (a[c].width != b[c].width || a[c].height != b[c].height)
-            return 0;
-        for (int y = 0; y < a[c].height; y++)
-            if (memcmp(obs_image_f32_row(&a[c], y), obs_image_f32_row(&b[c], y), sizeof(float) * (size_t)a[c].width))
-                return 0;
-    }
-    return 1;
 }
 
 /* The volume layers' RGB compared value by value: how many are darker or brighter in `on` than in
@@ -143,15 +128,15 @@ TEST(render_mesh_shadows_darken_only_the_volume_layer)
         if (b && strcmp(on.passes[i].name, "light_volume") != 0)
             CHECK_MSG(!strcmp(on.passes[i].key, b->key), "pass %s: key changed", on.passes[i].name);
     }
-    CHECK(planes_equal(on.direct, off.direct, 3));
-    CHECK(planes_equal(on.ambient, off.ambient, 3));
-    CHECK(planes_equal(&on.ao, &off.ao, 1));
-    CHECK(planes_equal(on.sss, off.sss, 3));
-    CHECK(planes_equal(&on.depth, &off.depth, 1));
-    CHECK(planes_equal(on.normal, off.normal, 3));
-    CHECK(planes_equal(on.albedo, off.albedo, 3));
+    CHECK(rtu_planes_equal(on.direct, off.direct, 3));
+    CHECK(rtu_planes_equal(on.ambient, off.ambient, 3));
+    CHECK(rtu_planes_equal(&on.ao, &off.ao, 1));
+    CHECK(rtu_planes_equal(on.sss, off.sss, 3));
+    CHECK(rtu_planes_equal(&on.depth, &off.depth, 1));
+    CHECK(rtu_planes_equal(on.normal, off.normal, 3));
+    CHECK(rtu_planes_equal(on.albedo, off.albedo, 3));
     CHECK(on.volume[0].data != NULL);
-    CHECK(planes_equal(&on.volume[3], &off.volume[3], 1));
+    CHECK(rtu_planes_equal(&on.volume[3], &off.volume[3], 1));
     int darker = 0, brighter = 0;
     double sum_on = 0, sum_off = 0;
     compare_volume(&on, &off, &darker, &brighter, &sum_on, &sum_off);
@@ -182,7 +167,7 @@ TEST(render_mesh_shadows_without_meshes_in_the_box_change_no_pixel)
     CHECK_OK(render_settings_apply_json(ctx, "{\"volume\":{\"mesh_shadows\":false}}", "test", &s, &st), ctx);
     CHECK_EQ_INT(st.volume.mesh_shadows, 0);
     CHECK_MSG(run(ctx, &s, &st, &off), "%s", obs_context_last_error(ctx));
-    CHECK(planes_equal(on.volume, off.volume, 4));
+    CHECK(rtu_planes_equal(on.volume, off.volume, 4));
     CHECK_EQ_INT(render_settings_apply_json(ctx, "{\"volume\":{\"mesh_shadows\":1}}", "test", &s, &st),
                  OBS_STATUS_INVALID_ARGUMENT);
     CHECK(strstr(obs_context_last_error(ctx), "mesh_shadows") != NULL);
@@ -210,7 +195,7 @@ TEST(render_mesh_shadows_light_volumes_round_trip_through_the_disk_cache)
     CHECK_MSG(run_in(ctx, &s, &st, dir, &b), "%s", obs_context_last_error(ctx));
     const render_pass_record *r = rec(&b, "light_volume");
     CHECK(r && r->state == RENDER_PASS_CACHED_DISK);
-    CHECK(planes_equal(a.volume, b.volume, 4));
+    CHECK(rtu_planes_equal(a.volume, b.volume, 4));
     render_frame_free(&a);
     render_frame_free(&b);
     obs_scene_free(&s);
@@ -243,15 +228,15 @@ TEST(render_mesh_shadows_from_outside_the_box_enter_through_the_shadow_map)
     CHECK_MSG(darker > 20, "only %d volume values darker", darker);
     CHECK_EQ_INT(brighter, 0);
     CHECK_MSG(sum_on < 0.8 * sum_off, "volume light %.4g with the slab, %.4g without", sum_on, sum_off);
-    CHECK(planes_equal(&on.volume[3], &off.volume[3], 1));
+    CHECK(rtu_planes_equal(&on.volume[3], &off.volume[3], 1));
     /* no shadow maps: nothing to test the entry against */
     st.shadows = 0;
     st.volume.mesh_shadows = 1;
     CHECK(run(ctx, &s, &st, &on_noshadow));
     st.volume.mesh_shadows = 0;
     CHECK(run(ctx, &s, &st, &off_noshadow));
-    CHECK(planes_equal(on_noshadow.volume, off_noshadow.volume, 4));
-    CHECK(planes_equal(off_noshadow.volume, off.volume, 4));
+    CHECK(rtu_planes_equal(on_noshadow.volume, off_noshadow.volume, 4));
+    CHECK(rtu_planes_equal(off_noshadow.volume, off.volume, 4));
     render_frame_free(&on);
     render_frame_free(&off);
     render_frame_free(&on_noshadow);
