@@ -182,6 +182,26 @@ void sss_i_stream_seeds_avx2(uint32_t texel0, int count, uint32_t layer_frame, u
     }
 }
 
+/* The kept lanes of one group, left-packed by perm (lut), appended at n: positions, normals, the
+ * light map's RGB (l0..l2, already packed), the weights widened to double; returns the new n. */
+static inline int pack_store(vf px, vf py, vf pz, vf n0, vf n1, vf n2, vi perm, vf l0, vf l1, vf l2, const float *w8,
+                             int mask, float *xi[3], float *ni[3], float *wi[3], double *wout, int n)
+{
+    _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(px, perm));
+    _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
+    _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
+    _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
+    _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
+    _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
+    _mm256_storeu_ps(wi[0] + n, l0);
+    _mm256_storeu_ps(wi[1] + n, l1);
+    _mm256_storeu_ps(wi[2] + n, l2);
+    const vf wp = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w8), perm);
+    _mm256_storeu_pd(wout + n, _mm256_cvtps_pd(_mm256_castps256_ps128(wp)));
+    _mm256_storeu_pd(wout + n + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(wp, 1)));
+    return n + __builtin_popcount((unsigned)mask);
+}
+
 int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *ox, const float *oy,
                              const float *w, const int32_t *lut, float *xi[3], float *ni[3], float *wi[3],
                              double *wout, int n)
@@ -226,19 +246,7 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
             const vf n0 = _mm256_mask_i32gather_ps(zero, pk + 3, r8, keepv, 4);
             const vf n1 = _mm256_mask_i32gather_ps(zero, pk + 4, r8, keepv, 4);
             const vf n2 = _mm256_mask_i32gather_ps(zero, pk + 5, r8, keepv, 4);
-            _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(px, perm));
-            _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
-            _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
-            _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
-            _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
-            _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
-            _mm256_storeu_ps(wi[0] + n, l0);
-            _mm256_storeu_ps(wi[1] + n, l1);
-            _mm256_storeu_ps(wi[2] + n, l2);
-            const vf wp = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w + 8 * g), perm);
-            _mm256_storeu_pd(wout + n, _mm256_cvtps_pd(_mm256_castps256_ps128(wp)));
-            _mm256_storeu_pd(wout + n + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(wp, 1)));
-            n += __builtin_popcount((unsigned)mask);
+            n = pack_store(px, py, pz, n0, n1, n2, perm, l0, l1, l2, w + 8 * g, mask, xi, ni, wi, wout, n);
             continue;
         }
         const vi o = _mm256_add_epi32(_mm256_mullo_epi32(iy, pst), ix);
@@ -257,19 +265,7 @@ int sss_i_exp_fetch_dir_avx2(const sss_i_fetch_in *in, int groups, const float *
         const vf n0 = _mm256_mask_i32gather_ps(zero, in->W[0], o, keepv, 4);
         const vf n1 = _mm256_mask_i32gather_ps(zero, in->W[1], o, keepv, 4);
         const vf n2 = _mm256_mask_i32gather_ps(zero, in->W[2], o, keepv, 4);
-        _mm256_storeu_ps(xi[0] + n, _mm256_permutevar8x32_ps(px, perm));
-        _mm256_storeu_ps(xi[1] + n, _mm256_permutevar8x32_ps(py, perm));
-        _mm256_storeu_ps(xi[2] + n, _mm256_permutevar8x32_ps(pz, perm));
-        _mm256_storeu_ps(ni[0] + n, _mm256_permutevar8x32_ps(n0, perm));
-        _mm256_storeu_ps(ni[1] + n, _mm256_permutevar8x32_ps(n1, perm));
-        _mm256_storeu_ps(ni[2] + n, _mm256_permutevar8x32_ps(n2, perm));
-        _mm256_storeu_ps(wi[0] + n, l0);
-        _mm256_storeu_ps(wi[1] + n, l1);
-        _mm256_storeu_ps(wi[2] + n, l2);
-        const vf wp = _mm256_permutevar8x32_ps(_mm256_loadu_ps(w + 8 * g), perm);
-        _mm256_storeu_pd(wout + n, _mm256_cvtps_pd(_mm256_castps256_ps128(wp)));
-        _mm256_storeu_pd(wout + n + 4, _mm256_cvtps_pd(_mm256_extractf128_ps(wp, 1)));
-        n += __builtin_popcount((unsigned)mask);
+        n = pack_store(px, py, pz, n0, n1, n2, perm, l0, l1, l2, w + 8 * g, mask, xi, ni, wi, wout, n);
     }
     return n;
 }
