@@ -4,8 +4,11 @@
  * OpenImageIO), a small JSON writer for sidecars, and atomic file output.
  *
  * The implementation of the glTF and image parts is C++17 behind this C header
- * (io_gltf.cpp, io_image.cpp); everything else is C11. OpenImageIO is linked only into the
- * obscura_io library, never into the core.
+ * (io_gltf.cpp, oiio/io_image_oiio.cpp); everything else is C11. OpenImageIO is linked only into
+ * the image module (obscura_image_oiio.so), which obscura_io loads the first time an image is
+ * read or written, never into the core or at process start (docs/io.md, "The image module"). If
+ * the module cannot be loaded, the image functions return IO_ERROR with a message naming it;
+ * OBSCURA_IMAGE_MODULE=PATH chooses the module file.
  *
  * Every function that writes a file writes "<path>.tmp.<pid>.<n>" first and renames it onto
  * <path> only when complete, so a reader never sees a partial file; on failure the temporary
@@ -208,6 +211,10 @@ obs_status io_png_write(obs_context *ctx, const char *path, const obs_image_f32 
 /* The sRGB transfer function and its inverse (IEC 61966-2-1), exposed for tests. */
 float io_srgb_encode(float linear);
 float io_srgb_decode(float encoded);
+
+/* 1 once the image module (OpenImageIO) has been loaded in this process, 0 before (for tests:
+ * a process that reads or writes no image never loads it). */
+int io_image_module_loaded(void);
 
 
 /* ------------------------------------------------------------------------------------------------

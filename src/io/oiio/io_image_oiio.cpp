@@ -1,7 +1,14 @@
-// io_image.cpp: EXR and PNG through OpenImageIO 2.4, behind the C interface of io.h ("Images").
+// io_image_oiio.cpp: EXR and PNG through OpenImageIO 2.4, behind the C interface of io.h ("Images").
 //
-// Every function here is `extern "C"` and catches every exception: nothing C++ crosses the
-// boundary. Errors name the file and carry OpenImageIO's own error text.
+// This file is built as a loadable module (obscura_image_oiio.so), not into libobscura_io: loading
+// OpenImageIO pulls in about 260 shared libraries and their static initialisers (0.3-0.5 s per
+// process here), so src/io/io_image.c loads this module with dlopen the first time an image is
+// read or written (docs/io.md, "The image module"). The module links no part of obscura: the host
+// hands over the functions it needs (io_image_module.h, io_image_host) and the names below are
+// macros onto that table, so the code reads as plain calls.
+//
+// Every entry point catches every exception: nothing C++ crosses the boundary. Errors name the
+// file and carry OpenImageIO's own error text.
 //
 // Writing: the image goes to io_temp_path() ("<path>.tmp.<pid>.<n>"), which does not end in
 // ".exr"/".png"; OpenImageIO picks the plugin from the name given to ImageOutput::create, so we
@@ -15,7 +22,7 @@
 // its native per-channel layout (TypeUnknown), so OIIO performs no conversion. OpenEXR stores
 // channels sorted by name, so the reader always maps channels by name, never by position.
 
-#include "io.h"
+#include "../io_image_module.h"
 
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/half.h>
@@ -35,6 +42,22 @@
 #include <sys/stat.h>
 #include <unistd.h>
 #include <vector>
+
+// The host's functions (io_image_module.h); set once by obs_io_image_module_v1 before any call.
+static const io_image_host *g_host;
+#define obs_error (g_host->error)
+#define obs_log (g_host->log)
+#define obs_mul_size (g_host->mul_size)
+#define obs_limits_default (g_host->limits_default)
+#define obs_context_limits (g_host->context_limits)
+#define obs_image_f32_alloc (g_host->image_f32_alloc)
+#define obs_image_u32_alloc (g_host->image_u32_alloc)
+#define obs_image_f32_free (g_host->image_f32_free)
+#define obs_image_u32_free (g_host->image_u32_free)
+#define io_temp_path (g_host->temp_path)
+#define io_commit_temp (g_host->commit_temp)
+#define io_image_free (g_host->image_free)
+#define io_srgb_encode (g_host->srgb_encode)
 
 using OIIO::ImageInput;
 using OIIO::ImageOutput;
@@ -100,17 +123,6 @@ char *dup_cstr(const char *s)
     if (d)
         std::memcpy(d, s, n + 1);
     return d;
-}
-
-void free_attrs(io_attr *attrs, int n)
-{
-    if (!attrs)
-        return;
-    for (int i = 0; i < n; i++) {
-        std::free(attrs[i].s);
-        std::free(attrs[i].v);
-    }
-    std::free(attrs);
 }
 
 // Convert one base value of `base` type at p to double / int64.
@@ -484,30 +496,7 @@ obs_status header_precheck(obs_context *ctx, const char *path, const ExrBytes &b
 
 } // namespace
 
-extern "C" {
-
-float io_srgb_encode(float linear)
-{
-    // IEC 61966-2-1:1999, the sRGB "gamma" (OETF), evaluated in double and rounded once.
-    double x = linear;
-    if (std::isnan(x))
-        return linear;
-    if (x <= 0.0031308)
-        return (float)(12.92 * x);
-    return (float)(1.055 * std::pow(x, 1.0 / 2.4) - 0.055);
-}
-
-float io_srgb_decode(float encoded)
-{
-    double v = encoded;
-    if (std::isnan(v))
-        return encoded;
-    if (v <= 0.04045)
-        return (float)(v / 12.92);
-    return (float)std::pow((v + 0.055) / 1.055, 2.4);
-}
-
-obs_status io_exr_write(obs_context *ctx, const char *path, const io_channel *channels, int channel_count,
+static obs_status oiio_exr_write(obs_context *ctx, const char *path, const io_channel *channels, int channel_count,
                         const io_attr *attrs, int attr_count)
 {
     try {
@@ -661,44 +650,6 @@ obs_status io_exr_write(obs_context *ctx, const char *path, const io_channel *ch
     } catch (...) {
         return obs_error(ctx, OBS_STATUS_INTERNAL, "cannot write '%s': unknown exception", path ? path : "(null)");
     }
-}
-
-void io_image_free(io_image *im)
-{
-    if (!im)
-        return;
-    if (im->f32)
-        for (int c = 0; c < im->channel_count; c++)
-            obs_image_f32_free(&im->f32[c]);
-    if (im->u32)
-        for (int c = 0; c < im->channel_count; c++)
-            obs_image_u32_free(&im->u32[c]);
-    std::free(im->f32);
-    std::free(im->u32);
-    std::free(im->names);
-    std::free(im->types);
-    free_attrs(im->attrs, im->attr_count);
-    std::memset(im, 0, sizeof *im);
-}
-
-int io_image_find_channel(const io_image *im, const char *name)
-{
-    if (!im || !name || !im->names)
-        return -1;
-    for (int c = 0; c < im->channel_count; c++)
-        if (std::strcmp(im->names[c], name) == 0)
-            return c;
-    return -1;
-}
-
-const io_attr *io_image_find_attr(const io_image *im, const char *name)
-{
-    if (!im || !name || !im->attrs)
-        return nullptr;
-    for (int i = 0; i < im->attr_count; i++)
-        if (std::strcmp(im->attrs[i].name, name) == 0)
-            return &im->attrs[i];
-    return nullptr;
 }
 
 // Reads subimage 0, MIP level 0, its data window (spec.x/spec.y offsets are not reported).
@@ -873,7 +824,7 @@ static obs_status read_image(obs_context *ctx, const char *path, const char *ope
     }
 }
 
-obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
+static obs_status oiio_image_read(obs_context *ctx, const char *path, io_image *out)
 {
     if (out)
         std::memset(out, 0, sizeof *out);
@@ -898,7 +849,7 @@ obs_status io_image_read(obs_context *ctx, const char *path, io_image *out)
 // IOProxy (OpenEXR and PNG among them). OIIO picks the plugin from the name's extension only
 // (with a proxy it does not try the others), so EXR and PNG bytes are recognised by their magic
 // numbers and opened under a name with the matching extension.
-obs_status io_image_read_memory(obs_context *ctx, const char *name, const void *data, size_t len, io_image *out)
+static obs_status oiio_image_read_memory(obs_context *ctx, const char *name, const void *data, size_t len, io_image *out)
 {
     if (out)
         std::memset(out, 0, sizeof *out);
@@ -938,7 +889,7 @@ obs_status io_image_read_memory(obs_context *ctx, const char *name, const void *
 //                  "Linear"); readers that ignore gAMA will still display them as if sRGB.
 // "oiio:UnassociatedAlpha" = 1 stops OIIO from dividing colour by alpha (PNG alpha is
 // unassociated): the RGBA planes are written exactly as given.
-obs_status io_png_write(obs_context *ctx, const char *path, const obs_image_f32 *planes, int plane_count,
+static obs_status oiio_png_write(obs_context *ctx, const char *path, const obs_image_f32 *planes, int plane_count,
                         io_png_encoding encoding)
 {
     try {
@@ -1005,4 +956,15 @@ obs_status io_png_write(obs_context *ctx, const char *path, const obs_image_f32 
     }
 }
 
-} // extern "C"
+
+// The module's one exported symbol (IO_IMAGE_MODULE_ENTRY): keeps the host's table and returns
+// ours. Called once, under the host's pthread_once, before any other call into the module.
+extern "C" __attribute__((visibility("default"))) const io_image_module *obs_io_image_module_v1(const io_image_host *host)
+{
+    static const io_image_module mod = {IO_IMAGE_MODULE_ABI, oiio_exr_write, oiio_png_write, oiio_image_read,
+                                        oiio_image_read_memory};
+    if (!host || host->abi != IO_IMAGE_MODULE_ABI)
+        return nullptr;
+    g_host = host;
+    return &mod;
+}
