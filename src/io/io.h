@@ -215,6 +215,9 @@ float io_srgb_decode(float encoded);
 /* 1 once the image module (OpenImageIO) has been loaded in this process, 0 before (for tests:
  * a process that reads or writes no image never loads it). */
 int io_image_module_loaded(void);
+/* Load the image module now (it is otherwise loaded by the first image call): OK, or IO_ERROR
+ * naming the module and why. For callers that time their first image call. */
+obs_status io_image_module_load(obs_context *ctx);
 
 
 /* ------------------------------------------------------------------------------------------------

@@ -171,6 +171,11 @@ int io_image_module_loaded(void)
     return g_module != NULL;
 }
 
+obs_status io_image_module_load(obs_context *ctx)
+{
+    return module(ctx, "(no image: io_image_module_load)") ? OBS_STATUS_OK : OBS_STATUS_IO_ERROR;
+}
+
 obs_status io_exr_write(obs_context *ctx, const char *path, const io_channel *channels, int channel_count,
                         const io_attr *attrs, int attr_count)
 {
