@@ -477,6 +477,8 @@ typedef struct light_info {
     sss_i_view_geo geo;   /* the light map's view constants in double (x_o's projection) */
     uint32_t *pack;       /* exponential sampler, directional, AVX2: the light map interleaved
                              (sss_i_fetch_in.pack), or NULL */
+    int rr_prefilter;     /* Russian roulette: the pre-filter applies to this light (tables made,
+                             directional, orthographic with square texels); set once per build */
 } light_info;
 
 typedef struct mat_info {
@@ -490,6 +492,7 @@ typedef struct mat_info {
 typedef struct scratch {
     uint32_t seeds[40];     /* one row of a 32-texel tile, rounded up to 8 */
     float *buf;             /* xi[3], ni[3], wi[3], out[3], ox, oy, w: 15 N floats */
+    float *pl[15];          /* the 15 planes of buf, plane i at buf + i np (set per build) */
     double *w;              /* N */
     int *idx;               /* M */
 } scratch;
@@ -533,12 +536,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     const sss_light_map *lm = li->lm;
     const int N = p->N, size = lm->gb.width;
     double pcx, pcy, dl, ppu;
-    float *xi[3], *ni[3], *wi[3];
-    for (int a = 0; a < 3; a++) {
-        xi[a] = s->buf + (size_t)a * j->np;
-        ni[a] = s->buf + (size_t)(3 + a) * j->np;
-        wi[a] = s->buf + (size_t)(6 + a) * j->np;
-    }
+    float **xi = s->pl, **ni = s->pl + 3, **wi = s->pl + 6;
     /* the disk's centre: the light-space projection of x_o ([DalCorso14] "circle_center =
      * (L x_o).xy", sss.md 3.2); for a point light the disk lies in the plane perpendicular to
      * the light's axis at x_o's depth, scaled by fx / depth */
@@ -587,7 +585,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
         /* ours (docs/sss/maps.md "Samplers"): N samples of the density e^{-sigma* rho} on the disk,
          * weight 1/(N pdf), drawn SoA (sss_i_exp_samples), then fetched and packed in order */
-        float *sox = s->buf + (size_t)12 * j->np, *soy = s->buf + (size_t)13 * j->np, *sw = s->buf + (size_t)14 * j->np;
+        float *sox = s->pl[12], *soy = s->pl[13], *sw = s->pl[14];
         sss_i_exp_samples(state, N, &mi->ed, sox, soy, sw, j->use_avx2);
         *cand += (uint64_t)N;
         const float fcx = (float)pcx, fcy = (float)pcy, fppu = (float)ppu, fsize = (float)size;
@@ -742,8 +740,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
         if (zeta < pa)                                                                                 \
             SSS_PUSH(j->area / ((double)N * pa));                                                      \
     }
-        const rast_view_constants *lvc = &lm->gb.constants;
-        if (j->rr_zmax && !li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
+        if (li->rr_prefilter) { /* tables made, directional, orthographic, square texels (maps_fill) */
             /* The pre-filter (sss_maps_internal.h; no bit changes): only candidates that may pass
              * the exact test below get their cos, sin, fetch and exp. Margin: half a texel
              * diagonal (0.7072 texel, as 0.75) plus float rounding of rho, positions and the view
@@ -751,8 +748,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
             sss_i_rr_filter f;
             f.zmax = j->rr_zmax + ((size_t)(mi - j->mats) * (size_t)j->light_count + (size_t)(li - j->lights)) * SSS_I_RR_BINS;
             f.jd = &mi->ed;
-            float *fu1 = s->buf + (size_t)12 * j->np, *fu2 = s->buf + (size_t)13 * j->np,
-                  *fz = s->buf + (size_t)14 * j->np;
+            float *fu1 = s->pl[12], *fu2 = s->pl[13], *fz = s->pl[14];
             const int nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
             for (int q = 0; q < nc; q++) {
                 double ox, oy, zeta = fz[q];
@@ -812,19 +808,10 @@ static void build_task(void *user, int64_t task, int thread)
     const int row_seeds = 0; /* built without the AVX2 files: per-texel seeds (the same values) */
 #endif
     for (int y = y0; y < y1; y++) {
-#if defined(OBS_HAVE_AVX2)
-        if (row_seeds) {
-            /* only the blocks of 8 that hold a covered texel */
-            const float *dr = obs_image_f32_row(&gb->depth, y);
-            for (int b = x0; b < x1; b += 8) {
-                int any = 0;
-                for (int x = b; x < b + 8 && x < x1; x++)
-                    any |= dr[x] < INFINITY;
-                if (any)
-                    sss_i_stream_seeds_avx2((uint32_t)(y * m->size + b), 8, (uint32_t)k, p->seed, s->seeds + (b - x0));
-            }
-        }
-#endif
+        /* row_seeds: the seeds of a block of 8 texels are made when its first covered texel is
+         * met (blocks with none are skipped) */
+        int seeded = -1; /* the block of s->seeds made last in this row */
+        (void)seeded;
         /* Every texel of the tile is written, 0 off the object and on opaque surfaces: the radiance
          * planes are allocated uninitialised (obs_image_f32_alloc_uninit) and a rebuild
          * (sss_maps_rebuild) writes over the previous maps, so nothing may be left unwritten
@@ -855,9 +842,19 @@ static void build_task(void *user, int64_t task, int thread)
             float nof[3] = {(float)no[0], (float)no[1], (float)no[2]};
             double acc[3] = {0, 0, 0};
             for (int f = 0; f < p->frames; f++) {
-                uint32_t state = row_seeds ? s->seeds[x - x0]
-                                           : sss_i_stream_seed((uint32_t)(y * m->size + x),
-                                                               (uint32_t)(k * p->frames + f), p->seed);
+                uint32_t state;
+#if defined(OBS_HAVE_AVX2)
+                if (row_seeds) {
+                    const int blk = (x - x0) >> 3;
+                    if (blk != seeded) {
+                        sss_i_stream_seeds_avx2((uint32_t)(y * m->size + x0 + 8 * blk), 8, (uint32_t)k, p->seed,
+                                                s->seeds + 8 * blk);
+                        seeded = blk;
+                    }
+                    state = s->seeds[x - x0];
+                } else
+#endif
+                    state = sss_i_stream_seed((uint32_t)(y * m->size + x), (uint32_t)(k * p->frames + f), p->seed);
                 double theta = 0.0;
                 if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) /* theta = 2 pi (r + t/T), [DalCorso14] method.tex */
                     theta = 2.0 * OBS_PI * ((double)sss_i_rand(&state) + (double)f / p->frames);
@@ -869,10 +866,10 @@ static void build_task(void *user, int64_t task, int thread)
                     sss_batch b;
                     b.n = n;
                     for (int a = 0; a < 3; a++) {
-                        b.xi[a] = s->buf + (size_t)a * j->np;
-                        b.ni[a] = s->buf + (size_t)(3 + a) * j->np;
-                        b.wi[a] = s->buf + (size_t)(6 + a) * j->np;
-                        b.out[a] = s->buf + (size_t)(9 + a) * j->np;
+                        b.xi[a] = s->pl[a];
+                        b.ni[a] = s->pl[3 + a];
+                        b.wi[a] = s->pl[6 + a];
+                        b.out[a] = s->pl[9 + a];
                     }
                     /* With AVX2, round up to whole vectors: the lanes past n hold whatever earlier
                      * batches left there (finite samples, or the zeros the scratch is allocated
@@ -936,8 +933,8 @@ static void build_task(void *user, int64_t task, int thread)
             }
             /* progressive accumulation over frames, divided by the frame count
              * ([DalCorso14] sss.md 3.3: R^{t,k} = R^{t-1,k} + R^{t,k}, / t in the combination) */
-            for (int c = 0; c < 3; c++)
-                out[c][0] = (float)(acc[c] / p->frames);
+            for (int c = 0; c < 3; c++) /* acc / 1 is acc: the division only when it can change a bit */
+                out[c][0] = (float)(p->frames == 1 ? acc[c] : acc[c] / p->frames);
         }
     }
     j->evaluated[task] = evaluated;
@@ -1282,10 +1279,19 @@ static obs_status maps_fill(obs_context *ctx, obs_pool *pool, const obs_scene *s
                     for (int b = 0; b < SSS_I_RR_BINS; b++)
                         t[b] = 16777217u;
             }
+        /* where gather_light may use them (the condition it tested per call before) */
+        for (int l = 0; l < light_count; l++) {
+            const rast_view_constants *lvc = &lights[l].gb.constants;
+            li[l].rr_prefilter = !li[l].point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC &&
+                                 fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx;
+        }
     }
     if (!ws_scratch(ws, threads, job.np, p->M > p->N ? p->M : p->N))
         return WS_OOM(ctx);
     job.scr = ws->scr;
+    for (int t = 0; t < threads; t++)
+        for (int q = 0; q < 15; q++)
+            ws->scr[t].pl[q] = ws->scr[t].buf + (size_t)q * (size_t)job.np;
     job.p = p;
     job.maps = out;
     job.tiling = obs_tiling_make(size, size, 32);
