@@ -479,6 +479,7 @@ typedef struct light_info {
                              (sss_i_fetch_in.pack), or NULL */
     int rr_prefilter;     /* Russian roulette: the pre-filter applies to this light (tables made,
                              directional, orthographic with square texels); set once per build */
+    int index;            /* l: this light's table in mat_info.rr_zmax */
 } light_info;
 
 typedef struct mat_info {
@@ -487,6 +488,8 @@ typedef struct mat_info {
     double sigma_star;      /* min sigma_tr / q, per scene unit */
     sss_i_exp_disk ed;      /* the exponential sampler's constants (sigma*, R, N) */
     double *nofm_p;         /* N-of-M: exp(-sigma* R rho_j), M entries */
+    const uint32_t *rr_zmax;/* Russian roulette: this material's pre-filter tables, one per light
+                               (light l at rr_zmax + l SSS_I_RR_BINS), or NULL */
 } mat_info;
 
 typedef struct scratch {
@@ -746,10 +749,16 @@ static int gather_light(const build_job *j, const light_info *li, const double x
              * diagonal (0.7072 texel, as 0.75) plus float rounding of rho, positions and the view
              * matrix (1e-4 R + 1e-5 (|x_o|_inf + R)). */
             sss_i_rr_filter f;
-            f.zmax = j->rr_zmax + ((size_t)(mi - j->mats) * (size_t)j->light_count + (size_t)(li - j->lights)) * SSS_I_RR_BINS;
+            f.zmax = mi->rr_zmax + (size_t)li->index * SSS_I_RR_BINS; /* = rr_zmax[(material, light)] */
             f.jd = &mi->ed;
             float *fu1 = s->pl[12], *fu2 = s->pl[13], *fz = s->pl[14];
-            const int nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
+            int nc;
+#if defined(OBS_HAVE_AVX2)
+            if (j->use_avx2 && (N & 7) == 0) /* whole groups: sss_i_rr_prefilter's AVX2 part alone */
+                nc = sss_i_rr_prefilter_avx2(state, N / 8, &f, fu1, fu2, fz);
+            else
+#endif
+                nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
             for (int q = 0; q < nc; q++) {
                 double ox, oy, zeta = fz[q];
                 sss_i_rr_offset(R, fu1[q], fu2[q], &ox, &oy);
@@ -1280,7 +1289,10 @@ static obs_status maps_fill(obs_context *ctx, obs_pool *pool, const obs_scene *s
                         t[b] = 16777217u;
             }
         /* where gather_light may use them (the condition it tested per call before) */
+        for (uint32_t i = 0; i <= mats->count; i++)
+            mi[i].rr_zmax = job.rr_zmax + (size_t)i * (size_t)light_count * SSS_I_RR_BINS;
         for (int l = 0; l < light_count; l++) {
+            li[l].index = l;
             const rast_view_constants *lvc = &lights[l].gb.constants;
             li[l].rr_prefilter = !li[l].point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC &&
                                  fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx;
