@@ -348,6 +348,7 @@ int main(int argc, char **argv)
             cm[r] = 1e3 * (c2 - c1);
             cr[r] = 1e3 * (c3 - c2);
         }
+        const double t2b = obs_time_now(); /* the camera's G-buffer is timed from here */
         rast_view view = {b.cam};
         if (st == OBS_STATUS_OK)
             st = rast_render(b.ctx, b.pool, &b.scene, &view, 1, &rp, &gb, NULL);
@@ -362,7 +363,7 @@ int main(int argc, char **argv)
         if (r >= 0) {
             tl[r] = 1e3 * (t1 - t0);
             tm[r] = 1e3 * (t2 - t1);
-            tb[r] = 1e3 * (t3 - t2);
+            tb[r] = 1e3 * (t3 - t2b);
             tc[r] = 1e3 * (t4 - t3);
         }
         evals = maps.samples_evaluated;
