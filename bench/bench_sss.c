@@ -13,8 +13,10 @@
  *            the GPU keeps its framebuffers and texture arrays (the seed's 543.5 ms for 16 cameras
  *            reuses them). The issue's bar, <= 150 ms for the bunny at K = 16, N = 48, 512^2 on 2
  *            threads, is judged on the rebuild (BAR line); maps_rebuild_minflt counts the process's
- *            minor page faults during the rebuilds (median), and rebuild_same_bytes compares the
- *            last rebuild with the last build byte for byte;
+ *            minor page faults during the rebuilds (median), rebuild_same_bytes compares the
+ *            last rebuild with the last build byte for byte, and maps_cpu_ms /
+ *            maps_rebuild_cpu_ms are the process's CPU ms (user + system, all threads) of each,
+ *            less sensitive to a shared machine than the wall clock;
  *   camera = the camera's G-buffer (rast_render) at --size;
  *   comb   = sss_combine for that camera (a fixed scene: the maps reused).
  * RESULT lines give the medians (min, max) in ms, the BSSRDF evaluations and their rate.
