@@ -296,6 +296,36 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
                           const sss_light_map *lights, int light_count, const sss_params *p, sss_maps *out);
 void sss_maps_free(sss_maps *m);   /* NULL-safe */
 
+/* ---- Rebuilding into the same memory (docs/sss/maps.md "Fourth round: rebuild and speed"). The
+ * GPU implementation keeps its framebuffers and texture arrays from frame to frame; the CPU's
+ * equivalent: when the scene changes (a light, a material, the geometry) the maps are written
+ * into the storage of the previous ones, and the build's temporaries live in a workspace. A fresh
+ * build's 3K radiance planes and K view G-buffers are about 60 MiB at K = 16, 512^2, which the
+ * kernel must hand over page by page (page faults) on first touch. */
+
+/* Everything sss_maps_build allocates besides the maps themselves: the rasterizer's scratch
+ * (rast_workspace), per-thread sample buffers, the per-material and per-light tables (the
+ * Russian-roulette pre-filter's bounds, the exponential sampler's interleaved light maps, the
+ * N-of-M candidate set), the per-task counters. Grows on demand, never shrinks. Opaque; not
+ * shared by concurrent rebuilds. */
+typedef struct sss_maps_workspace sss_maps_workspace;
+sss_maps_workspace *sss_maps_workspace_create(void);   /* NULL: out of memory */
+void sss_maps_workspace_free(sss_maps_workspace *ws);    /* NULL-safe */
+
+/* sss_maps_build into `maps`, reusing its memory. maps must be zeroed (then it is allocated, as a
+ * build does) or hold maps from a build or rebuild with the same K and map_size as p (the sampler,
+ * N, M, model, lights, materials and the scene may all differ: they do not change the storage).
+ * Then the K views are rendered into maps->views and every radiance texel is written (0 off the
+ * object), with no allocation once ws has served a rebuild of the same configuration (no page
+ * fault: bench obscura_bench_sss, maps_rebuild_minflt). ws NULL: a temporary workspace.
+ * The output is the same bytes as sss_maps_build's for the same arguments (tests
+ * sss_maps_rebuild_*). Returns sss_maps_build's codes; INVALID_ARGUMENT, maps untouched, when
+ * maps holds another K or map_size (the message names both; free them and build). On any other
+ * error maps is freed (zeroed), as a build leaves out. */
+obs_status sss_maps_rebuild(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const sss_scene_materials *mats,
+                            const sss_light_map *lights, int light_count, const sss_params *p, sss_maps_workspace *ws,
+                            sss_maps *maps);
+
 /* Pass 3, the combination for one camera view: for each pixel of the camera G-buffer (depth,
  * normals, material ids, from rast_render with the same scene) on a translucent surface, the
  * average over the maps that see it (visibility test per params) of their radiance, times the

@@ -477,6 +477,9 @@ typedef struct light_info {
     sss_i_view_geo geo;   /* the light map's view constants in double (x_o's projection) */
     uint32_t *pack;       /* exponential sampler, directional, AVX2: the light map interleaved
                              (sss_i_fetch_in.pack), or NULL */
+    int rr_prefilter;     /* Russian roulette: the pre-filter applies to this light (tables made,
+                             directional, orthographic with square texels); set once per build */
+    int index;            /* l: this light's table in mat_info.rr_zmax */
 } light_info;
 
 typedef struct mat_info {
@@ -485,11 +488,14 @@ typedef struct mat_info {
     double sigma_star;      /* min sigma_tr / q, per scene unit */
     sss_i_exp_disk ed;      /* the exponential sampler's constants (sigma*, R, N) */
     double *nofm_p;         /* N-of-M: exp(-sigma* R rho_j), M entries */
+    const uint32_t *rr_zmax;/* Russian roulette: this material's pre-filter tables, one per light
+                               (light l at rr_zmax + l SSS_I_RR_BINS), or NULL */
 } mat_info;
 
 typedef struct scratch {
     uint32_t seeds[40];     /* one row of a 32-texel tile, rounded up to 8 */
     float *buf;             /* xi[3], ni[3], wi[3], out[3], ox, oy, w: 15 N floats */
+    float *pl[15];          /* the 15 planes of buf, plane i at buf + i np (set per build) */
     double *w;              /* N */
     int *idx;               /* M */
 } scratch;
@@ -533,12 +539,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     const sss_light_map *lm = li->lm;
     const int N = p->N, size = lm->gb.width;
     double pcx, pcy, dl, ppu;
-    float *xi[3], *ni[3], *wi[3];
-    for (int a = 0; a < 3; a++) {
-        xi[a] = s->buf + (size_t)a * j->np;
-        ni[a] = s->buf + (size_t)(3 + a) * j->np;
-        wi[a] = s->buf + (size_t)(6 + a) * j->np;
-    }
+    float **xi = s->pl, **ni = s->pl + 3, **wi = s->pl + 6;
     /* the disk's centre: the light-space projection of x_o ([DalCorso14] "circle_center =
      * (L x_o).xy", sss.md 3.2); for a point light the disk lies in the plane perpendicular to
      * the light's axis at x_o's depth, scaled by fx / depth */
@@ -587,7 +588,7 @@ static int gather_light(const build_job *j, const light_info *li, const double x
     if (p->sampler == SSS_SAMPLER_EXPONENTIAL) {
         /* ours (docs/sss/maps.md "Samplers"): N samples of the density e^{-sigma* rho} on the disk,
          * weight 1/(N pdf), drawn SoA (sss_i_exp_samples), then fetched and packed in order */
-        float *sox = s->buf + (size_t)12 * j->np, *soy = s->buf + (size_t)13 * j->np, *sw = s->buf + (size_t)14 * j->np;
+        float *sox = s->pl[12], *soy = s->pl[13], *sw = s->pl[14];
         sss_i_exp_samples(state, N, &mi->ed, sox, soy, sw, j->use_avx2);
         *cand += (uint64_t)N;
         const float fcx = (float)pcx, fcy = (float)pcy, fppu = (float)ppu, fsize = (float)size;
@@ -742,18 +743,22 @@ static int gather_light(const build_job *j, const light_info *li, const double x
         if (zeta < pa)                                                                                 \
             SSS_PUSH(j->area / ((double)N * pa));                                                      \
     }
-        const rast_view_constants *lvc = &lm->gb.constants;
-        if (j->rr_zmax && !li->point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC && fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx) {
+        if (li->rr_prefilter) { /* tables made, directional, orthographic, square texels (maps_fill) */
             /* The pre-filter (sss_maps_internal.h; no bit changes): only candidates that may pass
              * the exact test below get their cos, sin, fetch and exp. Margin: half a texel
              * diagonal (0.7072 texel, as 0.75) plus float rounding of rho, positions and the view
              * matrix (1e-4 R + 1e-5 (|x_o|_inf + R)). */
             sss_i_rr_filter f;
-            f.zmax = j->rr_zmax + ((size_t)(mi - j->mats) * (size_t)j->light_count + (size_t)(li - j->lights)) * SSS_I_RR_BINS;
+            f.zmax = mi->rr_zmax + (size_t)li->index * SSS_I_RR_BINS; /* = rr_zmax[(material, light)] */
             f.jd = &mi->ed;
-            float *fu1 = s->buf + (size_t)12 * j->np, *fu2 = s->buf + (size_t)13 * j->np,
-                  *fz = s->buf + (size_t)14 * j->np;
-            const int nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
+            float *fu1 = s->pl[12], *fu2 = s->pl[13], *fz = s->pl[14];
+            int nc;
+#if defined(OBS_HAVE_AVX2)
+            if (j->use_avx2 && (N & 7) == 0) /* whole groups: sss_i_rr_prefilter's AVX2 part alone */
+                nc = sss_i_rr_prefilter_avx2(state, N / 8, &f, fu1, fu2, fz);
+            else
+#endif
+                nc = sss_i_rr_prefilter(state, N, &f, fu1, fu2, fz, j->use_avx2);
             for (int q = 0; q < nc; q++) {
                 double ox, oy, zeta = fz[q];
                 sss_i_rr_offset(R, fu1[q], fu2[q], &ox, &oy);
@@ -812,29 +817,27 @@ static void build_task(void *user, int64_t task, int thread)
     const int row_seeds = 0; /* built without the AVX2 files: per-texel seeds (the same values) */
 #endif
     for (int y = y0; y < y1; y++) {
-#if defined(OBS_HAVE_AVX2)
-        if (row_seeds) {
-            /* only the blocks of 8 that hold a covered texel */
-            const float *dr = obs_image_f32_row(&gb->depth, y);
-            for (int b = x0; b < x1; b += 8) {
-                int any = 0;
-                for (int x = b; x < b + 8 && x < x1; x++)
-                    any |= dr[x] < INFINITY;
-                if (any)
-                    sss_i_stream_seeds_avx2((uint32_t)(y * m->size + b), 8, (uint32_t)k, p->seed, s->seeds + (b - x0));
-            }
-        }
-#endif
-        /* texels off the object cost one compare: the radiance planes are allocated zeroed
-         * (obs_image_f32_alloc), so only covered texels are written */
+        /* row_seeds: the seeds of a block of 8 texels are made when its first covered texel is
+         * met (blocks with none are skipped) */
+        int seeded = -1; /* the block of s->seeds made last in this row */
+        (void)seeded;
+        /* Every texel of the tile is written, 0 off the object and on opaque surfaces: the radiance
+         * planes are allocated uninitialised (obs_image_f32_alloc_uninit) and a rebuild
+         * (sss_maps_rebuild) writes over the previous maps, so nothing may be left unwritten
+         * (test sss_maps_rebuild_leaves_no_texel_unwritten, with OBS_POISON_UNINIT=1). */
         const float *drow = obs_image_f32_row(&gb->depth, y);
+        float *orow[3];
+        for (int c = 0; c < 3; c++)
+            orow[c] = obs_image_f32_row(&m->radiance[3 * k + c], y);
         for (int x = x0; x < x1; x++) {
             const float depth = drow[x];
+            float *out[3];
+            for (int c = 0; c < 3; c++) {
+                out[c] = orow[c] + x;
+                out[c][0] = 0.0f;
+            }
             if (!(depth < INFINITY))
                 continue;
-            float *out[3];
-            for (int c = 0; c < 3; c++)
-                out[c] = obs_image_f32_row(&m->radiance[3 * k + c], y) + x;
             const mat_info *mi = job_material(j, obs_image_u32_row(&gb->material_id, y)[x]);
             if (!mi)
                 continue; /* opaque: no subsurface radiance */
@@ -848,9 +851,19 @@ static void build_task(void *user, int64_t task, int thread)
             float nof[3] = {(float)no[0], (float)no[1], (float)no[2]};
             double acc[3] = {0, 0, 0};
             for (int f = 0; f < p->frames; f++) {
-                uint32_t state = row_seeds ? s->seeds[x - x0]
-                                           : sss_i_stream_seed((uint32_t)(y * m->size + x),
-                                                               (uint32_t)(k * p->frames + f), p->seed);
+                uint32_t state;
+#if defined(OBS_HAVE_AVX2)
+                if (row_seeds) {
+                    const int blk = (x - x0) >> 3;
+                    if (blk != seeded) {
+                        sss_i_stream_seeds_avx2((uint32_t)(y * m->size + x0 + 8 * blk), 8, (uint32_t)k, p->seed,
+                                                s->seeds + 8 * blk);
+                        seeded = blk;
+                    }
+                    state = s->seeds[x - x0];
+                } else
+#endif
+                    state = sss_i_stream_seed((uint32_t)(y * m->size + x), (uint32_t)(k * p->frames + f), p->seed);
                 double theta = 0.0;
                 if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) /* theta = 2 pi (r + t/T), [DalCorso14] method.tex */
                     theta = 2.0 * OBS_PI * ((double)sss_i_rand(&state) + (double)f / p->frames);
@@ -862,10 +875,10 @@ static void build_task(void *user, int64_t task, int thread)
                     sss_batch b;
                     b.n = n;
                     for (int a = 0; a < 3; a++) {
-                        b.xi[a] = s->buf + (size_t)a * j->np;
-                        b.ni[a] = s->buf + (size_t)(3 + a) * j->np;
-                        b.wi[a] = s->buf + (size_t)(6 + a) * j->np;
-                        b.out[a] = s->buf + (size_t)(9 + a) * j->np;
+                        b.xi[a] = s->pl[a];
+                        b.ni[a] = s->pl[3 + a];
+                        b.wi[a] = s->pl[6 + a];
+                        b.out[a] = s->pl[9 + a];
                     }
                     /* With AVX2, round up to whole vectors: the lanes past n hold whatever earlier
                      * batches left there (finite samples, or the zeros the scratch is allocated
@@ -929,61 +942,201 @@ static void build_task(void *user, int64_t task, int thread)
             }
             /* progressive accumulation over frames, divided by the frame count
              * ([DalCorso14] sss.md 3.3: R^{t,k} = R^{t-1,k} + R^{t,k}, / t in the combination) */
-            for (int c = 0; c < 3; c++)
-                out[c][0] = (float)(acc[c] / p->frames);
+            for (int c = 0; c < 3; c++) /* acc / 1 is acc: the division only when it can change a bit */
+                out[c][0] = (float)(p->frames == 1 ? acc[c] : acc[c] / p->frames);
         }
     }
     j->evaluated[task] = evaluated;
     j->candidates[task] = cand;
 }
 
-obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const sss_scene_materials *mats,
-                          const sss_light_map *lights, int light_count, const sss_params *p, sss_maps *out)
+/* ------------------------------------------------------------------------------------------------
+ * The workspace: everything a build allocates besides the maps themselves, kept between rebuilds
+ * (sss.h, sss_maps_rebuild). Every buffer grows only; a rebuild of the same configuration finds
+ * them all large enough and allocates nothing.
+ * ---------------------------------------------------------------------------------------------- */
+
+struct sss_maps_workspace {
+    scratch *scr;              /* per thread */
+    int scr_threads, scr_np, scr_idx;
+    mat_info *mi;              /* mats->count + 1 */
+    size_t mi_cap;
+    light_info *li;            /* light_count */
+    size_t li_cap;
+    uint32_t **pack;           /* per light: the exponential sampler's interleaved light map */
+    size_t *pack_cap;          /* elements of pack[l] */
+    size_t pack_lights;        /* entries of pack and pack_cap */
+    rast_view *views;          /* K */
+    size_t views_cap;
+    uint64_t *evaluated, *candidates; /* K x tiles */
+    uint8_t *failed;
+    size_t tasks_cap, cand_cap, failed_cap;
+    uint32_t *rr_zmax;         /* (count + 1) x lights x SSS_I_RR_BINS */
+    size_t rr_cap;
+    double *nofm_p;            /* (count + 1) x M */
+    size_t nofm_cap;
+    sss_i_halton_disk hd;      /* N-of-M candidates, made for hd.M (0: not made) */
+    double *hd_cos, *hd_sin;   /* hd.M */
+    rast_workspace *rast;      /* the rasterizer's scratch (rast_render_ws) */
+};
+
+sss_maps_workspace *sss_maps_workspace_create(void)
 {
-    if (!out)
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: NULL output");
-    memset(out, 0, sizeof *out);
+    sss_maps_workspace *ws = (sss_maps_workspace *)calloc(1, sizeof *ws);
+    if (!ws)
+        return NULL;
+    ws->rast = rast_workspace_create();
+    if (!ws->rast) {
+        free(ws);
+        return NULL;
+    }
+    return ws;
+}
+
+static void ws_free_scratch(sss_maps_workspace *ws)
+{
+    for (int t = 0; ws->scr && t < ws->scr_threads; t++) {
+        free(ws->scr[t].buf);
+        free(ws->scr[t].w);
+        free(ws->scr[t].idx);
+    }
+    free(ws->scr);
+    ws->scr = NULL;
+    ws->scr_threads = ws->scr_np = ws->scr_idx = 0;
+}
+
+void sss_maps_workspace_free(sss_maps_workspace *ws)
+{
+    if (!ws)
+        return;
+    ws_free_scratch(ws);
+    free(ws->mi);
+    free(ws->li);
+    for (size_t l = 0; l < ws->pack_lights; l++)
+        free(ws->pack[l]);
+    free(ws->pack);
+    free(ws->pack_cap);
+    free(ws->views);
+    free(ws->evaluated);
+    free(ws->candidates);
+    free(ws->failed);
+    free(ws->rr_zmax);
+    free(ws->nofm_p);
+    sss_i_halton_disk_free(&ws->hd);
+    free(ws->hd_cos);
+    free(ws->hd_sin);
+    rast_workspace_destroy(ws->rast);
+    free(ws);
+}
+
+/* *p holds at least `need` elements of `elem` bytes (contents not kept); returns 0 when out of memory. */
+static int ws_grow(void **p, size_t *cap, size_t need, size_t elem)
+{
+    if (need <= *cap && *p)
+        return 1;
+    free(*p);
+    *p = malloc(elem * (need > 0 ? need : 1));
+    *cap = *p ? need : 0;
+    return *p != NULL;
+}
+
+/* The per-thread scratch: buf zeroed when (re)allocated (the batches' pad lanes, see build_task:
+ * afterwards they hold finite samples of earlier batches, which is all the pad lanes need). */
+static int ws_scratch(sss_maps_workspace *ws, int threads, int np, int nidx)
+{
+    if (ws->scr && threads <= ws->scr_threads && np <= ws->scr_np && nidx <= ws->scr_idx)
+        return 1;
+    ws_free_scratch(ws);
+    ws->scr = (scratch *)calloc((size_t)threads, sizeof(scratch));
+    if (!ws->scr)
+        return 0;
+    ws->scr_threads = threads;
+    for (int t = 0; t < threads; t++) {
+        ws->scr[t].buf = (float *)calloc(15 * (size_t)np, sizeof(float));
+        ws->scr[t].w = (double *)malloc(sizeof(double) * (size_t)np);
+        ws->scr[t].idx = (int *)malloc(sizeof(int) * (size_t)nidx);
+        if (!ws->scr[t].buf || !ws->scr[t].w || !ws->scr[t].idx) {
+            ws_free_scratch(ws);
+            return 0;
+        }
+    }
+    ws->scr_np = np;
+    ws->scr_idx = nidx;
+    return 1;
+}
+
+/* The checks common to a build and a rebuild; on OK, the scene's framing sphere in c, *rad. */
+static obs_status maps_check(obs_context *ctx, const char *fn, const obs_scene *scene, const sss_scene_materials *mats,
+                             const sss_light_map *lights, int light_count, const sss_params *p, double c[3],
+                             double *rad)
+{
     if (!scene || !mats || !p || light_count < 0 || (light_count > 0 && !lights))
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: NULL argument or negative light count");
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "%s: NULL argument or negative light count", fn);
     obs_status st = sss_params_validate(ctx, p);
     if (st != OBS_STATUS_OK)
         return st;
     if (p->isa != SSS_ISA_AUTO && !sss_isa_available(p->isa))
         return obs_error(ctx, OBS_STATUS_UNSUPPORTED_ISA, "sss: ISA %s is not available", sss_isa_name(p->isa));
     if (mats->count > 0 && (!mats->constants || !mats->translucent))
-        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: materials without constants");
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "%s: materials without constants", fn);
     for (int l = 0; l < light_count; l++)
         if (!lights[l].position[0].data || !lights[l].gb.instance_id.data)
-            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: light map %d is not rendered", l);
-    double c[3], rad;
-    if ((st = sss_i_scene_sphere(ctx, scene, c, &rad)) != OBS_STATUS_OK)
-        return st;
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "%s: light map %d is not rendered", fn, l);
+    return sss_i_scene_sphere(ctx, scene, c, rad);
+}
 
+/* The maps' own storage for p: K directions, K view G-buffers and 3K radiance planes, none of them
+ * zeroed (rast_render_ws writes every G-buffer element, build_task every radiance texel). */
+static obs_status maps_alloc(obs_context *ctx, const sss_params *p, sss_maps *out)
+{
     const int K = p->K, size = p->map_size;
-    build_job job;
-    memset(&job, 0, sizeof job);
-    mat_info *mi = NULL;
-    light_info *li = NULL;
-    rast_view *views = NULL;
-    sss_i_halton_disk hd;
-    memset(&hd, 0, sizeof hd);
-    int threads = pool ? obs_pool_threads(pool) : 1;
-    if (threads < 1)
-        threads = 1;
-
     out->K = K;
     out->size = size;
     out->dirs = (double *)malloc(sizeof(double) * 3 * (size_t)K);
     out->views = (rast_gbuffer *)calloc((size_t)K, sizeof(rast_gbuffer));
     out->radiance = (obs_image_f32 *)calloc(3 * (size_t)K, sizeof(obs_image_f32));
-    views = (rast_view *)calloc((size_t)K, sizeof(rast_view));
-    mi = (mat_info *)calloc((size_t)mats->count + 1, sizeof(mat_info));
-    li = (light_info *)calloc((size_t)(light_count > 0 ? light_count : 1), sizeof(light_info));
-    job.scr = (scratch *)calloc((size_t)threads, sizeof(scratch));
-    if (!out->dirs || !out->views || !out->radiance || !views || !mi || !li || !job.scr) {
-        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
-        goto done;
-    }
+    if (!out->dirs || !out->views || !out->radiance)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
+    rast_params rp = gbuffer_params(size);
+    obs_status st;
+    for (int k = 0; k < K; k++)
+        if ((st = rast_gbuffer_alloc_uninit(ctx, &rp, &out->views[k])) != OBS_STATUS_OK)
+            return st;
+    for (int i = 0; i < 3 * K; i++)
+        if ((st = obs_image_f32_alloc_uninit(ctx, size, size, &out->radiance[i])) != OBS_STATUS_OK)
+            return st;
+    return OBS_STATUS_OK;
+}
+
+#define WS_OOM(ctx) obs_error((ctx), OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory")
+
+/* Pass 2 into allocated maps `out` (K, size of p) with the temporaries of ws: the K views
+ * rendered, then every radiance texel written. */
+static obs_status maps_fill(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const sss_scene_materials *mats,
+                            const sss_light_map *lights, int light_count, const sss_params *p, const double c[3],
+                            double rad, sss_maps_workspace *ws, sss_maps *out)
+{
+    const int K = p->K, size = p->map_size;
+    obs_status st = OBS_STATUS_OK;
+    build_job job;
+    memset(&job, 0, sizeof job);
+    int threads = pool ? obs_pool_threads(pool) : 1;
+    if (threads < 1)
+        threads = 1;
+    out->samples_evaluated = 0;
+    out->candidates = 0;
+
+    if (!ws_grow((void **)&ws->views, &ws->views_cap, (size_t)K, sizeof(rast_view)) ||
+        !ws_grow((void **)&ws->mi, &ws->mi_cap, (size_t)mats->count + 1, sizeof(mat_info)) ||
+        !ws_grow((void **)&ws->li, &ws->li_cap, (size_t)(light_count > 0 ? light_count : 1), sizeof(light_info)))
+        return WS_OOM(ctx);
+    rast_view *views = ws->views;
+    mat_info *mi = ws->mi;
+    light_info *li = ws->li;
+    memset(views, 0, sizeof(rast_view) * (size_t)K);
+    memset(mi, 0, sizeof(mat_info) * ((size_t)mats->count + 1));
+    memset(li, 0, sizeof(light_info) * (size_t)(light_count > 0 ? light_count : 1));
+
     /* K directions [DalCorso14] haltonPointSphere; orthographic views looking at the bounds'
      * centre (sss.md 3.2) */
     sss_halton_directions(K, out->dirs);
@@ -992,15 +1145,9 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     rast_params rp = gbuffer_params(size);
     if (sss_i_maps_cull_back)
         rp.cull = RAST_CULL_BACK; /* test hook only (sss_maps_internal.h): not bit-identical in general */
-    for (int k = 0; k < K; k++)
-        if ((st = rast_gbuffer_alloc_uninit(ctx, &rp, &out->views[k])) != OBS_STATUS_OK) /* rast_render writes it all */
-            goto done;
     /* one layered render, as the thesis' geometry shader with gl_Layer */
-    if ((st = rast_render(ctx, pool, scene, views, K, &rp, out->views, NULL)) != OBS_STATUS_OK)
-        goto done;
-    for (int i = 0; i < 3 * K; i++)
-        if ((st = obs_image_f32_alloc(ctx, size, size, &out->radiance[i])) != OBS_STATUS_OK)
-            goto done;
+    if ((st = rast_render_ws(ctx, pool, ws->rast, scene, views, K, &rp, out->views, NULL)) != OBS_STATUS_OK)
+        return st;
 
     for (uint32_t i = 0; i <= mats->count; i++) {
         const sss_constants *cc = (i < mats->count) ? ((mats->translucent[i]) ? &mats->constants[i] : NULL) : mats->none;
@@ -1025,6 +1172,21 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         const char *env = getenv("OBS_ISA");
         job.use_avx2 = !(env && !strcmp(env, "scalar")) && sss_isa_available(SSS_ISA_AVX2);
     }
+    if ((size_t)light_count > ws->pack_lights) {
+        uint32_t **np_ = (uint32_t **)realloc(ws->pack, sizeof(uint32_t *) * (size_t)light_count);
+        if (!np_)
+            return WS_OOM(ctx);
+        ws->pack = np_;
+        size_t *nc_ = (size_t *)realloc(ws->pack_cap, sizeof(size_t) * (size_t)light_count);
+        if (!nc_)
+            return WS_OOM(ctx);
+        ws->pack_cap = nc_;
+        for (size_t l = ws->pack_lights; l < (size_t)light_count; l++) {
+            ws->pack[l] = NULL;
+            ws->pack_cap[l] = 0;
+        }
+        ws->pack_lights = (size_t)light_count;
+    }
     for (int l = 0; l < light_count; l++) {
         const obs_light *L = &lights[l].light;
         li[l].lm = &lights[l];
@@ -1047,11 +1209,9 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
             /* the light map interleaved for the AVX2 fetch (sss_i_fetch_in.pack): the samples'
              * gathers of seven planes at random texels were most of the build's L1 misses */
             const int lw = lights[l].gb.width, lh = lights[l].gb.height;
-            li[l].pack = (uint32_t *)malloc(sizeof(uint32_t) * 8 * (size_t)lw * (size_t)lh);
-            if (!li[l].pack) {
-                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
-                goto done;
-            }
+            if (!ws_grow((void **)&ws->pack[l], &ws->pack_cap[l], 8 * (size_t)lw * (size_t)lh, sizeof(uint32_t)))
+                return WS_OOM(ctx);
+            li[l].pack = ws->pack[l];
             for (int y = 0; y < lh; y++) {
                 const float *pr[3], *wr[3];
                 for (int a = 0; a < 3; a++) {
@@ -1072,30 +1232,37 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         }
     }
     if (p->sampler == SSS_SAMPLER_NEAREST_N_OF_M) {
-        if ((st = sss_i_halton_disk_make(ctx, p->M, &hd)) != OBS_STATUS_OK)
-            goto done;
-        job.hd_cos = (double *)malloc(sizeof(double) * (size_t)p->M);
-        job.hd_sin = (double *)malloc(sizeof(double) * (size_t)p->M);
-        if (!job.hd_cos || !job.hd_sin) {
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
-            goto done;
+        if (ws->hd.M != p->M || !ws->hd.rho) {
+            /* the candidate set depends on M only: made once per workspace and M */
+            sss_i_halton_disk_free(&ws->hd);
+            free(ws->hd_cos);
+            free(ws->hd_sin);
+            ws->hd_cos = ws->hd_sin = NULL;
+            if ((st = sss_i_halton_disk_make(ctx, p->M, &ws->hd)) != OBS_STATUS_OK)
+                return st;
+            ws->hd_cos = (double *)malloc(sizeof(double) * (size_t)p->M);
+            ws->hd_sin = (double *)malloc(sizeof(double) * (size_t)p->M);
+            if (!ws->hd_cos || !ws->hd_sin) {
+                sss_i_halton_disk_free(&ws->hd); /* made again next time */
+                return WS_OOM(ctx);
+            }
+            for (int i = 0; i < p->M; i++) {
+                ws->hd_cos[i] = cos((double)ws->hd.phi[i]);
+                ws->hd_sin[i] = sin((double)ws->hd.phi[i]);
+            }
         }
-        for (int i = 0; i < p->M; i++) {
-            job.hd_cos[i] = cos((double)hd.phi[i]);
-            job.hd_sin[i] = sin((double)hd.phi[i]);
-        }
+        job.hd_cos = ws->hd_cos;
+        job.hd_sin = ws->hd_sin;
+        if (!ws_grow((void **)&ws->nofm_p, &ws->nofm_cap, ((size_t)mats->count + 1) * (size_t)p->M, sizeof(double)))
+            return WS_OOM(ctx);
         const double Rd = p->disk_radius > 0.0 ? p->disk_radius : rad;
         for (uint32_t i = 0; i <= mats->count; i++) {
             if (!mi[i].c)
                 continue;
-            mi[i].nofm_p = (double *)malloc(sizeof(double) * (size_t)p->M);
-            if (!mi[i].nofm_p) {
-                st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
-                goto done;
-            }
+            mi[i].nofm_p = ws->nofm_p + (size_t)i * (size_t)p->M;
             const double sigma_r = mi[i].sigma_star * Rd; /* as gather_light's sigma* R */
             for (int q = 0; q < p->M; q++)
-                mi[i].nofm_p[q] = exp(-sigma_r * (double)hd.rho[q]);
+                mi[i].nofm_p[q] = exp(-sigma_r * (double)ws->hd.rho[q]);
         }
     }
     if (p->sampler == SSS_SAMPLER_RUSSIAN_ROULETTE && !sss_i_rr_prefilter_off && light_count > 0) {
@@ -1106,11 +1273,10 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         const obs_aabb *bb = &scene->bounds;
         const double xmax = fmax(fmax(fmax(fabs(bb->lo.x), fabs(bb->hi.x)), fmax(fabs(bb->lo.y), fabs(bb->hi.y))),
                                  fmax(fabs(bb->lo.z), fabs(bb->hi.z))) + rad;
-        job.rr_zmax = (uint32_t *)malloc(sizeof(uint32_t) * SSS_I_RR_BINS * ((size_t)mats->count + 1) * (size_t)light_count);
-        if (!job.rr_zmax) {
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
-            goto done;
-        }
+        if (!ws_grow((void **)&ws->rr_zmax, &ws->rr_cap,
+                     (size_t)SSS_I_RR_BINS * ((size_t)mats->count + 1) * (size_t)light_count, sizeof(uint32_t)))
+            return WS_OOM(ctx);
+        job.rr_zmax = ws->rr_zmax;
         for (uint32_t i = 0; i <= mats->count; i++)
             for (int l = 0; l < light_count; l++) {
                 const double ppu = lights[l].gb.constants.fx;
@@ -1122,16 +1288,22 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
                     for (int b = 0; b < SSS_I_RR_BINS; b++)
                         t[b] = 16777217u;
             }
-    }
-    for (int t = 0; t < threads; t++) {
-        job.scr[t].buf = (float *)calloc(15 * (size_t)job.np, sizeof(float)); /* zeroed: the batches' pad lanes */
-        job.scr[t].w = (double *)malloc(sizeof(double) * (size_t)job.np);
-        job.scr[t].idx = (int *)malloc(sizeof(int) * (size_t)(p->M > p->N ? p->M : p->N));
-        if (!job.scr[t].buf || !job.scr[t].w || !job.scr[t].idx) {
-            st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
-            goto done;
+        /* where gather_light may use them (the condition it tested per call before) */
+        for (uint32_t i = 0; i <= mats->count; i++)
+            mi[i].rr_zmax = job.rr_zmax + (size_t)i * (size_t)light_count * SSS_I_RR_BINS;
+        for (int l = 0; l < light_count; l++) {
+            li[l].index = l;
+            const rast_view_constants *lvc = &lights[l].gb.constants;
+            li[l].rr_prefilter = !li[l].point && lvc->projection_type == OBS_PROJECTION_ORTHOGRAPHIC &&
+                                 fabs(lvc->fx - lvc->fy) <= 1e-9 * lvc->fx;
         }
     }
+    if (!ws_scratch(ws, threads, job.np, p->M > p->N ? p->M : p->N))
+        return WS_OOM(ctx);
+    job.scr = ws->scr;
+    for (int t = 0; t < threads; t++)
+        for (int q = 0; q < 15; q++)
+            ws->scr[t].pl[q] = ws->scr[t].buf + (size_t)q * (size_t)job.np;
     job.p = p;
     job.maps = out;
     job.tiling = obs_tiling_make(size, size, 32);
@@ -1140,15 +1312,18 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
     job.light_count = light_count;
     job.mats = mi;
     job.mat_count = mats->count;
-    job.hd = &hd;
+    job.hd = &ws->hd;
     int64_t tasks = (int64_t)K * job.tiles;
-    job.evaluated = (uint64_t *)calloc((size_t)tasks, sizeof(uint64_t));
-    job.candidates = (uint64_t *)calloc((size_t)tasks, sizeof(uint64_t));
-    job.failed = (uint8_t *)calloc((size_t)tasks, 1);
-    if (!job.evaluated || !job.candidates || !job.failed) {
-        st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "sss_maps_build: out of memory");
-        goto done;
-    }
+    if (!ws_grow((void **)&ws->evaluated, &ws->tasks_cap, (size_t)tasks, sizeof(uint64_t)) ||
+        !ws_grow((void **)&ws->candidates, &ws->cand_cap, (size_t)tasks, sizeof(uint64_t)) ||
+        !ws_grow((void **)&ws->failed, &ws->failed_cap, (size_t)tasks, 1))
+        return WS_OOM(ctx);
+    job.evaluated = ws->evaluated;
+    job.candidates = ws->candidates;
+    job.failed = ws->failed;
+    memset(job.evaluated, 0, sizeof(uint64_t) * (size_t)tasks);
+    memset(job.candidates, 0, sizeof(uint64_t) * (size_t)tasks);
+    memset(job.failed, 0, (size_t)tasks);
     obs_pool_run(pool, tasks, build_task, &job);
     for (int64_t t = 0; t < tasks; t++) {
         out->samples_evaluated += job.evaluated[t];
@@ -1156,31 +1331,71 @@ obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *sce
         if (job.failed[t] && st == OBS_STATUS_OK)
             st = obs_error(ctx, OBS_STATUS_INTERNAL, "sss_maps_build: sss_eval_batch failed");
     }
-done:
-    if (job.scr)
-        for (int t = 0; t < threads; t++) {
-            free(job.scr[t].buf);
-            free(job.scr[t].w);
-            free(job.scr[t].idx);
-        }
-    free(job.scr);
-    free(job.evaluated);
-    free(job.candidates);
-    free(job.failed);
-    sss_i_halton_disk_free(&hd);
-    free(views);
-    if (mi)
-        for (uint32_t i = 0; i <= mats->count; i++)
-            free(mi[i].nofm_p);
-    free(job.hd_cos);
-    free(job.hd_sin);
-    free(job.rr_zmax);
-    free(mi);
-    if (li)
-        for (int l = 0; l < light_count; l++)
-            free(li[l].pack);
-    free(li);
+    return st;
+}
+
+obs_status sss_maps_build(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const sss_scene_materials *mats,
+                          const sss_light_map *lights, int light_count, const sss_params *p, sss_maps *out)
+{
+    if (!out)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_build: NULL output");
+    memset(out, 0, sizeof *out);
+    double c[3], rad;
+    obs_status st = maps_check(ctx, "sss_maps_build", scene, mats, lights, light_count, p, c, &rad);
+    if (st != OBS_STATUS_OK)
+        return st;
+    sss_maps_workspace *ws = sss_maps_workspace_create();
+    if (!ws)
+        return WS_OOM(ctx);
+    if ((st = maps_alloc(ctx, p, out)) == OBS_STATUS_OK)
+        st = maps_fill(ctx, pool, scene, mats, lights, light_count, p, c, rad, ws, out);
+    sss_maps_workspace_free(ws);
     if (st != OBS_STATUS_OK)
         sss_maps_free(out);
+    return st;
+}
+
+obs_status sss_maps_rebuild(obs_context *ctx, obs_pool *pool, const obs_scene *scene, const sss_scene_materials *mats,
+                            const sss_light_map *lights, int light_count, const sss_params *p, sss_maps_workspace *ws,
+                            sss_maps *maps)
+{
+    if (!maps)
+        return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_rebuild: NULL maps");
+    double c[3], rad;
+    obs_status st = maps_check(ctx, "sss_maps_rebuild", scene, mats, lights, light_count, p, c, &rad);
+    if (st != OBS_STATUS_OK)
+        return st;
+    const int empty = maps->K == 0 && maps->size == 0 && !maps->dirs && !maps->views && !maps->radiance;
+    if (!empty) {
+        if (!maps->dirs || !maps->views || !maps->radiance || maps->K < 1 || maps->size < 1)
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                             "sss_maps_rebuild: the maps are neither zeroed nor built (K %d, size %d)", maps->K,
+                             maps->size);
+        if (maps->K != p->K || maps->size != p->map_size)
+            return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT,
+                             "sss_maps_rebuild: the maps hold K = %d layers of %d^2 texels but the params ask for "
+                             "K = %d, map_size = %d; free them and build (sss_maps_build) for a new layout",
+                             maps->K, maps->size, p->K, p->map_size);
+        const rast_gbuffer *v = &maps->views[0];
+        const rast_params rp = gbuffer_params(p->map_size);
+        for (int k = 0; k < maps->K; k++)
+            if (maps->views[k].width != v->width || maps->views[k].height != v->height ||
+                (maps->views[k].outputs & rp.outputs) != rp.outputs)
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_rebuild: view %d is not a maps layer", k);
+        for (int i = 0; i < 3 * maps->K; i++)
+            if (!maps->radiance[i].data || maps->radiance[i].width != p->map_size ||
+                maps->radiance[i].height != p->map_size)
+                return obs_error(ctx, OBS_STATUS_INVALID_ARGUMENT, "sss_maps_rebuild: radiance plane %d is not %d^2",
+                                 i, p->map_size);
+    }
+    sss_maps_workspace *tmp = NULL;
+    if (!ws && !(ws = tmp = sss_maps_workspace_create()))
+        return WS_OOM(ctx);
+    st = empty ? maps_alloc(ctx, p, maps) : OBS_STATUS_OK;
+    if (st == OBS_STATUS_OK)
+        st = maps_fill(ctx, pool, scene, mats, lights, light_count, p, c, rad, ws, maps);
+    sss_maps_workspace_free(tmp);
+    if (st != OBS_STATUS_OK)
+        sss_maps_free(maps);
     return st;
 }
