@@ -70,6 +70,7 @@ void render_session_destroy(render_session *s)
     if (!s)
         return;
     render_cache_destroy(s->cache);
+    sss_maps_workspace_free(s->sss_ws);
     obs_pool_destroy(s->pool);
     free(s);
 }

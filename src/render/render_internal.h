@@ -145,6 +145,9 @@ struct render_session {
     render_cache *cache;
     render_options opt;
     char cache_dir[1024];
+    sss_maps_workspace *sss_ws;    /* the scattering maps' scratch (rasterizer, per-thread buffers),
+                                      kept across frames so a rebuild of the maps allocates only the
+                                      maps themselves (sss_maps_rebuild; created on first use) */
 };
 
 /* Everything one frame's passes share. */
