@@ -520,9 +520,44 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
     P->out_c[2][oi] = cc[2];
 }
 
+/* A voxel iu of the span whose 2x2 bilinear fetch of l reaches outside the previous slice, with an
+ * entry transmittance (vol.h vol_occluder.entry): l again, with the texels outside the slice
+ * entry() at their world positions (on the previous slice's plane) instead of the padding's 1,
+ * as lv_fetch_l_entry does for the per-tap path; tau is lv_span1's, the lerps the span's (so with
+ * entry() = 1 the bits are the span's). */
+static void lv_span_l_entry(const lv_pass *P, const vol_i_lv_span *S, int iu)
+{
+    const ptrdiff_t W = S->stride;
+    const float *s0 = S->prev_sigma + (ptrdiff_t)(S->jv + S->bv) * W + S->bu + iu, *s1 = s0 + W;
+    const float sigma = S->sigma[iu];
+    const float sa = s0[0] + (s0[1] - s0[0]) * S->fu, sb = s1[0] + (s1[1] - s1[0]) * S->fu;
+    const float sigma_p = sa + (sb - sa) * S->fv;
+    const double arg = -0.5 * ((double)sigma + (double)sigma_p) * S->ds;
+    const float tau = arg == 0.0 ? 1.0f : (float)exp(arg);
+    float t[4];
+    for (int q = 0; q < 4; q++) {
+        const int ti = iu + S->bu + (q & 1), tj = S->jv + S->bv + (q >> 1);
+        if (ti >= 0 && tj >= 0 && ti < P->nu && tj < P->nv) {
+            t[q] = S->prev_l[(ptrdiff_t)tj * W + ti];
+        } else {
+            double x[3];
+            x[P->a] = P->org[P->a] + (double)P->kprev * P->sp[P->a];
+            x[P->u] = P->org[P->u] + (double)ti * P->sp[P->u];
+            x[P->v] = P->org[P->v] + (double)tj * P->sp[P->v];
+            const float e = P->entry(P->entry_user, x);
+            t[q] = e >= 0.0f ? (e <= 1.0f ? e : 1.0f) : (e < 0.0f ? 0.0f : 1.0f);
+        }
+    }
+    const float la = t[0] + (t[1] - t[0]) * S->fu, lb = t[2] + (t[3] - t[2]) * S->fu;
+    const float l = tau * (la + (lb - la) * S->fv);
+    S->cur_l[iu] = l;
+    S->out_l[(ptrdiff_t)iu * S->out_stride] = l;
+}
+
 /* One row (v) of the current slice: classify the row, then the kernel path's span [iu_lo, iu_hi)
- * (the voxels whose 2x2 and kW x kH kernels lie inside the previous slice) by the row kernel
- * (vol_light_internal.h, scalar or AVX2: the same bits), the rest voxel by voxel. */
+ * (the voxels whose 2x2 and kW x kH kernels lie inside the previous slice and its LV_PAD border
+ * texels) by the row kernel (vol_light_internal.h, scalar or AVX2: the same bits), the rest voxel
+ * by voxel. */
 static void lv_row(const lv_pass *P, int jv, float *scr)
 {
     const int a = P->a, u = P->u, v = P->v, nu = P->nu;
@@ -566,13 +601,19 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
                 sig[iu] += o[(size_t)iu * os[u]];
     }
 
+    /* The span: the voxels whose 2x2 and kW x kH kernels lie inside the previous slice's buffer,
+     * the slice and its LV_PAD texels of border values around it (lv_propagate). The slice's edge
+     * voxels read the border from the padding, as the per-tap path does (lv_fetch): the same
+     * sums as the per-tap path, in the kernel's order (docs/volume/light.md, step 8; before, the
+     * edge voxels took the per-tap path). */
     int iu_lo = 0, iu_hi = 0;
-    if (P->mode == LV_MODE_PROPAGATE && P->kern && jv + P->kJ0 >= 0 && jv + P->kJ0 + P->kH <= P->nv &&
-        jv + P->bv >= 0 && jv + P->bv + 1 < P->nv) {
-        /* iu + kI0 >= 0, iu + kI0 + kW <= nu, iu + bu >= 0, iu + bu + 1 < nu */
-        iu_lo = -P->kI0 > -P->bu ? -P->kI0 : -P->bu;
+    if (P->mode == LV_MODE_PROPAGATE && P->kern && jv + P->kJ0 >= -LV_PAD && jv + P->kJ0 + P->kH <= P->nv + LV_PAD &&
+        jv + P->bv >= -LV_PAD && jv + P->bv + 1 < P->nv + LV_PAD) {
+        /* iu + kI0 >= -LV_PAD, iu + kI0 + kW <= nu + LV_PAD, iu + bu >= -LV_PAD, iu + bu + 1 < nu + LV_PAD */
+        iu_lo = -LV_PAD - P->kI0 > -LV_PAD - P->bu ? -LV_PAD - P->kI0 : -LV_PAD - P->bu;
         iu_lo = iu_lo > 0 ? iu_lo : 0;
-        iu_hi = nu - P->kI0 - P->kW + 1 < nu - P->bu - 1 ? nu - P->kI0 - P->kW + 1 : nu - P->bu - 1;
+        iu_hi = nu + LV_PAD - P->kI0 - P->kW + 1 < nu + LV_PAD - P->bu - 1 ? nu + LV_PAD - P->kI0 - P->kW + 1
+                                                                          : nu + LV_PAD - P->bu - 1;
         /* and 0 <= iu < nu: a kernel wholly to one side of p (a small cone, |p - x| > 1 texel in
          * the second face's pass, or a slice narrower than the offset) moves a bound past nu */
         iu_lo = iu_lo < nu ? iu_lo : nu;
@@ -611,6 +652,10 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
         else
 #endif
             vol_i_lv_span_scalar(&S, iu_lo, iu_hi);
+        if (P->entry) /* texels outside the slice are the light entering there, not l = 1 */
+            for (int iu = iu_lo; iu < iu_hi; iu++)
+                if (iu + P->bu < 0 || iu + P->bu + 1 >= nu || jv + P->bv < 0 || jv + P->bv + 1 >= P->nv)
+                    lv_span_l_entry(P, &S, iu);
     }
     for (int iu = iu_hi > iu_lo ? iu_hi : iu_lo; iu < nu; iu++) {
         const float c3[3] = {ctf[0][iu], ctf[1][iu], ctf[2][iu]};
