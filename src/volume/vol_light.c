@@ -147,6 +147,7 @@ typedef struct lv_pass {
     vol_lv_workspace *ws;       /* the rebuild's kept blocks (vol_light_volume_rebuild); NULL: none */
     /* the row kernels (vol_light_internal.h) */
     int avx2;                   /* vol_i_lv_avx2_active() at the build's start */
+    int avx512;                 /* vol_i_lv_isa() == 2: the span 16 voxels at a time */
     vol_i_lv_tf T;              /* the TF prepared for row classification */
     float *scratch;             /* per thread: the row's values, sigma_t and c_TF (5 rows of nu_pad) */
     size_t nu_pad;
@@ -168,6 +169,33 @@ void vol_i_lv_classify_scalar(const vol_i_lv_tf *T, const float *s, int n, float
         c1[i] = rgba[1];
         c2[i] = rgba[2];
     }
+}
+
+#if !defined(OBS_HAVE_AVX2)
+int vol_i_lv_exp_test_avx2(const double *x, int n, double *y, float *f)
+{
+    (void)x, (void)n, (void)y, (void)f;
+    return 0;
+}
+int vol_i_lv_log1p_test_avx2(const double *a, int n, double *y)
+{
+    (void)a, (void)n, (void)y;
+    return 0;
+}
+#endif
+
+int vol_i_lv_isa(void)
+{
+    if (!vol_i_lv_avx2_active())
+        return 0;
+#if defined(VOL_I_LV_HAVE_AVX512)
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "avx2"))
+        return 1;
+    return __builtin_cpu_supports("avx512f") ? 2 : 1;
+#else
+    return 1;
+#endif
 }
 
 int vol_i_lv_avx2_active(void)
@@ -646,6 +674,11 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
         S.cur_sigma = P->cur[LV_SIGMA] + (ptrdiff_t)jv * P->W;
         S.out_l = P->out_l + (size_t)P->k * stride[a] + (size_t)jv * stride[v];
         S.out_stride = (ptrdiff_t)stride[u];
+#if defined(VOL_I_LV_HAVE_AVX512)
+        if (P->avx512)
+            vol_i_lv_span_avx512(&S, iu_lo, iu_hi);
+        else
+#endif
 #if defined(OBS_HAVE_AVX2)
         if (P->avx2)
             vol_i_lv_span_avx2(&S, iu_lo, iu_hi);
@@ -1367,6 +1400,7 @@ static obs_status lv_build(obs_context *ctx, obs_pool *pool, const vol_grid *g, 
     P.T.kappa = P.sigma_scale;
     P.T.ref_step = P.ref_step;
     P.avx2 = vol_i_lv_avx2_active();
+    P.avx512 = vol_i_lv_isa() == 2;
 
     /* F0: light enters by face f0 (dir_max = -n_F0): from the low side when f0 is a minus face. */
     st = lv_propagate(ctx, pool, &P, f0 >> 1, (f0 & 1) == 0, out->l, out->c);

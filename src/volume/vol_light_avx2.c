@@ -346,3 +346,23 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
     else
         lv_span8(S, iu0, iu1, S->kW, S->kH);
 }
+
+/* ---- Test hooks (vol_light_internal.h) ------------------------------------------------------------ */
+
+int vol_i_lv_exp_test_avx2(const double *x, int n, double *y, float *f)
+{
+    for (int i = 0; i + 8 <= n; i += 8) {
+        const __m256d lo = _mm256_loadu_pd(x + i), hi = _mm256_loadu_pd(x + i + 4);
+        _mm256_storeu_pd(y + i, lv_exp4(lo));
+        _mm256_storeu_pd(y + i + 4, lv_exp4(hi));
+        _mm256_storeu_ps(f + i, lv_expf8(lo, hi));
+    }
+    return 1;
+}
+
+int vol_i_lv_log1p_test_avx2(const double *a, int n, double *y)
+{
+    for (int i = 0; i + 4 <= n; i += 4)
+        _mm256_storeu_pd(y + i, lv_log4(_mm256_sub_pd(_mm256_set1_pd(1.0), _mm256_loadu_pd(a + i))));
+    return 1;
+}
