@@ -591,13 +591,14 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
     const int a = P->a, u = P->u, v = P->v, nu = P->nu;
     const vol_grid *g = P->g;
     float *s = scr, *sig = scr + P->nu_pad, *ctf[3] = {sig + P->nu_pad, sig + 2 * P->nu_pad, sig + 3 * P->nu_pad};
+    const float *rs = s; /* the row's values */
     if (P->scale == 1) {
         /* The light volume's voxels are the data's: the exact voxel values. */
         const size_t dstr[3] = {1, (size_t)g->nx, (size_t)g->nx * (size_t)g->ny};
         const float *d = g->data + (size_t)P->k * dstr[a] + (size_t)jv * dstr[v];
         const size_t su = dstr[u];
         if (su == 1)
-            memcpy(s, d, (size_t)nu * sizeof(float));
+            rs = d; /* the data's row itself (x fastest): classified in place, no copy */
         else
             for (int iu = 0; iu < nu; iu++)
                 s[iu] = d[(size_t)iu * su];
@@ -617,10 +618,10 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
     }
 #if defined(OBS_HAVE_AVX2)
     if (P->avx2)
-        vol_i_lv_classify_avx2(&P->T, s, nu, sig, ctf[0], ctf[1], ctf[2]);
+        vol_i_lv_classify_avx2(&P->T, rs, nu, sig, ctf[0], ctf[1], ctf[2]);
     else
 #endif
-        vol_i_lv_classify_scalar(&P->T, s, nu, sig, ctf[0], ctf[1], ctf[2]);
+        vol_i_lv_classify_scalar(&P->T, rs, nu, sig, ctf[0], ctf[1], ctf[2]);
     if (P->occ_sigma) { /* the meshes' extra extinction (vol.h vol_occluder), both paths alike */
         const size_t os[3] = {1, (size_t)P->n[0], (size_t)P->n[0] * (size_t)P->n[1]};
         const float *o = P->occ_sigma + (size_t)P->k * os[a] + (size_t)jv * os[v];
