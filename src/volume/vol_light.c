@@ -616,6 +616,11 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
                                     (x[2] - g->origin[2]) / g->spacing[2]);
         }
     }
+#if defined(VOL_I_LV_HAVE_AVX512)
+    if (P->avx512)
+        vol_i_lv_classify_avx512(&P->T, rs, nu, sig, ctf[0], ctf[1], ctf[2]);
+    else
+#endif
 #if defined(OBS_HAVE_AVX2)
     if (P->avx2)
         vol_i_lv_classify_avx2(&P->T, rs, nu, sig, ctf[0], ctf[1], ctf[2]);

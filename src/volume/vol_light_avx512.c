@@ -95,6 +95,119 @@ static inline __m256 lv_hi8(__m512 v)
     return _mm256_castpd_ps(_mm512_extractf64x4_pd(_mm512_castps_pd(v), 1));
 }
 
+/* vol_light_avx2.c lv_log4 on 8 doubles: the same operations in the same order. */
+static inline __m512d lv_log8(__m512d u)
+{
+    const __m512i bits = _mm512_castpd_si512(u);
+    const __m512i mant = _mm512_and_si512(bits, _mm512_set1_epi64(0x000FFFFFFFFFFFFFLL));
+    __m512d m = _mm512_castsi512_pd(_mm512_or_si512(mant, _mm512_set1_epi64(0x3FF0000000000000LL))); /* [1, 2) */
+    __m512d e = _mm512_sub_pd(_mm512_cvtepi32_pd(_mm512_cvtepi64_epi32(_mm512_srli_epi64(bits, 52))),
+                              _mm512_set1_pd(1023.0));
+    const __mmask8 big = _mm512_cmp_pd_mask(m, _mm512_set1_pd(1.4142135623730951), _CMP_GT_OQ);
+    m = _mm512_mask_blend_pd(big, m, _mm512_mul_pd(m, _mm512_set1_pd(0.5))); /* exact */
+    e = _mm512_mask_add_pd(e, big, e, _mm512_set1_pd(1.0));
+    const __m512d one = _mm512_set1_pd(1.0);
+    const __m512d sv = _mm512_div_pd(_mm512_sub_pd(m, one), _mm512_add_pd(m, one));
+    const __m512d s2 = _mm512_mul_pd(sv, sv);
+    __m512d p = _mm512_set1_pd(1.0 / 23);
+    for (int k = 10; k >= 0; k--)
+        p = _mm512_add_pd(_mm512_mul_pd(p, s2), _mm512_set1_pd(1.0 / (2 * k + 1)));
+    const __m512d lm = _mm512_mul_pd(_mm512_add_pd(sv, sv), p);
+    return _mm512_add_pd(_mm512_mul_pd(e, _mm512_set1_pd(6.93147180369123816490e-01)),
+                         _mm512_add_pd(_mm512_mul_pd(e, _mm512_set1_pd(1.90821492927058770002e-10)), lm));
+}
+
+/* vol_light_avx2.c vol_i_lv_classify_avx2 with 8 values in one register of doubles: vol_tf_eval's
+ * arithmetic, then sigma_t by the guarded log (libm's float bit for bit). */
+void vol_i_lv_classify_avx512(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
+                              float *c2)
+{
+    const int np = T->n;
+    if (n < 8) {
+        vol_i_lv_classify_avx2(T, s, n, sigma, c0, c1, c2);
+        return;
+    }
+    const __m512d vfirst = _mm512_set1_pd(T->value[0]), vlast = _mm512_set1_pd(T->value[np - 1]);
+    const __m512d one = _mm512_set1_pd(1.0);
+    const __m256 vzero8 = _mm256_set1_ps(T->zero_upto_f);
+    float *outc[3] = {c0, c1, c2};
+    /* Blocks of 8; the last block overlaps the one before (recomputing a value writes the same bits). */
+    for (int i = 0;; i += 8) {
+        if (i > n - 8)
+            i = n - 8;
+        const __m256 sf = _mm256_loadu_ps(s + i);
+        /* Empty space (all eight at or below zero_upto): +0 everywhere, exactly (vol_light_avx2.c). */
+        if (_mm256_movemask_ps(_mm256_cmp_ps(sf, vzero8, _CMP_LE_OQ)) == 0xFF) {
+            const __m256 z8 = _mm256_setzero_ps();
+            _mm256_storeu_ps(c0 + i, z8);
+            _mm256_storeu_ps(c1 + i, z8);
+            _mm256_storeu_ps(c2 + i, z8);
+            _mm256_storeu_ps(sigma + i, z8);
+            if (i + 8 >= n)
+                break;
+            continue;
+        }
+        const __m512d v = _mm512_cvtps_pd(sf);
+        /* lo = the count of q in [1, np - 2] with value[q] <= v (the binary search's segment) */
+        __m512i lo = _mm512_setzero_si512();
+        for (int q = 1; q <= np - 2; q++)
+            lo = _mm512_mask_add_epi64(lo, _mm512_cmp_pd_mask(_mm512_set1_pd(T->value[q]), v, _CMP_LE_OQ), lo,
+                                       _mm512_set1_epi64(1));
+        const __m512i hi = _mm512_add_epi64(lo, _mm512_set1_epi64(1));
+        const long long q0 = _mm_cvtsi128_si64(_mm512_castsi512_si128(lo));
+        const int uni = _mm512_cmpeq_epi64_mask(lo, _mm512_set1_epi64(q0)) == 0xFF;
+        const __m512d vl = uni ? _mm512_set1_pd(T->value[q0]) : _mm512_i64gather_pd(lo, T->value, 8);
+        const __m512d vh = uni ? _mm512_set1_pd(T->value[q0 + 1]) : _mm512_i64gather_pd(hi, T->value, 8);
+        const __m512d t = _mm512_div_pd(_mm512_sub_pd(v, vl), _mm512_sub_pd(vh, vl));
+        const __m512d omt = _mm512_sub_pd(one, t);
+        const __mmask8 below = _mm512_cmp_pd_mask(v, vfirst, _CMP_LE_OQ), above = _mm512_cmp_pd_mask(v, vlast, _CMP_GE_OQ);
+        const __mmask8 num = _mm512_cmp_pd_mask(v, v, _CMP_ORD_Q);
+        __m256 ch[4];
+        for (int c = 0; c < 4; c++) {
+            const __m512d cl = uni ? _mm512_set1_pd(T->rgba[c][q0]) : _mm512_i64gather_pd(lo, T->rgba[c], 8);
+            const __m512d chh = uni ? _mm512_set1_pd(T->rgba[c][q0 + 1]) : _mm512_i64gather_pd(hi, T->rgba[c], 8);
+            __m512d r = _mm512_add_pd(_mm512_mul_pd(cl, omt), _mm512_mul_pd(chh, t));
+            /* vol_tf_eval's order: NaN first, then value <= first, then value >= last. */
+            r = _mm512_mask_blend_pd(above, r, _mm512_set1_pd(T->rgba[c][np - 1]));
+            r = _mm512_mask_blend_pd(below, r, _mm512_set1_pd(T->rgba[c][0]));
+            r = _mm512_maskz_mov_pd(num, r);
+            ch[c] = _mm512_cvtpd_ps(r);
+        }
+        for (int c = 0; c < 3; c++)
+            _mm256_storeu_ps(outc[c] + i, ch[c]);
+        /* sigma_t = (float)(kappa * vol_sigma_from_alpha(alpha)): 0 where alpha <= 0 (or NaN). */
+        const __m256 posv = _mm256_cmp_ps(ch[3], _mm256_setzero_ps(), _CMP_GT_OQ);
+        const int pos = _mm256_movemask_ps(posv);
+        if (!pos) {
+            _mm256_storeu_ps(sigma + i, _mm256_setzero_ps());
+        } else {
+            const __m512d ad = _mm512_cvtps_pd(ch[3]);
+            const __m512d ac = _mm512_mask_blend_pd(_mm512_cmp_pd_mask(ad, _mm512_set1_pd(1.0 - 0x1p-24), _CMP_LT_OQ),
+                                                    _mm512_set1_pd(1.0 - 0x1p-24), ad);
+            const __m512d L = lv_log8(_mm512_sub_pd(one, ac));
+            const __m512d y = _mm512_mul_pd(_mm512_set1_pd(T->kappa),
+                                            _mm512_div_pd(_mm512_sub_pd(_mm512_setzero_pd(), L), _mm512_set1_pd(T->ref_step)));
+            const __mmask8 okr = _mm512_cmp_pd_mask(ad, _mm512_set1_pd(0x1p-20), _CMP_GE_OQ) &
+                                 _mm512_cmp_pd_mask(y, _mm512_set1_pd(0x1p-125), _CMP_GE_OQ) &
+                                 _mm512_cmp_pd_mask(y, _mm512_set1_pd(0x1p127), _CMP_LE_OQ);
+            const int good = T->ref_step > 0.0 ? (int)(okr & (__mmask8)~lv_near_midpoint8(y)) : 0;
+            __m256 sv = _mm256_and_ps(_mm512_cvtpd_ps(y), posv);
+            if (((good | ~pos) & 0xFF) != 0xFF) {
+                float a[8], tt[8];
+                _mm256_storeu_ps(a, ch[3]);
+                _mm256_storeu_ps(tt, sv);
+                for (int q = 0; q < 8; q++)
+                    if (((pos & ~good) >> q) & 1)
+                        tt[q] = (float)(T->kappa * vol_sigma_from_alpha(a[q], T->ref_step));
+                sv = _mm256_loadu_ps(tt);
+            }
+            _mm256_storeu_ps(sigma + i, sv);
+        }
+        if (i + 8 >= n)
+            break;
+    }
+}
+
 /* vol_light_avx2.c lv_span8 with 16 lanes. */
 static inline __attribute__((always_inline)) void lv_span16(const vol_i_lv_span *S, int iu0, int iu1, const int kW,
                                                             const int kH)

@@ -73,9 +73,11 @@ int vol_i_lv_avx2_active(void);
 #if defined(OBS_HAVE_AVX2) && defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define VOL_I_LV_HAVE_AVX512 1
 void vol_i_lv_span_avx512(const vol_i_lv_span *S, int iu0, int iu1);
+void vol_i_lv_classify_avx512(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
+                              float *c2);
 #endif
-/* The row kernels' instruction set for this build: 0 scalar, 1 AVX2, 2 AVX-512F (the span; the
- * classification stays AVX2). The highest the build and the CPU have, capped by the environment's
+/* The row kernels' instruction set for this build: 0 scalar, 1 AVX2, 2 AVX-512F (the span and
+ * the classification). The highest the build and the CPU have, capped by the environment's
  * OBS_ISA: "scalar" 0, "avx2" at most 1 (read at each vol_light_volume_build). */
 int vol_i_lv_isa(void);
 
