@@ -597,9 +597,12 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
         const size_t dstr[3] = {1, (size_t)g->nx, (size_t)g->nx * (size_t)g->ny};
         const float *d = g->data + (size_t)P->k * dstr[a] + (size_t)jv * dstr[v];
         const size_t su = dstr[u];
-        if (su == 1)
+        if (su == 1) {
             rs = d; /* the data's row itself (x fastest): classified in place, no copy */
-        else
+            if (jv + 2 < P->nv) /* two rows ahead: the data comes from memory */
+                for (int iu = 0; iu < nu; iu += 16)
+                    __builtin_prefetch(d + 2 * dstr[v] + iu, 0, 0);
+        } else
             for (int iu = 0; iu < nu; iu++)
                 s[iu] = d[(size_t)iu * su];
     } else {
