@@ -28,9 +28,12 @@
  * after slice, each band waiting for the whole previous slice (lv_run_chain); each voxel reads only
  * the previous slice, so the output is identical for any thread count.
  *
- * Speed (docs/volume/light.md, "Row kernels and AVX2", "Cost"): each row is classified at once and
- * the kernel path's interior runs as a row kernel (vol_light_internal.h), scalar or AVX2 with the
- * same bits; the output is bit for bit that of the per-voxel loop it replaced. */
+ * Speed (docs/volume/light.md, steps 8 and 10, "Cost"): each row is classified at once and the
+ * kernel path's span runs as a row kernel (vol_light_internal.h), scalar, AVX2 or AVX-512F with the
+ * same bits. The span covers the slice's edge voxels too, their kernels reading the slice buffers'
+ * border padding (lv_row): the one place where the output differs from the per-voxel loop it
+ * replaced, by float rounding within the kernel path's bound (its sums against the per-tap
+ * path's, docs/volume/light.md step 8). */
 #include "vol.h"
 #include "vol_light_internal.h"
 

@@ -2,10 +2,11 @@
  * with -mavx2 and no FMA; selected at run time by vol_i_lv_avx2_active, OBS_ISA=scalar forces the
  * scalar forms). Each lane performs the scalar form's IEEE operations in the same order
  * (vol_light_internal.h; vol_light.c vol_i_lv_classify_scalar, vol_i_lv_span_scalar), so the two
- * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit). libm's log1p and exp are
- * called lane by lane where their result is not known exactly without them: log1p where alpha > 0,
- * exp where its argument is not 0 (vol_sigma_from_alpha returns 0 for alpha <= 0, and exp(+-0) = 1,
- * C11 F.10.3.1). */
+ * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit). log1p is needed where
+ * alpha > 0 and exp where its argument is not 0 (vol_sigma_from_alpha returns 0 for alpha <= 0, and
+ * exp(+-0) = 1, C11 F.10.3.1); there they are evaluated 4 lanes at a time in double and rounded to
+ * float where that is libm's float for certain, libm lane by lane elsewhere ("libm's results"
+ * below; docs/volume/light.md step 10). */
 #include "vol_light_internal.h"
 
 #include <immintrin.h>

@@ -2,11 +2,14 @@
  * vol_light_avx2.c (AVX2, compiled with -mavx2, no FMA), for its tests (not installed; prefix
  * vol_i_lv_).
  *
- * Both forms of each kernel perform the same IEEE operations in the same order per voxel, so they
- * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit); the transcendental functions
- * (log1p in the classification, exp in tau) are libm's in both, called per voxel (the AVX2 form
- * calls them lane by lane, and only where the argument is not 0: exp(0) = 1 exactly, and an alpha
- * of 0 gives sigma_t 0 without log1p). */
+ * All forms of each kernel (scalar, AVX2, AVX-512F) perform the same IEEE operations in the same
+ * order per voxel, so they give the same bits (volume_light_avx2_matches_scalar_bit_for_bit,
+ * volume_light_avx512_avx2_scalar_bit_for_bit); the transcendental functions (log1p in the
+ * classification, exp in tau) give libm's floats in all: the scalar forms call libm; the vector
+ * forms evaluate them in double and keep the result where it rounds to libm's float for certain
+ * (more than 2^16 ulps from a float midpoint), calling libm lane by lane elsewhere
+ * (vol_light_avx2.c, "libm's results"); exp is skipped where its argument is 0 (exp(0) = 1
+ * exactly), and an alpha of 0 gives sigma_t 0 without log1p. */
 #ifndef VOL_LIGHT_INTERNAL_H
 #define VOL_LIGHT_INTERNAL_H
 
