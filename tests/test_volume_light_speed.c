@@ -174,13 +174,21 @@ TEST(volume_light_avx512_avx2_scalar_bit_for_bit)
     obs_context_destroy(ctx);
 }
 
+/* An entry transmittance that varies over the box's outside (vol.h vol_occluder.entry). */
+static float entry_wave(void *user, const double x[3])
+{
+    (void)user;
+    return (float)(0.5 + 0.4 * sin(0.7 * x[0] + 0.3 * x[1] - 0.2 * x[2]));
+}
+
 TEST(volume_light_edge_voxels_on_the_kernel_path_stay_within_its_bound)
 {
     /* The slice's edge voxels read the slice buffers' border padding on the kernel path (before:
      * the per-tap path). Against the per-tap reference (OBS_LV_PER_TAP=1), the edge voxels alone
      * (a face of the volume other than the entry face) differ by float rounding only, within the
      * kernel path's bound 1e-5 (volume_light_kernel_path_matches_per_tap_path); a light along +z
-     * through a volume that is dense at its sides. */
+     * and an oblique one through a volume that is dense at its sides, without and with an entry
+     * transmittance that varies over the outside (the light entering by the side faces). */
     obs_context *ctx = obs_context_create();
     vol_grid g;
     const double sp[3] = {1.0, 1.0, 1.0};
@@ -196,14 +204,17 @@ TEST(volume_light_edge_voxels_on_the_kernel_path_stay_within_its_bound)
     tf.count = 2;
     tf.points = pts;
     const vol_light Ls[2] = {vtu_dir_light(0, 0, 1), vtu_dir_light(0.3, -0.5, 0.8)};
-    for (int l = 0; l < 2; l++) {
+    /* without and with an entry transmittance (the edge voxels' l then refetched, lv_span_l_entry) */
+    const vol_occluder entry = {NULL, 0.0, entry_wave, NULL};
+    for (int l = 0; l < 4; l++) {
         vol_lv_params p = vol_lv_params_default();
         p.blend_second = 0;
+        const vol_occluder *oc = l >= 2 ? &entry : NULL;
         vol_light_volume a, t;
         unsetenv("OBS_LV_PER_TAP");
-        CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &a), ctx);
+        CHECK_OK(vol_light_volume_build_ex(ctx, NULL, &g, &tf, &Ls[l & 1], &p, oc, &a), ctx);
         setenv("OBS_LV_PER_TAP", "1", 1);
-        CHECK_OK(vol_light_volume_build(ctx, NULL, &g, &tf, &Ls[l], &p, &t), ctx);
+        CHECK_OK(vol_light_volume_build_ex(ctx, NULL, &g, &tf, &Ls[l & 1], &p, oc, &t), ctx);
         unsetenv("OBS_LV_PER_TAP");
         double worst_edge = 0.0;
         size_t edge_differ = 0;
@@ -219,7 +230,8 @@ TEST(volume_light_edge_voxels_on_the_kernel_path_stay_within_its_bound)
                     worst_edge = fmax(worst_edge, d);
                     edge_differ += d > 0.0;
                 }
-        printf("light %d: edge voxels, kernel path vs per-tap: max %.3g (%zu differ)\n", l, worst_edge, edge_differ);
+        printf("light %d%s: edge voxels, kernel path vs per-tap: max %.3g (%zu differ)\n", l & 1,
+               oc ? ", entry" : "", worst_edge, edge_differ);
         CHECK(worst_edge <= 1e-5);
         vol_light_volume_free(&a);
         vol_light_volume_free(&t);
