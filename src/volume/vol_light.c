@@ -28,9 +28,12 @@
  * after slice, each band waiting for the whole previous slice (lv_run_chain); each voxel reads only
  * the previous slice, so the output is identical for any thread count.
  *
- * Speed (docs/volume/light.md, "Row kernels and AVX2", "Cost"): each row is classified at once and
- * the kernel path's interior runs as a row kernel (vol_light_internal.h), scalar or AVX2 with the
- * same bits; the output is bit for bit that of the per-voxel loop it replaced. */
+ * Speed (docs/volume/light.md, steps 8 and 10, "Cost"): each row is classified at once and the
+ * kernel path's span runs as a row kernel (vol_light_internal.h), scalar, AVX2 or AVX-512F with the
+ * same bits. The span covers the slice's edge voxels too, their kernels reading the slice buffers'
+ * border padding (lv_row): the one place where the output differs from the per-voxel loop it
+ * replaced, by float rounding within the kernel path's bound (its sums against the per-tap
+ * path's, docs/volume/light.md step 8). */
 #include "vol.h"
 #include "vol_light_internal.h"
 
@@ -147,6 +150,7 @@ typedef struct lv_pass {
     vol_lv_workspace *ws;       /* the rebuild's kept blocks (vol_light_volume_rebuild); NULL: none */
     /* the row kernels (vol_light_internal.h) */
     int avx2;                   /* vol_i_lv_avx2_active() at the build's start */
+    int avx512;                 /* vol_i_lv_isa() == 2: the span 16 voxels at a time */
     vol_i_lv_tf T;              /* the TF prepared for row classification */
     float *scratch;             /* per thread: the row's values, sigma_t and c_TF (5 rows of nu_pad) */
     size_t nu_pad;
@@ -168,6 +172,33 @@ void vol_i_lv_classify_scalar(const vol_i_lv_tf *T, const float *s, int n, float
         c1[i] = rgba[1];
         c2[i] = rgba[2];
     }
+}
+
+#if !defined(OBS_HAVE_AVX2)
+int vol_i_lv_exp_test_avx2(const double *x, int n, double *y, float *f)
+{
+    (void)x, (void)n, (void)y, (void)f;
+    return 0;
+}
+int vol_i_lv_log1p_test_avx2(const double *a, int n, double *y)
+{
+    (void)a, (void)n, (void)y;
+    return 0;
+}
+#endif
+
+int vol_i_lv_isa(void)
+{
+    if (!vol_i_lv_avx2_active())
+        return 0;
+#if defined(VOL_I_LV_HAVE_AVX512)
+    const char *env = getenv("OBS_ISA");
+    if (env && !strcmp(env, "avx2"))
+        return 1;
+    return __builtin_cpu_supports("avx512f") ? 2 : 1;
+#else
+    return 1;
+#endif
 }
 
 int vol_i_lv_avx2_active(void)
@@ -520,22 +551,61 @@ static void lv_voxel(const lv_pass *P, int iu, int jv, float sigma, const float 
     P->out_c[2][oi] = cc[2];
 }
 
+/* A voxel iu of the span whose 2x2 bilinear fetch of l reaches outside the previous slice, with an
+ * entry transmittance (vol.h vol_occluder.entry): l again, with the texels outside the slice
+ * entry() at their world positions (on the previous slice's plane) instead of the padding's 1,
+ * as lv_fetch_l_entry does for the per-tap path; tau is lv_span1's, the lerps the span's (so with
+ * entry() = 1 the bits are the span's). */
+static void lv_span_l_entry(const lv_pass *P, const vol_i_lv_span *S, int iu)
+{
+    const ptrdiff_t W = S->stride;
+    const float *s0 = S->prev_sigma + (ptrdiff_t)(S->jv + S->bv) * W + S->bu + iu, *s1 = s0 + W;
+    const float sigma = S->sigma[iu];
+    const float sa = s0[0] + (s0[1] - s0[0]) * S->fu, sb = s1[0] + (s1[1] - s1[0]) * S->fu;
+    const float sigma_p = sa + (sb - sa) * S->fv;
+    const double arg = -0.5 * ((double)sigma + (double)sigma_p) * S->ds;
+    const float tau = arg == 0.0 ? 1.0f : (float)exp(arg);
+    float t[4];
+    for (int q = 0; q < 4; q++) {
+        const int ti = iu + S->bu + (q & 1), tj = S->jv + S->bv + (q >> 1);
+        if (ti >= 0 && tj >= 0 && ti < P->nu && tj < P->nv) {
+            t[q] = S->prev_l[(ptrdiff_t)tj * W + ti];
+        } else {
+            double x[3];
+            x[P->a] = P->org[P->a] + (double)P->kprev * P->sp[P->a];
+            x[P->u] = P->org[P->u] + (double)ti * P->sp[P->u];
+            x[P->v] = P->org[P->v] + (double)tj * P->sp[P->v];
+            const float e = P->entry(P->entry_user, x);
+            t[q] = e >= 0.0f ? (e <= 1.0f ? e : 1.0f) : (e < 0.0f ? 0.0f : 1.0f);
+        }
+    }
+    const float la = t[0] + (t[1] - t[0]) * S->fu, lb = t[2] + (t[3] - t[2]) * S->fu;
+    const float l = tau * (la + (lb - la) * S->fv);
+    S->cur_l[iu] = l;
+    S->out_l[(ptrdiff_t)iu * S->out_stride] = l;
+}
+
 /* One row (v) of the current slice: classify the row, then the kernel path's span [iu_lo, iu_hi)
- * (the voxels whose 2x2 and kW x kH kernels lie inside the previous slice) by the row kernel
- * (vol_light_internal.h, scalar or AVX2: the same bits), the rest voxel by voxel. */
+ * (the voxels whose 2x2 and kW x kH kernels lie inside the previous slice and its LV_PAD border
+ * texels) by the row kernel (vol_light_internal.h, scalar or AVX2: the same bits), the rest voxel
+ * by voxel. */
 static void lv_row(const lv_pass *P, int jv, float *scr)
 {
     const int a = P->a, u = P->u, v = P->v, nu = P->nu;
     const vol_grid *g = P->g;
     float *s = scr, *sig = scr + P->nu_pad, *ctf[3] = {sig + P->nu_pad, sig + 2 * P->nu_pad, sig + 3 * P->nu_pad};
+    const float *rs = s; /* the row's values */
     if (P->scale == 1) {
         /* The light volume's voxels are the data's: the exact voxel values. */
         const size_t dstr[3] = {1, (size_t)g->nx, (size_t)g->nx * (size_t)g->ny};
         const float *d = g->data + (size_t)P->k * dstr[a] + (size_t)jv * dstr[v];
         const size_t su = dstr[u];
-        if (su == 1)
-            memcpy(s, d, (size_t)nu * sizeof(float));
-        else
+        if (su == 1) {
+            rs = d; /* the data's row itself (x fastest): classified in place, no copy */
+            if (jv + 2 < P->nv) /* two rows ahead: the data comes from memory */
+                for (int iu = 0; iu < nu; iu += 16)
+                    __builtin_prefetch(d + 2 * dstr[v] + iu, 0, 0);
+        } else
             for (int iu = 0; iu < nu; iu++)
                 s[iu] = d[(size_t)iu * su];
     } else {
@@ -552,12 +622,17 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
                                     (x[2] - g->origin[2]) / g->spacing[2]);
         }
     }
-#if defined(OBS_HAVE_AVX2)
-    if (P->avx2)
-        vol_i_lv_classify_avx2(&P->T, s, nu, sig, ctf[0], ctf[1], ctf[2]);
+#if defined(VOL_I_LV_HAVE_AVX512)
+    if (P->avx512)
+        vol_i_lv_classify_avx512(&P->T, rs, nu, sig, ctf[0], ctf[1], ctf[2]);
     else
 #endif
-        vol_i_lv_classify_scalar(&P->T, s, nu, sig, ctf[0], ctf[1], ctf[2]);
+#if defined(OBS_HAVE_AVX2)
+    if (P->avx2)
+        vol_i_lv_classify_avx2(&P->T, rs, nu, sig, ctf[0], ctf[1], ctf[2]);
+    else
+#endif
+        vol_i_lv_classify_scalar(&P->T, rs, nu, sig, ctf[0], ctf[1], ctf[2]);
     if (P->occ_sigma) { /* the meshes' extra extinction (vol.h vol_occluder), both paths alike */
         const size_t os[3] = {1, (size_t)P->n[0], (size_t)P->n[0] * (size_t)P->n[1]};
         const float *o = P->occ_sigma + (size_t)P->k * os[a] + (size_t)jv * os[v];
@@ -566,13 +641,19 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
                 sig[iu] += o[(size_t)iu * os[u]];
     }
 
+    /* The span: the voxels whose 2x2 and kW x kH kernels lie inside the previous slice's buffer,
+     * the slice and its LV_PAD texels of border values around it (lv_propagate). The slice's edge
+     * voxels read the border from the padding, as the per-tap path does (lv_fetch): the same
+     * sums as the per-tap path, in the kernel's order (docs/volume/light.md, step 8; before, the
+     * edge voxels took the per-tap path). */
     int iu_lo = 0, iu_hi = 0;
-    if (P->mode == LV_MODE_PROPAGATE && P->kern && jv + P->kJ0 >= 0 && jv + P->kJ0 + P->kH <= P->nv &&
-        jv + P->bv >= 0 && jv + P->bv + 1 < P->nv) {
-        /* iu + kI0 >= 0, iu + kI0 + kW <= nu, iu + bu >= 0, iu + bu + 1 < nu */
-        iu_lo = -P->kI0 > -P->bu ? -P->kI0 : -P->bu;
+    if (P->mode == LV_MODE_PROPAGATE && P->kern && jv + P->kJ0 >= -LV_PAD && jv + P->kJ0 + P->kH <= P->nv + LV_PAD &&
+        jv + P->bv >= -LV_PAD && jv + P->bv + 1 < P->nv + LV_PAD) {
+        /* iu + kI0 >= -LV_PAD, iu + kI0 + kW <= nu + LV_PAD, iu + bu >= -LV_PAD, iu + bu + 1 < nu + LV_PAD */
+        iu_lo = -LV_PAD - P->kI0 > -LV_PAD - P->bu ? -LV_PAD - P->kI0 : -LV_PAD - P->bu;
         iu_lo = iu_lo > 0 ? iu_lo : 0;
-        iu_hi = nu - P->kI0 - P->kW + 1 < nu - P->bu - 1 ? nu - P->kI0 - P->kW + 1 : nu - P->bu - 1;
+        iu_hi = nu + LV_PAD - P->kI0 - P->kW + 1 < nu + LV_PAD - P->bu - 1 ? nu + LV_PAD - P->kI0 - P->kW + 1
+                                                                          : nu + LV_PAD - P->bu - 1;
         /* and 0 <= iu < nu: a kernel wholly to one side of p (a small cone, |p - x| > 1 texel in
          * the second face's pass, or a slice narrower than the offset) moves a bound past nu */
         iu_lo = iu_lo < nu ? iu_lo : nu;
@@ -605,12 +686,21 @@ static void lv_row(const lv_pass *P, int jv, float *scr)
         S.cur_sigma = P->cur[LV_SIGMA] + (ptrdiff_t)jv * P->W;
         S.out_l = P->out_l + (size_t)P->k * stride[a] + (size_t)jv * stride[v];
         S.out_stride = (ptrdiff_t)stride[u];
+#if defined(VOL_I_LV_HAVE_AVX512)
+        if (P->avx512)
+            vol_i_lv_span_avx512(&S, iu_lo, iu_hi);
+        else
+#endif
 #if defined(OBS_HAVE_AVX2)
         if (P->avx2)
             vol_i_lv_span_avx2(&S, iu_lo, iu_hi);
         else
 #endif
             vol_i_lv_span_scalar(&S, iu_lo, iu_hi);
+        if (P->entry) /* texels outside the slice are the light entering there, not l = 1 */
+            for (int iu = iu_lo; iu < iu_hi; iu++)
+                if (iu + P->bu < 0 || iu + P->bu + 1 >= nu || jv + P->bv < 0 || jv + P->bv + 1 >= P->nv)
+                    lv_span_l_entry(P, &S, iu);
     }
     for (int iu = iu_hi > iu_lo ? iu_hi : iu_lo; iu < nu; iu++) {
         const float c3[3] = {ctf[0][iu], ctf[1][iu], ctf[2][iu]};
@@ -1322,6 +1412,7 @@ static obs_status lv_build(obs_context *ctx, obs_pool *pool, const vol_grid *g, 
     P.T.kappa = P.sigma_scale;
     P.T.ref_step = P.ref_step;
     P.avx2 = vol_i_lv_avx2_active();
+    P.avx512 = vol_i_lv_isa() == 2;
 
     /* F0: light enters by face f0 (dir_max = -n_F0): from the low side when f0 is a minus face. */
     st = lv_propagate(ctx, pool, &P, f0 >> 1, (f0 & 1) == 0, out->l, out->c);

@@ -2,14 +2,132 @@
  * with -mavx2 and no FMA; selected at run time by vol_i_lv_avx2_active, OBS_ISA=scalar forces the
  * scalar forms). Each lane performs the scalar form's IEEE operations in the same order
  * (vol_light_internal.h; vol_light.c vol_i_lv_classify_scalar, vol_i_lv_span_scalar), so the two
- * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit). libm's log1p and exp are
- * called lane by lane where their result is not known exactly without them: log1p where alpha > 0,
- * exp where its argument is not 0 (vol_sigma_from_alpha returns 0 for alpha <= 0, and exp(+-0) = 1,
- * C11 F.10.3.1). */
+ * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit). log1p is needed where
+ * alpha > 0 and exp where its argument is not 0 (vol_sigma_from_alpha returns 0 for alpha <= 0, and
+ * exp(+-0) = 1, C11 F.10.3.1); there they are evaluated 4 lanes at a time in double and rounded to
+ * float where that is libm's float for certain, libm lane by lane elsewhere ("libm's results"
+ * below; docs/volume/light.md step 10). */
 #include "vol_light_internal.h"
 
 #include <immintrin.h>
 #include <math.h>
+
+/* ---- libm's results, 4 lanes at a time ------------------------------------------------------------ */
+
+/* The kernels round libm's double exp and log1p to float. A vector evaluation of the same function
+ * in double gives the same float as libm's whenever both doubles lie on the same side of every
+ * float rounding boundary: the float's round-to-nearest boundaries are the midpoints between
+ * adjacent floats, the doubles whose low 29 mantissa bits are exactly 2^28 (in any binade of the
+ * normal float range). So where our double y is more than LV_GUARD double ulps from such a
+ * midpoint, and both evaluations are within LV_GUARD / 2 ulps of the true value, (float)y is
+ * libm's float bit for bit; elsewhere (and outside the normal float range) the lane calls libm.
+ * Our evaluations err by a few ulps (below); glibc documents exp and log1p within 1 to 2 ulps
+ * (glibc manual, "Known Maximum Errors in Math Functions", x86_64); LV_GUARD = 2^16 ulps is four
+ * orders of magnitude of slack, and lanes near a midpoint are 2^17 / 2^29 = 2.4e-4 of them. */
+#define LV_GUARD 65536
+
+/* 1 in the lanes (all-ones) where (float)y may round differently from (float)y' with |y - y'| <
+ * LV_GUARD ulps of y: y within LV_GUARD ulps of a float midpoint. y positive and normal. */
+static inline __m256i lv_near_midpoint(__m256d y)
+{
+    const __m256i low = _mm256_and_si256(_mm256_castpd_si256(y), _mm256_set1_epi64x(((long long)1 << 29) - 1));
+    const __m256i d = _mm256_sub_epi64(low, _mm256_set1_epi64x((long long)1 << 28));
+    /* |d| < LV_GUARD: d + LV_GUARD in [0, 2 LV_GUARD) as an unsigned compare, by a signed one */
+    const __m256i e = _mm256_add_epi64(d, _mm256_set1_epi64x(LV_GUARD));
+    return _mm256_andnot_si256(_mm256_cmpgt_epi64(_mm256_setzero_si256(), e),
+                               _mm256_cmpgt_epi64(_mm256_set1_epi64x(2 * LV_GUARD), e));
+}
+
+/* 2^n for integral n (as double) in [-1022, 1023]: the exponent field. */
+static inline __m256d lv_pow2(__m256d n)
+{
+    const __m256i k = _mm256_cvtepi32_epi64(_mm256_cvtpd_epi32(n));
+    return _mm256_castsi256_pd(_mm256_slli_epi64(_mm256_add_epi64(k, _mm256_set1_epi64x(1023)), 52));
+}
+
+/* exp(x) for x in [-87, 0]: x = n ln2 + r (Cody and Waite's two-part ln2, fdlibm's ln2_hi with
+ * 32 trailing zero bits, so n ln2_hi is exact), |r| <= ln2 / 2, exp(r) by its Taylor series to
+ * degree 13 (remainder below 0.35^14 / 14! = 4e-18, 2^-57), Horner; then 2^n exactly. Error: a
+ * few ulps (r's rounding 2^-55 absolute, Horner's 13 roundings). */
+static inline __m256d lv_exp4(__m256d x)
+{
+    const __m256d n = _mm256_round_pd(_mm256_mul_pd(x, _mm256_set1_pd(1.4426950408889634)),
+                                      _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
+    const __m256d r = _mm256_sub_pd(_mm256_sub_pd(x, _mm256_mul_pd(n, _mm256_set1_pd(6.93147180369123816490e-01))),
+                                    _mm256_mul_pd(n, _mm256_set1_pd(1.90821492927058770002e-10)));
+    static const double c[14] = {1.0,
+                                 1.0,
+                                 1.0 / 2,
+                                 1.0 / 6,
+                                 1.0 / 24,
+                                 1.0 / 120,
+                                 1.0 / 720,
+                                 1.0 / 5040,
+                                 1.0 / 40320,
+                                 1.0 / 362880,
+                                 1.0 / 3628800,
+                                 1.0 / 39916800,
+                                 1.0 / 479001600,
+                                 1.0 / 6227020800.0};
+    __m256d p = _mm256_set1_pd(c[13]);
+    for (int k = 12; k >= 0; k--)
+        p = _mm256_add_pd(_mm256_mul_pd(p, r), _mm256_set1_pd(c[k]));
+    return _mm256_mul_pd(p, lv_pow2(n));
+}
+
+/* log(u) for u in [2^-24, 1): u = 2^e m with m in [sqrt(2)/2, sqrt(2)), log m = 2 atanh(s) with
+ * s = (m - 1) / (m + 1), |s| <= 0.172, by its series to s^23 (remainder below 0.0295^12 / 25 =
+ * 2^-66 relative), then e ln2 with the two-part ln2 of lv_exp4. m - 1 is exact (Sterbenz), the
+ * rest a few ulps. */
+static inline __m256d lv_log4(__m256d u)
+{
+    const __m256i bits = _mm256_castpd_si256(u);
+    const __m256i mant = _mm256_and_si256(bits, _mm256_set1_epi64x(0x000FFFFFFFFFFFFFLL));
+    __m256d m = _mm256_castsi256_pd(_mm256_or_si256(mant, _mm256_set1_epi64x(0x3FF0000000000000LL))); /* [1, 2) */
+    /* e = the biased exponent - 1023, as double (the exponent field of u is in [999, 1022]) */
+    const __m256i ebits = _mm256_srli_epi64(bits, 52);
+    const __m256i e32 = _mm256_permutevar8x32_epi32(ebits, _mm256_setr_epi32(0, 2, 4, 6, 0, 2, 4, 6));
+    __m256d e = _mm256_sub_pd(_mm256_cvtepi32_pd(_mm256_castsi256_si128(e32)), _mm256_set1_pd(1023.0));
+    const __m256d big = _mm256_cmp_pd(m, _mm256_set1_pd(1.4142135623730951), _CMP_GT_OQ);
+    m = _mm256_blendv_pd(m, _mm256_mul_pd(m, _mm256_set1_pd(0.5)), big); /* exact */
+    e = _mm256_add_pd(e, _mm256_and_pd(big, _mm256_set1_pd(1.0)));
+    const __m256d one = _mm256_set1_pd(1.0);
+    const __m256d sv = _mm256_div_pd(_mm256_sub_pd(m, one), _mm256_add_pd(m, one));
+    const __m256d s2 = _mm256_mul_pd(sv, sv);
+    __m256d p = _mm256_set1_pd(1.0 / 23);
+    for (int k = 10; k >= 0; k--)
+        p = _mm256_add_pd(_mm256_mul_pd(p, s2), _mm256_set1_pd(1.0 / (2 * k + 1)));
+    const __m256d lm = _mm256_mul_pd(_mm256_add_pd(sv, sv), p);
+    return _mm256_add_pd(_mm256_mul_pd(e, _mm256_set1_pd(6.93147180369123816490e-01)),
+                         _mm256_add_pd(_mm256_mul_pd(e, _mm256_set1_pd(1.90821492927058770002e-10)), lm));
+}
+
+/* (float)exp(x[q]) for the 8 lanes of x (two halves of 4 doubles), libm's bits: lv_exp4 where x
+ * is in [-87, 0] (the result a normal float) and not near a float midpoint, else libm. */
+static inline __m256 lv_expf8(__m256d xlo, __m256d xhi)
+{
+    const __m256d lo = _mm256_set1_pd(-87.0), zero = _mm256_setzero_pd();
+    const __m256d ylo = lv_exp4(xlo), yhi = lv_exp4(xhi);
+    const __m256i okr_lo = _mm256_castpd_si256(
+        _mm256_and_pd(_mm256_cmp_pd(xlo, lo, _CMP_GE_OQ), _mm256_cmp_pd(xlo, zero, _CMP_LE_OQ)));
+    const __m256i okr_hi = _mm256_castpd_si256(
+        _mm256_and_pd(_mm256_cmp_pd(xhi, lo, _CMP_GE_OQ), _mm256_cmp_pd(xhi, zero, _CMP_LE_OQ)));
+    const int good = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_andnot_si256(lv_near_midpoint(ylo), okr_lo))) |
+                    (_mm256_movemask_pd(_mm256_castsi256_pd(_mm256_andnot_si256(lv_near_midpoint(yhi), okr_hi))) << 4);
+    __m256 f = _mm256_set_m128(_mm256_cvtpd_ps(yhi), _mm256_cvtpd_ps(ylo));
+    if (good != 0xFF) {
+        double x[8];
+        float t[8];
+        _mm256_storeu_pd(x, xlo);
+        _mm256_storeu_pd(x + 4, xhi);
+        _mm256_storeu_ps(t, f);
+        for (int q = 0; q < 8; q++)
+            if (!((good >> q) & 1))
+                t[q] = (float)exp(x[q]);
+        f = _mm256_loadu_ps(t);
+    }
+    return f;
+}
 
 /* ---- Classification ----------------------------------------------------------------------------- */
 
@@ -92,10 +210,32 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
         if (!pos) {
             _mm_storeu_ps(sigma + i, _mm_setzero_ps());
         } else {
-            float a[4];
-            _mm_storeu_ps(a, ch[3]);
-            for (int q = 0; q < 4; q++)
-                sigma[i + q] = (pos >> q) & 1 ? (float)(T->kappa * vol_sigma_from_alpha(a[q], T->ref_step)) : 0.0f;
+            /* vol_sigma_from_alpha's operations in double, log1p(-a) = log(1 - a) by lv_log4 (1 - a
+             * is exact for a float a >= 2^-20: its bits lie within 2^-1 .. 2^-44), libm's float
+             * where the lane is not in that range or near a float midpoint (lv_near_midpoint). */
+            const __m256d ad = _mm256_cvtps_pd(ch[3]);
+            const __m256d ac = _mm256_blendv_pd(_mm256_set1_pd(1.0 - 0x1p-24), ad,
+                                                _mm256_cmp_pd(ad, _mm256_set1_pd(1.0 - 0x1p-24), _CMP_LT_OQ));
+            const __m256d L = lv_log4(_mm256_sub_pd(one, ac));
+            const __m256d y = _mm256_mul_pd(_mm256_set1_pd(T->kappa),
+                                            _mm256_div_pd(_mm256_sub_pd(_mm256_setzero_pd(), L), _mm256_set1_pd(T->ref_step)));
+            const __m256d okr = _mm256_and_pd(_mm256_cmp_pd(ad, _mm256_set1_pd(0x1p-20), _CMP_GE_OQ),
+                                              _mm256_and_pd(_mm256_cmp_pd(y, _mm256_set1_pd(0x1p-125), _CMP_GE_OQ),
+                                                            _mm256_cmp_pd(y, _mm256_set1_pd(0x1p127), _CMP_LE_OQ)));
+            const int good = T->ref_step > 0.0 ? _mm256_movemask_pd(_mm256_castsi256_pd(
+                                                     _mm256_andnot_si256(lv_near_midpoint(y), _mm256_castpd_si256(okr))))
+                                               : 0;
+            __m128 sv = _mm_and_ps(_mm256_cvtpd_ps(y), _mm_cmpgt_ps(ch[3], _mm_setzero_ps()));
+            if (((good | ~pos) & 0xF) != 0xF) {
+                float a[4], t[4];
+                _mm_storeu_ps(a, ch[3]);
+                _mm_storeu_ps(t, sv);
+                for (int q = 0; q < 4; q++)
+                    if (((pos & ~good) >> q) & 1)
+                        t[q] = (float)(T->kappa * vol_sigma_from_alpha(a[q], T->ref_step));
+                sv = _mm_loadu_ps(t);
+            }
+            _mm_storeu_ps(sigma + i, sv);
         }
         if (i + 4 >= n)
             break;
@@ -144,15 +284,13 @@ static inline __attribute__((always_inline)) void lv_span8(const vol_i_lv_span *
             ds);
         const int nz = _mm256_movemask_pd(_mm256_cmp_pd(alo, zero, _CMP_NEQ_UQ)) |
                        (_mm256_movemask_pd(_mm256_cmp_pd(ahi, zero, _CMP_NEQ_UQ)) << 4);
+        /* tau = (float)exp(arg) (libm's bits, lv_expf8), 1 where arg is +-0 (exp(+-0) = 1) */
         __m256 tau = one;
         if (nz) {
-            double arg[8];
-            float tv[8];
-            _mm256_storeu_pd(arg, alo);
-            _mm256_storeu_pd(arg + 4, ahi);
-            for (int q = 0; q < 8; q++)
-                tv[q] = (nz >> q) & 1 ? (float)exp(arg[q]) : 1.0f;
-            tau = _mm256_loadu_ps(tv);
+            const __m256 e = lv_expf8(alo, ahi);
+            const __m256i bit = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+            const __m256i z = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(nz), bit), _mm256_setzero_si256());
+            tau = _mm256_blendv_ps(e, one, _mm256_castsi256_ps(z));
         }
         const __m256 l00 = _mm256_loadu_ps(l0), l01 = _mm256_loadu_ps(l0 + 1);
         const __m256 l10 = _mm256_loadu_ps(l1), l11 = _mm256_loadu_ps(l1 + 1);
@@ -208,4 +346,24 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1)
         lv_span8(S, iu0, iu1, 3, 3); /* the default 45-degree cone along an axis */
     else
         lv_span8(S, iu0, iu1, S->kW, S->kH);
+}
+
+/* ---- Test hooks (vol_light_internal.h) ------------------------------------------------------------ */
+
+int vol_i_lv_exp_test_avx2(const double *x, int n, double *y, float *f)
+{
+    for (int i = 0; i + 8 <= n; i += 8) {
+        const __m256d lo = _mm256_loadu_pd(x + i), hi = _mm256_loadu_pd(x + i + 4);
+        _mm256_storeu_pd(y + i, lv_exp4(lo));
+        _mm256_storeu_pd(y + i + 4, lv_exp4(hi));
+        _mm256_storeu_ps(f + i, lv_expf8(lo, hi));
+    }
+    return 1;
+}
+
+int vol_i_lv_log1p_test_avx2(const double *a, int n, double *y)
+{
+    for (int i = 0; i + 4 <= n; i += 4)
+        _mm256_storeu_pd(y + i, lv_log4(_mm256_sub_pd(_mm256_set1_pd(1.0), _mm256_loadu_pd(a + i))));
+    return 1;
 }

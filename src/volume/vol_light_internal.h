@@ -2,11 +2,14 @@
  * vol_light_avx2.c (AVX2, compiled with -mavx2, no FMA), for its tests (not installed; prefix
  * vol_i_lv_).
  *
- * Both forms of each kernel perform the same IEEE operations in the same order per voxel, so they
- * give the same bits (volume_light_avx2_matches_scalar_bit_for_bit); the transcendental functions
- * (log1p in the classification, exp in tau) are libm's in both, called per voxel (the AVX2 form
- * calls them lane by lane, and only where the argument is not 0: exp(0) = 1 exactly, and an alpha
- * of 0 gives sigma_t 0 without log1p). */
+ * All forms of each kernel (scalar, AVX2, AVX-512F) perform the same IEEE operations in the same
+ * order per voxel, so they give the same bits (volume_light_avx2_matches_scalar_bit_for_bit,
+ * volume_light_avx512_avx2_scalar_bit_for_bit); the transcendental functions (log1p in the
+ * classification, exp in tau) give libm's floats in all: the scalar forms call libm; the vector
+ * forms evaluate them in double and keep the result where it rounds to libm's float for certain
+ * (more than 2^16 ulps from a float midpoint), calling libm lane by lane elsewhere
+ * (vol_light_avx2.c, "libm's results"); exp is skipped where its argument is 0 (exp(0) = 1
+ * exactly), and an alpha of 0 gives sigma_t 0 without log1p. */
 #ifndef VOL_LIGHT_INTERNAL_H
 #define VOL_LIGHT_INTERNAL_H
 
@@ -67,6 +70,26 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1);
 /* 1 when the AVX2 kernels run: built with OBS_ENABLE_SIMD, the CPU has AVX2, and the environment's
  * OBS_ISA is not "scalar" (read at each vol_light_volume_build). */
 int vol_i_lv_avx2_active(void);
+
+/* The AVX-512F span (vol_light_avx512.c: GCC's #pragma GCC target on x86-64, as ao_sao_avx512.c;
+ * other compilers: AVX2 at most). Same bits as the AVX2 and scalar spans. */
+#if defined(OBS_HAVE_AVX2) && defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define VOL_I_LV_HAVE_AVX512 1
+void vol_i_lv_span_avx512(const vol_i_lv_span *S, int iu0, int iu1);
+void vol_i_lv_classify_avx512(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
+                              float *c2);
+#endif
+/* The row kernels' instruction set for this build: 0 scalar, 1 AVX2, 2 AVX-512F (the span and
+ * the classification). The highest the build and the CPU have, capped by the environment's
+ * OBS_ISA: "scalar" 0, "avx2" at most 1 (read at each vol_light_volume_build). */
+int vol_i_lv_isa(void);
+
+/* Test hooks (tests/test_volume_light_speed.c) for the guarded exp and log1p of
+ * vol_light_avx2.c: for n values (n a multiple of 8), y = the vector evaluation in double before
+ * the guard (exp of x; log1p of -a as log(1 - a)), f = the float the kernel uses (libm's bits by
+ * construction). Built with AVX2 only; without it they return 0 and write nothing. */
+int vol_i_lv_exp_test_avx2(const double *x, int n, double *y, float *f);
+int vol_i_lv_log1p_test_avx2(const double *a, int n, double *y);
 
 /* The meshes' extra extinction (vol_occupancy.c, vol.h vol_occluder): sigma_occ per light-volume
  * voxel (layout n, x fastest) = vol_sigma_from_alpha(f, ref_step) (ref_step 0: min(sp)). *out NULL
