@@ -178,6 +178,8 @@ typedef struct rc_job {
     const uint8_t *empty;      /* per brick, x fastest: 1 = the TF's alpha is 0 over its footprint */
     const int32_t *bidx[3];    /* per axis: base voxel -> brick index (voxel / brick) */
     int avx2;                  /* vol_i_rc_avx2_active() at the cast's start */
+    int rx0, rx1, ry0, ry1;    /* pixels outside [rx0, rx1) x [ry0, ry1) surely miss the box (rc_screen_rect) */
+    int spec_int;              /* VOL_RC_FAST: the specular exponent when an integer in [0, 1024], else -1 */
     const float *gradv;        /* VOL_RC_FAST Phong: the prepared gradient volume (NULL: none) */
     double r_h;                /* h / ref_step: the opacity-correction exponent of a full step */
     double zero_below;         /* values <= this have TF alpha exactly 0 (-inf: none) */
@@ -582,6 +584,23 @@ void vol_i_rc_gradient_fast(const vol_grid *g, const double c[3], double grad[3]
     rc_gradient_split(g, c, &S, grad);
 }
 
+/* x^e for an integer e >= 0 by repeated squaring (VOL_RC_FAST's specular power for an integer
+ * exponent, e.g. the default 32: five squarings instead of libm's pow). Each product rounds once
+ * (relative 2^-53) and a squaring doubles the relative error it receives, so the result is within
+ * about 2 e 2^-53 (relative) of x^e, ~7e-15 for e = 32: far below the float it ends in. Ours. */
+static inline double rc_powi(double x, unsigned e)
+{
+    double r = 1.0;
+    while (e) {
+        if (e & 1u)
+            r *= x;
+        e >>= 1;
+        if (e)
+            x *= x;
+    }
+    return r;
+}
+
 /* VOL_RC_FAST's gradient: the prepared gradient volume (vol_rc_prepare: per voxel the central
  * differences of the voxel values, [Levoy88] eq. 4, clamped at the grid's faces as the sampler
  * clamps, divided by 2 x spacing, as float xyz) interpolated trilinearly with the sample's own
@@ -615,7 +634,8 @@ static inline void rc_gradient_volume(const float *G, int x0, int x1, float tx, 
  *   diff = max(0, n.L);  spec = (n.L > 0) ? max(0, R.V)^e, R = 2 (n.L) n - L   [Phong75];
  *   out  = ka c + (1 - ka) Lc (c ((1 - s) + s diff) + s spec).
  * Where the gradient is weak the sample is lit unshaded (as Voreen's (1 - surf) l term). */
-static inline void rc_shade_phong(const rc_job *J, const double x[3], const double gr[3], const double V[3], float rgb[3])
+static inline void rc_shade_phong(const rc_job *J, const double x[3], const double gr[3], const double V[3], float rgb[3],
+                                  const int fast)
 {
     double gm = sqrt(gr[0] * gr[0] + gr[1] * gr[1] + gr[2] * gr[2]);
     double s = 0.0, diff = 0.0, spec = 0.0;
@@ -644,7 +664,12 @@ static inline void rc_shade_phong(const rc_job *J, const double x[3], const doub
             diff = nl;
             double R[3] = {2.0 * nl * n[0] - L[0], 2.0 * nl * n[1] - L[1], 2.0 * nl * n[2] - L[2]};
             double rv = R[0] * V[0] + R[1] * V[1] + R[2] * V[2];
-            spec = rv > 0.0 ? pow(rv, (double)J->p->specular_exponent) : 0.0;
+            if (!(rv > 0.0))
+                spec = 0.0;
+            else if (fast && J->spec_int >= 0)
+                spec = rc_powi(rv, (unsigned)J->spec_int); /* VOL_RC_FAST: integer exponent by squaring */
+            else
+                spec = pow(rv, (double)J->p->specular_exponent);
         }
     }
     const double ka = J->p->ambient;
@@ -671,6 +696,44 @@ static inline double rc_brick_exit(const rc_job *J, const double o[3], const dou
     if (d[a] < 0.0 && cb > 0)
         return (g->origin[a] + (double)(cb * J->brick) * g->spacing[a] - o[a]) / d[a];
     return INFINITY;
+}
+
+/* The AVX2 run's shading callback (vol_i_rc_run.shade): the scalar run's shading of a composited
+ * full step k, on the same inputs (the world point from t_k, the gradient from the same splits),
+ * so the same bits. */
+typedef struct rc_shade_ctx {
+    const rc_job *J;
+    const double *o, *d, *V;
+    double t0, dt;
+    int fast;
+} rc_shade_ctx;
+
+static void rc_run_shade(const void *user, int64_t k, const double c[3], const int v0[3], const float t[3],
+                         float rgb[3])
+{
+    const rc_shade_ctx *S = (const rc_shade_ctx *)user;
+    const rc_job *J = S->J;
+    double xw[3];
+    const double tm = S->t0 + ((double)k + 0.5) * S->dt;
+    for (int a = 0; a < 3; a++)
+        xw[a] = S->o[a] + tm * S->d[a];
+    if (J->p->shading == VOL_SHADING_PHONG) {
+        double gr[3];
+        const size_t sy = (size_t)J->g->nx, sz = (size_t)J->g->nx * (size_t)J->g->ny;
+        if (S->fast && J->gradv) {
+            rc_gradient_volume(J->gradv, v0[0], v0[0] + 1, t[0], v0[1], v0[1] + 1, t[1], v0[2], v0[2] + 1, t[2], sy, sz,
+                               gr);
+        } else {
+            const rc_split3 SP = {{v0[0], v0[1], v0[2]}, {v0[0] + 1, v0[1] + 1, v0[2] + 1}, {t[0], t[1], t[2]}};
+            rc_gradient_split(J->g, c, &SP, gr);
+        }
+        rc_shade_phong(J, xw, gr, S->V, rgb, S->fast);
+    } else {
+        float l, cc[3];
+        vol_light_volume_sample(J->lv, xw, &l, cc);
+        for (int q = 0; q < 3; q++)
+            rgb[q] = rgb[q] * J->light_color[q] * l * cc[q]; /* as the general body */
+    }
 }
 
 /* Composite the ray of pixel (x, y) (full-image pixel centre) into rgba (premultiplied).
@@ -800,9 +863,10 @@ static inline __attribute__((always_inline)) void rc_trace_t(const rc_job *J, in
         if (B == 0)
             nel[0] = nel[1] = nel[2] = 0;
         int done = 0;
-        /* The AVX2 run (vol_raycast_avx2.c, EA only; the same bits): its ray-invariant inputs. */
+        /* The AVX2 run (vol_raycast_avx2.c; the same bits): its ray-invariant inputs. */
         vol_i_rc_run R;
-        const int use_avx2 = J->avx2 && P->shading == VOL_SHADING_EMISSION_ABSORPTION;
+        rc_shade_ctx SC;
+        const int use_avx2 = J->avx2;
         if (use_avx2) {
             memset(&R, 0, sizeof R);
             R.data = g->data;
@@ -828,6 +892,17 @@ static inline __attribute__((always_inline)) void rc_trace_t(const rc_job *J, in
             R.tf = J->tf;
             R.h = J->h;
             R.ref_step = J->ref_step;
+            if (P->shading != VOL_SHADING_EMISSION_ABSORPTION) {
+                SC.J = J;
+                SC.o = o;
+                SC.d = d;
+                SC.V = V;
+                SC.t0 = t0;
+                SC.dt = dt;
+                SC.fast = fast;
+                R.shade = rc_run_shade;
+                R.shade_user = &SC;
+            }
         }
         for (int64_t k = 0; k < n; k++) {
             /* The run: full steps inside the clamp-free range [ka, kb] whose base voxel stays in the
@@ -924,7 +999,7 @@ static inline __attribute__((always_inline)) void rc_trace_t(const rc_job *J, in
                                 const rc_split3 S = {{vx0, vy0, vz0}, {vx1, vy1, vz1}, {ftx, fty, ftz}};
                                 rc_gradient_split(g, c, &S, gr);
                             }
-                            rc_shade_phong(J, xw, gr, V, rgb);
+                            rc_shade_phong(J, xw, gr, V, rgb, fast);
                         } else {
                             float l, cc[3];
                             vol_light_volume_sample(J->lv, xw, &l, cc);
@@ -1072,7 +1147,7 @@ static inline __attribute__((always_inline)) void rc_trace_t(const rc_job *J, in
                     const rc_split3 S = {{vx0, vy0, vz0}, {vx1, vy1, vz1}, {ftx, fty, ftz}};
                     rc_gradient_split(J->g, c, &S, gr);
                 }
-                rc_shade_phong(J, xw, gr, V, rgb);
+                rc_shade_phong(J, xw, gr, V, rgb, fast);
                 break;
             }
             case VOL_SHADING_LIGHT_VOLUME: {
@@ -1106,6 +1181,79 @@ static inline __attribute__((always_inline)) void rc_trace_t(const rc_job *J, in
     out_rgba[3] = (float)((1.0 - T) + T * (double)P->background[3]);
 }
 
+/* The pixels whose rays may meet the box: the box's eight corners taken to view space with the
+ * inverse of the camera's world matrix (its 3x3 part inverted in double), projected as
+ * rast_pixel_ray's slopes (ax, ay) = (X, Y) / -Z (perspective; orthographic (X, Y)); a ray whose
+ * slopes lie outside the corners' bounding rectangle misses the box's convex image, so its pixel
+ * is the background (what rc_trace gives for a ray that misses: C = 0, T = 1). Widened by
+ * VOL_RC_RECT_MARGIN pixels, far above the double rounding here and in rast_pixel_ray's float
+ * matrix. No culling (the whole image) when a corner is not in front of the camera
+ * (perspective) or the matrix is singular. Ours: it changes no bit and no counter. */
+#define VOL_RC_RECT_MARGIN 2
+static void rc_screen_rect(rc_job *J, const obs_camera *cam, int W, int H)
+{
+    J->rx0 = 0;
+    J->rx1 = W;
+    J->ry0 = 0;
+    J->ry1 = H;
+    const float *w = cam->world.m;
+    const double a[3][3] = {{w[0], w[4], w[8]}, {w[1], w[5], w[9]}, {w[2], w[6], w[10]}}; /* world = a view + t */
+    const double t[3] = {w[12], w[13], w[14]};
+    const double det = a[0][0] * (a[1][1] * a[2][2] - a[1][2] * a[2][1]) -
+                       a[0][1] * (a[1][0] * a[2][2] - a[1][2] * a[2][0]) +
+                       a[0][2] * (a[1][0] * a[2][1] - a[1][1] * a[2][0]);
+    if (!(fabs(det) > 1e-6) || !isfinite(det))
+        return;
+    double inv[3][3];
+    for (int r = 0; r < 3; r++) {
+        for (int c = 0; c < 3; c++) {
+            /* the adjugate's (r, c) = cofactor (c, r) */
+            const int r1 = (c + 1) % 3, r2 = (c + 2) % 3, c1 = (r + 1) % 3, c2 = (r + 2) % 3;
+            inv[r][c] = (a[r1][c1] * a[r2][c2] - a[r1][c2] * a[r2][c1]) / det;
+        }
+    }
+    const int persp = J->vc.projection_type == OBS_PROJECTION_PERSPECTIVE;
+    double amin = INFINITY, amax = -INFINITY, bmin = INFINITY, bmax = -INFINITY;
+    for (int k = 0; k < 8; k++) {
+        const double x[3] = {k & 1 ? J->hi[0] : J->lo[0], k & 2 ? J->hi[1] : J->lo[1], k & 4 ? J->hi[2] : J->lo[2]};
+        double v[3];
+        for (int r = 0; r < 3; r++)
+            v[r] = inv[r][0] * (x[0] - t[0]) + inv[r][1] * (x[1] - t[1]) + inv[r][2] * (x[2] - t[2]);
+        double ax = v[0], ay = v[1];
+        if (persp) {
+            if (!(v[2] < -1e-9 * (fabs(v[0]) + fabs(v[1]) + fabs(v[2]))))
+                return; /* a corner at or behind the eye's plane: no culling */
+            ax = v[0] / -v[2];
+            ay = v[1] / -v[2];
+        }
+        if (!isfinite(ax) || !isfinite(ay))
+            return;
+        amin = ax < amin ? ax : amin;
+        amax = ax > amax ? ax : amax;
+        bmin = ay < bmin ? ay : bmin;
+        bmax = ay > bmax ? ay : bmax;
+    }
+    /* rast_pixel_ray: ax = (px - cx) / fx, ay = -(py - cy) / fy at px = x + 1/2, py = y + 1/2 */
+    const double p0 = J->vc.cx + amin * J->vc.fx - 0.5, p1 = J->vc.cx + amax * J->vc.fx - 0.5;
+    const double q0 = J->vc.cy - bmin * J->vc.fy - 0.5, q1 = J->vc.cy - bmax * J->vc.fy - 0.5;
+    const double xlo = (p0 < p1 ? p0 : p1) - VOL_RC_RECT_MARGIN, xhi = (p0 < p1 ? p1 : p0) + VOL_RC_RECT_MARGIN;
+    const double ylo = (q0 < q1 ? q0 : q1) - VOL_RC_RECT_MARGIN, yhi = (q0 < q1 ? q1 : q0) + VOL_RC_RECT_MARGIN;
+    if (!(xlo < 1e9 && xhi > -1e9 && ylo < 1e9 && yhi > -1e9))
+        return;
+    J->rx0 = xlo > 0.0 ? (int)floor(xlo) : 0;
+    J->rx1 = xhi < (double)W ? (int)ceil(xhi) + 1 : W;
+    J->ry0 = ylo > 0.0 ? (int)floor(ylo) : 0;
+    J->ry1 = yhi < (double)H ? (int)ceil(yhi) + 1 : H;
+    if (J->rx1 > W)
+        J->rx1 = W;
+    if (J->ry1 > H)
+        J->ry1 = H;
+    if (J->rx0 > J->rx1)
+        J->rx0 = J->rx1;
+    if (J->ry0 > J->ry1)
+        J->ry0 = J->ry1;
+}
+
 static void rc_trace_exact(const rc_job *J, int x, int y, float out_rgba[4], rc_ray_stats *st)
 {
     rc_trace_t(J, x, y, out_rgba, st, 0);
@@ -1128,7 +1276,13 @@ static void rc_tile(void *user, int64_t task, int thread)
         float *b = obs_image_f32_row(&J->out[2], y), *a = obs_image_f32_row(&J->out[3], y);
         for (int x = x0; x < x1; x++) {
             float px[4];
-            if (J->p->precision == VOL_RC_FAST)
+            if (x < J->rx0 || x >= J->rx1 || y < J->ry0 || y >= J->ry1) {
+                /* surely misses the box (rc_screen_rect): rc_trace's C = 0, T = 1 */
+                const vol_rc_params *P = J->p;
+                for (int q = 0; q < 3; q++)
+                    px[q] = (float)(0.0 + 1.0 * (double)P->background[q]);
+                px[3] = (float)((1.0 - 1.0) + 1.0 * (double)P->background[3]);
+            } else if (J->p->precision == VOL_RC_FAST)
                 rc_trace_fast(J, x, y, px, &st);
             else
                 rc_trace_exact(J, x, y, px, &st);
@@ -1376,6 +1530,10 @@ static obs_status rc_cast(obs_context *ctx, obs_pool *pool, const vol_rc_prepare
     J.empty = prep->empty;
     J.gradv = p->precision == VOL_RC_FAST ? prep->gradv : NULL;
     J.avx2 = vol_i_rc_avx2_active();
+    rc_screen_rect(&J, camera, width, height);
+    J.spec_int = p->specular_exponent == floorf(p->specular_exponent) && p->specular_exponent <= 1024.0f
+                     ? (int)p->specular_exponent
+                     : -1;
 
     /* The fast mode's pre-corrected TF table (depends on the step: made per call, 64 KiB) */
     if (p->precision == VOL_RC_FAST) {

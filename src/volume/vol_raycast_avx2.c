@@ -1,4 +1,4 @@
-/* vol_raycast_avx2.c: the ray caster's emission-absorption run with AVX2 (compiled with -mavx2 and no
+/* vol_raycast_avx2.c: the ray caster's run with AVX2 (compiled with -mavx2 and no
  * FMA; selected at run time by vol_i_rc_avx2_active, OBS_ISA=scalar forces the scalar run). One
  * sample at a time, as the scalar run in vol_raycast.c (rc_trace_t), but the three axes of the
  * position and the splits are one vector each, and the trilinear sample's four x-lerps one vector
@@ -11,7 +11,9 @@
 #include <immintrin.h>
 #include <string.h>
 
-void vol_i_rc_run_avx2(vol_i_rc_run *R)
+/* The run, specialised by the compiler for the precision and for shading (constants in the four
+ * instances below), so the emission-absorption loop keeps its values in registers. */
+static inline __attribute__((always_inline)) void rc_run(vol_i_rc_run *R, const int fast, const int shaded)
 {
     const float *data = R->data;
     const size_t sy = R->sy, sz = R->sz;
@@ -22,7 +24,6 @@ void vol_i_rc_run_avx2(vol_i_rc_run *R)
     const __m128i um1 = _mm_set1_epi32((int)(R->urun - 1u)); /* x < urun  <=>  min(x, urun - 1) == x */
     const __m128 one = _mm_set1_ps(1.0f);
     const double t0 = R->t0, dt = R->dt, zb = R->zero_below, et = R->et;
-    const int fast = R->fast;
     const int64_t kb = R->kb;
     double T = R->T, C0 = R->C[0], C1 = R->C[1], C2 = R->C[2];
     int64_t k = R->k, ns = 0, nsh = 0;
@@ -96,6 +97,15 @@ void vol_i_rc_run_avx2(vol_i_rc_run *R)
             a = vol_i_rc_alpha_full_step(rgba[3], R->h, R->ref_step);
         }
         nsh++;
+        if (shaded) { /* Phong or light volume: vol_raycast.c's shading, on the same inputs */
+            double cc[4];
+            int v0[4];
+            float tt[4];
+            _mm256_storeu_pd(cc, c);
+            _mm_storeu_si128((__m128i *)v0, f);
+            _mm_storeu_ps(tt, t);
+            R->shade(R->shade_user, k, cc, v0, tt, rgba);
+        }
         /* [Porter84] "over", front to back, as the scalar run */
         const double w = T * (double)a;
         C0 += w * (double)rgba[0];
@@ -115,4 +125,19 @@ void vol_i_rc_run_avx2(vol_i_rc_run *R)
     R->samples += ns;
     R->shaded += nsh;
     R->done = done;
+}
+
+void vol_i_rc_run_avx2(vol_i_rc_run *R)
+{
+    if (R->fast) {
+        if (R->shade)
+            rc_run(R, 1, 1);
+        else
+            rc_run(R, 1, 0);
+    } else {
+        if (R->shade)
+            rc_run(R, 0, 1);
+        else
+            rc_run(R, 0, 0);
+    }
 }

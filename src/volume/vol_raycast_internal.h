@@ -67,7 +67,7 @@ float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step);
  * -inf when the first point's alpha is not 0. */
 double vol_i_rc_zero_below(const vol_tf *tf);
 
-/* One run of an emission-absorption ray (vol_raycast.c, rc_trace_t: full steps inside the clamp-free
+/* One run of a ray (vol_raycast.c, rc_trace_t: full steps inside the clamp-free
  * range whose base voxel stays in the last non-empty brick), for the AVX2 form
  * (vol_raycast_avx2.c, compiled with -mavx2, no FMA): the three axes of the position and of the
  * splits in one vector each, the four x-lerps of the trilinear sample in one vector, the two
@@ -94,6 +94,11 @@ typedef struct vol_i_rc_run {
     double T, C[3];             /* in/out: transmittance, premultiplied colour */
     int64_t samples, shaded;    /* out: added to */
     int done;                   /* out: 1 when early termination stopped the ray (at sample k) */
+    /* Phong and light-volume shading: called for each composited sample with its index k, its
+     * voxel coordinates c, base voxel v0 and fractions t, to turn the TF's rgb into the shaded
+     * colour (NULL: emission-absorption) */
+    void (*shade)(const void *user, int64_t k, const double c[3], const int v0[3], const float t[3], float rgb[3]);
+    const void *shade_user;
 } vol_i_rc_run;
 void vol_i_rc_run_avx2(vol_i_rc_run *R);
 
