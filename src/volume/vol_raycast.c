@@ -604,11 +604,15 @@ static inline double rc_powi(double x, unsigned e)
 /* VOL_RC_FAST's gradient: the prepared gradient volume (vol_rc_prepare: per voxel the central
  * differences of the voxel values, [Levoy88] eq. 4, clamped at the grid's faces as the sampler
  * clamps, divided by 2 x spacing, as float xyz) interpolated trilinearly with the sample's own
- * splits, component by component in the sampler's lerp order. Not the exact mode's gradient (the
- * central difference of the trilinear field at c +- 1 voxel): the two agree at voxel centres up to
- * float rounding, and differ between them by the curvature of the data (docs/volume/raycast.md,
- * "Fast mode, third round": the measured difference). This is what VTK's CPU ray caster does (it
- * shades with per-voxel normals, quantised; we keep float). */
+ * splits, component by component in the sampler's lerp order. For c strictly inside (0, n - 1) on
+ * every axis this is the exact mode's gradient in real arithmetic: along x, with f = floor(c) and
+ * t = c - f, s(c + 1) - s(c - 1) = lerp(v[f+1], v[f+2], t) - lerp(v[f-1], v[f], t)
+ * = lerp(v[f+1] - v[f-1], v[f+2] - v[f], t), the lerp of the voxel differences, and the y and z
+ * lerps are linear in both; the clamped neighbour index at f = 0 or f + 1 = n - 1 matches the
+ * sampler's clamped coordinate (c - 1 < 0 reads v[0], c + 1 > n - 1 reads v[n-1]). So the two
+ * differ only by float rounding there; in the outer half voxel (c <= 0 or c >= n - 1) they differ
+ * and the exact gradient is used (docs/volume/raycast.md, "Third round"). VTK's CPU ray caster
+ * also shades from per-voxel gradients (quantised; ours stay float). */
 static inline void rc_gradient_volume(const float *G, int x0, int x1, float tx, int y0, int y1, float ty, int z0,
                                       int z1, float tz, size_t sy, size_t sz, double gr[3])
 {
@@ -1141,7 +1145,11 @@ static inline __attribute__((always_inline)) void rc_trace_t(const rc_job *J, in
             switch (P->shading) {
             case VOL_SHADING_PHONG: {
                 double gr[3];
-                if (fast && J->gradv) {
+                if (fast && J->gradv && c[0] > 0.0 && c[0] < (double)(nx - 1) && c[1] > 0.0 &&
+                    c[1] < (double)(ny - 1) && c[2] > 0.0 && c[2] < (double)(nz - 1)) {
+                    /* strictly inside: there the gradient volume's lerp is the exact mode's
+                     * central difference in real arithmetic (rc_gradient_volume); in the outer
+                     * half voxel, where the exact mode's shifted coordinates clamp, it is not */
                     rc_gradient_volume(J->gradv, vx0, vx1, ftx, vy0, vy1, fty, vz0, vz1, ftz, sy, sz, gr);
                 } else {
                     const rc_split3 S = {{vx0, vy0, vz0}, {vx1, vy1, vz1}, {ftx, fty, ftz}};
