@@ -1359,6 +1359,20 @@ static obs_status rc_check_grid_tf(obs_context *ctx, const vol_grid *g, const vo
     return OBS_STATUS_OK;
 }
 
+int vol_i_rc_gradient_volume_at(const vol_rc_prepared *prep, const double c[3], double grad[3])
+{
+    if (!prep || !prep->gradv)
+        return 0;
+    const vol_grid *g = prep->g;
+    rc_split3 S;
+    rc_split(c[0], g->nx, &S.i0[0], &S.i1[0], &S.t[0]);
+    rc_split(c[1], g->ny, &S.i0[1], &S.i1[1], &S.t[1]);
+    rc_split(c[2], g->nz, &S.i0[2], &S.i1[2], &S.t[2]);
+    rc_gradient_volume(prep->gradv, S.i0[0], S.i1[0], S.t[0], S.i0[1], S.i1[1], S.t[1], S.i0[2], S.i1[2], S.t[2],
+                       (size_t)g->nx, (size_t)g->nx * (size_t)g->ny, grad);
+    return 1;
+}
+
 void vol_rc_prepared_free(vol_rc_prepared *prep)
 {
     if (!prep)

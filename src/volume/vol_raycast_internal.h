@@ -102,6 +102,11 @@ typedef struct vol_i_rc_run {
 } vol_i_rc_run;
 void vol_i_rc_run_avx2(vol_i_rc_run *R);
 
+/* VOL_RC_FAST Phong's gradient at voxel coordinate c: the handle's gradient volume interpolated
+ * with c's splits (rc_gradient_volume, the splits clamped as vol_grid_sample's). Returns 0 (grad
+ * untouched) when the handle has no gradient volume (prepared without VOL_RC_FAST and Phong). */
+int vol_i_rc_gradient_volume_at(const vol_rc_prepared *prep, const double c[3], double grad[3]);
+
 /* 1 when the ray caster's AVX2 run is used: built with OBS_ENABLE_SIMD, the CPU has AVX2, and the
  * environment's OBS_ISA is not "scalar" (read at each cast, as vol_i_lv_avx2_active). */
 int vol_i_rc_avx2_active(void);
