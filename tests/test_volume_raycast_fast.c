@@ -105,7 +105,7 @@ static vol_light dir_light(double x, double y, double z)
     return L;
 }
 
-/* A cast with its counters, OBS_ISA set to "scalar" (scalar = 1) or unset (the AVX2 run where the
+/* A cast with its counters, OBS_ISA set to "scalar" (scalar = 1) or "avx2" (the AVX2 run where the
  * build and the CPU have it); the caller's OBS_ISA is restored. */
 static obs_status cast_isa(obs_context *ctx, obs_pool *pool, int scalar, const vol_grid *g, const vol_tf *tf,
                            const vol_light *L, const vol_light_volume *lv, const obs_camera *cam, int w, int h,
@@ -116,10 +116,7 @@ static obs_status cast_isa(obs_context *ctx, obs_pool *pool, int scalar, const v
     char keep[64] = {0};
     if (old)
         snprintf(keep, sizeof keep, "%s", old);
-    if (scalar)
-        setenv("OBS_ISA", "scalar", 1);
-    else
-        unsetenv("OBS_ISA");
+    setenv("OBS_ISA", scalar ? "scalar" : "avx2", 1);
     obs_status s = vol_i_rc_raycast_stats(ctx, pool, g, tf, L, lv, cam, w, h, depth, p, out, st);
     if (old)
         setenv("OBS_ISA", keep, 1);
@@ -141,7 +138,16 @@ TEST(volume_raycast_avx2_run_matches_scalar_bit_for_bit)
 {
     obs_context *ctx = obs_context_create();
     obs_pool *pool = obs_pool_create(2);
+    const char *old = getenv("OBS_ISA");
+    char keep[64] = {0};
+    if (old)
+        snprintf(keep, sizeof keep, "%s", old);
+    setenv("OBS_ISA", "avx2", 1);
     const int avx2 = vol_i_rc_avx2_active();
+    if (old)
+        setenv("OBS_ISA", keep, 1);
+    else
+        unsetenv("OBS_ISA");
     if (!avx2)
         printf("  (the AVX2 run is not active here: the scalar run is compared with itself)\n");
     /* Two grids: isotropic 48^3 and an anisotropic 40 x 36 x 28 (spacing 0.9, 1.1, 1.6). */
