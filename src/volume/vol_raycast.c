@@ -934,6 +934,7 @@ static inline __attribute__((always_inline)) void rc_trace_t(const rc_job *J, in
                 R.C[1] = C[1];
                 R.C[2] = C[2];
                 R.samples = R.shaded = 0;
+                R.done = 0;
 #if defined(OBS_HAVE_AVX2)
                 vol_i_rc_run_avx2(&R); /* use_avx2 is 0 without it */
 #endif
