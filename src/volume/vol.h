@@ -339,6 +339,10 @@ obs_status vol_raycast(obs_context *ctx, obs_pool *pool, const vol_grid *g, cons
  * handle). vol_raycast_prepared refuses (INVALID_ARGUMENT) params whose brick differs from the
  * prepared one; the other params (shading, step, early termination, ...) may change per call.
  * vol_rc_prepare returns OK, INVALID_ARGUMENT, OUT_OF_MEMORY; vol_rc_prepared_free is NULL-safe. */
+/* Prepared with p->precision VOL_RC_FAST and p->shading VOL_SHADING_PHONG, the handle also holds
+ * the fast mode's gradient volume (per voxel the central differences, float xyz: 12 bytes per
+ * voxel, 3x the grid); fast Phong casts through a handle without it use the exact gradient
+ * (docs/volume/raycast.md, "Third round"). */
 typedef struct vol_rc_prepared vol_rc_prepared;
 obs_status vol_rc_prepare(obs_context *ctx, obs_pool *pool, const vol_grid *g, const vol_tf *tf,
                           const vol_rc_params *p, vol_rc_prepared **out);

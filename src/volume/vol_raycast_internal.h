@@ -67,6 +67,51 @@ float vol_i_rc_alpha_full_step(float alpha, double h, double ref_step);
  * -inf when the first point's alpha is not 0. */
 double vol_i_rc_zero_below(const vol_tf *tf);
 
+/* One run of a ray (vol_raycast.c, rc_trace_t: full steps inside the clamp-free
+ * range whose base voxel stays in the last non-empty brick), for the AVX2 form
+ * (vol_raycast_avx2.c, compiled with -mavx2, no FMA): the three axes of the position and of the
+ * splits in one vector each, the four x-lerps of the trilinear sample in one vector, the two
+ * y-lerps in another; every lane performs the scalar run's IEEE operations in the same order, so
+ * the image is the same bit for bit (volume_raycast_avx2_run_matches_scalar_bit_for_bit). Lane 3
+ * of the vectors is padding (0). */
+typedef struct vol_i_rc_run {
+    const float *data;          /* the grid's voxels, x fastest */
+    size_t sy, sz;              /* voxels per row, per slice */
+    int fast;                   /* VOL_RC_FAST: c(k) = c0 + k dc and the table; else the exact forms */
+    double c0[4], dc[4];        /* fast: voxel coordinates of sample k = c0 + k dc */
+    double t0, dt;              /* exact: t_k = t0 + (k + 1/2) dt, */
+    double o[4], d[4];          /*   x = o + t_k d, */
+    double org[4], inv_sp[4];   /*   c = (x - org) inv_sp */
+    int32_t nel[4];             /* the run stops where a base voxel v leaves [nel, nel + urun) */
+    uint32_t urun;              /*   (unsigned v - nel < urun on each axis) */
+    int64_t k, kb;              /* in: the first sample; the run takes samples k..kb at most.
+                                   out: the first sample not taken (kb + 1 or the one that left) */
+    double zero_below, et;      /* values <= zero_below have alpha 0; stop when 1 - T >= et */
+    const float *tft;           /* fast: the pre-corrected table */
+    float tft_lo, tft_scale;
+    const vol_tf *tf;           /* exact: the TF, the full step and ref_step */
+    double h, ref_step;
+    double T, C[3];             /* in/out: transmittance, premultiplied colour */
+    int64_t samples, shaded;    /* out: added to */
+    int done;                   /* out: 1 when early termination stopped the ray (at sample k) */
+    /* Phong and light-volume shading: called for each composited sample with its index k, its
+     * voxel coordinates c, base voxel v0 and fractions t, to turn the TF's rgb into the shaded
+     * colour (NULL: emission-absorption) */
+    void (*shade)(const void *user, int64_t k, const double c[3], const int v0[3], const float t[3], float rgb[3]);
+    const void *shade_user;
+} vol_i_rc_run;
+void vol_i_rc_run_avx2(vol_i_rc_run *R);
+
+/* VOL_RC_FAST Phong's gradient at voxel coordinate c: the handle's gradient volume interpolated
+ * with c's splits (rc_gradient_volume, the splits clamped as vol_grid_sample's). Returns 0 (grad
+ * untouched) when the handle has no gradient volume (prepared without VOL_RC_FAST and Phong). */
+int vol_i_rc_gradient_volume_at(const vol_rc_prepared *prep, const double c[3], double grad[3]);
+
+/* 1 when the ray caster's AVX2 run is used: built with OBS_ENABLE_SIMD, the CPU has AVX2, and the
+ * environment's OBS_ISA is "avx2" (read at each cast). Opt-in, unlike vol_i_lv_avx2_active: the
+ * scalar run measured faster in wall clock (vol_raycast.c). */
+int vol_i_rc_avx2_active(void);
+
 #ifdef __cplusplus
 }
 #endif
