@@ -21,7 +21,26 @@
  * The RESULT line gives the medians, the rays per second, the ratio of the medians, and the
  * median of the per-pair ratios raw time / pipeline time, which the RATIO line repeats with the
  * bar (issue 13: >= 0.90) and the scenes' flags and build qualities. The occluded-ray counts of
- * (a) and (b) are printed as a check that the rays and the geometry are the same. */
+ * (a) and (b) are printed as a check that the rays and the geometry are the same.
+ *
+ *   obscura_bench_truth --sss [SCENE.glb] [--size 160x120] [--spp 1024] [--batch N] [--tile 4]
+ *                       [--threads 2] [--reps R] [--raw-build low|medium|high]
+ *
+ * The SSS brute force's shadow rays (issue 14; docs/sss/truth.md, "Shadow rays in batches"). SCENE
+ * (default build/data/bunny_cream.glb: the bunny in cream, its directional key light) seen through
+ * its first camera, rasterized once; then
+ *   (a) pipeline: truth_sss_render_ex, brute force, directional dipole, exactly N candidates per
+ *       surface pixel (min = max = N, batch = --batch or N: one round), 4x4 tiles, timed whole,
+ *       and with its hooks' time_trace: obs_time_now around each of its rtcOccluded1M calls,
+ *       summed over the tasks (CPU-seconds inside Embree, both threads together);
+ *   (b) raw: the very same shadow rays, captured once through the ray sink (per task and batch),
+ *       each batch traced by one rtcOccluded1M call on the flat one-level scene above (raw_scene),
+ *       tasks over the same obs_pool, each call timed the same way (tfar reset before, untimed).
+ * The capture run also checks every batched verdict against truth_intersect1's closest hit on the
+ * same ray (the per-ray code's test) and, after the warm-up, the raw scene's verdicts ray by ray.
+ * (b) and (a) alternate, R times after one warm-up pair. RESULT gives the medians; RATIO 1 =
+ * raw call time / the pipeline's call time (the bar: >= 0.90), RATIO 2 = raw wall / the whole
+ * reference's wall (the rays' share of the reference), each the median of the per-pair ratios. */
 #include "core/obs.h"
 #include "io/io.h"
 #include "raster/raster.h"
@@ -639,7 +658,7 @@ int main(int argc, char **argv)
         if (!size_given)
             W = 160, H = 120;
         if (!spp_given)
-            spp = 2048;
+            spp = 1024;
         if (!tile_given)
             tile = 4;
         if (reps < 1 || spp < 8 || nmesh > 1) {
