@@ -229,8 +229,7 @@ static void check_shadow_seen(run *R, const truth_sss_params *p)
     truth_sss_result r;
     CHECK_OK(render(R, NULL, p, NULL, &r), R->ctx);
     const int W = r.width;
-    /* columns at x = -1.2 and x = +2.2 (pixel centres, ortho half size 1.5 over W pixels: too
-     * narrow; use the outer columns instead: x = -1.5 + 1.5/W and 1.5 - 1.5/W) */
+    /* the outer columns of the middle row: x = -1.5 + 1.5/W (in the wall's shadow) and 1.5 - 1.5/W */
     double left = obs_image_f32_row(&r.radiance[0], W / 2)[0], right = obs_image_f32_row(&r.radiance[0], W / 2)[W - 1];
     CHECK_MSG(right > left, "no shadow seen: left %g right %g", left, right);
     truth_sss_result_free(&r);
