@@ -21,10 +21,30 @@
  * The RESULT line gives the medians, the rays per second, the ratio of the medians, and the
  * median of the per-pair ratios raw time / pipeline time, which the RATIO line repeats with the
  * bar (issue 13: >= 0.90) and the scenes' flags and build qualities. The occluded-ray counts of
- * (a) and (b) are printed as a check that the rays and the geometry are the same. */
+ * (a) and (b) are printed as a check that the rays and the geometry are the same.
+ *
+ *   obscura_bench_truth --sss [SCENE.glb] [--size 160x120] [--spp 1024] [--batch N] [--tile 4]
+ *                       [--threads 2] [--reps R] [--raw-build low|medium|high]
+ *
+ * The SSS brute force's shadow rays (issue 14; docs/sss/truth.md, "Shadow rays in batches"). SCENE
+ * (default build/data/bunny_cream.glb: the bunny in cream, its directional key light) seen through
+ * its first camera, rasterized once; then
+ *   (a) pipeline: truth_sss_render_ex, brute force, directional dipole, exactly N candidates per
+ *       surface pixel (min = max = N, batch = --batch or N: one round), 4x4 tiles, timed whole,
+ *       and with its hooks' time_trace: obs_time_now around each of its rtcOccluded1M calls,
+ *       summed over the tasks (CPU-seconds inside Embree, both threads together);
+ *   (b) raw: the very same shadow rays, captured once through the ray sink (per task and batch),
+ *       each batch traced by one rtcOccluded1M call on the flat one-level scene above (raw_scene),
+ *       tasks over the same obs_pool, each call timed the same way (tfar reset before, untimed).
+ * The capture run also checks every batched verdict against truth_intersect1's closest hit on the
+ * same ray (the per-ray code's test) and, after the warm-up, the raw scene's verdicts ray by ray.
+ * (b) and (a) alternate, R times after one warm-up pair. RESULT gives the medians; RATIO 1 =
+ * raw call time / the pipeline's call time (the bar: >= 0.90), RATIO 2 = raw wall / the whole
+ * reference's wall (the rays' share of the reference), each the median of the per-pair ratios. */
 #include "core/obs.h"
 #include "io/io.h"
 #include "raster/raster.h"
+#include "sss/sss.h"
 #include "truth/truth.h"
 #include "truth/truth_internal.h"
 
@@ -257,6 +277,334 @@ static void raw_task(void *user, int64_t tile, int thread)
     _mm_setcsr(csr);
 }
 
+/* ---- --sss: the SSS brute force's shadow rays against raw Embree ------------------------------ */
+
+/* The shadow rays of truth_sss_render, captured per (task, batch) through its ray sink; the
+ * verdicts of the capture run through its traced sink. */
+typedef struct sssb_batch {
+    RTCRay *rays;
+    float *tfar;        /* as captured (reset before each raw run, untimed) */
+    unsigned char *occ; /* the pipeline's verdicts (capture run) */
+    int count;
+} sssb_batch;
+
+typedef struct sss_capture {
+    int64_t tasks;
+    sssb_batch **b;      /* per task: its batches */
+    int64_t *nb, *cap;  /* per task: how many, allocated */
+    RTCScene scene;     /* the raw side's flat scene */
+    const truth_scene *ts;
+    double *call_s;     /* per thread (padded by 8): seconds inside rtcOccluded1M, raw side */
+    uint64_t *occluded; /* per thread (padded by 8), raw side */
+    uint64_t *mismatch_closest; /* per task: pipeline verdict != truth_intersect1's closest hit */
+} sss_capture;
+
+static void sss_sink(void *user, int64_t task, int64_t batch, const void *rays, int count, size_t stride)
+{
+    sss_capture *c = (sss_capture *)user;
+    if (stride != sizeof(RTCRay) || task < 0 || task >= c->tasks || batch != c->nb[task])
+        abort();
+    if (c->nb[task] == c->cap[task]) {
+        c->cap[task] = c->cap[task] ? 2 * c->cap[task] : 16;
+        c->b[task] = (sssb_batch *)realloc(c->b[task], sizeof(sssb_batch) * (size_t)c->cap[task]);
+    }
+    sssb_batch *b = &c->b[task][c->nb[task]++];
+    b->count = count;
+    b->rays = (RTCRay *)obs_aligned_alloc(sizeof(RTCRay) * (size_t)count);
+    b->tfar = (float *)malloc(sizeof(float) * (size_t)count);
+    b->occ = (unsigned char *)malloc((size_t)count);
+    memcpy(b->rays, rays, sizeof(RTCRay) * (size_t)count);
+    for (int i = 0; i < count; i++)
+        b->tfar[i] = b->rays[i].tfar;
+}
+
+/* The pipeline's verdicts, and each checked against the closest hit of truth_intersect1 on the
+ * same ray (the per-ray code's test): any hit within [0, tfar] == closest hit within [0, tfar]. */
+static void sss_traced(void *user, int64_t task, int64_t batch, const void *rays, int count, size_t stride)
+{
+    sss_capture *c = (sss_capture *)user;
+    (void)stride;
+    sssb_batch *b = &c->b[task][batch];
+    const RTCRay *r = (const RTCRay *)rays;
+    for (int i = 0; i < count; i++) {
+        b->occ[i] = r[i].tfar == -INFINITY;
+        const RTCRay *q = &b->rays[i];
+        truth_hit h;
+        truth_intersect1(c->ts, obs_v3(q->org_x, q->org_y, q->org_z), obs_v3(q->dir_x, q->dir_y, q->dir_z), q->tnear,
+                         b->tfar[i], &h);
+        c->mismatch_closest[task] += (uint64_t)(b->occ[i] != (h.instance != 0xFFFFFFFFu));
+    }
+}
+
+/* (b) raw: a task's batches, one rtcOccluded1M call each on the flat scene, each call timed as
+ * the pipeline's are (obs_time_now before and after). */
+static void sss_raw_task(void *user, int64_t task, int thread)
+{
+    sss_capture *c = (sss_capture *)user;
+    if (!c->nb[task])
+        return;
+    unsigned int csr = _mm_getcsr();
+    truth_thread_init();
+    struct RTCIntersectContext ictx;
+    rtcInitIntersectContext(&ictx);
+    double s = 0.0;
+    uint64_t occ = 0;
+    for (int64_t k = 0; k < c->nb[task]; k++) {
+        sssb_batch *b = &c->b[task][k];
+        const double t0 = obs_time_now();
+        rtcOccluded1M(c->scene, &ictx, b->rays, (unsigned)b->count, sizeof(RTCRay));
+        s += obs_time_now() - t0;
+        for (int i = 0; i < b->count; i++)
+            occ += b->rays[i].tfar == -INFINITY;
+    }
+    c->call_s[8 * thread] += s;
+    c->occluded[8 * thread] += occ;
+    _mm_setcsr(csr);
+}
+
+/* The ray-by-ray verdicts of the raw flat scene against the pipeline's (capture run). */
+static uint64_t sss_raw_mismatches(const sss_capture *c)
+{
+    uint64_t m = 0;
+    for (int64_t t = 0; t < c->tasks; t++)
+        for (int64_t k = 0; k < c->nb[t]; k++) {
+            const sssb_batch *b = &c->b[t][k];
+            for (int i = 0; i < b->count; i++)
+                m += (uint64_t)((b->rays[i].tfar == -INFINITY) != b->occ[i]);
+        }
+    return m;
+}
+
+/* The cost of one obs_time_now call, for the timers' overhead. */
+static double time_now_cost(void)
+{
+    const int n = 1000000;
+    double t0 = obs_time_now(), x = 0.0;
+    for (int i = 0; i < n; i++)
+        x += obs_time_now();
+    double t1 = obs_time_now();
+    return x > 0.0 ? (t1 - t0) / n : 0.0;
+}
+
+static int bench_sss(const char *path, int W, int H, int spp, int batch, int tile, const int *threads, int nthreads,
+                     int reps, enum RTCBuildQuality raw_q)
+{
+    obs_context *ctx = obs_context_create();
+    obs_scene s;
+    io_gltf_options opt = io_gltf_options_default();
+    sss_scene_setup setup;
+    memset(&setup, 0, sizeof setup);
+    if (io_gltf_load(ctx, path, &opt, &s) != OBS_STATUS_OK ||
+        sss_scene_setup_make(ctx, &s, NULL, SSS_DEFAULT_MM_PER_UNIT, &setup) != OBS_STATUS_OK) {
+        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+        return 3;
+    }
+    if (!s.camera_count || !s.light_count || !sss_scene_setup_any_translucent(&setup, &s)) {
+        fprintf(stderr, "bench: %s needs a camera, a light and a translucent material\n", path);
+        return 3;
+    }
+    obs_camera cam = s.cameras[0];
+    rast_params rp = rast_params_default();
+    rp.width = W;
+    rp.height = H;
+    rp.outputs = RAST_OUT_DEPTH | RAST_OUT_PRIM_ID | RAST_OUT_INSTANCE_ID;
+    rast_gbuffer gb;
+    obs_pool *pool0 = obs_pool_create(0);
+    rast_view view = {cam};
+    truth_scene *ts = NULL;
+    truth_scene_options so = truth_scene_options_default();
+    if (rast_gbuffer_alloc(ctx, &rp, &gb) != OBS_STATUS_OK ||
+        rast_render(ctx, pool0, &s, &view, 1, &rp, &gb, NULL) != OBS_STATUS_OK ||
+        truth_scene_create_ex(ctx, &s, &so, &ts) != OBS_STATUS_OK) {
+        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+        return 4;
+    }
+    obs_pool_destroy(pool0);
+    raw_scene raw;
+    if (!raw_scene_build(&s, raw_q, &raw)) {
+        fprintf(stderr, "bench: building the raw flat scene failed (Embree error %d)\n",
+                (int)rtcGetDeviceError(raw.device));
+        return 4;
+    }
+    truth_scene_info si;
+    truth_scene_get_info(ts, &si);
+    char scenes[256];
+    snprintf(scenes, sizeof scenes,
+             "pipeline_scene=%s(flat_instances=%u,two_level_instances=%u,flags=0x%x,build=%s) "
+             "raw_scene=one-level(1 triangle geometry,flags=0x%x,build=%s)",
+             truth_scene_layout_name(so.layout), si.instances_flat, si.instances_two_level, si.scene_flags,
+             si.quality == TRUTH_BUILD_LOW ? "low" : si.quality == TRUTH_BUILD_HIGH ? "high" : "medium",
+             (unsigned)raw.flags, quality_name(raw.quality));
+    truth_sss_params p = truth_sss_params_default();
+    p.estimator = TRUTH_SSS_BRUTE_FORCE;
+    p.min_samples = p.max_samples = spp;
+    p.batch = batch;
+    p.tile = tile;
+    if (truth_sss_params_validate(ctx, &p) != OBS_STATUS_OK) {
+        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+        return 2;
+    }
+
+    /* capture the shadow rays and the pipeline's verdicts once (1 thread) */
+    sss_capture cap;
+    memset(&cap, 0, sizeof cap);
+    cap.tasks = truth_sss_task_count(W, H, tile);
+    cap.b = (sssb_batch **)calloc((size_t)cap.tasks, sizeof(sssb_batch *));
+    cap.nb = (int64_t *)calloc((size_t)cap.tasks, sizeof(int64_t));
+    cap.cap = (int64_t *)calloc((size_t)cap.tasks, sizeof(int64_t));
+    cap.mismatch_closest = (uint64_t *)calloc((size_t)cap.tasks, sizeof(uint64_t));
+    cap.scene = raw.scene;
+    cap.ts = ts;
+    cap.call_s = (double *)calloc(8 * 256, sizeof(double));
+    cap.occluded = (uint64_t *)calloc(8 * 256, sizeof(uint64_t));
+    truth_sss_hooks hooks;
+    memset(&hooks, 0, sizeof hooks);
+    hooks.ray_sink = sss_sink;
+    hooks.traced_sink = sss_traced;
+    hooks.user = &cap;
+    truth_sss_result res;
+    if (truth_sss_render_ex(ctx, NULL, ts, &s, &setup.mats, &cam, &gb, &p, &res, &hooks) != OBS_STATUS_OK) {
+        fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+        return 5;
+    }
+    uint64_t total = 0, nbatches = 0, pipe_occluded = 0, closest_mismatch = 0;
+    for (int64_t t = 0; t < cap.tasks; t++) {
+        nbatches += (uint64_t)cap.nb[t];
+        closest_mismatch += cap.mismatch_closest[t];
+        for (int64_t k = 0; k < cap.nb[t]; k++) {
+            total += (uint64_t)cap.b[t][k].count;
+            for (int i = 0; i < cap.b[t][k].count; i++)
+                pipe_occluded += cap.b[t][k].occ[i];
+        }
+    }
+    if (total != res.stats.rays) {
+        fprintf(stderr, "bench: captured %llu rays, the pipeline traced %llu\n", (unsigned long long)total,
+                (unsigned long long)res.stats.rays);
+        return 6;
+    }
+    const truth_sss_stats st0 = res.stats;
+    truth_sss_result_free(&res);
+    const double tnow = time_now_cost();
+    printf("sss capture: %s %dx%d, %lld surface pixels x %d candidates (batch %d, tile %d): %llu candidates, %llu kept "
+           "(%.2f%%), %llu shadow rays in %llu batches (%.1f rays a batch), %llu occluded; batched verdicts vs "
+           "truth_intersect1 closest hit: %llu mismatches; obs_time_now %.1f ns a call\n",
+           path, W, H, (long long)st0.pixels_surface, spp, batch, tile, (unsigned long long)st0.candidates,
+           (unsigned long long)st0.accepted, 100.0 * (double)st0.accepted / (double)(st0.candidates ? st0.candidates : 1),
+           (unsigned long long)total, (unsigned long long)nbatches, (double)total / (double)(nbatches ? nbatches : 1),
+           (unsigned long long)pipe_occluded, (unsigned long long)closest_mismatch, 1e9 * tnow);
+    fflush(stdout);
+
+    for (int ti = 0; ti < nthreads; ti++) {
+        obs_pool *pool = obs_pool_create(threads[ti]);
+        const int nth = obs_pool_threads(pool);
+        double *tp = (double *)calloc((size_t)reps, sizeof(double)), *tt = (double *)calloc((size_t)reps, sizeof(double));
+        double *trw = (double *)calloc((size_t)reps, sizeof(double)), *trc = (double *)calloc((size_t)reps, sizeof(double));
+        double *r1 = (double *)calloc((size_t)reps, sizeof(double)), *r2 = (double *)calloc((size_t)reps, sizeof(double));
+        uint64_t raw_occluded = 0, raw_mismatch = 0;
+        double pipe_trace = 0.0;
+        uint64_t pipe_calls = 0;
+        truth_sss_hooks th;
+        memset(&th, 0, sizeof th);
+        th.time_trace = 1;
+        th.trace_seconds = &pipe_trace;
+        th.trace_calls = &pipe_calls;
+        for (int k = 0; k < reps + 1; k++) { /* pair 0 is the warm-up */
+            /* (b) raw, on freshly reset rays */
+            for (int64_t t = 0; t < cap.tasks; t++)
+                for (int64_t j = 0; j < cap.nb[t]; j++)
+                    for (int i = 0; i < cap.b[t][j].count; i++)
+                        cap.b[t][j].rays[i].tfar = cap.b[t][j].tfar[i];
+            memset(cap.occluded, 0, 8 * 256 * sizeof(uint64_t));
+            memset(cap.call_s, 0, 8 * 256 * sizeof(double));
+            double t0 = obs_time_now();
+            obs_pool_run(pool, cap.tasks, sss_raw_task, &cap);
+            double t1 = obs_time_now();
+            /* (a) the pipeline, its trace calls timed */
+            if (truth_sss_render_ex(ctx, pool, ts, &s, &setup.mats, &cam, &gb, &p, &res, &th) != OBS_STATUS_OK) {
+                fprintf(stderr, "bench: %s\n", obs_context_last_error(ctx));
+                return 5;
+            }
+            double t2 = obs_time_now();
+            if (res.stats.rays != total || pipe_calls != nbatches) {
+                fprintf(stderr, "bench: the pipeline traced %llu rays in %llu batches, the capture %llu in %llu\n",
+                        (unsigned long long)res.stats.rays, (unsigned long long)pipe_calls, (unsigned long long)total,
+                        (unsigned long long)nbatches);
+                return 6;
+            }
+            truth_sss_result_free(&res);
+            double raw_calls = 0.0;
+            raw_occluded = 0;
+            for (int th_ = 0; th_ < 256; th_++) {
+                raw_calls += cap.call_s[8 * th_];
+                raw_occluded += cap.occluded[8 * th_];
+            }
+            if (k == 0) {
+                raw_mismatch = sss_raw_mismatches(&cap);
+                continue;
+            }
+            trw[k - 1] = t1 - t0;
+            trc[k - 1] = raw_calls;
+            tp[k - 1] = t2 - t1;
+            tt[k - 1] = pipe_trace;
+            r1[k - 1] = raw_calls / pipe_trace;
+            r2[k - 1] = (t1 - t0) / (t2 - t1);
+        }
+        double lo1 = 1e300, hi1 = 0.0;
+        for (int k = 0; k < reps; k++) {
+            lo1 = r1[k] < lo1 ? r1[k] : lo1;
+            hi1 = r1[k] > hi1 ? r1[k] : hi1;
+        }
+        const double mr1 = median(r1, reps), mr2 = median(r2, reps);
+        const double mp = median(tp, reps), mt = median(tt, reps), mrw = median(trw, reps), mrc = median(trc, reps);
+        const double rays = (double)total;
+        /* the timers: two obs_time_now calls per batch, on each side */
+        const double timer_s = 2.0 * tnow * (double)nbatches;
+        printf("RESULT truth_sss scene=%s size=%dx%d candidates=%d batch=%d tile=%d threads=%d tris=%llu "
+               "surface_pixels=%lld kept=%llu rays=%.0f batches=%llu pipeline_ms=%.2f pipeline_trace_cpu_ms=%.2f "
+               "pipeline_trace_mrays_per_cpu_s=%.2f raw_ms=%.2f raw_trace_cpu_ms=%.2f raw_trace_mrays_per_cpu_s=%.2f "
+               "timer_overhead_cpu_ms=%.3f ratio1_median_pairs=%.3f ratio1_range=%.3f-%.3f ratio1_of_medians=%.3f "
+               "ratio2_median_pairs=%.4f occluded_pipeline=%llu occluded_raw=%llu raw_vs_pipeline_verdict_mismatches=%llu "
+               "closest_hit_mismatches=%llu reps=%d %s\n",
+               path, W, H, spp, batch, tile, nth, (unsigned long long)obs_scene_triangle_count(&s),
+               (long long)st0.pixels_surface, (unsigned long long)st0.accepted, rays, (unsigned long long)nbatches,
+               1e3 * mp, 1e3 * mt, rays / mt * 1e-6, 1e3 * mrw, 1e3 * mrc, rays / mrc * 1e-6, 1e3 * timer_s, mr1, lo1,
+               hi1, mrc / mt, mr2, (unsigned long long)pipe_occluded, (unsigned long long)raw_occluded,
+               (unsigned long long)raw_mismatch, (unsigned long long)closest_mismatch, reps, scenes);
+        printf("RATIO %s threads=%d: ratio 1 = raw flat rtcOccluded1M / the pipeline's rtcOccluded1M calls (CPU time "
+               "inside the calls, summed over threads) = %.3f (median of %d alternating pairs; bar >= 0.90: %s)\n",
+               path, nth, mr1, reps, mr1 >= 0.90 ? "met" : "NOT met");
+        printf("RATIO %s threads=%d: ratio 2 = raw flat rtcOccluded1M wall / the whole brute-force reference wall = "
+               "%.4f (the shadow rays' share of the reference; the rest is drawing and rejecting candidates and "
+               "evaluating S_d)\n",
+               path, nth, mr2);
+        fflush(stdout);
+        if (raw_occluded != pipe_occluded || raw_mismatch) {
+            fprintf(stderr, "bench: occluded counts differ: pipeline %llu, raw %llu (%llu verdicts differ)\n",
+                    (unsigned long long)pipe_occluded, (unsigned long long)raw_occluded,
+                    (unsigned long long)raw_mismatch);
+            return 7;
+        }
+        free(tp); free(tt); free(trw); free(trc); free(r1); free(r2);
+        obs_pool_destroy(pool);
+    }
+    for (int64_t t = 0; t < cap.tasks; t++) {
+        for (int64_t k = 0; k < cap.nb[t]; k++) {
+            obs_aligned_free(cap.b[t][k].rays);
+            free(cap.b[t][k].tfar);
+            free(cap.b[t][k].occ);
+        }
+        free(cap.b[t]);
+    }
+    free(cap.b); free(cap.nb); free(cap.cap); free(cap.mismatch_closest); free(cap.call_s); free(cap.occluded);
+    truth_scene_destroy(ts);
+    raw_scene_free(&raw);
+    rast_gbuffer_free(&gb);
+    sss_scene_setup_free(&setup);
+    obs_scene_free(&s);
+    obs_context_destroy(ctx);
+    return 0;
+}
+
 static int has_ext(const char *p, const char *e)
 {
     size_t n = strlen(p), m = strlen(e);
@@ -271,12 +619,15 @@ int main(int argc, char **argv)
     truth_scene_layout layout = TRUTH_SCENE_AUTO;
     enum RTCBuildQuality raw_q = RTC_BUILD_QUALITY_MEDIUM;
     double radius_frac = 0.1;
+    int sss = 0, size_given = 0, spp_given = 0, tile_given = 0, batch = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : "";
-        if (!strcmp(a, "--size")) { if (sscanf(v, "%dx%d", &W, &H) != 2) return 2; i++; }
-        else if (!strcmp(a, "--spp")) { spp = atoi(v); i++; }
+        if (!strcmp(a, "--size")) { if (sscanf(v, "%dx%d", &W, &H) != 2) return 2; size_given = 1; i++; }
+        else if (!strcmp(a, "--spp")) { spp = atoi(v); spp_given = 1; i++; }
         else if (!strcmp(a, "--reps")) { reps = atoi(v); i++; }
-        else if (!strcmp(a, "--tile")) { tile = atoi(v); i++; }
+        else if (!strcmp(a, "--tile")) { tile = atoi(v); tile_given = 1; i++; }
+        else if (!strcmp(a, "--sss")) sss = 1;
+        else if (!strcmp(a, "--batch")) { batch = atoi(v); i++; }
         else if (!strcmp(a, "--radius-frac")) { radius_frac = atof(v); i++; }
         else if (!strcmp(a, "--layout")) {
             if (!strcmp(v, "auto")) layout = TRUTH_SCENE_AUTO;
@@ -302,6 +653,21 @@ int main(int argc, char **argv)
             i++;
         } else if (a[0] != '-' && nmesh < 16) meshes[nmesh++] = a;
         else { fprintf(stderr, "unknown option %s\n", a); return 2; }
+    }
+    if (sss) { /* the SSS brute force's shadow rays (header comment) */
+        if (!size_given)
+            W = 160, H = 120;
+        if (!spp_given)
+            spp = 1024;
+        if (!tile_given)
+            tile = 4;
+        if (reps < 1 || spp < 8 || nmesh > 1) {
+            fprintf(stderr, "usage: obscura_bench_truth --sss [SCENE.glb] [--size WxH] [--spp N] [--batch B] "
+                            "[--tile T] [--threads 2] [--reps R] [--raw-build low|medium|high]\n");
+            return 2;
+        }
+        return bench_sss(nmesh ? meshes[0] : "build/data/bunny_cream.glb", W, H, spp, batch > 0 ? batch : spp, tile,
+                         threads, nthreads, reps, raw_q);
     }
     if (!nmesh) { /* the default: the bunny, as the set-up generates it, else the CGAL mesh */
         FILE *f = fopen("build/data/bunny.glb", "rb");

@@ -120,4 +120,33 @@ obs_status truth_ao_render_ex(obs_context *ctx, obs_pool *pool, const truth_scen
                               const obs_camera *camera, const struct rast_gbuffer *gb, const truth_ao_params *p,
                               truth_ao_result *out, const truth_ao_hooks *hooks);
 
+/* Hooks into truth_sss_render for the benchmark and the tests (truth_sss.c traces the shadow rays
+ * of its kept entry candidates in batches of at most 1,024 RTCRay, one rtcOccluded1M call each on
+ * ts->top; docs/sss/truth.md, "Shadow rays in batches"). All optional (NULL / 0 = off):
+ *   ray_sink     called with each batch just before it is traced, from worker threads;
+ *   traced_sink  called with each batch just after (occluded rays have tfar = -inf);
+ *                (task, batch) pairs are unique (batch counts from 0 within a task: the tile), so
+ *                a sink that stores per task needs no lock; `stride` = sizeof(RTCRay);
+ *   time_trace   time every rtcOccluded1M call (obs_time_now before and after), summed over the
+ *                tasks into *trace_seconds (the CPU-seconds inside Embree, all threads together);
+ *   trace_seconds, trace_calls  out: that sum and the number of batches (calls);
+ *   per_ray      trace each shadow ray alone with truth_intersect1 (a closest hit; occluded when
+ *                it hits anything within [0, tfar]), the code before the batching: the reference
+ *                the tests compare the batched path with (the same bytes). */
+typedef struct truth_sss_hooks {
+    void (*ray_sink)(void *user, int64_t task, int64_t batch, const void *rays, int count, size_t stride);
+    void (*traced_sink)(void *user, int64_t task, int64_t batch, const void *rays, int count, size_t stride);
+    void *user;
+    int time_trace;
+    double *trace_seconds;
+    uint64_t *trace_calls;
+    int per_ray;
+} truth_sss_hooks;
+
+/* truth_sss_render with hooks (NULL = none: truth_sss_render itself). */
+obs_status truth_sss_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                               const sss_scene_materials *mats, const obs_camera *camera,
+                               const struct rast_gbuffer *gb, const truth_sss_params *p, truth_sss_result *out,
+                               const truth_sss_hooks *hooks);
+
 #endif

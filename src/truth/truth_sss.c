@@ -299,6 +299,8 @@ typedef struct inst_geo {
     uint32_t n;               /* triangles */
     double *tri;              /* 12 per triangle: p0, e1, e2, unit outward normal (zero if degenerate) */
     double *cdf;              /* n: cumulative area / total */
+    uint32_t *guide;          /* guide_n + 1: guide[j] = the first t with cdf[t] > j / guide_n */
+    uint32_t guide_n;         /* a power of two, about n / 4 */
     double area;
 } inst_geo;
 
@@ -317,6 +319,8 @@ static void xform_point(const obs_dmat4 *M, const float *p, double *o)
     for (int r = 0; r < 3; r++)
         o[r] = M->m[r] * p[0] + M->m[4 + r] * p[1] + M->m[8 + r] * p[2] + M->m[12 + r];
 }
+
+static uint32_t cdf_search(const double *cdf, uint32_t lo, uint32_t hi, double u);
 
 static obs_status geo_build(obs_context *ctx, const obs_scene *s, uint32_t i, inst_geo *g)
 {
@@ -360,20 +364,41 @@ static obs_status geo_build(obs_context *ctx, const obs_scene *s, uint32_t i, in
     for (uint32_t t = 0; t < g->n; t++)
         g->cdf[t] /= acc;
     g->cdf[g->n - 1] = 1.0;
+    g->guide_n = 1;
+    while (g->guide_n < g->n / 4 && g->guide_n < (1u << 24))
+        g->guide_n *= 2;
+    g->guide = (uint32_t *)malloc(sizeof(uint32_t) * (g->guide_n + 1));
+    if (!g->guide)
+        return obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth sss: out of memory for mesh '%s'", mesh->name);
+    for (uint32_t j = 0; j < g->guide_n; j++)
+        g->guide[j] = cdf_search(g->cdf, 0, g->n - 1, (double)j / (double)g->guide_n);
+    g->guide[g->guide_n] = g->n - 1;
     return OBS_STATUS_OK;
 }
 
-static uint32_t cdf_pick(const inst_geo *g, double u)
+/* The first t with cdf[t] > u in [lo, hi] (cdf[hi] > u), by bisection. */
+static uint32_t cdf_search(const double *cdf, uint32_t lo, uint32_t hi, double u)
 {
-    uint32_t lo = 0, hi = g->n - 1;
     while (lo < hi) {
         uint32_t mid = lo + (hi - lo) / 2;
-        if (g->cdf[mid] > u)
+        if (cdf[mid] > u)
             hi = mid;
         else
             lo = mid + 1;
     }
     return lo;
+}
+
+/* The triangle for u in [0, 1): the first t with cdf[t] > u. The guide table (an indexed search)
+ * narrows the bisection to [guide[j], guide[j + 1]] with j = floor(u guide_n), exact since guide_n
+ * is a power of two; the answer is the same t as a bisection over all n (cdf is non-decreasing),
+ * with a few cache lines touched instead of ~log2(n) (docs/sss/truth.md, section 6). */
+static uint32_t cdf_pick(const inst_geo *g, double u)
+{
+    uint32_t j = (uint32_t)(u * (double)g->guide_n);
+    if (j >= g->guide_n)
+        j = g->guide_n - 1;
+    return cdf_search(g->cdf, g->guide[j], g->guide[j + 1], u);
 }
 
 /* ------------------------------------------------------------------------------------------------
@@ -389,7 +414,41 @@ typedef struct light_i {
 typedef struct task_stats {
     uint64_t candidates, accepted, rays, events, lost;
     int64_t surface, skipped, converged, at_max;
+    double trace_s;           /* truth_sss_hooks.time_trace: seconds inside rtcOccluded1M */
+    uint64_t trace_calls;     /* rtcOccluded1M calls (shadow-ray batches) */
 } task_stats;
+
+/* The shadow rays of the brute force (and of the walk's entry points) are traced in batches:
+ * the kept candidates of a pixel's round are generated in order, their shadow rays (one per light
+ * that faces the point) collected into a stream of at most STREAM_RAYS rays, traced by one
+ * rtcOccluded1M call, and then the candidates' contributions accumulated in candidate order with
+ * the verdicts, as the per-ray code did (docs/sss/truth.md, "Shadow rays in batches"). */
+#define STREAM_RAYS 1024
+
+/* One light's share of a kept candidate: what is known before its shadow ray. */
+typedef struct shadow_rec {
+    double w[3];              /* unit direction towards the light */
+    double e[3];              /* rgb * n.w [/ d^2]: the irradiance if unoccluded */
+    int light;
+} shadow_rec;
+
+/* A kept candidate waiting for its shadow rays' verdicts. */
+typedef struct kept_rec {
+    uint32_t k;               /* candidate index (sample) */
+    int first, count;         /* its shadow records / rays: [first, first + count) */
+    const double *tri;        /* its triangle (12 doubles: n_i at +9) */
+    double xi[3];
+    double wgt;               /* A / p_accept */
+} kept_rec;
+
+/* Per-thread scratch for the stream. */
+typedef struct sss_stream {
+    RTCRay *rays;             /* STREAM_RAYS + nlights (16-byte aligned, as Embree asks) */
+    shadow_rec *sh;           /* the same count */
+    kept_rec *kept;           /* STREAM_RAYS */
+    int nrays, nkept;
+    int64_t task, batch;      /* the ray sink's (task, batch) */
+} sss_stream;
 
 typedef struct sss_job {
     const truth_scene *ts;
@@ -406,6 +465,8 @@ typedef struct sss_job {
     task_stats *ts_stats;     /* per task */
     int64_t task_offset;      /* of the chunk being run */
     const unsigned char *task_mask; /* truth_sss_render_tasks: the tasks to render (NULL = all) */
+    const truth_sss_hooks *hooks;   /* truth_sss_render_ex (NULL = none) */
+    sss_stream *streams;            /* per pool thread */
 } sss_job;
 
 static double offset_at(const sss_job *J, const double *p)
@@ -420,9 +481,12 @@ static void trace(const truth_scene *ts, const double *o, const double *d, doubl
                      (float)tnear, isinf(tfar) ? INFINITY : (float)tfar, h);
 }
 
-/* Incident irradiance factor of light L at x (normal n): rgb * max(0, n.w) [/ d^2] * V, and w. */
-static int light_at(const sss_job *J, const light_i *L, const double *x, const double *n, double *w, double *e,
-                    uint64_t *rays)
+/* Light L at x (normal n): whether it can light x (n.w > 0), and if so its irradiance factor
+ * e = rgb * n.w [/ d^2] if unoccluded, the direction w to it, and its shadow ray: from
+ * x + eps n along w over [0, d - 2 eps] (point) or [0, inf) (directional), in float as
+ * truth_intersect1 takes it. V = 1 iff nothing is hit on it. */
+static int light_setup(const sss_job *J, const light_i *L, const double *x, const double *n, double *w, double *e,
+                       RTCRay *ray)
 {
     double dist = INFINITY, scale = 1.0;
     if (L->point) {
@@ -440,13 +504,17 @@ static int light_at(const sss_job *J, const light_i *L, const double *x, const d
     double eps = offset_at(J, x), o[3];
     for (int a = 0; a < 3; a++)
         o[a] = x[a] + eps * n[a];
-    truth_hit h;
-    trace(J->ts, o, w, 0.0, isinf(dist) ? INFINITY : dist - 2.0 * eps, &h);
-    (*rays)++;
-    if (h.instance != ID_NONE)
-        return 0;
     for (int k = 0; k < 3; k++)
         e[k] = L->rgb[k] * c * scale;
+    const double tfar = isinf(dist) ? INFINITY : dist - 2.0 * eps;
+    ray->org_x = (float)o[0]; ray->org_y = (float)o[1]; ray->org_z = (float)o[2];
+    ray->tnear = 0.0f;
+    ray->dir_x = (float)w[0]; ray->dir_y = (float)w[1]; ray->dir_z = (float)w[2];
+    ray->time = 0.0f;
+    ray->tfar = isinf(tfar) ? INFINITY : (float)tfar;
+    ray->mask = 0xFFFFFFFFu;
+    ray->id = 0;
+    ray->flags = 0;
     return 1;
 }
 
@@ -553,12 +621,52 @@ typedef struct pixel_in {
     int wt_ok;
 } pixel_in;
 
-/* The contribution f[3] of candidate k (before the T21 / patch factors). */
-static void candidate(const sss_job *J, const pixel_in *P, uint32_t k, double f[3], task_stats *S)
+/* Trace the stream's rays: one rtcOccluded1M call on the truth scene (an occluded ray gets
+ * tfar = -inf, Embree's mark). Any hit within [tnear, tfar] is what the per-ray code asked of
+ * truth_intersect1's closest hit (h.instance != none), so the verdicts are the same (measured:
+ * docs/sss/truth.md, "Shadow rays in batches"). hooks->per_ray keeps that per-ray path, for the
+ * test that compares the two. */
+static void stream_trace(const sss_job *J, sss_stream *st, task_stats *S)
+{
+    const int n = st->nrays;
+    if (n == 0)
+        return;
+    const truth_sss_hooks *H = J->hooks;
+    if (H && H->ray_sink)
+        H->ray_sink(H->user, st->task, st->batch, st->rays, n, sizeof(RTCRay));
+    if (H && H->per_ray) {
+        for (int i = 0; i < n; i++) {
+            RTCRay *r = &st->rays[i];
+            truth_hit h;
+            truth_intersect1(J->ts, obs_v3(r->org_x, r->org_y, r->org_z), obs_v3(r->dir_x, r->dir_y, r->dir_z), r->tnear,
+                             r->tfar, &h);
+            if (h.instance != ID_NONE)
+                r->tfar = -INFINITY;
+        }
+    } else {
+        struct RTCIntersectContext ictx;
+        rtcInitIntersectContext(&ictx); /* the default incoherent flag, as truth_ao */
+        if (H && H->time_trace) {
+            const double t0 = obs_time_now();
+            rtcOccluded1M(J->ts->top, &ictx, st->rays, (unsigned)n, sizeof(RTCRay));
+            S->trace_s += obs_time_now() - t0;
+        } else {
+            rtcOccluded1M(J->ts->top, &ictx, st->rays, (unsigned)n, sizeof(RTCRay));
+        }
+    }
+    if (H && H->traced_sink)
+        H->traced_sink(H->user, st->task, st->batch, st->rays, n, sizeof(RTCRay));
+    S->rays += (uint64_t)n;
+    S->trace_calls++;
+    st->batch++;
+}
+
+/* Candidate k: drawn, played the roulette; if kept, queued with its shadow rays. Returns 1 if
+ * kept (the caller flushes the stream first when it may not have room). */
+static int candidate_gen(const sss_job *J, const pixel_in *P, uint32_t k, sss_stream *st, task_stats *S)
 {
     const inst_geo *G = &J->geo[P->inst];
     uint32_t w[4], b[4];
-    f[0] = f[1] = f[2] = 0.0;
     S->candidates++;
     obs_rng_u32x4(P->pix, k, 0, J->p.seed, w);
     uint32_t t = cdf_pick(G, u53(w[0], w[1]));
@@ -572,14 +680,38 @@ static void candidate(const sss_job *J, const pixel_in *P, uint32_t k, double f[
     double dist = len3(r);
     double pacc = exp(-P->sigma_star * dist); /* Russian roulette, dirpole.cpp trace() */
     if (!(u53(w[2], w[3]) < pacc))
-        return;
+        return 0;
     S->accepted++;
-    const double *ni = T + 9;
-    double wgt = G->area / pacc; /* 1 / (pdf_area * p_accept) */
+    kept_rec *K = &st->kept[st->nkept++];
+    K->k = k;
+    K->tri = T;
+    memcpy(K->xi, xi, sizeof xi);
+    K->wgt = G->area / pacc; /* 1 / (pdf_area * p_accept) */
+    K->first = st->nrays;
     for (int l = 0; l < J->nlights; l++) {
-        double wi[3], e[3];
-        if (!light_at(J, &J->lights[l], xi, ni, wi, e, &S->rays))
+        shadow_rec *R = &st->sh[st->nrays];
+        if (!light_setup(J, &J->lights[l], xi, T + 9, R->w, R->e, &st->rays[st->nrays]))
             continue;
+        R->light = l;
+        st->nrays++;
+    }
+    K->count = st->nrays - K->first;
+    return 1;
+}
+
+/* The contribution f[3] of a kept candidate (before the T21 / patch factors), its shadow rays
+ * traced: the per-ray code's sum, light by light in the same order. */
+static void candidate_eval(const sss_job *J, const pixel_in *P, const kept_rec *K, const sss_stream *st, double f[3],
+                           task_stats *S)
+{
+    const double *ni = K->tri + 9, *xi = K->xi, wgt = K->wgt;
+    f[0] = f[1] = f[2] = 0.0;
+    for (int j = K->first; j < K->first + K->count; j++) {
+        if (st->rays[j].tfar == -INFINITY)
+            continue; /* occluded */
+        const shadow_rec *R = &st->sh[j];
+        const double *wi = R->w, *e = R->e;
+        const int l = R->light;
         double t12 = 1.0 - sss_fresnel_reflectance(dot3(ni, wi), P->c->eta);
         if (J->p.estimator == TRUTH_SSS_BRUTE_FORCE) {
             for (int c = 0; c < 3; c++)
@@ -595,15 +727,32 @@ static void candidate(const sss_job *J, const pixel_in *P, uint32_t k, double f[
                     continue;
                 uint32_t base = WALK_DIM0 + ((uint32_t)(l * 3 + c) << 21);
                 f[c] += wgt * e[c] * t12 *
-                        walk(J, P->inst, &P->c->ch[c], P->c->material.g, P->c->eta, xi, din, P->pix, k, base, &tg, S);
+                        walk(J, P->inst, &P->c->ch[c], P->c->material.g, P->c->eta, xi, din, P->pix, K->k, base, &tg, S);
             }
         }
     }
 }
 
+/* Trace the stream and add its kept candidates' contributions to their replicates, in candidate
+ * order. The rejected candidates in between contributed 0.0 in the per-ray code: adding +0.0
+ * changes no sum (a sum that starts at +0.0 is never -0.0 under round-to-nearest), so they are
+ * not queued. */
+static void stream_flush(const sss_job *J, const pixel_in *P, sss_stream *st, double (*sum)[3], int Rn, task_stats *S)
+{
+    stream_trace(J, st, S);
+    for (int i = 0; i < st->nkept; i++) {
+        double f[3];
+        candidate_eval(J, P, &st->kept[i], st, f, S);
+        int r = (int)(st->kept[i].k % (uint32_t)Rn);
+        for (int c = 0; c < 3; c++)
+            sum[r][c] += f[c];
+    }
+    st->nrays = st->nkept = 0;
+}
+
 static inline double lum(const double *v) { return 0.2126 * v[0] + 0.7152 * v[1] + 0.0722 * v[2]; }
 
-static void do_pixel(sss_job *J, int x, int y, task_stats *S)
+static void do_pixel(sss_job *J, int x, int y, sss_stream *st, task_stats *S)
 {
     const rast_gbuffer *gb = J->gb;
     const int gx = x + gb->guard, gy = y + gb->guard;
@@ -657,13 +806,11 @@ static void do_pixel(sss_job *J, int x, int y, task_stats *S)
         n = J->p.min_samples; /* total internal reflection of the view ray: nothing leaves (T21 = 0) */
     while (n < J->p.max_samples && !(J->p.estimator == TRUTH_SSS_RANDOM_WALK && !P.wt_ok)) {
         for (int k = 0; k < B; k++) {
-            double f[3];
-            uint32_t s = (uint32_t)(n + k);
-            candidate(J, &P, s, f, S);
-            int r = (int)(s % (uint32_t)Rn);
-            for (int c = 0; c < 3; c++)
-                sum[r][c] += f[c];
+            if (st->nkept == STREAM_RAYS || st->nrays + J->nlights > STREAM_RAYS)
+                stream_flush(J, &P, st, sum, Rn, S); /* room for one more kept candidate */
+            candidate_gen(J, &P, (uint32_t)(n + k), st, S);
         }
+        stream_flush(J, &P, st, sum, Rn, S);
         n += B;
         if (n < J->p.min_samples)
             continue;
@@ -710,7 +857,6 @@ static void do_pixel(sss_job *J, int x, int y, task_stats *S)
 
 static void sss_task(void *user, int64_t task, int thread)
 {
-    (void)thread;
     sss_job *J = (sss_job *)user;
     const unsigned int saved_csr = _mm_getcsr();
     truth_thread_init(); /* FTZ/DAZ, as Embree asks; restored below */
@@ -723,9 +869,13 @@ static void sss_task(void *user, int64_t task, int thread)
     }
     int x0, y0, x1, y1;
     obs_tiling_rect(&J->tiling, task, &x0, &y0, &x1, &y1);
+    sss_stream *st = &J->streams[thread];
+    st->nrays = st->nkept = 0;
+    st->task = task;
+    st->batch = 0;
     for (int y = y0; y < y1; y++)
         for (int x = x0; x < x1; x++)
-            do_pixel(J, x, y, S);
+            do_pixel(J, x, y, st, S);
     _mm_setcsr(saved_csr);
 }
 
@@ -748,6 +898,7 @@ static void geo_free(inst_geo *g, uint32_t n)
     for (uint32_t i = 0; i < n; i++) {
         free(g[i].tri);
         free(g[i].cdf);
+        free(g[i].guide);
     }
     free(g);
 }
@@ -823,13 +974,22 @@ void truth_sss_task_rect(int width, int height, int tile, int64_t task, int *x0,
 
 static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                                const sss_scene_materials *mats, const obs_camera *camera, const struct rast_gbuffer *gb,
-                               const truth_sss_params *p, const unsigned char *task_mask, truth_sss_result *out);
+                               const truth_sss_params *p, const unsigned char *task_mask, truth_sss_result *out,
+                               const truth_sss_hooks *hooks);
 
 obs_status truth_sss_render(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                             const sss_scene_materials *mats, const obs_camera *camera, const struct rast_gbuffer *gb,
                             const truth_sss_params *p, truth_sss_result *out)
 {
-    return render_tasks(ctx, pool, ts, scene, mats, camera, gb, p, NULL, out);
+    return render_tasks(ctx, pool, ts, scene, mats, camera, gb, p, NULL, out, NULL);
+}
+
+obs_status truth_sss_render_ex(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
+                               const sss_scene_materials *mats, const obs_camera *camera,
+                               const struct rast_gbuffer *gb, const truth_sss_params *p, truth_sss_result *out,
+                               const truth_sss_hooks *hooks)
+{
+    return render_tasks(ctx, pool, ts, scene, mats, camera, gb, p, NULL, out, hooks);
 }
 
 obs_status truth_sss_render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
@@ -837,12 +997,39 @@ obs_status truth_sss_render_tasks(obs_context *ctx, obs_pool *pool, const truth_
                                   const struct rast_gbuffer *gb, const truth_sss_params *p,
                                   const unsigned char *task_mask, truth_sss_result *out)
 {
-    return render_tasks(ctx, pool, ts, scene, mats, camera, gb, p, task_mask, out);
+    return render_tasks(ctx, pool, ts, scene, mats, camera, gb, p, task_mask, out, NULL);
+}
+
+static void streams_free(sss_stream *s, int n)
+{
+    for (int i = 0; s && i < n; i++) {
+        obs_aligned_free(s[i].rays);
+        free(s[i].sh);
+        free(s[i].kept);
+    }
+    free(s);
+}
+
+/* One stream per pool thread; NULL when out of memory. */
+static sss_stream *streams_alloc(int n)
+{
+    sss_stream *s = (sss_stream *)calloc((size_t)n, sizeof(sss_stream));
+    for (int i = 0; s && i < n; i++) {
+        s[i].rays = (RTCRay *)obs_aligned_alloc(sizeof(RTCRay) * STREAM_RAYS);
+        s[i].sh = (shadow_rec *)malloc(sizeof(shadow_rec) * STREAM_RAYS);
+        s[i].kept = (kept_rec *)malloc(sizeof(kept_rec) * STREAM_RAYS);
+        if (!s[i].rays || !s[i].sh || !s[i].kept) {
+            streams_free(s, n);
+            return NULL;
+        }
+    }
+    return s;
 }
 
 static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_scene *ts, const obs_scene *scene,
                                const sss_scene_materials *mats, const obs_camera *camera, const struct rast_gbuffer *gb,
-                               const truth_sss_params *p, const unsigned char *task_mask, truth_sss_result *out)
+                               const truth_sss_params *p, const unsigned char *task_mask, truth_sss_result *out,
+                               const truth_sss_hooks *hooks)
 {
     double t0 = obs_time_now();
     if (out)
@@ -912,12 +1099,16 @@ static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_sce
         st = obs_image_f32_alloc(ctx, W, H, &out->count);
     J.tiling = obs_tiling_make(W, H, p->tile);
     int64_t ntasks = obs_tiling_count(&J.tiling);
+    const int nthreads = pool ? obs_pool_threads(pool) : 1;
     if (st == OBS_STATUS_OK) {
         J.ts_stats = (task_stats *)calloc((size_t)ntasks, sizeof(task_stats));
-        if (!J.ts_stats)
+        J.streams = streams_alloc(nthreads);
+        if (!J.ts_stats || !J.streams)
             st = obs_error(ctx, OBS_STATUS_OUT_OF_MEMORY, "truth sss: out of memory");
     }
     if (st != OBS_STATUS_OK) {
+        free(J.ts_stats);
+        streams_free(J.streams, nthreads);
         truth_sss_result_free(out);
         geo_free(J.geo, scene->instance_count);
         free(J.lights);
@@ -930,6 +1121,7 @@ static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_sce
     J.p = *p;
     J.out = out;
     J.task_mask = task_mask; /* the planes are zeroed at allocation: the tasks left out stay 0 */
+    J.hooks = hooks;
     {
         obs_aabb b = scene->bounds;
         double e = fmax(fmax(b.hi.x - b.lo.x, b.hi.y - b.lo.y), b.hi.z - b.lo.z);
@@ -950,6 +1142,8 @@ static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_sce
         }
     }
     truth_sss_stats *S = &out->stats;
+    double trace_s = 0.0;
+    uint64_t trace_calls = 0;
     for (int64_t k = 0; k < ntasks; k++) {
         const task_stats *T = &J.ts_stats[k];
         S->candidates += T->candidates;
@@ -961,8 +1155,15 @@ static obs_status render_tasks(obs_context *ctx, obs_pool *pool, const truth_sce
         S->pixels_skipped += T->skipped;
         S->pixels_converged += T->converged;
         S->pixels_at_max += T->at_max;
+        trace_s += T->trace_s;
+        trace_calls += T->trace_calls;
     }
+    if (hooks && hooks->trace_seconds)
+        *hooks->trace_seconds = trace_s;
+    if (hooks && hooks->trace_calls)
+        *hooks->trace_calls = trace_calls;
     free(J.ts_stats);
+    streams_free(J.streams, nthreads);
     geo_free(J.geo, scene->instance_count);
     free(J.lights);
     S->seconds = obs_time_now() - t0;
