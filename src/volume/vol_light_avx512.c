@@ -6,7 +6,8 @@
  * (lv_expf8: the same polynomial and guard, 8 doubles a register here), so the three forms give
  * the same bytes (volume_light_avx512_avx2_scalar_bit_for_bit). Selected at run time where the
  * CPU has AVX-512F (vol_i_lv_isa); OBS_ISA=avx2 or OBS_ISA=scalar turn it off. The
- * classification stays AVX2's. */
+ * classification (vol_i_lv_classify_avx512) takes 8 values a register of doubles, picks a small
+ * TF's entries by permutation, and stores empty space 16 values at a time. */
 #include "vol_light_internal.h"
 
 #if defined(VOL_I_LV_HAVE_AVX512)
