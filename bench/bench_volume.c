@@ -523,6 +523,19 @@ int main(int argc, char **argv)
             }
             const long flt_re = minor_faults() - f0;
             const double sys_re = system_ms() - s0, usr_re = user_ms() - u0;
+            {
+                /* The last rebuild's bytes (FNV-1a 64 over l, c0, c1, c2): compare builds across
+                 * commits and OBS_ISA settings (the output must not change with either). */
+                unsigned long long h = 1469598103934665603ULL;
+                const size_t nv = (size_t)lv.nx * (size_t)lv.ny * (size_t)lv.nz;
+                const float *ch[4] = {lv.l, lv.c[0], lv.c[1], lv.c[2]};
+                for (int c = 0; c < 4; c++) {
+                    const unsigned char *p = (const unsigned char *)ch[c];
+                    for (size_t i = 0; i < nv * sizeof(float); i++)
+                        h = (h ^ p[i]) * 1099511628211ULL;
+                }
+                printf("# rebuild output FNV-1a 64 (l, c0, c1, c2): %016llx\n", h);
+            }
             vol_light_volume_free(&lv);
             vol_lv_workspace_free(ws);
             qsort(ms + 1, (size_t)b.reps, sizeof(double), cmp_double);

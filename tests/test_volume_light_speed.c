@@ -239,3 +239,77 @@ TEST(volume_light_edge_voxels_on_the_kernel_path_stay_within_its_bound)
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
+
+TEST(volume_light_classification_tables_and_empty_runs_bit_for_bit)
+{
+    /* The AVX-512F classification picks a TF of at most 7 points by permutation (its padded tables
+     * in one register) and gathers beyond that, and stores empty space 16 values at a time: TFs of
+     * 1, 2, 6, 7 (the largest by permutation), 8 and 12 points, each with a leading run of +0
+     * points, over data whose rows mix long empty runs (below the run's end) with values spread
+     * over the whole range, rows of 37, 16 and 9 values; the default, OBS_ISA=avx2 and scalar give
+     * the same bytes, 1 and 2 threads. */
+    obs_context *ctx = obs_context_create();
+    obs_pool *pool = obs_pool_create(2);
+    const int dims[3][3] = {{37, 21, 13}, {16, 18, 11}, {9, 33, 12}};
+    const int counts[6] = {1, 2, 6, 7, 8, 12};
+    const vol_light Ls[2] = {vtu_dir_light(0, 0, 1), vtu_dir_light(0.3, -0.5, 0.8)};
+    int cases = 0, differ = 0;
+    for (int v = 0; v < 3; v++) {
+        vol_grid g;
+        const double sp[3] = {1.0, 1.0, 1.0};
+        CHECK_OK(vol_grid_alloc(ctx, dims[v][0], dims[v][1], dims[v][2], sp, &g), ctx);
+        const size_t n = (size_t)g.nx * g.ny * g.nz;
+        uint64_t s = 7 + (uint64_t)v;
+        for (size_t i = 0; i < n; i++) {
+            const double r = (double)lcg(&s) / 9007199254740992.0;
+            /* runs of 0..40 values at or below 0.05 (every TF's +0 run reaches 0.1), then values
+             * anywhere in [0, 1] */
+            g.data[i] = ((i / 23) % 3 == 0) ? (float)(0.05 * r) : (float)r;
+        }
+        vol_grid_update_range(&g);
+        for (int t = 0; t < 6; t++) {
+            vol_tf_point pts[12];
+            const int np = counts[t];
+            for (int q = 0; q < np; q++) {
+                /* point 0 at 0.1 (+0), the others spread up to 1 */
+                pts[q].value = np == 1 ? 0.5 : 0.1 + 0.9 * q / (np - 1);
+                const float a = q == 0 || (q == 1 && np > 2) ? 0.0f : (float)(0.05 + 0.9 * q / np);
+                pts[q].rgba[0] = q == 0 ? 0.0f : (float)q / np;
+                pts[q].rgba[1] = q == 0 ? 0.0f : 1.0f - (float)q / (2 * np);
+                pts[q].rgba[2] = q == 0 ? 0.0f : 0.3f;
+                pts[q].rgba[3] = np == 1 ? 0.4f : a;
+            }
+            vol_tf tf;
+            memset(&tf, 0, sizeof tf);
+            snprintf(tf.name, sizeof tf.name, "tables");
+            tf.count = np;
+            tf.points = pts;
+            for (int l = 0; l < 2; l++) {
+                vol_lv_params p = vol_lv_params_default();
+                p.kappa = 2.0;
+                obs_pool *pl = (l + t) & 1 ? pool : NULL;
+                vol_light_volume a, b, c;
+                unsetenv("OBS_ISA");
+                CHECK_OK(vol_light_volume_build(ctx, pl, &g, &tf, &Ls[l], &p, &a), ctx);
+                setenv("OBS_ISA", "avx2", 1);
+                CHECK_OK(vol_light_volume_build(ctx, pl, &g, &tf, &Ls[l], &p, &b), ctx);
+                setenv("OBS_ISA", "scalar", 1);
+                CHECK_OK(vol_light_volume_build(ctx, pl, &g, &tf, &Ls[l], &p, &c), ctx);
+                unsetenv("OBS_ISA");
+                const int same = lv_same(&a, &b) && lv_same(&a, &c);
+                if (!same)
+                    printf("differ: volume %d, TF of %d points, light %d\n", v, np, l);
+                differ += !same;
+                cases++;
+                vol_light_volume_free(&a);
+                vol_light_volume_free(&b);
+                vol_light_volume_free(&c);
+            }
+        }
+        vol_grid_free(&g);
+    }
+    printf("%d cases, %d differ (isa %d on this CPU)\n", cases, differ, vol_i_lv_isa());
+    CHECK_EQ_INT(differ, 0);
+    obs_pool_destroy(pool);
+    obs_context_destroy(ctx);
+}

@@ -11,6 +11,7 @@
 
 #include <immintrin.h>
 #include <math.h>
+#include <string.h>
 
 /* ---- libm's results, 4 lanes at a time ------------------------------------------------------------ */
 
@@ -131,6 +132,17 @@ static inline __m256 lv_expf8(__m256d xlo, __m256d xhi)
 
 /* ---- Classification ----------------------------------------------------------------------------- */
 
+/* Entry idx (0..7, one per 64-bit lane) of a table of 8 doubles held in two registers (entries
+ * 0-3 and 4-7): two permutations of 32-bit pairs and a blend, the same values a gather reads. */
+static inline __m256d lv_tab8(__m256d t03, __m256d t47, __m256i idx)
+{
+    const __m256i two = _mm256_slli_epi64(_mm256_and_si256(idx, _mm256_set1_epi64x(3)), 1);
+    const __m256i pair = _mm256_or_si256(two, _mm256_slli_epi64(_mm256_add_epi64(two, _mm256_set1_epi64x(1)), 32));
+    const __m256d a = _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(t03), pair));
+    const __m256d b = _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(t47), pair));
+    return _mm256_blendv_pd(a, b, _mm256_castsi256_pd(_mm256_cmpgt_epi64(idx, _mm256_set1_epi64x(3))));
+}
+
 /* vol_tf_eval, 4 values at a time in double (its arithmetic: t = (v - v_lo) / (v_hi - v_lo),
  * rgba = (float)(rgba_lo (1 - t) + rgba_hi t); constant beyond the ends; NaN -> 0), then sigma_t. */
 void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *sigma, float *c0, float *c1,
@@ -147,6 +159,22 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
     /* Blocks of 4; the last block overlaps the one before where n is not a multiple of 4
      * (recomputing a value writes the same bits). */
     const __m256 vzero8 = _mm256_set1_ps(T->zero_upto_f);
+    /* A TF of at most 7 points: its padded tables (np + 1 entries) in two registers each, a lane's
+     * entries by permutation (lv_tab8) instead of gathers: the same values, so the same bits. */
+    const int tab = np + 1 <= 8;
+    __m256d tv[2], trgba[4][2];
+    {
+        double b[5][8];
+        memset(b, 0, sizeof b);
+        for (int q = 0; tab && q <= np; q++) {
+            b[0][q] = T->value[q];
+            for (int c = 0; c < 4; c++)
+                b[c + 1][q] = T->rgba[c][q];
+        }
+        tv[0] = _mm256_loadu_pd(b[0]), tv[1] = _mm256_loadu_pd(b[0] + 4);
+        for (int c = 0; c < 4; c++)
+            trgba[c][0] = _mm256_loadu_pd(b[c + 1]), trgba[c][1] = _mm256_loadu_pd(b[c + 1] + 4);
+    }
     for (int i = 0;; i += 4) {
         if (i > n - 4)
             i = n - 4;
@@ -186,16 +214,24 @@ void vol_i_lv_classify_avx2(const vol_i_lv_tf *T, const float *s, int n, float *
         const long long q0 = _mm256_extract_epi64(lo, 0);
         const int uni =
             _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(lo, _mm256_set1_epi64x(q0)))) == 0xF;
-        const __m256d vl = uni ? _mm256_set1_pd(T->value[q0]) : _mm256_i64gather_pd(T->value, lo, 8);
-        const __m256d vh = uni ? _mm256_set1_pd(T->value[q0 + 1]) : _mm256_i64gather_pd(T->value, hi, 8);
+        const __m256d vl = uni   ? _mm256_set1_pd(T->value[q0])
+                           : tab ? lv_tab8(tv[0], tv[1], lo)
+                                 : _mm256_i64gather_pd(T->value, lo, 8);
+        const __m256d vh = uni   ? _mm256_set1_pd(T->value[q0 + 1])
+                           : tab ? lv_tab8(tv[0], tv[1], hi)
+                                 : _mm256_i64gather_pd(T->value, hi, 8);
         const __m256d t = _mm256_div_pd(_mm256_sub_pd(v, vl), _mm256_sub_pd(vh, vl));
         const __m256d omt = _mm256_sub_pd(one, t);
         const __m256d below = _mm256_cmp_pd(v, vfirst, _CMP_LE_OQ), above = _mm256_cmp_pd(v, vlast, _CMP_GE_OQ);
         const __m256d nan = _mm256_cmp_pd(v, v, _CMP_UNORD_Q);
         __m128 ch[4];
         for (int c = 0; c < 4; c++) {
-            const __m256d cl = uni ? _mm256_set1_pd(T->rgba[c][q0]) : _mm256_i64gather_pd(T->rgba[c], lo, 8);
-            const __m256d chh = uni ? _mm256_set1_pd(T->rgba[c][q0 + 1]) : _mm256_i64gather_pd(T->rgba[c], hi, 8);
+            const __m256d cl = uni   ? _mm256_set1_pd(T->rgba[c][q0])
+                               : tab ? lv_tab8(trgba[c][0], trgba[c][1], lo)
+                                     : _mm256_i64gather_pd(T->rgba[c], lo, 8);
+            const __m256d chh = uni   ? _mm256_set1_pd(T->rgba[c][q0 + 1])
+                                : tab ? lv_tab8(trgba[c][0], trgba[c][1], hi)
+                                      : _mm256_i64gather_pd(T->rgba[c], hi, 8);
             __m256d r = _mm256_add_pd(_mm256_mul_pd(cl, omt), _mm256_mul_pd(chh, t));
             /* vol_tf_eval's order: NaN first, then value <= first, then value >= last. */
             r = _mm256_blendv_pd(r, _mm256_set1_pd(T->rgba[c][np - 1]), above);

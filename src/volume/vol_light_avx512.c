@@ -6,7 +6,8 @@
  * (lv_expf8: the same polynomial and guard, 8 doubles a register here), so the three forms give
  * the same bytes (volume_light_avx512_avx2_scalar_bit_for_bit). Selected at run time where the
  * CPU has AVX-512F (vol_i_lv_isa); OBS_ISA=avx2 or OBS_ISA=scalar turn it off. The
- * classification stays AVX2's. */
+ * classification (vol_i_lv_classify_avx512) takes 8 values a register of doubles, picks a small
+ * TF's entries by permutation, and stores empty space 16 values at a time. */
 #include "vol_light_internal.h"
 
 #if defined(VOL_I_LV_HAVE_AVX512)
@@ -130,11 +131,35 @@ void vol_i_lv_classify_avx512(const vol_i_lv_tf *T, const float *s, int n, float
     const __m512d vfirst = _mm512_set1_pd(T->value[0]), vlast = _mm512_set1_pd(T->value[np - 1]);
     const __m512d one = _mm512_set1_pd(1.0);
     const __m256 vzero8 = _mm256_set1_ps(T->zero_upto_f);
+    const __m512 vzero16 = _mm512_set1_ps(T->zero_upto_f);
     float *outc[3] = {c0, c1, c2};
+    /* A TF of at most 7 points: its padded tables (np + 1 entries, vol_i_lv_tf) fit one register
+     * of 8 doubles, and a lane's entry is picked by a permutation instead of a gather (the same
+     * values, so the same bits; the gathers are slow on this machine). */
+    const int tab = np + 1 <= 8;
+    const __mmask8 tmask = (__mmask8)(tab ? (1u << (np + 1)) - 1u : 0u);
+    const __m512d tv = _mm512_maskz_loadu_pd(tmask, T->value);
+    __m512d trgba[4];
+    for (int c = 0; c < 4; c++)
+        trgba[c] = _mm512_maskz_loadu_pd(tmask, T->rgba[c]);
     /* Blocks of 8; the last block overlaps the one before (recomputing a value writes the same bits). */
     for (int i = 0;; i += 8) {
         if (i > n - 8)
             i = n - 8;
+        /* Empty space 16 values at a time where the block and the next are both empty (the same
+         * stores as two blocks of 8). */
+        if (i + 16 <= n &&
+            _mm512_cmp_ps_mask(_mm512_loadu_ps(s + i), vzero16, _CMP_LE_OQ) == (__mmask16)0xFFFF) {
+            const __m512 z16 = _mm512_setzero_ps();
+            _mm512_storeu_ps(c0 + i, z16);
+            _mm512_storeu_ps(c1 + i, z16);
+            _mm512_storeu_ps(c2 + i, z16);
+            _mm512_storeu_ps(sigma + i, z16);
+            if (i + 16 >= n)
+                break;
+            i += 8;
+            continue;
+        }
         const __m256 sf = _mm256_loadu_ps(s + i);
         /* Empty space (all eight at or below zero_upto): +0 everywhere, exactly (vol_light_avx2.c). */
         if (_mm256_movemask_ps(_mm256_cmp_ps(sf, vzero8, _CMP_LE_OQ)) == 0xFF) {
@@ -156,16 +181,22 @@ void vol_i_lv_classify_avx512(const vol_i_lv_tf *T, const float *s, int n, float
         const __m512i hi = _mm512_add_epi64(lo, _mm512_set1_epi64(1));
         const long long q0 = _mm_cvtsi128_si64(_mm512_castsi512_si128(lo));
         const int uni = _mm512_cmpeq_epi64_mask(lo, _mm512_set1_epi64(q0)) == 0xFF;
-        const __m512d vl = uni ? _mm512_set1_pd(T->value[q0]) : _mm512_i64gather_pd(lo, T->value, 8);
-        const __m512d vh = uni ? _mm512_set1_pd(T->value[q0 + 1]) : _mm512_i64gather_pd(hi, T->value, 8);
+        const __m512d vl = tab ? _mm512_permutexvar_pd(lo, tv)
+                               : uni ? _mm512_set1_pd(T->value[q0]) : _mm512_i64gather_pd(lo, T->value, 8);
+        const __m512d vh = tab ? _mm512_permutexvar_pd(hi, tv)
+                               : uni ? _mm512_set1_pd(T->value[q0 + 1]) : _mm512_i64gather_pd(hi, T->value, 8);
         const __m512d t = _mm512_div_pd(_mm512_sub_pd(v, vl), _mm512_sub_pd(vh, vl));
         const __m512d omt = _mm512_sub_pd(one, t);
         const __mmask8 below = _mm512_cmp_pd_mask(v, vfirst, _CMP_LE_OQ), above = _mm512_cmp_pd_mask(v, vlast, _CMP_GE_OQ);
         const __mmask8 num = _mm512_cmp_pd_mask(v, v, _CMP_ORD_Q);
         __m256 ch[4];
         for (int c = 0; c < 4; c++) {
-            const __m512d cl = uni ? _mm512_set1_pd(T->rgba[c][q0]) : _mm512_i64gather_pd(lo, T->rgba[c], 8);
-            const __m512d chh = uni ? _mm512_set1_pd(T->rgba[c][q0 + 1]) : _mm512_i64gather_pd(hi, T->rgba[c], 8);
+            const __m512d cl = tab   ? _mm512_permutexvar_pd(lo, trgba[c])
+                               : uni ? _mm512_set1_pd(T->rgba[c][q0])
+                                     : _mm512_i64gather_pd(lo, T->rgba[c], 8);
+            const __m512d chh = tab   ? _mm512_permutexvar_pd(hi, trgba[c])
+                                : uni ? _mm512_set1_pd(T->rgba[c][q0 + 1])
+                                      : _mm512_i64gather_pd(hi, T->rgba[c], 8);
             __m512d r = _mm512_add_pd(_mm512_mul_pd(cl, omt), _mm512_mul_pd(chh, t));
             /* vol_tf_eval's order: NaN first, then value <= first, then value >= last. */
             r = _mm512_mask_blend_pd(above, r, _mm512_set1_pd(T->rgba[c][np - 1]));
