@@ -497,7 +497,7 @@ int main(int argc, char **argv)
                              b.light.direction[0] == 0.0 && b.light.direction[1] == 0.0 && b.light.direction[2] == 1.0 &&
                              lp.scale == 1 && lp.cone_angle_deg == 45.0 && threads == 2;
         printf("# row kernels: %s (vol_i_lv_isa; OBS_ISA=avx2 or scalar caps it)\n",
-               vol_i_lv_isa() == 2 ? "AVX-512F span, AVX2 classification" : vol_i_lv_isa() == 1 ? "AVX2" : "scalar");
+               vol_i_lv_isa() == 2 ? "AVX-512F span and classification" : vol_i_lv_isa() == 1 ? "AVX2" : "scalar");
         printf("RESULT lightvolume %s%d threads %d: %9.1f ms (min %.1f, max %.1f); %.1f ns per voxel (median)\n", synth,
                b.g.nx, threads, med, ms[1], ms[b.reps], med * 1e6 / vox);
         if (rebuild) {
