@@ -1160,7 +1160,8 @@ obs_status study_volume_report(obs_context *ctx, study_volume *s)
                 "available offline): the head CT for the bonsai, the Stanford bunny (our largest mesh) for the "
                 "Hebe statue; the dragon is our 10,000-vertex Chinese dragon, not the Stanford one. Ours runs on "
                 "the CPU; the seed's image size is not stated.\n\n",
-                s->W, s->H, o->quick ? ", the shadow and SSS maps reduced (`--quick`)" : "");
+                s->W, s->H,
+                o->quick ? ", the shadow and SSS maps reduced and the light volume at 1/4 (`--quick`)" : "");
         fprintf(fp, "| volume | mesh (triangles) | ours: scene change (ms) | ours: fixed scene (ms) | seed: pair | "
                     "seed (ms) |\n");
         fprintf(fp, "|---|---|---|---|---|---|\n");
