@@ -69,6 +69,11 @@ typedef struct study_volume_options {
     int quick;                      /* the options came from _quick (the report says so) */
     const char *command_line;       /* the command that ran, quoted in the report; NULL = omitted */
     FILE *log;                      /* progress; NULL = silent */
+    /* The hybrid stage (the seed's Table 5.5; docs/volume/truth.md, "The study"): the bundled scene
+     * cornell_hybrid.glb rendered through a render_session for (bucky | cranium) x (dragon | bunny),
+     * written to OUT/hybrid.csv (its own table: results.csv keeps its columns and keys). */
+    const char *data_dir;           /* cornell_hybrid.glb, dragon.glb (mkdata); default the build's data */
+    int no_hybrid;                  /* 1: skip the hybrid stage; default 0 (on) */
 } study_volume_options;
 
 study_volume_options study_volume_options_default(void);
@@ -91,6 +96,11 @@ int64_t study_volume_points(const study_volume *s, int *datasets_present);
 obs_status study_volume_sweep(obs_context *ctx, obs_pool *pool, study_volume *s);
 /* REPORT/README.md, REPORT/error_vs_time.svg, REPORT/results.csv. INVALID_ARGUMENT without report_dir. */
 obs_status study_volume_report(obs_context *ctx, study_volume *s);
+
+/* The hybrid stage's table (OUT/hybrid.csv, REPORT/hybrid.csv): key volume, mesh. */
+const study_table *study_volume_hybrid_table(const study_volume *s);
+extern const char *const study_volume_hybrid_columns[];
+extern const int study_volume_hybrid_column_count;
 
 extern const char *const study_volume_columns[];
 extern const int study_volume_column_count;
