@@ -1,6 +1,7 @@
 /* test_truth_sss.c: the SSS ground truth (src/truth/truth_sss.c; docs/sss/truth.md).
  * Exact references: Chandrasekhar's H-function for the semi-infinite isotropic medium
  * [Chandrasekhar60], and the plane integral of the double-precision S_d by radial quadrature. */
+#include "scene_util.h"
 #include "test.h"
 
 #include "core/obs.h"
@@ -15,72 +16,16 @@
 
 /* ---- scenes ----------------------------------------------------------------------------------- */
 
-static void add_mesh(obs_scene *s, const char *name, const double *pos, uint32_t nv, const uint32_t *idx, uint32_t nt,
-                     int32_t material)
-{
-    s->meshes = (obs_mesh *)realloc(s->meshes, sizeof(obs_mesh) * (s->mesh_count + 1));
-    obs_mesh *m = &s->meshes[s->mesh_count];
-    memset(m, 0, sizeof *m);
-    snprintf(m->name, sizeof m->name, "%s", name);
-    m->vertex_count = nv;
-    m->triangle_count = nt;
-    m->positions = (float *)malloc(sizeof(float) * 3 * nv);
-    for (uint32_t i = 0; i < 3 * nv; i++)
-        m->positions[i] = (float)pos[i];
-    m->indices = (uint32_t *)malloc(sizeof(uint32_t) * 3 * nt);
-    memcpy(m->indices, idx, sizeof(uint32_t) * 3 * nt);
-    m->material = material;
-    s->instances = (obs_instance *)realloc(s->instances, sizeof(obs_instance) * (s->instance_count + 1));
-    obs_instance *in = &s->instances[s->instance_count];
-    memset(in, 0, sizeof *in);
-    in->mesh = s->mesh_count;
-    in->node = s->instance_count;
-    in->world = obs_mat4_identity();
-    s->mesh_count++;
-    s->instance_count++;
-    obs_scene_update_bounds(s);
-}
 
 /* A square [-L, L]^2 at height z, normal +z (counter-clockwise seen from +z). */
 static void add_square(obs_scene *s, const char *name, double L, double z, int32_t material)
 {
     double p[12] = {-L, -L, z, L, -L, z, L, L, z, -L, L, z};
     uint32_t i[6] = {0, 1, 2, 0, 2, 3};
-    add_mesh(s, name, p, 4, i, 2, material);
+    tu_add_mesh(s, name, p, 4, i, 2, material);
 }
 
-/* The closed box [-L, L]^2 x [-T, 0], outward counter-clockwise. */
-static void add_box(obs_scene *s, const char *name, double L, double T, int32_t material)
-{
-    double p[24];
-    for (int k = 0; k < 8; k++) {
-        p[3 * k] = (k & 1) ? L : -L;
-        p[3 * k + 1] = (k & 2) ? L : -L;
-        p[3 * k + 2] = (k & 4) ? 0.0 : -T;
-    }
-    /* faces as quads (a, b, c, d) counter-clockwise from outside */
-    static const uint32_t q[6][4] = {{4, 5, 7, 6}, {0, 2, 3, 1}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-    uint32_t idx[36];
-    for (int f = 0; f < 6; f++) {
-        uint32_t *t = idx + 6 * f;
-        t[0] = q[f][0]; t[1] = q[f][1]; t[2] = q[f][2];
-        t[3] = q[f][0]; t[4] = q[f][2]; t[5] = q[f][3];
-    }
-    add_mesh(s, name, p, 8, idx, 12, material);
-}
 
-static void add_light(obs_scene *s, obs_light_type type, obs_vec3 pos, obs_vec3 dir, float intensity)
-{
-    s->lights = (obs_light *)realloc(s->lights, sizeof(obs_light) * (s->light_count + 1));
-    obs_light *l = &s->lights[s->light_count++];
-    memset(l, 0, sizeof *l);
-    snprintf(l->name, sizeof l->name, "light%u", s->light_count - 1);
-    l->type = type;
-    l->color = obs_v3(1, 1, 1);
-    l->intensity = intensity;
-    l->position = pos;
-    l->direction = dir;
-}
 
 typedef struct run {
     obs_context *ctx;
@@ -231,7 +176,7 @@ TEST(truth_sss_walk_slab_reflectance_matches_h_function)
         run R;
         memset(&R, 0, sizeof R);
         obs_scene_init(&R.scene);
-        add_box(&R.scene, "slab", 150.0, 150.0, -1);
+        tu_add_box(&R.scene, "slab", 150.0, 150.0, -1);
         sss_material m = grey_material(albedo[k], 1.0);
         CHECK_MSG(run_setup(&R, &m, 1.0, 10.0, 1.0f, 2), "setup: %s", obs_context_last_error(R.ctx));
         double xi[3] = {0, 0, 0}, ni[3] = {0, 0, 1}, d[3] = {0, 0, -1}, r = 0, se = 0;
@@ -267,8 +212,8 @@ TEST(truth_sss_walk_pixel_radiance_matches_h_function)
     run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
-    add_box(&R.scene, "slab", 25.0, 25.0, -1);
-    add_light(&R.scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), 2.0f);
+    tu_add_box(&R.scene, "slab", 25.0, 25.0, -1);
+    tu_add_light(&R.scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 2.0f);
     const double a = 0.9;
     sss_material m = grey_material(a, 1.0);
     CHECK_MSG(run_setup(&R, &m, 1.0, 10.0, 1e-3f, 2), "setup: %s", obs_context_last_error(R.ctx));
@@ -362,7 +307,7 @@ static int plane_setup(run *R, int W, int blocker)
     add_square(&R->scene, "plane", PLANE_L, 0.0, -1);
     if (blocker)
         add_square(&R->scene, "blocker", 30.0, 3.0, 0); /* opaque, above the camera */
-    add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), 3.0f);
+    tu_add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 3.0f);
     sss_material m = skin1();
     return run_setup(R, &m, 1.0, blocker ? 1.0 : 10.0, 1e-3f, W);
 }
@@ -492,8 +437,8 @@ TEST(truth_sss_walk_is_identical_for_any_thread_count)
     run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
-    add_box(&R.scene, "slab", 10.0, 10.0, -1);
-    add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(1, 0, 2), obs_v3(0, 0, -1), 20.0f);
+    tu_add_box(&R.scene, "slab", 10.0, 10.0, -1);
+    tu_add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(1, 0, 2), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 20.0f);
     sss_material m = grey_material(0.9, 1.3);
     CHECK_MSG(run_setup(&R, &m, 1.0, 10.0, 2.0f, 4), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
@@ -535,7 +480,7 @@ TEST(truth_sss_walk_refuses_an_open_mesh)
     /* the mesh check itself: a box is closed, a box less one triangle is not */
     obs_scene s;
     obs_scene_init(&s);
-    add_box(&s, "box", 1, 1, -1);
+    tu_add_box(&s, "box", 1, 1, -1);
     uint64_t open = 99;
     CHECK(truth_sss_mesh_is_closed(&s.meshes[0], &open) == 1 && open == 0);
     s.meshes[0].triangle_count = 11;
@@ -634,8 +579,8 @@ TEST(truth_sss_walk_patch_bias_shrinks_with_radius)
     run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
-    add_box(&R.scene, "slab", 8.0, 8.0, -1);
-    add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(0, 0, 2), obs_v3(0, 0, -1), 10.0f);
+    tu_add_box(&R.scene, "slab", 8.0, 8.0, -1);
+    tu_add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(0, 0, 2), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 10.0f);
     sss_material m = grey_material(0.9, 1.3);
     CHECK_MSG(run_setup(&R, &m, 1.0, 1.0, 1e-3f, 1), "setup: %s", obs_context_last_error(R.ctx));
     const double rho[3] = {2.0, 1.0, 0.5};
@@ -676,8 +621,8 @@ TEST(truth_sss_dipoles_against_the_walk_on_a_slab)
     run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
-    add_box(&R.scene, "slab", 25.0, 25.0, -1);
-    add_light(&R.scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), 1.0f);
+    tu_add_box(&R.scene, "slab", 25.0, 25.0, -1);
+    tu_add_light(&R.scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 1.0f);
     const double albedo[2] = {0.9, 0.99};
     for (int k = 0; k < 2; k++) {
         sss_material m = grey_material(albedo[k], 1.3);

@@ -4,6 +4,7 @@
  * truth_sss_hooks.per_ray: each shadow ray a truth_intersect1 closest hit), for any thread count,
  * directional and point lights, both estimators; the ray sink must see every shadow ray once; and
  * every batched verdict must equal the closest-hit one. */
+#include "scene_util.h"
 #include "test.h"
 
 #include "core/obs.h"
@@ -20,70 +21,15 @@
 
 /* ---- scenes ----------------------------------------------------------------------------------- */
 
-static void add_mesh(obs_scene *s, const char *name, const double *pos, uint32_t nv, const uint32_t *idx, uint32_t nt,
-                     int32_t material)
-{
-    s->meshes = (obs_mesh *)realloc(s->meshes, sizeof(obs_mesh) * (s->mesh_count + 1));
-    obs_mesh *m = &s->meshes[s->mesh_count];
-    memset(m, 0, sizeof *m);
-    snprintf(m->name, sizeof m->name, "%s", name);
-    m->vertex_count = nv;
-    m->triangle_count = nt;
-    m->positions = (float *)malloc(sizeof(float) * 3 * nv);
-    for (uint32_t i = 0; i < 3 * nv; i++)
-        m->positions[i] = (float)pos[i];
-    m->indices = (uint32_t *)malloc(sizeof(uint32_t) * 3 * nt);
-    memcpy(m->indices, idx, sizeof(uint32_t) * 3 * nt);
-    m->material = material;
-    s->instances = (obs_instance *)realloc(s->instances, sizeof(obs_instance) * (s->instance_count + 1));
-    obs_instance *in = &s->instances[s->instance_count];
-    memset(in, 0, sizeof *in);
-    in->mesh = s->mesh_count;
-    in->node = s->instance_count;
-    in->world = obs_mat4_identity();
-    s->mesh_count++;
-    s->instance_count++;
-    obs_scene_update_bounds(s);
-}
 
 /* A quad p0 p1 p2 p3 (two triangles, counter-clockwise as given). */
 static void add_quad(obs_scene *s, const char *name, const double q[12], int32_t material)
 {
     uint32_t i[6] = {0, 1, 2, 0, 2, 3};
-    add_mesh(s, name, q, 4, i, 2, material);
+    tu_add_mesh(s, name, q, 4, i, 2, material);
 }
 
-/* The closed box [-L, L]^2 x [-T, 0], outward counter-clockwise. */
-static void add_box(obs_scene *s, const char *name, double L, double T, int32_t material)
-{
-    double p[24];
-    for (int k = 0; k < 8; k++) {
-        p[3 * k] = (k & 1) ? L : -L;
-        p[3 * k + 1] = (k & 2) ? L : -L;
-        p[3 * k + 2] = (k & 4) ? 0.0 : -T;
-    }
-    static const uint32_t q[6][4] = {{4, 5, 7, 6}, {0, 2, 3, 1}, {0, 1, 5, 4}, {2, 6, 7, 3}, {0, 4, 6, 2}, {1, 3, 7, 5}};
-    uint32_t idx[36];
-    for (int f = 0; f < 6; f++) {
-        uint32_t *t = idx + 6 * f;
-        t[0] = q[f][0]; t[1] = q[f][1]; t[2] = q[f][2];
-        t[3] = q[f][0]; t[4] = q[f][2]; t[5] = q[f][3];
-    }
-    add_mesh(s, name, p, 8, idx, 12, material);
-}
 
-static void add_light(obs_scene *s, obs_light_type type, obs_vec3 pos, obs_vec3 dir, float intensity)
-{
-    s->lights = (obs_light *)realloc(s->lights, sizeof(obs_light) * (s->light_count + 1));
-    obs_light *l = &s->lights[s->light_count++];
-    memset(l, 0, sizeof *l);
-    snprintf(l->name, sizeof l->name, "light%u", s->light_count - 1);
-    l->type = type;
-    l->color = obs_v3(1.0f, 0.8f, 0.6f);
-    l->intensity = intensity;
-    l->position = pos;
-    l->direction = dir;
-}
 
 typedef struct run {
     obs_context *ctx;
@@ -163,13 +109,13 @@ static int wall_setup(run *R, int W, int many)
     if (many) {
         for (int l = 0; l < 40; l++) {
             double a = 2.0 * OBS_PI * l / 40.0;
-            add_light(&R->scene, OBS_LIGHT_POINT, obs_v3((float)(3.0 * cos(a)), (float)(3.0 * sin(a)), 1.0f + 0.02f * l),
-                      obs_v3(0, 0, -1), 2.0f);
+            tu_add_light(&R->scene, OBS_LIGHT_POINT, obs_v3((float)(3.0 * cos(a)), (float)(3.0 * sin(a)), 1.0f + 0.02f * l),
+                      obs_v3(0, 0, -1), obs_v3(1.0f, 0.8f, 0.6f), 2.0f);
         }
     } else {
-        add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(-0.8f, 0.1f, -0.6f), 3.0f);
-        add_light(&R->scene, OBS_LIGHT_POINT, obs_v3(2.0f, 0.5f, 1.0f), obs_v3(0, 0, -1), 4.0f);
-        add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, 1), 1.0f);
+        tu_add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(-0.8f, 0.1f, -0.6f), obs_v3(1.0f, 0.8f, 0.6f), 3.0f);
+        tu_add_light(&R->scene, OBS_LIGHT_POINT, obs_v3(2.0f, 0.5f, 1.0f), obs_v3(0, 0, -1), obs_v3(1.0f, 0.8f, 0.6f), 4.0f);
+        tu_add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, 1), obs_v3(1.0f, 0.8f, 0.6f), 1.0f);
     }
     sss_material m = skin1();
     return run_setup(R, &m, 10.0, 1.5f, W);
@@ -273,11 +219,11 @@ TEST(truth_sss_batched_walk_gives_the_per_ray_bytes)
     run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
-    add_box(&R.scene, "slab", 6.0, 6.0, -1);
+    tu_add_box(&R.scene, "slab", 6.0, 6.0, -1);
     const double wall[12] = {0.5, -3, 0.02, 0.5, 3, 0.02, 0.5, 3, 1.5, 0.5, -3, 1.5};
     add_quad(&R.scene, "wall", wall, 0);
-    add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(2.0f, 0.5f, 1.0f), obs_v3(0, 0, -1), 20.0f);
-    add_light(&R.scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(-0.8f, 0.1f, -0.6f), 3.0f);
+    tu_add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(2.0f, 0.5f, 1.0f), obs_v3(0, 0, -1), obs_v3(1.0f, 0.8f, 0.6f), 20.0f);
+    tu_add_light(&R.scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(-0.8f, 0.1f, -0.6f), obs_v3(1.0f, 0.8f, 0.6f), 3.0f);
     sss_material m;
     memset(&m, 0, sizeof m);
     snprintf(m.name, sizeof m.name, "grey");
