@@ -8,6 +8,7 @@
 #include "raster/raster.h"
 #include "scene_util.h"
 #include "test.h"
+#include "volume_test_util.h"
 #include "volume/vol.h"
 #include "volume/vol_raycast_internal.h"
 
@@ -94,37 +95,6 @@ static obs_camera ortho_down(double cx, double cy, double z, double xm, double y
     return c;
 }
 
-static void free4(obs_image_f32 im[4])
-{
-    for (int c = 0; c < 4; c++)
-        obs_image_f32_free(&im[c]);
-}
-
-/* Byte-identical planes. */
-static int same4(const obs_image_f32 a[4], const obs_image_f32 b[4])
-{
-    for (int c = 0; c < 4; c++) {
-        if (a[c].width != b[c].width || a[c].height != b[c].height)
-            return 0;
-        for (int y = 0; y < a[c].height; y++)
-            if (memcmp(obs_image_f32_row(&a[c], y), obs_image_f32_row(&b[c], y), sizeof(float) * a[c].width) != 0)
-                return 0;
-    }
-    return 1;
-}
-
-static double maxdiff4(const obs_image_f32 a[4], const obs_image_f32 b[4])
-{
-    double m = 0.0;
-    for (int c = 0; c < 4; c++)
-        for (int y = 0; y < a[c].height; y++)
-            for (int x = 0; x < a[c].width; x++) {
-                double d = fabs((double)obs_image_f32_row(&a[c], y)[x] - (double)obs_image_f32_row(&b[c], y)[x]);
-                if (d > m)
-                    m = d;
-            }
-    return m;
-}
 
 /* The ray's parameter interval inside the box [lo, hi] (independent of the ray caster's clip). */
 static int box_clip(const double lo[3], const double hi[3], obs_dvec3 O, obs_dvec3 D, double *t0, double *t1)
@@ -225,7 +195,7 @@ TEST(volume_raycast_refuses_bad_params)
     /* And the defaults work. */
     p.step = 0.0;
     CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, NULL, NULL, &cam, 8, 8, NULL, &p, out), ctx);
-    free4(out);
+    vtu_free4(out);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
@@ -304,7 +274,7 @@ TEST(volume_raycast_homogeneous_medium_matches_beer_lambert)
             }
         }
     CHECK_EQ_INT(inside, 256);
-    free4(out);
+    vtu_free4(out);
 
     /* Perspective, anisotropic spacing, and a background: alpha = 1 - 0.9^(len / ref) with len the
      * ray's world length in the box, computed here independently; colour = rgb a + (1 - a) bg. */
@@ -341,7 +311,7 @@ TEST(volume_raycast_homogeneous_medium_matches_beer_lambert)
                 CHECK_NEAR(obs_image_f32_row(&out[c], y)[x], rgb[c] * a + (1.0 - a) * p.background[c], 2e-6);
         }
     CHECK(hits > 100);
-    free4(out);
+    vtu_free4(out);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
@@ -372,11 +342,11 @@ TEST(volume_raycast_step_size_does_not_change_homogeneous_result)
     for (size_t i = 1; i < sizeof steps / sizeof steps[0]; i++) {
         p.step = steps[i];
         CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, NULL, NULL, &pc, 24, 24, NULL, &p, out), ctx);
-        double d = maxdiff4(ref, out);
+        double d = vtu_maxdiff4(ref, out);
         CHECK_MSG(d <= 2e-6, "step %g vs %g: max difference %.3g", steps[i], steps[0], d);
-        free4(out);
+        vtu_free4(out);
     }
-    free4(ref);
+    vtu_free4(ref);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
@@ -417,7 +387,7 @@ TEST(volume_raycast_slab_matches_optical_depth_integral)
         obs_image_f32 out[4];
         CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, NULL, NULL, &cam, 4, 4, NULL, &p, out), ctx);
         CHECK_NEAR(obs_image_f32_row(&out[3], 1)[2], expect, tol[s]);
-        free4(out);
+        vtu_free4(out);
     }
     vol_grid_free(&g);
     obs_context_destroy(ctx);
@@ -457,7 +427,7 @@ TEST(volume_raycast_eye_inside_and_nan_voxels)
             double a = 1.0 - pow(0.9, (t1 - vc.znear) * sqrt(D.x * D.x + D.y * D.y + D.z * D.z));
             CHECK_NEAR(obs_image_f32_row(&out[3], y)[x], a, 2e-6);
         }
-    free4(out);
+    vtu_free4(out);
     vol_grid_free(&g);
 
     const double sph[4] = {15.5, 15.5, 15.5, 10.0};
@@ -476,13 +446,13 @@ TEST(volume_raycast_eye_inside_and_nan_voxels)
     CHECK_OK(vol_raycast(ctx, NULL, &g, &stf, &light, NULL, &pc, 40, 30, NULL, &p, ref), ctx);
     p.brick = 4;
     CHECK_OK(vol_raycast(ctx, NULL, &g, &stf, &light, NULL, &pc, 40, 30, NULL, &p, out), ctx);
-    CHECK(same4(ref, out));
+    CHECK(vtu_same4(ref, out));
     for (int c = 0; c < 4; c++)
         for (int y = 0; y < 30; y++)
             for (int x = 0; x < 40; x++)
                 CHECK(isfinite(obs_image_f32_row(&out[c], y)[x]));
-    free4(out);
-    free4(ref);
+    vtu_free4(out);
+    vtu_free4(ref);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
@@ -511,11 +481,11 @@ TEST(volume_raycast_early_termination_error_below_one_minus_threshold)
         vol_i_rc_stats st;
         CHECK_OK(vol_i_rc_raycast_stats(ctx, NULL, &g, &tf, NULL, NULL, &pc, 40, 40, NULL, &p, cut, &st), ctx);
         CHECK(st.rays_terminated > 0);
-        double d = maxdiff4(full, cut);
+        double d = vtu_maxdiff4(full, cut);
         CHECK_MSG(d < 1.0 - thr[i], "threshold %g: max difference %.4g", thr[i], d);
-        free4(cut);
+        vtu_free4(cut);
     }
-    free4(full);
+    vtu_free4(full);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
@@ -577,7 +547,7 @@ TEST(volume_raycast_depth_limit_cuts_the_ray_exactly)
                 CHECK_NEAR(obs_image_f32_row(&out[3], y)[x], a, 2e-6);
             }
         CHECK(cut > 50);
-        free4(out);
+        vtu_free4(out);
         obs_image_f32_free(&depth);
     }
     vol_grid_free(&g);
@@ -649,7 +619,7 @@ TEST(volume_raycast_rasterized_mesh_depth_lines_up_with_the_rays)
                 CHECK_NEAR(obs_image_f32_row(&out[3], y)[x], a, 1e-5);
             }
         CHECK(cut > 200);
-        free4(out);
+        vtu_free4(out);
         rast_gbuffer_free(&gb);
     }
     obs_scene_free(&scene);
@@ -674,15 +644,15 @@ static void check_skipping(obs_context *ctx, const vol_grid *g, const vol_tf *tf
     for (int i = 0; i < 4; i++) {
         p.brick = bricks[i];
         CHECK_OK(vol_i_rc_raycast_stats(ctx, NULL, g, tf, &light, NULL, cam, 48, 40, NULL, &p, out, &s1), ctx);
-        CHECK_MSG(same4(ref, out), "brick %d changes the image (max diff %.3g)", bricks[i], maxdiff4(ref, out));
+        CHECK_MSG(vtu_same4(ref, out), "brick %d changes the image (max diff %.3g)", bricks[i], vtu_maxdiff4(ref, out));
         CHECK(s1.bricks_empty > 0);
         CHECK_MSG(s1.samples < s0.samples, "brick %d: %lld samples vs %lld without skipping", bricks[i],
                   (long long)s1.samples, (long long)s0.samples);
         CHECK_EQ_INT(s1.samples_shaded, s0.samples_shaded);
         CHECK(s1.samples_skipped > 0);
-        free4(out);
+        vtu_free4(out);
     }
-    free4(ref);
+    vtu_free4(ref);
 }
 
 TEST(volume_raycast_skipping_keeps_the_image_and_reads_fewer_samples)
@@ -790,7 +760,7 @@ TEST(volume_raycast_phong_sphere_lit_side_brighter_and_gradient_radial)
     for (int y = 0; y < 32; y++)
         for (int x = 0; x < 16; x++)
             CHECK_NEAR(obs_image_f32_row(&out[3], y)[x], obs_image_f32_row(&out[3], y)[31 - x], 1e-6);
-    free4(out);
+    vtu_free4(out);
     /* A point light at +x far away does the same. */
     vol_light pl = {OBS_LIGHT_POINT, {0, 0, 0}, {200, 15.5, 15.5}, {1, 1, 1}};
     CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, &pl, NULL, &cam, 32, 32, NULL, &p, out), ctx);
@@ -801,7 +771,7 @@ TEST(volume_raycast_phong_sphere_lit_side_brighter_and_gradient_radial)
             lit2 += obs_image_f32_row(&out[0], y)[31 - x];
         }
     CHECK(lit2 > 1.5 * dark2);
-    free4(out);
+    vtu_free4(out);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
@@ -842,10 +812,10 @@ TEST(volume_raycast_identical_for_1_2_and_8_threads)
             CHECK(pool != NULL);
             CHECK_OK(vol_raycast(ctx, pool, &g, &tf, &light, &lv, &pc, 100, 70, &depth, &p, out), ctx);
             obs_pool_destroy(pool);
-            CHECK_MSG(same4(ref, out), "%s: %d threads differ from 1", vol_shading_name(p.shading), threads[i]);
-            free4(out);
+            CHECK_MSG(vtu_same4(ref, out), "%s: %d threads differ from 1", vol_shading_name(p.shading), threads[i]);
+            vtu_free4(out);
         }
-        free4(ref);
+        vtu_free4(ref);
     }
     obs_image_f32_free(&depth);
     vol_light_volume_free(&lv);
@@ -905,8 +875,8 @@ TEST(volume_raycast_light_volume_mode_is_tf_times_light_times_l_times_c)
                 CHECK_NEAR(obs_image_f32_row(&lvimg[c], y)[x], f[c] * obs_image_f32_row(&ea[c], y)[x], 1e-6);
         }
     CHECK(amax > 0.3);
-    free4(ea);
-    free4(lvimg);
+    vtu_free4(ea);
+    vtu_free4(lvimg);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
 }
@@ -939,9 +909,9 @@ TEST(volume_raycast_light_volume_sphere_lit_side_brighter)
     CHECK_MSG(lit > 1.5 * dark, "lit side %.4g, shadowed side %.4g", lit, dark);
     p.brick = 0;
     CHECK_OK(vol_raycast(ctx, NULL, &g, &tf, &light, &lv, &cam, 32, 32, NULL, &p, out0), ctx);
-    CHECK(same4(out, out0));
-    free4(out);
-    free4(out0);
+    CHECK(vtu_same4(out, out0));
+    vtu_free4(out);
+    vtu_free4(out0);
     vol_light_volume_free(&lv);
     vol_grid_free(&g);
     obs_context_destroy(ctx);
@@ -1071,15 +1041,15 @@ TEST(volume_raycast_prepared_handle_matches_vol_raycast_bit_for_bit)
                 CHECK_OK(vol_i_rc_raycast_prepared_stats(ctx, pool, prep, &light, &lv, &cams[c], 64, 48, dl, &p, out,
                                                          &sp2),
                          ctx);
-                CHECK_MSG(same4(ref, out), "%s camera %d rep %d: prepared differs", vol_shading_name(p.shading), c,
+                CHECK_MSG(vtu_same4(ref, out), "%s camera %d rep %d: prepared differs", vol_shading_name(p.shading), c,
                           rep);
                 CHECK(memcmp(&sr, &sp2, sizeof sr) == 0);
                 CHECK(sr.samples > 0 && sr.bricks > 0);
-                free4(out);
+                vtu_free4(out);
                 CHECK_OK(vol_raycast_prepared(ctx, pool, prep, &light, &lv, &cams[c], 64, 48, dl, &p, out), ctx);
-                CHECK(same4(ref, out));
-                free4(out);
-                free4(ref);
+                CHECK(vtu_same4(ref, out));
+                vtu_free4(out);
+                vtu_free4(ref);
             }
         }
     }
@@ -1109,9 +1079,9 @@ TEST(volume_raycast_prepared_handle_matches_vol_raycast_bit_for_bit)
     obs_image_f32 ref[4];
     CHECK_OK(vol_raycast(ctx, pool, &g, &tf, &light, &lv, &cams[0], 64, 48, NULL, &p, ref), ctx);
     CHECK_OK(vol_raycast_prepared(ctx, pool, p0, &light, &lv, &cams[0], 64, 48, NULL, &p, out), ctx);
-    CHECK(same4(ref, out));
-    free4(ref);
-    free4(out);
+    CHECK(vtu_same4(ref, out));
+    vtu_free4(ref);
+    vtu_free4(out);
     vol_rc_prepared_free(p0);
     vol_rc_prepared_free(prep);
     vol_rc_prepared_free(NULL);
@@ -1226,7 +1196,7 @@ TEST(volume_raycast_fast_mode_close_to_exact_and_same_for_1_2_and_8_threads)
         CHECK_OK(vol_raycast(ctx, p1, &g, &tf, &light, NULL, &pc, 96, 64, NULL, &pe, ex), ctx);
         CHECK_OK(vol_raycast(ctx, p1, &g, &tf, &light, NULL, &pc, 96, 64, NULL, &pf, fa), ctx);
         obs_pool_destroy(p1);
-        double md = maxdiff4(ex, fa), se = 0.0, cnt = 0.0;
+        double md = vtu_maxdiff4(ex, fa), se = 0.0, cnt = 0.0;
         for (int c = 0; c < 4; c++)
             for (int y = 0; y < 64; y++)
                 for (int x = 0; x < 96; x++) {
@@ -1244,11 +1214,11 @@ TEST(volume_raycast_fast_mode_close_to_exact_and_same_for_1_2_and_8_threads)
             CHECK(pool != NULL);
             CHECK_OK(vol_raycast(ctx, pool, &g, &tf, &light, NULL, &pc, 96, 64, NULL, &pf, out), ctx);
             obs_pool_destroy(pool);
-            CHECK_MSG(same4(fa, out), "fast %s: %d threads differ from 1", vol_shading_name(pe.shading), threads[i]);
-            free4(out);
+            CHECK_MSG(vtu_same4(fa, out), "fast %s: %d threads differ from 1", vol_shading_name(pe.shading), threads[i]);
+            vtu_free4(out);
         }
-        free4(ex);
-        free4(fa);
+        vtu_free4(ex);
+        vtu_free4(fa);
     }
     vol_rc_params bad = vol_rc_params_default();
     bad.shading = VOL_SHADING_EMISSION_ABSORPTION;

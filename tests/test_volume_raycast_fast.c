@@ -7,6 +7,7 @@
 #include "core/obs.h"
 #include "raster/raster.h"
 #include "test.h"
+#include "volume_test_util.h"
 #include "volume/vol.h"
 #include "volume/vol_raycast_internal.h"
 
@@ -51,37 +52,6 @@ static vol_tf mk_tf(vol_tf_point *pts, int count, double ref_step)
     tf.points = pts;
     tf.ref_step = ref_step;
     return tf;
-}
-
-static void free4(obs_image_f32 im[4])
-{
-    for (int c = 0; c < 4; c++)
-        obs_image_f32_free(&im[c]);
-}
-
-static int same4(const obs_image_f32 a[4], const obs_image_f32 b[4])
-{
-    for (int c = 0; c < 4; c++) {
-        if (a[c].width != b[c].width || a[c].height != b[c].height)
-            return 0;
-        for (int y = 0; y < a[c].height; y++)
-            if (memcmp(obs_image_f32_row(&a[c], y), obs_image_f32_row(&b[c], y), sizeof(float) * a[c].width) != 0)
-                return 0;
-    }
-    return 1;
-}
-
-static double maxdiff4(const obs_image_f32 a[4], const obs_image_f32 b[4])
-{
-    double m = 0.0;
-    for (int c = 0; c < 4; c++)
-        for (int y = 0; y < a[c].height; y++)
-            for (int x = 0; x < a[c].width; x++) {
-                double d = fabs((double)obs_image_f32_row(&a[c], y)[x] - (double)obs_image_f32_row(&b[c], y)[x]);
-                if (d > m)
-                    m = d;
-            }
-    return m;
 }
 
 static vol_light point_light(double x, double y, double z)
@@ -208,15 +178,15 @@ TEST(volume_raycast_avx2_run_matches_scalar_bit_for_bit)
                             CHECK_OK(cast_isa(ctx, pool, 1, g, &tf, L, &lv, &cams[ci], W, H, dl ? &depth : NULL, &p,
                                               b, &sb),
                                      ctx);
-                            CHECK_MSG(same4(a, b),
+                            CHECK_MSG(vtu_same4(a, b),
                                       "grid %d %s %s brick %d camera %d depth %d: AVX2 and scalar runs differ (max %g)",
                                       gi, vol_shading_name(p.shading), prec ? "fast" : "exact", p.brick, ci, dl,
-                                      maxdiff4(a, b));
+                                      vtu_maxdiff4(a, b));
                             CHECK_MSG(same_stats(&sa, &sb), "grid %d %s: counters differ", gi,
                                       vol_shading_name(p.shading));
                             CHECK(sa.samples_shaded > 0);
-                            free4(a);
-                            free4(b);
+                            vtu_free4(a);
+                            vtu_free4(b);
                             cases++;
                         }
                     }
@@ -329,15 +299,15 @@ TEST(volume_raycast_fast_phong_gradient_volume_changes_the_image_within_bound)
         vol_rc_params px = pf;
         px.precision = VOL_RC_EXACT;
         CHECK_OK(vol_raycast_prepared(ctx, pool, without, &lights[l], NULL, &cam, 96, 64, NULL, &px, e), ctx);
-        const double md = maxdiff4(a, b), mx = maxdiff4(a, e);
+        const double md = vtu_maxdiff4(a, b), mx = vtu_maxdiff4(a, e);
         printf("  %s light: fast Phong with the gradient volume vs without: max %.3g; vs exact: max %.3g\n",
                l ? "directional" : "point", md, mx);
         CHECK_MSG(md <= VOL_RC_TEST_GRADV_IMAGE_MAX, "gradient volume changes the image by %g > %g", md,
                   VOL_RC_TEST_GRADV_IMAGE_MAX);
         CHECK_MSG(mx <= 1e-4, "fast Phong differs from exact by %g > 1e-4", mx); /* the fast mode's bound */
-        free4(a);
-        free4(b);
-        free4(e);
+        vtu_free4(a);
+        vtu_free4(b);
+        vtu_free4(e);
     }
     vol_rc_prepared_free(with);
     vol_rc_prepared_free(without);
@@ -433,7 +403,7 @@ TEST(volume_raycast_screen_rect_skips_only_rays_that_miss)
         CHECK_MSG(bg_bad == 0, "camera %d: %lld missing pixels are not the background", ci, (long long)bg_bad);
         CHECK(ci == 3 || hits < (int64_t)W * H); /* the box does not fill the image (but from inside) */
         CHECK(hits > 0);
-        free4(out);
+        vtu_free4(out);
     }
     vol_grid_free(&g);
     obs_context_destroy(ctx);
