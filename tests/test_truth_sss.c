@@ -2,6 +2,7 @@
  * Exact references: Chandrasekhar's H-function for the semi-infinite isotropic medium
  * [Chandrasekhar60], and the plane integral of the double-precision S_d by radial quadrature. */
 #include "scene_util.h"
+#include "sss_truth_test_util.h"
 #include "test.h"
 
 #include "core/obs.h"
@@ -27,55 +28,8 @@ static void add_square(obs_scene *s, const char *name, double L, double z, int32
 
 
 
-typedef struct run {
-    obs_context *ctx;
-    obs_scene scene;
-    truth_scene *ts;
-    obs_camera cam;
-    rast_gbuffer gb;
-    sss_constants c;
-    uint8_t translucent[1];
-    sss_scene_materials mats;
-} run;
 
-/* A scene of `scene` (already filled), one opaque material slot 0, translucent meshes have
- * material -1 (mats.none = c); an orthographic camera at (0, 0, h) looking down, half size mag. */
-static int run_setup(run *R, const sss_material *m, double mm_per_unit, double h, float mag, int W)
-{
-    R->ctx = obs_context_create();
-    if (sss_constants_make(R->ctx, m, mm_per_unit, &R->c) != OBS_STATUS_OK)
-        return 0;
-    R->scene.materials = (obs_material *)calloc(1, sizeof(obs_material));
-    R->scene.material_count = 1;
-    snprintf(R->scene.materials[0].name, OBS_NAME_MAX, "opaque");
-    R->translucent[0] = 0;
-    R->mats.count = 1;
-    R->mats.constants = &R->c; /* slot 0 is opaque: its constants are not read */
-    R->mats.translucent = R->translucent;
-    R->mats.none = &R->c;
-    R->cam = obs_camera_look_at(obs_v3(0, 0, (float)h), obs_v3(0, 0, 0), obs_v3(0, 1, 0), 0.6f, 0.0f, 1e4f);
-    R->cam.projection = OBS_PROJECTION_ORTHOGRAPHIC;
-    R->cam.xmag = R->cam.ymag = mag;
-    R->cam.znear = 0.0f;
-    rast_params rp = rast_params_default();
-    rp.width = rp.height = W;
-    if (rast_gbuffer_alloc(R->ctx, &rp, &R->gb) != OBS_STATUS_OK)
-        return 0;
-    rast_view v = {R->cam};
-    if (rast_render(R->ctx, NULL, &R->scene, &v, 1, &rp, &R->gb, NULL) != OBS_STATUS_OK)
-        return 0;
-    return truth_scene_create(R->ctx, &R->scene, TRUTH_BUILD_MEDIUM, &R->ts) == OBS_STATUS_OK;
-}
-
-static void run_free(run *R)
-{
-    truth_scene_destroy(R->ts);
-    rast_gbuffer_free(&R->gb);
-    obs_scene_free(&R->scene);
-    obs_context_destroy(R->ctx);
-}
-
-static obs_status run_sss(run *R, obs_pool *pool, const truth_sss_params *p, truth_sss_result *res)
+static obs_status run_sss(stu_run *R, obs_pool *pool, const truth_sss_params *p, truth_sss_result *res)
 {
     return truth_sss_render(R->ctx, pool, R->ts, &R->scene, &R->mats, &R->cam, &R->gb, p, res);
 }
@@ -173,12 +127,12 @@ TEST(truth_sss_walk_slab_reflectance_matches_h_function)
     const double albedo[3] = {0.5, 0.9, 0.99};
     const int64_t count[3] = {400000, 200000, 80000};
     for (int k = 0; k < 3; k++) {
-        run R;
+        stu_run R;
         memset(&R, 0, sizeof R);
         obs_scene_init(&R.scene);
         tu_add_box(&R.scene, "slab", 150.0, 150.0, -1);
         sss_material m = grey_material(albedo[k], 1.0);
-        CHECK_MSG(run_setup(&R, &m, 1.0, 10.0, 1.0f, 2), "setup: %s", obs_context_last_error(R.ctx));
+        CHECK_MSG(stu_run_setup(&R, &m, 1.0, 10.0, 1.0f, 2), "setup: %s", obs_context_last_error(R.ctx));
         double xi[3] = {0, 0, 0}, ni[3] = {0, 0, 1}, d[3] = {0, 0, -1}, r = 0, se = 0;
         double t0 = obs_time_now();
         CHECK_OK(truth_sss_walk_reflectance(R.ctx, R.ts, &R.scene, &R.mats, 0, xi, ni, d, 0, count[k], 7, &r, &se),
@@ -199,7 +153,7 @@ TEST(truth_sss_walk_slab_reflectance_matches_h_function)
         printf("slab eta=1.3 a=%.2f: walk R = %.5f +- %.5f, standard dipole R_d %.5f\n", albedo[k], r2, se2, dip);
         CHECK_MSG(fabs(r2 - dip) < 0.12, "eta 1.3, a=%.2f: walk %.4f vs dipole %.4f", albedo[k], r2, dip);
         CHECK(r2 < r); /* internal reflection gives absorption more chances */
-        run_free(&R);
+        stu_run_free(&R);
     }
 }
 
@@ -209,14 +163,14 @@ TEST(truth_sss_walk_slab_reflectance_matches_h_function)
  * patch bias, so the estimate must agree within 3 bars. */
 TEST(truth_sss_walk_pixel_radiance_matches_h_function)
 {
-    run R;
+    stu_run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
     tu_add_box(&R.scene, "slab", 25.0, 25.0, -1);
     tu_add_light(&R.scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 2.0f);
     const double a = 0.9;
     sss_material m = grey_material(a, 1.0);
-    CHECK_MSG(run_setup(&R, &m, 1.0, 10.0, 1e-3f, 2), "setup: %s", obs_context_last_error(R.ctx));
+    CHECK_MSG(stu_run_setup(&R, &m, 1.0, 10.0, 1e-3f, 2), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
     p.estimator = TRUTH_SSS_RANDOM_WALK;
     p.patch_radius = 1.0;
@@ -242,7 +196,7 @@ TEST(truth_sss_walk_pixel_radiance_matches_h_function)
            (unsigned long long)res.stats.walks_lost, obs_time_now() - t0);
     CHECK_EQ_INT(res.stats.walks_lost, 0);
     truth_sss_result_free(&res);
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 /* ---- the brute force against the plane integral ------------------------------------------------ */
@@ -300,7 +254,7 @@ static sss_material skin1(void)
 }
 
 #define PLANE_L 8.0
-static int plane_setup(run *R, int W, int blocker)
+static int plane_setup(stu_run *R, int W, int blocker)
 {
     memset(R, 0, sizeof *R);
     obs_scene_init(&R->scene);
@@ -309,12 +263,12 @@ static int plane_setup(run *R, int W, int blocker)
         add_square(&R->scene, "blocker", 30.0, 3.0, 0); /* opaque, above the camera */
     tu_add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 3.0f);
     sss_material m = skin1();
-    return run_setup(R, &m, 1.0, blocker ? 1.0 : 10.0, 1e-3f, W);
+    return stu_run_setup(R, &m, 1.0, blocker ? 1.0 : 10.0, 1e-3f, W);
 }
 
 TEST(truth_sss_brute_force_plane_matches_radial_quadrature)
 {
-    run R;
+    stu_run R;
     CHECK_MSG(plane_setup(&R, 2, 0), "setup: %s", obs_context_last_error(R.ctx));
     for (int model = 0; model < SSS_MODEL_COUNT; model++) {
         truth_sss_params p = truth_sss_params_default();
@@ -335,7 +289,7 @@ TEST(truth_sss_brute_force_plane_matches_radial_quadrature)
         CHECK(res.stats.pixels_surface == 4 && res.stats.pixels_converged + res.stats.pixels_at_max == 4);
         truth_sss_result_free(&res);
     }
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 /* Every pixel sees the plane's centre (orthographic, half size 1e-3), each with its own streams:
@@ -344,7 +298,7 @@ TEST(truth_sss_brute_force_plane_matches_radial_quadrature)
  * (about 50 kept candidates: the rare-event end, where the f/p tail is least sampled) and 32768. */
 TEST(truth_sss_error_bars_are_calibrated)
 {
-    run R;
+    stu_run R;
     CHECK_MSG(plane_setup(&R, 16, 0), "setup: %s", obs_context_last_error(R.ctx));
     const double t = 1.0 - sss_fresnel_reflectance(1.0, 1.3);
     double exact[3];
@@ -379,7 +333,7 @@ TEST(truth_sss_error_bars_are_calibrated)
         }
         truth_sss_result_free(&res);
     }
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 static int same_planes(const truth_sss_result *a, const truth_sss_result *b)
@@ -398,7 +352,7 @@ static int same_planes(const truth_sss_result *a, const truth_sss_result *b)
 
 TEST(truth_sss_output_is_identical_for_any_thread_count)
 {
-    run R;
+    stu_run R;
     CHECK_MSG(plane_setup(&R, 6, 0), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
     p.target_rel_error = 0.02; /* adaptive: the stopping rule must not depend on threads either */
@@ -429,18 +383,18 @@ TEST(truth_sss_output_is_identical_for_any_thread_count)
     CHECK(far <= 1);
     truth_sss_result_free(&r);
     truth_sss_result_free(&ref);
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 TEST(truth_sss_walk_is_identical_for_any_thread_count)
 {
-    run R;
+    stu_run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
     tu_add_box(&R.scene, "slab", 10.0, 10.0, -1);
     tu_add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(1, 0, 2), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 20.0f);
     sss_material m = grey_material(0.9, 1.3);
-    CHECK_MSG(run_setup(&R, &m, 1.0, 10.0, 2.0f, 4), "setup: %s", obs_context_last_error(R.ctx));
+    CHECK_MSG(stu_run_setup(&R, &m, 1.0, 10.0, 2.0f, 4), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
     p.estimator = TRUTH_SSS_RANDOM_WALK;
     p.patch_radius = 0.5;
@@ -458,12 +412,12 @@ TEST(truth_sss_walk_is_identical_for_any_thread_count)
         truth_sss_result_free(&r);
     }
     truth_sss_result_free(&ref);
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 TEST(truth_sss_walk_refuses_an_open_mesh)
 {
-    run R;
+    stu_run R;
     CHECK_MSG(plane_setup(&R, 2, 0), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
     p.estimator = TRUTH_SSS_RANDOM_WALK;
@@ -476,7 +430,7 @@ TEST(truth_sss_walk_refuses_an_open_mesh)
     CHECK(truth_sss_walk_reflectance(R.ctx, R.ts, &R.scene, &R.mats, 0, x, n, d, 0, 10, 0, &rr, &se) ==
           OBS_STATUS_INVALID_ARGUMENT);
     CHECK(strstr(obs_context_last_error(R.ctx), "'plane'") != NULL);
-    run_free(&R);
+    stu_run_free(&R);
     /* the mesh check itself: a box is closed, a box less one triangle is not */
     obs_scene s;
     obs_scene_init(&s);
@@ -520,12 +474,12 @@ TEST(truth_sss_refuses_bad_params)
     CHECK(truth_sss_params_validate(ctx, &p) == OBS_STATUS_INVALID_ARGUMENT);
     p = truth_sss_params_default();
     p.max_samples = (int64_t)1 << 21; /* over the default limit 2^20 */
-    run R;
+    stu_run R;
     if (plane_setup(&R, 2, 0)) {
         truth_sss_result res;
         CHECK(run_sss(&R, NULL, &p, &res) == OBS_STATUS_LIMIT_EXCEEDED);
     }
-    run_free(&R);
+    stu_run_free(&R);
     obs_context_destroy(ctx);
 }
 
@@ -534,7 +488,7 @@ TEST(truth_sss_refuses_bad_params)
  * without the square they are lit. */
 TEST(truth_sss_shadowed_points_get_no_light)
 {
-    run R;
+    stu_run R;
     CHECK_MSG(plane_setup(&R, 4, 1), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
     p.min_samples = p.max_samples = 8192;
@@ -561,12 +515,12 @@ TEST(truth_sss_shadowed_points_get_no_light)
     CHECK(res.stats.pixels_at_max == 16 && res.stats.pixels_converged == 0);
     truth_sss_result_free(&res);
     p.min_samples = p.max_samples = 8192;
-    run_free(&R);
+    stu_run_free(&R);
     CHECK_MSG(plane_setup(&R, 4, 0), "setup: %s", obs_context_last_error(R.ctx));
     CHECK_OK(run_sss(&R, NULL, &p, &res), R.ctx);
     CHECK(px(&res.radiance[0], 1, 1) > 0.0f);
     truth_sss_result_free(&res);
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 /* The walk's patch bias (docs/sss/truth.md, "Biases"): a slab (a = 0.9, eta = 1.3) lit by a point
@@ -576,13 +530,13 @@ TEST(truth_sss_shadowed_points_get_no_light)
  * the Richardson extrapolation (4 L(1) - L(2)) / 3 of the two larger (the rho^2 law). */
 TEST(truth_sss_walk_patch_bias_shrinks_with_radius)
 {
-    run R;
+    stu_run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
     tu_add_box(&R.scene, "slab", 8.0, 8.0, -1);
     tu_add_light(&R.scene, OBS_LIGHT_POINT, obs_v3(0, 0, 2), obs_v3(0, 0, -1), obs_v3(1, 1, 1), 10.0f);
     sss_material m = grey_material(0.9, 1.3);
-    CHECK_MSG(run_setup(&R, &m, 1.0, 1.0, 1e-3f, 1), "setup: %s", obs_context_last_error(R.ctx));
+    CHECK_MSG(stu_run_setup(&R, &m, 1.0, 1.0, 1e-3f, 1), "setup: %s", obs_context_last_error(R.ctx));
     const double rho[3] = {2.0, 1.0, 0.5};
     double L[3], se[3];
     obs_limits lim = *obs_context_limits(R.ctx);
@@ -609,7 +563,7 @@ TEST(truth_sss_walk_patch_bias_shrinks_with_radius)
            100.0 * (L[2] - rich) / rich);
     CHECK(L[0] < L[1] - 3.0 * hypot(se[0], se[1]));
     CHECK(fabs(L[2] - rich) <= 3.0 * hypot(se[2], rse));
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 /* Model error, reported (docs/sss/truth.md, "Model vs method"): on the closed slab (a = 0.9, g = 0,
@@ -618,7 +572,7 @@ TEST(truth_sss_walk_patch_bias_shrinks_with_radius)
  * within a factor 2 of the walk. */
 TEST(truth_sss_dipoles_against_the_walk_on_a_slab)
 {
-    run R;
+    stu_run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
     tu_add_box(&R.scene, "slab", 25.0, 25.0, -1);
@@ -627,7 +581,7 @@ TEST(truth_sss_dipoles_against_the_walk_on_a_slab)
     for (int k = 0; k < 2; k++) {
         sss_material m = grey_material(albedo[k], 1.3);
         if (k == 0)
-            CHECK_MSG(run_setup(&R, &m, 1.0, 10.0, 1e-3f, 1), "setup: %s", obs_context_last_error(R.ctx));
+            CHECK_MSG(stu_run_setup(&R, &m, 1.0, 10.0, 1e-3f, 1), "setup: %s", obs_context_last_error(R.ctx));
         else
             CHECK_OK(sss_constants_make(R.ctx, &m, 1.0, &R.c), R.ctx);
         obs_limits lim = *obs_context_limits(R.ctx);
@@ -655,5 +609,5 @@ TEST(truth_sss_dipoles_against_the_walk_on_a_slab)
         CHECK(L[0] > 0.5 * L[2] && L[0] < 2.0 * L[2]);
         CHECK(L[1] > 0.5 * L[2] && L[1] < 2.0 * L[2]);
     }
-    run_free(&R);
+    stu_run_free(&R);
 }

@@ -5,6 +5,7 @@
  * directional and point lights, both estimators; the ray sink must see every shadow ray once; and
  * every batched verdict must equal the closest-hit one. */
 #include "scene_util.h"
+#include "sss_truth_test_util.h"
 #include "test.h"
 
 #include "core/obs.h"
@@ -31,16 +32,6 @@ static void add_quad(obs_scene *s, const char *name, const double q[12], int32_t
 
 
 
-typedef struct run {
-    obs_context *ctx;
-    obs_scene scene;
-    truth_scene *ts;
-    obs_camera cam;
-    rast_gbuffer gb;
-    sss_constants c;
-    uint8_t translucent[1];
-    sss_scene_materials mats;
-} run;
 
 /* Skin1 [Jensen01] Fig. 5(b), per mm, 1 mm per unit. */
 static sss_material skin1(void)
@@ -57,48 +48,11 @@ static sss_material skin1(void)
     return m;
 }
 
-/* scene filled; translucent meshes have material -1 (mats.none), slot 0 is opaque; an orthographic
- * camera at (0, 0, h) looking down, half size mag, W x W pixels. */
-static int run_setup(run *R, const sss_material *m, double h, float mag, int W)
-{
-    R->ctx = obs_context_create();
-    if (sss_constants_make(R->ctx, m, 1.0, &R->c) != OBS_STATUS_OK)
-        return 0;
-    R->scene.materials = (obs_material *)calloc(1, sizeof(obs_material));
-    R->scene.material_count = 1;
-    snprintf(R->scene.materials[0].name, OBS_NAME_MAX, "opaque");
-    R->translucent[0] = 0;
-    R->mats.count = 1;
-    R->mats.constants = &R->c;
-    R->mats.translucent = R->translucent;
-    R->mats.none = &R->c;
-    R->cam = obs_camera_look_at(obs_v3(0, 0, (float)h), obs_v3(0, 0, 0), obs_v3(0, 1, 0), 0.6f, 0.0f, 1e4f);
-    R->cam.projection = OBS_PROJECTION_ORTHOGRAPHIC;
-    R->cam.xmag = R->cam.ymag = mag;
-    R->cam.znear = 0.0f;
-    rast_params rp = rast_params_default();
-    rp.width = rp.height = W;
-    if (rast_gbuffer_alloc(R->ctx, &rp, &R->gb) != OBS_STATUS_OK)
-        return 0;
-    rast_view v = {R->cam};
-    if (rast_render(R->ctx, NULL, &R->scene, &v, 1, &rp, &R->gb, NULL) != OBS_STATUS_OK)
-        return 0;
-    return truth_scene_create(R->ctx, &R->scene, TRUTH_BUILD_MEDIUM, &R->ts) == OBS_STATUS_OK;
-}
-
-static void run_free(run *R)
-{
-    truth_scene_destroy(R->ts);
-    rast_gbuffer_free(&R->gb);
-    obs_scene_free(&R->scene);
-    obs_context_destroy(R->ctx);
-}
-
 /* A translucent square [-4, 4]^2 at z = 0 (Skin1) with an opaque wall x = 0.5, y in [-3, 3],
  * z in [0.02, 1.5] standing on it, so that the lights from +x leave a shadow on the x < 0.5 side;
  * with `many` lights, 40 point lights on a ring above, else a directional light from +x above, a
  * point light at (2, 0.5, 1) and a directional light from below (facing away: no ray). */
-static int wall_setup(run *R, int W, int many)
+static int wall_setup(stu_run *R, int W, int many)
 {
     memset(R, 0, sizeof *R);
     obs_scene_init(&R->scene);
@@ -118,7 +72,7 @@ static int wall_setup(run *R, int W, int many)
         tu_add_light(&R->scene, OBS_LIGHT_DIRECTIONAL, obs_v3(0, 0, 0), obs_v3(0, 0, 1), obs_v3(1.0f, 0.8f, 0.6f), 1.0f);
     }
     sss_material m = skin1();
-    return run_setup(R, &m, 10.0, 1.5f, W);
+    return stu_run_setup(R, &m, 1.0, 10.0, 1.5f, W);
 }
 
 static int same_planes(const truth_sss_result *a, const truth_sss_result *b)
@@ -137,14 +91,14 @@ static int same_planes(const truth_sss_result *a, const truth_sss_result *b)
            a->stats.rays == b->stats.rays && a->stats.walk_events == b->stats.walk_events;
 }
 
-static obs_status render(run *R, obs_pool *pool, const truth_sss_params *p, const truth_sss_hooks *h,
+static obs_status render(stu_run *R, obs_pool *pool, const truth_sss_params *p, const truth_sss_hooks *h,
                          truth_sss_result *res)
 {
     return truth_sss_render_ex(R->ctx, pool, R->ts, &R->scene, &R->mats, &R->cam, &R->gb, p, res, h);
 }
 
 /* The batched render against the per-ray reference, 1, 2 and 8 threads. */
-static void check_same_as_per_ray(run *R, const truth_sss_params *p, const char *what)
+static void check_same_as_per_ray(stu_run *R, const truth_sss_params *p, const char *what)
 {
     truth_sss_hooks per_ray;
     memset(&per_ray, 0, sizeof per_ray);
@@ -170,7 +124,7 @@ static void check_same_as_per_ray(run *R, const truth_sss_params *p, const char 
 
 /* Some pixels must be partly shadowed for the comparison to mean anything: the radiance right of
  * the wall (x > 0.5) is above that at the same distance on its left. */
-static void check_shadow_seen(run *R, const truth_sss_params *p)
+static void check_shadow_seen(stu_run *R, const truth_sss_params *p)
 {
     truth_sss_result r;
     CHECK_OK(render(R, NULL, p, NULL, &r), R->ctx);
@@ -183,7 +137,7 @@ static void check_shadow_seen(run *R, const truth_sss_params *p)
 
 TEST(truth_sss_batched_shadow_rays_give_the_per_ray_bytes)
 {
-    run R;
+    stu_run R;
     /* directional and point lights (and one facing away), brute force, both dipoles, adaptive */
     CHECK_MSG(wall_setup(&R, 8, 0), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
@@ -201,7 +155,7 @@ TEST(truth_sss_batched_shadow_rays_give_the_per_ray_bytes)
     p.sigma_star = 1e-3;
     p.min_samples = p.max_samples = p.batch = 2048;
     check_same_as_per_ray(&R, &p, "brute force, sigma* = 1e-3");
-    run_free(&R);
+    stu_run_free(&R);
 
     /* 40 point lights, most candidates kept: flushes on the ray count (40 rays per candidate) */
     CHECK_MSG(wall_setup(&R, 4, 1), "setup: %s", obs_context_last_error(R.ctx));
@@ -210,13 +164,13 @@ TEST(truth_sss_batched_shadow_rays_give_the_per_ray_bytes)
     p.min_samples = p.max_samples = p.batch = 1024;
     p.tile = 1;
     check_same_as_per_ray(&R, &p, "40 point lights");
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 TEST(truth_sss_batched_walk_gives_the_per_ray_bytes)
 {
     /* the random walk's entry points are lit through the same batched shadow rays */
-    run R;
+    stu_run R;
     memset(&R, 0, sizeof R);
     obs_scene_init(&R.scene);
     tu_add_box(&R.scene, "slab", 6.0, 6.0, -1);
@@ -232,7 +186,7 @@ TEST(truth_sss_batched_walk_gives_the_per_ray_bytes)
         m.sigma_a[c] = 0.1;
     }
     m.eta = 1.3;
-    CHECK_MSG(run_setup(&R, &m, 10.0, 1.0f, 4), "setup: %s", obs_context_last_error(R.ctx));
+    CHECK_MSG(stu_run_setup(&R, &m, 1.0, 10.0, 1.0f, 4), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
     p.estimator = TRUTH_SSS_RANDOM_WALK;
     p.patch_radius = 0.5;
@@ -241,7 +195,7 @@ TEST(truth_sss_batched_walk_gives_the_per_ray_bytes)
     p.min_samples = p.max_samples = 2048;
     p.tile = 1;
     check_same_as_per_ray(&R, &p, "random walk");
-    run_free(&R);
+    stu_run_free(&R);
 }
 
 /* ---- the sinks -------------------------------------------------------------------------------- */
@@ -296,7 +250,7 @@ static void sink_after(void *user, int64_t task, int64_t batch, const void *rays
 
 TEST(truth_sss_ray_sink_sees_every_shadow_ray_once)
 {
-    run R;
+    stu_run R;
     CHECK_MSG(wall_setup(&R, 8, 0), "setup: %s", obs_context_last_error(R.ctx));
     truth_sss_params p = truth_sss_params_default();
     p.min_samples = 4096;
@@ -365,5 +319,5 @@ TEST(truth_sss_ray_sink_sees_every_shadow_ray_once)
         truth_sss_result_free(&res);
         truth_sss_result_free(&plain);
     }
-    run_free(&R);
+    stu_run_free(&R);
 }
