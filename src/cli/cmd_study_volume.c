@@ -29,6 +29,9 @@ static const char *study_volume_help =
     "  --size WxH             image size (default 256x256)\n"
     "  --runs N               timed runs per stage (default 3; the median is reported)\n"
     "  --ref-samples N        MC reference samples per pixel, a multiple of 8 (default 256)\n"
+    "  --no-hybrid            skip the hybrid stage (the seed's Table 5.5: cornell_hybrid.glb with\n"
+    "                         bucky or the head CT, and the bunny or the dragon; DIR/hybrid.csv)\n"
+    "  --data DIR             where cornell_hybrid.glb and dragon.glb are (default the build's data)\n"
     "  --dry-run              print the number of points, measure nothing\n"
     "  --report-only          write the --report from DIR/results.csv, measure nothing\n";
 
@@ -75,13 +78,15 @@ int cmd_study_volume(cli_globals *g, int argc, char **argv)
         {"-o", &o.out_dir},        {"--out", &o.out_dir},     {"--report", &o.report_dir},
         {"--datasets", &o.datasets}, {"--volumes", &o.volume_dir}, {"--scales", &o.scales},
         {"--cones", &o.cones},     {"--blends", &o.blends},   {"--steps", &o.steps},
-        {"--size", &o.size},       {NULL, NULL}};
+        {"--size", &o.size},       {"--data", &o.data_dir},   {NULL, NULL}};
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         long long ll;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             fputs(study_volume_help, stdout);
             return CLI_EXIT_OK;
+        } else if (!strcmp(a, "--no-hybrid")) {
+            o.no_hybrid = 1;
         } else if (!strcmp(a, "--ref-samples")) {
             if (!cli_parse_int(v, 8, 1 << 20, &ll) || ll % 8 != 0)
                 return cli_usage_error("--ref-samples needs a multiple of 8 in [8, 1048576]");
