@@ -25,7 +25,6 @@
  * Our evaluations err by a few ulps (below); glibc documents exp and log1p within 1 to 2 ulps
  * (glibc manual, "Known Maximum Errors in Math Functions", x86_64); LV_GUARD = 2^16 ulps is four
  * orders of magnitude of slack, and lanes near a midpoint are 2^17 / 2^29 = 2.4e-4 of them. */
-#define LV_GUARD 65536
 
 /* 1 in the lanes (all-ones) where (float)y may round differently from (float)y' with |y - y'| <
  * LV_GUARD ulps of y: y within LV_GUARD ulps of a float midpoint. y positive and normal. */
@@ -52,26 +51,13 @@ static inline __m256d lv_pow2(__m256d n)
  * few ulps (r's rounding 2^-55 absolute, Horner's 13 roundings). */
 static inline __m256d lv_exp4(__m256d x)
 {
-    const __m256d n = _mm256_round_pd(_mm256_mul_pd(x, _mm256_set1_pd(1.4426950408889634)),
+    const __m256d n = _mm256_round_pd(_mm256_mul_pd(x, _mm256_set1_pd(VOL_I_LV_LOG2E)),
                                       _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
-    const __m256d r = _mm256_sub_pd(_mm256_sub_pd(x, _mm256_mul_pd(n, _mm256_set1_pd(6.93147180369123816490e-01))),
-                                    _mm256_mul_pd(n, _mm256_set1_pd(1.90821492927058770002e-10)));
-    static const double c[14] = {1.0,
-                                 1.0,
-                                 1.0 / 2,
-                                 1.0 / 6,
-                                 1.0 / 24,
-                                 1.0 / 120,
-                                 1.0 / 720,
-                                 1.0 / 5040,
-                                 1.0 / 40320,
-                                 1.0 / 362880,
-                                 1.0 / 3628800,
-                                 1.0 / 39916800,
-                                 1.0 / 479001600,
-                                 1.0 / 6227020800.0};
-    __m256d p = _mm256_set1_pd(c[13]);
-    for (int k = 12; k >= 0; k--)
+    const __m256d r = _mm256_sub_pd(_mm256_sub_pd(x, _mm256_mul_pd(n, _mm256_set1_pd(VOL_I_LV_LN2_HI))),
+                                    _mm256_mul_pd(n, _mm256_set1_pd(VOL_I_LV_LN2_LO)));
+    const double *c = vol_i_lv_exp_c;
+    __m256d p = _mm256_set1_pd(c[VOL_I_LV_EXP_DEGREE]);
+    for (int k = VOL_I_LV_EXP_DEGREE - 1; k >= 0; k--)
         p = _mm256_add_pd(_mm256_mul_pd(p, r), _mm256_set1_pd(c[k]));
     return _mm256_mul_pd(p, lv_pow2(n));
 }
@@ -99,8 +85,8 @@ static inline __m256d lv_log4(__m256d u)
     for (int k = 10; k >= 0; k--)
         p = _mm256_add_pd(_mm256_mul_pd(p, s2), _mm256_set1_pd(1.0 / (2 * k + 1)));
     const __m256d lm = _mm256_mul_pd(_mm256_add_pd(sv, sv), p);
-    return _mm256_add_pd(_mm256_mul_pd(e, _mm256_set1_pd(6.93147180369123816490e-01)),
-                         _mm256_add_pd(_mm256_mul_pd(e, _mm256_set1_pd(1.90821492927058770002e-10)), lm));
+    return _mm256_add_pd(_mm256_mul_pd(e, _mm256_set1_pd(VOL_I_LV_LN2_HI)),
+                         _mm256_add_pd(_mm256_mul_pd(e, _mm256_set1_pd(VOL_I_LV_LN2_LO)), lm));
 }
 
 /* (float)exp(x[q]) for the 8 lanes of x (two halves of 4 doubles), libm's bits: lv_exp4 where x

@@ -15,7 +15,6 @@
 #include <immintrin.h>
 #include <math.h>
 
-#define LV_GUARD 65536 /* vol_light_avx2.c: double ulps kept from a float midpoint */
 
 /* 1 bits in the lanes where y (positive, normal) is within LV_GUARD ulps of a float midpoint
  * (its low 29 mantissa bits within LV_GUARD of 2^28): vol_light_avx2.c lv_near_midpoint. */
@@ -30,26 +29,13 @@ static inline __mmask8 lv_near_midpoint8(__m512d y)
 /* vol_light_avx2.c lv_exp4 on 8 doubles: the same operations in the same order. */
 static inline __m512d lv_exp8(__m512d x)
 {
-    const __m512d n = _mm512_roundscale_pd(_mm512_mul_pd(x, _mm512_set1_pd(1.4426950408889634)),
+    const __m512d n = _mm512_roundscale_pd(_mm512_mul_pd(x, _mm512_set1_pd(VOL_I_LV_LOG2E)),
                                            _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC);
-    const __m512d r = _mm512_sub_pd(_mm512_sub_pd(x, _mm512_mul_pd(n, _mm512_set1_pd(6.93147180369123816490e-01))),
-                                    _mm512_mul_pd(n, _mm512_set1_pd(1.90821492927058770002e-10)));
-    static const double c[14] = {1.0,
-                                 1.0,
-                                 1.0 / 2,
-                                 1.0 / 6,
-                                 1.0 / 24,
-                                 1.0 / 120,
-                                 1.0 / 720,
-                                 1.0 / 5040,
-                                 1.0 / 40320,
-                                 1.0 / 362880,
-                                 1.0 / 3628800,
-                                 1.0 / 39916800,
-                                 1.0 / 479001600,
-                                 1.0 / 6227020800.0};
-    __m512d p = _mm512_set1_pd(c[13]);
-    for (int k = 12; k >= 0; k--)
+    const __m512d r = _mm512_sub_pd(_mm512_sub_pd(x, _mm512_mul_pd(n, _mm512_set1_pd(VOL_I_LV_LN2_HI))),
+                                    _mm512_mul_pd(n, _mm512_set1_pd(VOL_I_LV_LN2_LO)));
+    const double *c = vol_i_lv_exp_c;
+    __m512d p = _mm512_set1_pd(c[VOL_I_LV_EXP_DEGREE]);
+    for (int k = VOL_I_LV_EXP_DEGREE - 1; k >= 0; k--)
         p = _mm512_add_pd(_mm512_mul_pd(p, r), _mm512_set1_pd(c[k]));
     const __m512i k = _mm512_cvtepi32_epi64(_mm512_cvtpd_epi32(n));
     const __m512d two_n = _mm512_castsi512_pd(_mm512_slli_epi64(_mm512_add_epi64(k, _mm512_set1_epi64(1023)), 52));
@@ -114,8 +100,8 @@ static inline __m512d lv_log8(__m512d u)
     for (int k = 10; k >= 0; k--)
         p = _mm512_add_pd(_mm512_mul_pd(p, s2), _mm512_set1_pd(1.0 / (2 * k + 1)));
     const __m512d lm = _mm512_mul_pd(_mm512_add_pd(sv, sv), p);
-    return _mm512_add_pd(_mm512_mul_pd(e, _mm512_set1_pd(6.93147180369123816490e-01)),
-                         _mm512_add_pd(_mm512_mul_pd(e, _mm512_set1_pd(1.90821492927058770002e-10)), lm));
+    return _mm512_add_pd(_mm512_mul_pd(e, _mm512_set1_pd(VOL_I_LV_LN2_HI)),
+                         _mm512_add_pd(_mm512_mul_pd(e, _mm512_set1_pd(VOL_I_LV_LN2_LO)), lm));
 }
 
 /* vol_light_avx2.c vol_i_lv_classify_avx2 with 8 values in one register of doubles: vol_tf_eval's

@@ -71,6 +71,21 @@ void vol_i_lv_span_avx2(const vol_i_lv_span *S, int iu0, int iu1);
  * OBS_ISA is not "scalar" (read at each vol_light_volume_build). */
 int vol_i_lv_avx2_active(void);
 
+/* The constants of the vector exp and log of the AVX2 and AVX-512F kernels (vol_light_avx2.c
+ * lv_exp4 / lv_log4, vol_light_avx512.c lv_exp8: the same operations at two widths):
+ * log2(e); ln2 split as ln2_hi (fdlibm e_exp.c, 32 trailing zero bits) + ln2_lo [CodyWaite80]
+ * [fdlibm]; the Taylor coefficients 1/k! of exp(r), k = 0..13; LV_GUARD, the double ulps a result
+ * must keep from a float midpoint to be rounded as libm's (vol_light_avx2.c, top) [glibcErr]. */
+#define VOL_I_LV_LOG2E 1.4426950408889634
+#define VOL_I_LV_LN2_HI 6.93147180369123816490e-01
+#define VOL_I_LV_LN2_LO 1.90821492927058770002e-10
+#define VOL_I_LV_EXP_DEGREE 13
+#define LV_GUARD 65536
+static const double vol_i_lv_exp_c[VOL_I_LV_EXP_DEGREE + 1] = {
+    1.0,           1.0,            1.0 / 2,          1.0 / 6,           1.0 / 24,
+    1.0 / 120,     1.0 / 720,      1.0 / 5040,       1.0 / 40320,       1.0 / 362880,
+    1.0 / 3628800, 1.0 / 39916800, 1.0 / 479001600,  1.0 / 6227020800.0};
+
 /* The AVX-512F span (vol_light_avx512.c: GCC's #pragma GCC target on x86-64, as ao_sao_avx512.c;
  * other compilers: AVX2 at most). Same bits as the AVX2 and scalar spans. */
 #if defined(OBS_HAVE_AVX2) && defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
