@@ -249,6 +249,28 @@ typedef struct capture {
     uint64_t *occluded; /* per thread, padded */
 } capture;
 
+/* The raw flat scene (raw_scene_build) for the benchmark, or 0 with a message; and the RESULT line's
+ * description of both scenes (the pipeline's layout, flags and quality; the raw one's). */
+static int raw_scene_build_or_say(const obs_scene *s, enum RTCBuildQuality q, raw_scene *raw)
+{
+    if (raw_scene_build(s, q, raw))
+        return 1;
+    fprintf(stderr, "bench: building the raw flat scene failed (Embree error %d)\n", (int)rtcGetDeviceError(raw->device));
+    return 0;
+}
+
+static void scenes_text(char *out, size_t size, truth_scene_layout layout, const truth_scene *ts, const raw_scene *raw)
+{
+    truth_scene_info si;
+    truth_scene_get_info(ts, &si);
+    snprintf(out, size,
+             "pipeline_scene=%s(flat_instances=%u,two_level_instances=%u,flags=0x%x,build=%s) "
+             "raw_scene=one-level(1 triangle geometry,flags=0x%x,build=%s)",
+             truth_scene_layout_name(layout), si.instances_flat, si.instances_two_level, si.scene_flags,
+             si.quality == TRUTH_BUILD_LOW ? "low" : si.quality == TRUTH_BUILD_HIGH ? "high" : "medium",
+             (unsigned)raw->flags, quality_name(raw->quality));
+}
+
 static void sink(void *user, int64_t tile, int64_t round, const void *rays, int count, size_t stride)
 {
     capture *c = (capture *)user;
@@ -421,20 +443,10 @@ static int bench_sss(const char *path, int W, int H, int spp, int batch, int til
     }
     obs_pool_destroy(pool0);
     raw_scene raw;
-    if (!raw_scene_build(&s, raw_q, &raw)) {
-        fprintf(stderr, "bench: building the raw flat scene failed (Embree error %d)\n",
-                (int)rtcGetDeviceError(raw.device));
+    if (!raw_scene_build_or_say(&s, raw_q, &raw))
         return 4;
-    }
-    truth_scene_info si;
-    truth_scene_get_info(ts, &si);
     char scenes[256];
-    snprintf(scenes, sizeof scenes,
-             "pipeline_scene=%s(flat_instances=%u,two_level_instances=%u,flags=0x%x,build=%s) "
-             "raw_scene=one-level(1 triangle geometry,flags=0x%x,build=%s)",
-             truth_scene_layout_name(so.layout), si.instances_flat, si.instances_two_level, si.scene_flags,
-             si.quality == TRUTH_BUILD_LOW ? "low" : si.quality == TRUTH_BUILD_HIGH ? "high" : "medium",
-             (unsigned)raw.flags, quality_name(raw.quality));
+    scenes_text(scenes, sizeof scenes, so.layout, ts, &raw);
     truth_sss_params p = truth_sss_params_default();
     p.estimator = TRUTH_SSS_BRUTE_FORCE;
     p.min_samples = p.max_samples = spp;
@@ -715,20 +727,10 @@ int main(int argc, char **argv)
             return 4;
         }
         raw_scene raw;
-        if (!raw_scene_build(&s, raw_q, &raw)) {
-            fprintf(stderr, "bench: building the raw flat scene failed (Embree error %d)\n",
-                    (int)rtcGetDeviceError(raw.device));
+        if (!raw_scene_build_or_say(&s, raw_q, &raw))
             return 4;
-        }
-        truth_scene_info si;
-        truth_scene_get_info(ts, &si);
         char scenes[256];
-        snprintf(scenes, sizeof scenes,
-                 "pipeline_scene=%s(flat_instances=%u,two_level_instances=%u,flags=0x%x,build=%s) "
-                 "raw_scene=one-level(1 triangle geometry,flags=0x%x,build=%s)",
-                 truth_scene_layout_name(layout), si.instances_flat, si.instances_two_level, si.scene_flags,
-                 si.quality == TRUTH_BUILD_LOW ? "low" : si.quality == TRUTH_BUILD_HIGH ? "high" : "medium",
-                 (unsigned)raw.flags, quality_name(raw.quality));
+        scenes_text(scenes, sizeof scenes, layout, ts, &raw);
         obs_pool_destroy(pool0);
         truth_ao_params p = truth_ao_params_default();
         p.estimator = TRUTH_AO_COS;
