@@ -815,6 +815,7 @@ static void build_task(void *user, int64_t task, int thread)
     const int row_seeds = p->frames == 1 && j->use_avx2;
 #else
     const int row_seeds = 0; /* built without the AVX2 files: per-texel seeds (the same values) */
+    (void)row_seeds;
 #endif
     for (int y = y0; y < y1; y++) {
         /* row_seeds: the seeds of a block of 8 texels are made when its first covered texel is
